@@ -1,0 +1,61 @@
+#pragma once
+// Data-based calibration of a coil set's motor constant and commutation phase
+// offset: Algorithm 1 with the corrected update (notes item 2) for any two
+// distinct phase offsets, and a variant that is not biased by cogging
+// (notes, "An observation to handle").
+
+#include <span>
+#include <stdexcept>
+
+#include "commutation/bspline.hpp"
+
+namespace clm {
+
+/// One experiment of Algorithm 1: a single coil set driven by the drive's fixed
+/// commutation with a constant offset `delta_rad` added to its angle.
+struct CalibrationGroup {
+  double delta_rad = 0.0;                     ///< Δ_i [rad]
+  std::span<const double> position_m;         ///< y(t) [m]
+  std::span<const double> magnitude_N;        ///< commanded magnitude F_y^{l*}(t) [N]
+  std::span<const double> driving_force_N;    ///< measured F_y(t) [N]
+};
+
+struct CalibrationResult {
+  double motor_constant_N_per_A = 0.0;  ///< k̂^l [N/A]
+  double phase_offset_rad = 0.0;        ///< ζ̂^l [rad]
+  double gain_ratio[2] = {0.0, 0.0};    ///< ĉ_1, ĉ_2 of eq. (14) [-]
+  double residual_rms_N[2] = {0.0, 0.0};  ///< RMS of F_y − fit per group [N]
+};
+
+/// Thrown when the groups cannot determine k̂ and ζ̂ (equal offsets, no data,
+/// no excitation). The message says which.
+class CalibrationError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+/// Algorithm 1 (eq. 14 and corrected eq. 15). `drive_motor_constant_N_per_A`
+/// and `drive_phase_offset_rad` are the k̂, ζ̂ the experiments ran with; the
+/// groups may use any two offsets with sin(δ_2 − δ_1) ≠ 0.
+CalibrationResult calibrate_classical(double drive_motor_constant_N_per_A, double drive_phase_offset_rad,
+                                      const CalibrationGroup& first, const CalibrationGroup& second);
+
+/// As calibrate_classical, but eq. (14) is fitted together with a
+/// position-dependent offset b(y), shared by both groups and expanded in
+/// `offset_basis`, so that forces that do not scale with the command (cogging,
+/// cables) do not bias ĉ_i. `offset_ridge` regularises the offset coefficients
+/// (per-sample units [N²/N²]); it only matters for knots without data.
+CalibrationResult calibrate_classical_offset_robust(double drive_motor_constant_N_per_A,
+                                                    double drive_phase_offset_rad,
+                                                    const CalibrationGroup& first,
+                                                    const CalibrationGroup& second,
+                                                    const UniformCubicBasis& offset_basis,
+                                                    double offset_ridge = 1e-6);
+
+/// The update step (corrected eq. 15) alone: from the fitted ratios ĉ_1, ĉ_2 at
+/// offsets δ_1, δ_2 to (k̂, ζ̂). Uses atan2 so that it also holds for ĉ_1 ≤ 0.
+void calibration_update(double drive_motor_constant_N_per_A, double drive_phase_offset_rad,
+                        double delta_1_rad, double c_1, double delta_2_rad, double c_2,
+                        double& motor_constant_N_per_A, double& phase_offset_rad);
+
+}  // namespace clm

@@ -1,0 +1,81 @@
+#pragma once
+// Invertible models of the electromagnetic part, eq. (22)-(24) and (35):
+//   F̂ = Σ_l K̂^l(y)·i^l + (1/L)·Σ_l F̂_cog^l(y),
+//   K̂^l(y) = A^l·cos(2πy/d_m) + B^l·sin(2πy/d_m) + [g_a^l(y), g_b^l(y)],
+// where the column functions g and the cogging F̂_cog are either neural
+// networks (PGNN, eq. 24-25) or cubic B-splines (the spline model class).
+// With zero networks the model is the classical one (7).
+
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "commutation/bspline.hpp"
+#include "commutation/classical.hpp"
+#include "commutation/network.hpp"
+#include "commutation/types.hpp"
+
+namespace clm {
+
+enum class ModelKind { kPgnn, kSpline };
+
+/// Network input y_n = (y − offset_m)/scale_m (notes item 7).
+struct PositionNormalisation {
+  double offset_m = 0.0;
+  double scale_m = 1.0;
+  double apply(double position_m) const { return (position_m - offset_m) / scale_m; }
+};
+
+/// Spline coefficients of a column function or the cogging: 3 × basis size.
+using SplineCoefficients = Eigen::Matrix<double, 3, Eigen::Dynamic>;
+
+struct CoilSetModel {
+  CoilGain a_N_per_A = CoilGain::Zero();  ///< A^l of eq. (24)
+  CoilGain b_N_per_A = CoilGain::Zero();  ///< B^l of eq. (24)
+  // ModelKind::kPgnn
+  Network column_a;  ///< f_NN(θ_1^l, ·) [N/A]
+  Network column_b;  ///< f_NN(θ_2^l, ·) [N/A]
+  Network cogging;   ///< f_NN(φ^l, ·) [N, N, N·m]
+  // ModelKind::kSpline
+  SplineCoefficients column_a_spline;
+  SplineCoefficients column_b_spline;
+  SplineCoefficients cogging_spline;
+};
+
+/// Thrown when a model is inconsistent; the message names the part.
+class ModelError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+struct ElectromagneticModel {
+  ModelKind kind = ModelKind::kPgnn;
+  double pole_pitch_m = 0.0;               ///< d_m
+  PositionNormalisation normalisation;     ///< PGNN network input
+  UniformCubicBasis spline_basis;          ///< spline model knot grid
+  std::vector<CoilSetModel> coil_sets;
+
+  int coil_set_count() const { return static_cast<int>(coil_sets.size()); }
+
+  /// K̂^l(y) and F̂_cog^l(y) of one coil set (eq. 24). No allocation.
+  void evaluate_coil_set(int coil_set, double position_m, CoilGain& gain, Wrench& cogging) const noexcept;
+
+  /// Stacked K̂(y) (3 × 2L) and the averaged cogging of eq. (35). No allocation.
+  void evaluate(double position_m, StackedGain& gain, Wrench& cogging) const noexcept;
+
+  /// F̂ of eq. (35) for currents [i_a^1, i_b^1, ...]. No allocation.
+  Wrench predict(double position_m, const CurrentVector& currents_A) const noexcept;
+
+  /// Throws ModelError unless dimensions agree, every parameter is finite and
+  /// 1 ≤ L ≤ kMaxCoilSets.
+  void validate() const;
+};
+
+/// The classical model (7) as a PGNN with zero networks of the given hidden sizes
+/// (empty: no networks at all).
+ElectromagneticModel make_classical_model(double pole_pitch_m, std::span<const ClassicalCoilSet> coil_sets,
+                                          const std::vector<int>& column_hidden_sizes = {},
+                                          const std::vector<int>& cogging_hidden_sizes = {});
+
+}  // namespace clm

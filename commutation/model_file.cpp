@@ -1,0 +1,381 @@
+#include "commutation/model_file.hpp"
+
+#include <cmath>
+
+namespace clm {
+namespace {
+
+constexpr const char* kModelFormat = "clm-servo-model";
+constexpr const char* kCalibrationFormat = "clm-servo-calibration";
+constexpr long kFormatVersion = 1;
+
+void check_format(const yaml::Node& root, const char* expected) {
+  root.expect_map();
+  const std::string format = root["format"].as_string();
+  if (format != expected) root["format"].fail("expected '" + std::string(expected) + "', got '" + format + "'");
+  root["format_version"].as_integer_in(kFormatVersion, kFormatVersion);
+}
+
+bool relative_equal(double a, double b) { return std::abs(a - b) <= 1e-9 * std::max(std::abs(a), std::abs(b)); }
+
+void emit_network(YAML::Emitter& out, const Network& network) {
+  out << YAML::BeginMap;
+  out << YAML::Key << "hidden_sizes";
+  const auto sizes = network.hidden_sizes();
+  out << YAML::Flow << YAML::BeginSeq;
+  for (int s : sizes) out << s;
+  out << YAML::EndSeq;
+  out << YAML::Key << "activation" << YAML::Value << "tanh";
+  out << YAML::Key << "layers" << YAML::Value << YAML::BeginSeq;
+  for (const auto& layer : network.layers) {
+    out << YAML::BeginMap;
+    out << YAML::Key << "weights" << YAML::Value;
+    yaml::emit_matrix(out, layer.weights);
+    out << YAML::Key << "biases" << YAML::Value;
+    yaml::emit_double_list(out, layer.biases.data(), static_cast<std::size_t>(layer.biases.size()));
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq << YAML::EndMap;
+}
+
+Network parse_network(const yaml::Node& node) {
+  node.expect_keys({"hidden_sizes", "activation", "layers"});
+  const std::string activation = node["activation"].as_string();
+  if (activation != "tanh") node["activation"].fail("only 'tanh' is supported, got '" + activation + "'");
+  const auto sizes = node["hidden_sizes"].as_int_list();
+  const yaml::Node layers = node["layers"];
+  if (layers.size() != sizes.size() + 1) {
+    layers.fail(std::to_string(layers.size()) + " layers for hidden_sizes of length " +
+                std::to_string(sizes.size()) + " (expected one more)");
+  }
+  Network network;
+  int previous = 1;
+  for (std::size_t i = 0; i < layers.size(); ++i) {
+    const yaml::Node layer = layers.at(i);
+    layer.expect_keys({"weights", "biases"});
+    const int width = i < sizes.size() ? sizes[i] : Network::kOutputSize;
+    if (width < 1 || width > Network::kMaxWidth) {
+      node["hidden_sizes"].fail("width " + std::to_string(width) + " outside 1.." + std::to_string(Network::kMaxWidth));
+    }
+    DenseLayer dense;
+    dense.weights = layer["weights"].as_matrix(width, previous);
+    const auto biases = layer["biases"].as_double_list();
+    if (static_cast<int>(biases.size()) != width) {
+      layer["biases"].fail(std::to_string(biases.size()) + " biases, expected " + std::to_string(width));
+    }
+    dense.biases = Eigen::Map<const Eigen::VectorXd>(biases.data(), width);
+    network.layers.push_back(std::move(dense));
+    previous = width;
+  }
+  return network;
+}
+
+void emit_costs(YAML::Emitter& out, const char* key, const std::array<double, 3>& values) {
+  out << YAML::Key << key << YAML::Value;
+  yaml::emit_double_list(out, values.data(), values.size());
+}
+
+std::array<double, 3> parse_triple(const yaml::Node& node) {
+  const auto values = node.as_double_list();
+  if (values.size() != 3) node.fail("expected [y, x, z], got " + std::to_string(values.size()) + " values");
+  return {values[0], values[1], values[2]};
+}
+
+std::array<double, 2> parse_pair(const yaml::Node& node) {
+  const auto values = node.as_double_list();
+  if (values.size() != 2) node.fail("expected two values, got " + std::to_string(values.size()));
+  return {values[0], values[1]};
+}
+
+std::string optional_string(const yaml::Node& node, const char* key) {
+  const auto child = node.optional(key);
+  return child ? child->as_string() : std::string();
+}
+
+}  // namespace
+
+MotorDescription read_motor_description(const yaml::Node& root) {
+  MotorDescription motor;
+  const yaml::Node section = root["motor"];
+  section.expect_map();
+  motor.pole_pitch_m = section["pole_pitch_m"].as_positive();
+  motor.coil_sets = static_cast<int>(section["coil_sets"].as_integer_in(1, kMaxCoilSets));
+  if (const auto low = section.optional("stroke_min_m")) motor.stroke_min_m = low->as_double();
+  if (const auto high = section.optional("stroke_max_m")) motor.stroke_max_m = high->as_double();
+  if (!(motor.stroke_max_m > motor.stroke_min_m)) {
+    section.fail("stroke_max_m must be above stroke_min_m");
+  }
+  const yaml::Node commutation = root["drive"]["commutation"];
+  commutation.expect_keys({"motor_constant_N_per_A", "phase_offset_rad"});
+  motor.drive.motor_constant_N_per_A = commutation["motor_constant_N_per_A"].as_positive();
+  motor.drive.phase_offset_rad = commutation["phase_offset_rad"].as_double_in(-2.0 * kPi, 2.0 * kPi);
+  return motor;
+}
+
+MotorDescription load_motor_description(const std::string& path) {
+  return read_motor_description(yaml::Node::load_file(path));
+}
+
+std::vector<ClassicalEstimate> CalibrationFile::estimates() const {
+  std::vector<ClassicalEstimate> result;
+  for (const auto& coil_set : coil_sets) result.push_back(coil_set.estimate);
+  return result;
+}
+
+std::string format_calibration_file(const CalibrationFile& file) {
+  YAML::Emitter out;
+  out << YAML::Comment("clm-servo calibration (Algorithm 1); format in docs/model-format.md");
+  out << YAML::BeginMap;
+  out << YAML::Key << "format" << YAML::Value << kCalibrationFormat;
+  out << YAML::Key << "format_version" << YAML::Value << kFormatVersion;
+  out << YAML::Key << "method" << YAML::Value << file.method;
+  out << YAML::Key << "motor" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "pole_pitch_m" << YAML::Value << yaml::format_double(file.pole_pitch_m);
+  out << YAML::Key << "coil_sets" << YAML::Value << file.coil_sets.size();
+  out << YAML::EndMap;
+  out << YAML::Key << "experiment_drive_commutation" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "motor_constant_N_per_A" << YAML::Value << yaml::format_double(file.drive.motor_constant_N_per_A);
+  out << YAML::Key << "phase_offset_rad" << YAML::Value << yaml::format_double(file.drive.phase_offset_rad);
+  out << YAML::EndMap;
+  out << YAML::Key << "coil_sets" << YAML::Value << YAML::BeginSeq;
+  for (const auto& coil_set : file.coil_sets) {
+    out << YAML::BeginMap;
+    out << YAML::Key << "motor_constant_N_per_A" << YAML::Value
+        << yaml::format_double(coil_set.estimate.motor_constant_N_per_A);
+    out << YAML::Key << "phase_offset_rad" << YAML::Value << yaml::format_double(coil_set.estimate.phase_offset_rad);
+    out << YAML::Key << "delta_rad" << YAML::Value;
+    yaml::emit_double_list(out, coil_set.delta_rad.data(), 2);
+    out << YAML::Key << "gain_ratio" << YAML::Value;
+    yaml::emit_double_list(out, coil_set.gain_ratio.data(), 2);
+    out << YAML::Key << "residual_rms_N" << YAML::Value;
+    yaml::emit_double_list(out, coil_set.residual_rms_N.data(), 2);
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  out << YAML::Key << "provenance" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "data_sha256" << YAML::Value << YAML::DoubleQuoted << file.data_sha256;
+  out << YAML::Key << "created_utc" << YAML::Value << YAML::DoubleQuoted << file.created_utc;
+  out << YAML::Key << "generator" << YAML::Value << YAML::DoubleQuoted << file.generator;
+  out << YAML::EndMap;
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+CalibrationFile parse_calibration_file(const yaml::Node& root) {
+  check_format(root, kCalibrationFormat);
+  root.expect_keys({"format", "format_version", "method", "motor", "experiment_drive_commutation", "coil_sets",
+                    "provenance"});
+  CalibrationFile file;
+  file.method = root["method"].as_string();
+  if (file.method != "algorithm1" && file.method != "offset_robust") {
+    root["method"].fail("expected 'algorithm1' or 'offset_robust', got '" + file.method + "'");
+  }
+  const yaml::Node motor = root["motor"];
+  motor.expect_keys({"pole_pitch_m", "coil_sets"});
+  file.pole_pitch_m = motor["pole_pitch_m"].as_positive();
+  const long coil_sets = motor["coil_sets"].as_integer_in(1, kMaxCoilSets);
+  const yaml::Node drive = root["experiment_drive_commutation"];
+  drive.expect_keys({"motor_constant_N_per_A", "phase_offset_rad"});
+  file.drive.motor_constant_N_per_A = drive["motor_constant_N_per_A"].as_positive();
+  file.drive.phase_offset_rad = drive["phase_offset_rad"].as_double();
+  const yaml::Node list = root["coil_sets"];
+  if (static_cast<long>(list.size()) != coil_sets) {
+    list.fail(std::to_string(list.size()) + " entries, motor.coil_sets says " + std::to_string(coil_sets));
+  }
+  for (std::size_t l = 0; l < list.size(); ++l) {
+    const yaml::Node entry = list.at(l);
+    entry.expect_keys({"motor_constant_N_per_A", "phase_offset_rad", "delta_rad", "gain_ratio", "residual_rms_N"});
+    CalibrationFile::CoilSet coil_set;
+    coil_set.estimate.motor_constant_N_per_A = entry["motor_constant_N_per_A"].as_positive();
+    coil_set.estimate.phase_offset_rad = entry["phase_offset_rad"].as_double_in(-2.0 * kPi, 2.0 * kPi);
+    coil_set.delta_rad = parse_pair(entry["delta_rad"]);
+    coil_set.gain_ratio = parse_pair(entry["gain_ratio"]);
+    coil_set.residual_rms_N = parse_pair(entry["residual_rms_N"]);
+    file.coil_sets.push_back(coil_set);
+  }
+  if (const auto provenance = root.optional("provenance")) {
+    provenance->expect_keys({"data_sha256", "created_utc", "generator"});
+    file.data_sha256 = optional_string(*provenance, "data_sha256");
+    file.created_utc = optional_string(*provenance, "created_utc");
+    file.generator = optional_string(*provenance, "generator");
+  }
+  return file;
+}
+
+CalibrationFile load_calibration_file(const std::string& path) {
+  return parse_calibration_file(yaml::Node::load_file(path));
+}
+
+std::string format_model_file(const ModelFile& file) {
+  const auto& model = file.model;
+  model.validate();
+  YAML::Emitter out;
+  out << YAML::Comment("clm-servo electromagnetic model; format in docs/model-format.md");
+  out << YAML::BeginMap;
+  out << YAML::Key << "format" << YAML::Value << kModelFormat;
+  out << YAML::Key << "format_version" << YAML::Value << kFormatVersion;
+  out << YAML::Key << "kind" << YAML::Value << (model.kind == ModelKind::kPgnn ? "pgnn" : "spline");
+  out << YAML::Key << "motor" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "pole_pitch_m" << YAML::Value << yaml::format_double(model.pole_pitch_m);
+  out << YAML::Key << "coil_sets" << YAML::Value << model.coil_set_count();
+  out << YAML::EndMap;
+  if (model.kind == ModelKind::kPgnn) {
+    out << YAML::Key << "position_normalisation" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "offset_m" << YAML::Value << yaml::format_double(model.normalisation.offset_m);
+    out << YAML::Key << "scale_m" << YAML::Value << yaml::format_double(model.normalisation.scale_m);
+    out << YAML::EndMap;
+  } else {
+    out << YAML::Key << "spline_knots" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "start_m" << YAML::Value << yaml::format_double(model.spline_basis.start_m);
+    out << YAML::Key << "end_m" << YAML::Value << yaml::format_double(model.spline_basis.end_m);
+    out << YAML::Key << "intervals" << YAML::Value << model.spline_basis.intervals;
+    out << YAML::EndMap;
+  }
+  out << YAML::Key << "coil_sets" << YAML::Value << YAML::BeginSeq;
+  for (const auto& coil_set : model.coil_sets) {
+    out << YAML::BeginMap;
+    out << YAML::Key << "A_N_per_A" << YAML::Value;
+    yaml::emit_matrix(out, coil_set.a_N_per_A);
+    out << YAML::Key << "B_N_per_A" << YAML::Value;
+    yaml::emit_matrix(out, coil_set.b_N_per_A);
+    if (model.kind == ModelKind::kPgnn) {
+      out << YAML::Key << "column_a" << YAML::Value;
+      emit_network(out, coil_set.column_a);
+      out << YAML::Key << "column_b" << YAML::Value;
+      emit_network(out, coil_set.column_b);
+      out << YAML::Key << "cogging" << YAML::Value;
+      emit_network(out, coil_set.cogging);
+    } else {
+      out << YAML::Key << "column_a_spline" << YAML::Value;
+      yaml::emit_matrix(out, coil_set.column_a_spline);
+      out << YAML::Key << "column_b_spline" << YAML::Value;
+      yaml::emit_matrix(out, coil_set.column_b_spline);
+      out << YAML::Key << "cogging_spline" << YAML::Value;
+      yaml::emit_matrix(out, coil_set.cogging_spline);
+    }
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  const auto& provenance = file.provenance;
+  out << YAML::Key << "provenance" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "data_sha256" << YAML::Value << YAML::DoubleQuoted << provenance.data_sha256;
+  out << YAML::Key << "created_utc" << YAML::Value << YAML::DoubleQuoted << provenance.created_utc;
+  out << YAML::Key << "generator" << YAML::Value << YAML::DoubleQuoted << provenance.generator;
+  out << YAML::Key << "costs" << YAML::Value << YAML::BeginSeq;
+  for (const auto& costs : provenance.costs) {
+    out << YAML::BeginMap;
+    emit_costs(out, "physics_training_N2", costs.physics_training);
+    emit_costs(out, "model_training_N2", costs.model_training);
+    emit_costs(out, "physics_validation_N2", costs.physics_validation);
+    emit_costs(out, "model_validation_N2", costs.model_validation);
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  out << YAML::EndMap;
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+ModelFile parse_model_file(const yaml::Node& root) {
+  check_format(root, kModelFormat);
+  ModelFile file;
+  auto& model = file.model;
+  const std::string kind = root["kind"].as_string();
+  if (kind == "pgnn") {
+    model.kind = ModelKind::kPgnn;
+    root.expect_keys({"format", "format_version", "kind", "motor", "position_normalisation", "coil_sets", "provenance"});
+    const yaml::Node normalisation = root["position_normalisation"];
+    normalisation.expect_keys({"offset_m", "scale_m"});
+    model.normalisation.offset_m = normalisation["offset_m"].as_double();
+    model.normalisation.scale_m = normalisation["scale_m"].as_positive();
+  } else if (kind == "spline") {
+    model.kind = ModelKind::kSpline;
+    root.expect_keys({"format", "format_version", "kind", "motor", "spline_knots", "coil_sets", "provenance"});
+    const yaml::Node knots = root["spline_knots"];
+    knots.expect_keys({"start_m", "end_m", "intervals"});
+    model.spline_basis.start_m = knots["start_m"].as_double();
+    model.spline_basis.end_m = knots["end_m"].as_double();
+    model.spline_basis.intervals = static_cast<int>(knots["intervals"].as_integer_in(1, 100000));
+    if (!(model.spline_basis.end_m > model.spline_basis.start_m)) knots["end_m"].fail("must be above start_m");
+  } else {
+    root["kind"].fail("expected 'pgnn' or 'spline', got '" + kind + "'");
+  }
+  const yaml::Node motor = root["motor"];
+  motor.expect_keys({"pole_pitch_m", "coil_sets"});
+  model.pole_pitch_m = motor["pole_pitch_m"].as_positive();
+  const long coil_sets = motor["coil_sets"].as_integer_in(1, kMaxCoilSets);
+  const yaml::Node list = root["coil_sets"];
+  if (static_cast<long>(list.size()) != coil_sets) {
+    list.fail(std::to_string(list.size()) + " entries, motor.coil_sets says " + std::to_string(coil_sets));
+  }
+  for (std::size_t l = 0; l < list.size(); ++l) {
+    const yaml::Node entry = list.at(l);
+    CoilSetModel coil_set;
+    if (model.kind == ModelKind::kPgnn) {
+      entry.expect_keys({"A_N_per_A", "B_N_per_A", "column_a", "column_b", "cogging"});
+      coil_set.column_a = parse_network(entry["column_a"]);
+      coil_set.column_b = parse_network(entry["column_b"]);
+      coil_set.cogging = parse_network(entry["cogging"]);
+    } else {
+      entry.expect_keys({"A_N_per_A", "B_N_per_A", "column_a_spline", "column_b_spline", "cogging_spline"});
+      const int n = model.spline_basis.size();
+      coil_set.column_a_spline = entry["column_a_spline"].as_matrix(3, n);
+      coil_set.column_b_spline = entry["column_b_spline"].as_matrix(3, n);
+      coil_set.cogging_spline = entry["cogging_spline"].as_matrix(3, n);
+    }
+    coil_set.a_N_per_A = entry["A_N_per_A"].as_matrix(3, 2);
+    coil_set.b_N_per_A = entry["B_N_per_A"].as_matrix(3, 2);
+    model.coil_sets.push_back(std::move(coil_set));
+  }
+  const yaml::Node provenance = root["provenance"];
+  provenance.expect_keys({"data_sha256", "created_utc", "generator", "costs"});
+  file.provenance.data_sha256 = optional_string(provenance, "data_sha256");
+  file.provenance.created_utc = optional_string(provenance, "created_utc");
+  file.provenance.generator = optional_string(provenance, "generator");
+  if (const auto costs = provenance.optional("costs")) {
+    for (std::size_t l = 0; l < costs->size(); ++l) {
+      const yaml::Node entry = costs->at(l);
+      entry.expect_keys({"physics_training_N2", "model_training_N2", "physics_validation_N2", "model_validation_N2"});
+      file.provenance.costs.push_back({parse_triple(entry["physics_training_N2"]),
+                                       parse_triple(entry["model_training_N2"]),
+                                       parse_triple(entry["physics_validation_N2"]),
+                                       parse_triple(entry["model_validation_N2"])});
+    }
+  }
+  try {
+    model.validate();
+  } catch (const ModelError& e) {
+    root.fail(e.what());
+  }
+  return file;
+}
+
+ModelFile load_model_file(const std::string& path) { return parse_model_file(yaml::Node::load_file(path)); }
+
+void check_matches_motor(const ElectromagneticModel& model, const MotorDescription& motor,
+                         const std::string& model_origin, const std::string& motor_origin) {
+  if (model.coil_set_count() != motor.coil_sets) {
+    throw yaml::Error(model_origin + ": motor.coil_sets: model has " + std::to_string(model.coil_set_count()) +
+                      " coil sets, " + motor_origin + " has " + std::to_string(motor.coil_sets));
+  }
+  if (!relative_equal(model.pole_pitch_m, motor.pole_pitch_m)) {
+    throw yaml::Error(model_origin + ": motor.pole_pitch_m: model has " + yaml::format_double(model.pole_pitch_m) +
+                      " m, " + motor_origin + " has " + yaml::format_double(motor.pole_pitch_m) + " m");
+  }
+}
+
+void check_matches_motor(const CalibrationFile& calibration, const MotorDescription& motor,
+                         const std::string& calibration_origin, const std::string& motor_origin) {
+  if (static_cast<int>(calibration.coil_sets.size()) != motor.coil_sets) {
+    throw yaml::Error(calibration_origin + ": motor.coil_sets: calibration has " +
+                      std::to_string(calibration.coil_sets.size()) + " coil sets, " + motor_origin + " has " +
+                      std::to_string(motor.coil_sets));
+  }
+  if (!relative_equal(calibration.pole_pitch_m, motor.pole_pitch_m)) {
+    throw yaml::Error(calibration_origin + ": motor.pole_pitch_m: calibration has " +
+                      yaml::format_double(calibration.pole_pitch_m) + " m, " + motor_origin + " has " +
+                      yaml::format_double(motor.pole_pitch_m) + " m");
+  }
+}
+
+}  // namespace clm

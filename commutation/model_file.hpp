@@ -1,0 +1,87 @@
+#pragma once
+// The files the tools and the daemon exchange (docs/model-format.md):
+// the motor description, the calibration file (Algorithm 1) and the model file
+// (PGNN or spline). Loading validates everything and throws clm::yaml::Error
+// with file, line, key path and value; saving is exact (17 significant digits)
+// so a file round-trips bit for bit.
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "commutation/classical.hpp"
+#include "commutation/model.hpp"
+#include "config/yaml_reader.hpp"
+
+namespace clm {
+
+/// The keys every tool needs of a motor (the daemon's config uses the same).
+struct MotorDescription {
+  double pole_pitch_m = 0.0;        ///< motor.pole_pitch_m, d_m
+  int coil_sets = 0;                ///< motor.coil_sets, L
+  double stroke_min_m = -0.1;       ///< motor.stroke_min_m: lower end of travel
+  double stroke_max_m = 0.1;        ///< motor.stroke_max_m: upper end of travel
+  DriveCommutation drive;           ///< drive.commutation.*
+};
+
+/// Reads `motor:` and `drive.commutation:` of a YAML document; other top-level
+/// sections belong to other readers and are left alone.
+MotorDescription read_motor_description(const yaml::Node& root);
+MotorDescription load_motor_description(const std::string& path);
+
+struct CalibrationFile {
+  double pole_pitch_m = 0.0;
+  DriveCommutation drive;  ///< the commutation the experiments ran with
+  std::string method;      ///< "algorithm1" or "offset_robust"
+  struct CoilSet {
+    ClassicalEstimate estimate;
+    std::array<double, 2> delta_rad{};
+    std::array<double, 2> gain_ratio{};
+    std::array<double, 2> residual_rms_N{};
+  };
+  std::vector<CoilSet> coil_sets;
+  std::string data_sha256;
+  std::string created_utc;
+  std::string generator;
+
+  std::vector<ClassicalEstimate> estimates() const;
+};
+
+std::string format_calibration_file(const CalibrationFile& file);
+CalibrationFile parse_calibration_file(const yaml::Node& root);
+CalibrationFile load_calibration_file(const std::string& path);
+
+/// Per-direction costs [y, x, z] of one coil set: mean squared force error
+/// (the data term of eq. 26) on training and validation data, for the
+/// physics-only model and for the identified model.
+struct CoilSetCosts {
+  std::array<double, 3> physics_training{};
+  std::array<double, 3> model_training{};
+  std::array<double, 3> physics_validation{};
+  std::array<double, 3> model_validation{};
+};
+
+struct ModelProvenance {
+  std::string data_sha256;
+  std::string created_utc;
+  std::string generator;
+  std::vector<CoilSetCosts> costs;  ///< one per coil set, or empty
+};
+
+struct ModelFile {
+  ElectromagneticModel model;
+  ModelProvenance provenance;
+};
+
+std::string format_model_file(const ModelFile& file);
+ModelFile parse_model_file(const yaml::Node& root);
+ModelFile load_model_file(const std::string& path);
+
+/// Throws yaml::Error-style text naming both files when the model or
+/// calibration was made for a different motor (coil sets, pole pitch).
+void check_matches_motor(const ElectromagneticModel& model, const MotorDescription& motor,
+                         const std::string& model_origin, const std::string& motor_origin);
+void check_matches_motor(const CalibrationFile& calibration, const MotorDescription& motor,
+                         const std::string& calibration_origin, const std::string& motor_origin);
+
+}  // namespace clm

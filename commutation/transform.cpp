@@ -1,0 +1,60 @@
+#include "commutation/transform.hpp"
+
+#include <cmath>
+
+namespace clm {
+
+double wrap_angle_rad(double angle_rad) {
+  double wrapped = std::remainder(angle_rad, kTwoPi);  // in [−π, π]
+  if (wrapped <= -kPi) wrapped += kTwoPi;
+  return wrapped;
+}
+
+Eigen::Matrix2d gamma_matrix(const DriveCommutation& drive, double position_m, double pole_pitch_m) {
+  const double eta = electrical_angle_rad(position_m, pole_pitch_m) + drive.phase_offset_rad;
+  const double inv_k = 1.0 / drive.motor_constant_N_per_A;
+  Eigen::Matrix2d gamma;
+  gamma << std::sin(eta), std::cos(eta), std::sin(eta + kTwoPiOverThree), std::cos(eta + kTwoPiOverThree);
+  return inv_k * gamma;
+}
+
+Eigen::Matrix2d gamma_inverse(const DriveCommutation& drive, double position_m, double pole_pitch_m) {
+  const double eta = electrical_angle_rad(position_m, pole_pitch_m) + drive.phase_offset_rad;
+  const double s0 = std::sin(eta);
+  const double c0 = std::cos(eta);
+  const double s1 = std::sin(eta + kTwoPiOverThree);
+  const double c1 = std::cos(eta + kTwoPiOverThree);
+  // det [[s0, c0], [s1, c1]] = sin(η − (η + 2π/3)) = −sin(2π/3).
+  const double inv_det = -1.0 / std::sin(kTwoPiOverThree);
+  Eigen::Matrix2d inverse;
+  inverse << c1, -c0, -s1, s0;
+  return (drive.motor_constant_N_per_A * inv_det) * inverse;
+}
+
+Eigen::Vector2d transform_forward(const DriveSetpoint& setpoint) {
+  return {std::cos(setpoint.delta_rad) * setpoint.magnitude_N,
+          std::sin(setpoint.delta_rad) * setpoint.magnitude_N};
+}
+
+DriveSetpoint transform_inverse(const Eigen::Vector2d& f12_N, PhaseConvention convention) {
+  if (f12_N.x() == 0.0 && f12_N.y() == 0.0) return {0.0, 0.0};
+  double delta = std::atan2(f12_N.y(), f12_N.x());  // (−π, π]
+  if (convention == PhaseConvention::kSignedMagnitude) {
+    // Fold into (−π/2, π/2]; the magnitude takes the sign.
+    if (delta > 0.5 * kPi) delta -= kPi;
+    if (delta <= -0.5 * kPi) delta += kPi;
+  }
+  // Projection onto the unit vector of Δ: equals ±‖f12‖ and is exact when the
+  // atan2 result lies on a branch boundary.
+  const double magnitude = f12_N.x() * std::cos(delta) + f12_N.y() * std::sin(delta);
+  return {magnitude, delta};
+}
+
+DriveSetpoint setpoint_from_currents(const DriveCommutation& drive, double position_m,
+                                     double pole_pitch_m, const Eigen::Vector2d& currents_A,
+                                     PhaseConvention convention) {
+  const Eigen::Vector2d f12 = gamma_inverse(drive, position_m, pole_pitch_m) * currents_A;
+  return transform_inverse(f12, convention);
+}
+
+}  // namespace clm

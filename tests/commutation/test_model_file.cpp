@@ -1,0 +1,147 @@
+// Model and calibration files: exact round trip, and refusal of corrupted or
+// mismatched files with a message naming file, line and key.
+#include <catch2/catch.hpp>
+#include <random>
+#include <regex>
+
+#include "commutation/model_file.hpp"
+#include "support/random_model.hpp"
+
+using namespace clm;
+
+namespace {
+
+ModelFile random_model_file(ModelKind kind, int coil_sets, std::mt19937_64& rng) {
+  ModelFile file;
+  file.model = kind == ModelKind::kPgnn ? test::random_pgnn_model(coil_sets, 0.032, rng)
+                                        : test::random_spline_model(coil_sets, 0.032, rng);
+  file.provenance = {"0123abcd", "2026-11-21T00:00:00Z", "test", {}};
+  for (int l = 0; l < coil_sets; ++l) file.provenance.costs.push_back({{1.0 / 3, 2, 3}, {0.1, 0.2, 0.3}, {4, 5, 6}, {0.4, 0.5, 0.6}});
+  return file;
+}
+
+bool networks_equal(const Network& a, const Network& b) {
+  if (a.layers.size() != b.layers.size()) return false;
+  for (std::size_t i = 0; i < a.layers.size(); ++i) {
+    if (a.layers[i].weights != b.layers[i].weights || a.layers[i].biases != b.layers[i].biases) return false;
+  }
+  return true;
+}
+
+std::string error_of(const std::string& text) {
+  try {
+    parse_model_file(yaml::Node::load_string(text, "model.yaml"));
+  } catch (const yaml::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST_CASE("model files round-trip bit for bit", "[model_file]") {
+  std::mt19937_64 rng(30);
+  for (auto kind : {ModelKind::kPgnn, ModelKind::kSpline}) {
+    for (int coil_sets : {1, 3, 4}) {
+      const ModelFile original = random_model_file(kind, coil_sets, rng);
+      const std::string text = format_model_file(original);
+      const ModelFile parsed = parse_model_file(yaml::Node::load_string(text, "model.yaml"));
+      REQUIRE(parsed.model.kind == kind);
+      REQUIRE(parsed.model.pole_pitch_m == original.model.pole_pitch_m);
+      REQUIRE(parsed.model.coil_set_count() == coil_sets);
+      for (int l = 0; l < coil_sets; ++l) {
+        const auto& a = original.model.coil_sets[static_cast<std::size_t>(l)];
+        const auto& b = parsed.model.coil_sets[static_cast<std::size_t>(l)];
+        REQUIRE(a.a_N_per_A == b.a_N_per_A);
+        REQUIRE(a.b_N_per_A == b.b_N_per_A);
+        REQUIRE(networks_equal(a.column_a, b.column_a));
+        REQUIRE(networks_equal(a.column_b, b.column_b));
+        REQUIRE(networks_equal(a.cogging, b.cogging));
+        REQUIRE(a.column_a_spline == b.column_a_spline);
+        REQUIRE(a.cogging_spline == b.cogging_spline);
+      }
+      REQUIRE(parsed.provenance.costs.size() == static_cast<std::size_t>(coil_sets));
+      REQUIRE(parsed.provenance.costs[0].physics_training[0] == 1.0 / 3);
+      REQUIRE(format_model_file(parsed) == text);
+    }
+  }
+}
+
+TEST_CASE("corrupted model files are refused with file, line and key", "[model_file]") {
+  std::mt19937_64 rng(31);
+  const std::string text = format_model_file(random_model_file(ModelKind::kPgnn, 2, rng));
+  const auto replace_first = [&](const std::string& from, const std::string& to) {
+    std::string copy = text;
+    const auto at = copy.find(from);
+    REQUIRE(at != std::string::npos);
+    copy.replace(at, from.size(), to);
+    return copy;
+  };
+  const std::regex located(R"(^model\.yaml:\d+: )");
+
+  std::string error = error_of(replace_first("kind: pgnn", "kind: fourier"));
+  CHECK(std::regex_search(error, located));
+  CHECK(error.find("kind") != std::string::npos);
+
+  error = error_of(replace_first("coil_sets: 2", "coil_sets: 3"));
+  CHECK(error.find("coil_sets") != std::string::npos);
+
+  const std::regex first_entry(R"(A_N_per_A: \[\[[^,]+)");
+  error = error_of(std::regex_replace(text, first_entry, "A_N_per_A: [[nan", std::regex_constants::format_first_only));
+  CHECK(std::regex_search(error, located));
+  CHECK(error.find("coil_sets[0].A_N_per_A[0][0]") != std::string::npos);
+  CHECK(error.find("not a finite number") != std::string::npos);
+
+  error = error_of(std::regex_replace(text, first_entry, "A_N_per_A: [[1e999", std::regex_constants::format_first_only));
+  CHECK(error.find("not a finite number") != std::string::npos);
+
+  error = error_of(std::regex_replace(text, first_entry, "A_N_per_A: [[0.5, 0.1", std::regex_constants::format_first_only));
+  CHECK(error.find("expected 2 columns, got 3") != std::string::npos);
+
+  error = error_of(replace_first("hidden_sizes: [2]", "hidden_sizes: [3]"));
+  CHECK(error.find("coil_sets[0].column_a") != std::string::npos);
+
+  error = error_of(replace_first("scale_m:", "scale_mm: 1\n  scale_m:"));
+  CHECK(error.find("unknown key 'scale_mm'") != std::string::npos);
+
+  error = error_of(replace_first("format: clm-servo-model", "format: something-else"));
+  CHECK(error.find("format") != std::string::npos);
+
+  error = error_of(text.substr(0, text.size() / 2));
+  CHECK_FALSE(error.empty());
+}
+
+TEST_CASE("a model for another motor is refused naming both files", "[model_file]") {
+  std::mt19937_64 rng(32);
+  const ModelFile file = random_model_file(ModelKind::kSpline, 3, rng);
+  MotorDescription motor;
+  motor.pole_pitch_m = 0.032;
+  motor.coil_sets = 2;
+  CHECK_THROWS_WITH(check_matches_motor(file.model, motor, "m.yaml", "motor.yaml"),
+                    Catch::Contains("m.yaml") && Catch::Contains("motor.yaml") && Catch::Contains("coil sets"));
+  motor.coil_sets = 3;
+  motor.pole_pitch_m = 0.030;
+  CHECK_THROWS_WITH(check_matches_motor(file.model, motor, "m.yaml", "motor.yaml"), Catch::Contains("pole_pitch_m"));
+  motor.pole_pitch_m = 0.032;
+  CHECK_NOTHROW(check_matches_motor(file.model, motor, "m.yaml", "motor.yaml"));
+}
+
+TEST_CASE("calibration files round-trip and refuse a wrong coil-set count", "[model_file]") {
+  CalibrationFile file;
+  file.pole_pitch_m = 0.032;
+  file.drive = {67.0, -0.52};
+  file.method = "algorithm1";
+  file.coil_sets = {{{61.34, -0.54}, {-0.785, 0.785}, {0.9, 0.8}, {1.5, 1.6}},
+                    {{61.62, -0.55}, {-0.785, 0.785}, {0.91, 0.81}, {1.4, 1.7}}};
+  file.data_sha256 = "ff";
+  const std::string text = format_calibration_file(file);
+  const CalibrationFile parsed = parse_calibration_file(yaml::Node::load_string(text, "calib.yaml"));
+  REQUIRE(parsed.coil_sets.size() == 2);
+  CHECK(parsed.coil_sets[1].estimate.motor_constant_N_per_A == 61.62);
+  CHECK(parsed.coil_sets[0].gain_ratio[1] == 0.8);
+  CHECK(format_calibration_file(parsed) == text);
+  std::string broken = text;
+  broken.replace(broken.find("coil_sets: 2"), 12, "coil_sets: 3");
+  CHECK_THROWS_WITH(parse_calibration_file(yaml::Node::load_string(broken, "calib.yaml")),
+                    Catch::Contains("calib.yaml") && Catch::Contains("coil_sets"));
+}
