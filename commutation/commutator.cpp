@@ -30,12 +30,17 @@ ModelCommutator::ModelCommutator(const ElectromagneticModel& model, const DriveC
   if (!(options.min_singular_value_ratio >= 0.0 && options.min_singular_value_ratio < 1.0)) {
     throw std::invalid_argument("min_singular_value_ratio must lie in [0, 1)");
   }
+  if (FusedPgnnEvaluator::supports(model)) fused_.emplace(model);
 }
 
 void ModelCommutator::commutate(double position_m, const Wrench& desired, CommutationOutput& out) const noexcept {
   StackedGain gain;
   Wrench cogging;
-  model_->evaluate(position_m, gain, cogging);
+  if (fused_) {
+    fused_->evaluate(position_m, gain, cogging);
+  } else {
+    model_->evaluate(position_m, gain, cogging);
+  }
   commutate_with_gain(gain, cogging, desired, position_m, model_->pole_pitch_m, drive_, options_, out);
 }
 
@@ -92,9 +97,11 @@ void commutate_with_gain(const StackedGain& gain, const Wrench& cogging, const W
   out.model_wrench.noalias() = gain * out.currents_A;
   out.model_wrench += cogging;
   out.current_square_sum_A2 = current_square_sum(out.currents_A);
+  // Eq. (39); Γ uses the drive's angle, common to all coil sets (notes item 5).
+  const Eigen::Matrix2d gamma_inv = gamma_inverse(drive, position_m, pole_pitch_m);
   for (int l = 0; l < count; ++l) {
-    out.setpoints[static_cast<std::size_t>(l)] = setpoint_from_currents(
-        drive, position_m, pole_pitch_m, out.currents_A.segment<2>(2 * l), options.phase_convention);
+    out.setpoints[static_cast<std::size_t>(l)] =
+        transform_inverse(gamma_inv * out.currents_A.segment<2>(2 * l), options.phase_convention);
   }
 }
 

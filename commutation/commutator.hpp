@@ -4,6 +4,7 @@
 // setpoints for a drive with fixed commutation (39).
 
 #include <array>
+#include <optional>
 #include <span>
 
 #include "commutation/classical.hpp"
@@ -62,6 +63,7 @@ class ModelCommutator final : public CommutationLaw {
 
  private:
   const ElectromagneticModel* model_;
+  std::optional<FusedPgnnEvaluator> fused_;  // when the model has one hidden layer per network
   DriveCommutation drive_;
   ModelCommutatorOptions options_;
 };

@@ -13,32 +13,57 @@ Eigen::Vector3d spline_value(const SplineCoefficients& coefficients, const Unifo
 
 }  // namespace
 
+namespace {
+
+// What every coil set needs of the position, computed once per evaluation.
+struct PositionFeatures {
+  double cos_theta;
+  double sin_theta;
+  double network_input;
+  UniformCubicBasis::Span span;
+};
+
+PositionFeatures features(const ElectromagneticModel& model, double position_m) {
+  const double theta = electrical_angle_rad(position_m, model.pole_pitch_m);
+  PositionFeatures f{std::cos(theta), std::sin(theta), 0.0, {}};
+  if (model.kind == ModelKind::kPgnn) {
+    f.network_input = model.normalisation.apply(position_m);
+  } else {
+    f.span = model.spline_basis.evaluate(position_m);
+  }
+  return f;
+}
+
+void evaluate_part(const ElectromagneticModel& model, const CoilSetModel& part, const PositionFeatures& f,
+                   CoilGain& gain, Wrench& cogging) {
+  gain = part.a_N_per_A * f.cos_theta + part.b_N_per_A * f.sin_theta;
+  if (model.kind == ModelKind::kPgnn) {
+    gain.col(0) += part.column_a.evaluate(f.network_input);
+    gain.col(1) += part.column_b.evaluate(f.network_input);
+    cogging = part.cogging.evaluate(f.network_input);
+  } else {
+    gain.col(0) += spline_value(part.column_a_spline, f.span);
+    gain.col(1) += spline_value(part.column_b_spline, f.span);
+    cogging = spline_value(part.cogging_spline, f.span);
+  }
+}
+
+}  // namespace
+
 void ElectromagneticModel::evaluate_coil_set(int coil_set, double position_m, CoilGain& gain,
                                              Wrench& cogging) const noexcept {
-  const auto& model = coil_sets[static_cast<std::size_t>(coil_set)];
-  const double theta = electrical_angle_rad(position_m, pole_pitch_m);
-  gain = model.a_N_per_A * std::cos(theta) + model.b_N_per_A * std::sin(theta);
-  if (kind == ModelKind::kPgnn) {
-    const double input = normalisation.apply(position_m);
-    gain.col(0) += model.column_a.evaluate(input);
-    gain.col(1) += model.column_b.evaluate(input);
-    cogging = model.cogging.evaluate(input);
-  } else {
-    const auto span = spline_basis.evaluate(position_m);
-    gain.col(0) += spline_value(model.column_a_spline, span);
-    gain.col(1) += spline_value(model.column_b_spline, span);
-    cogging = spline_value(model.cogging_spline, span);
-  }
+  evaluate_part(*this, coil_sets[static_cast<std::size_t>(coil_set)], features(*this, position_m), gain, cogging);
 }
 
 void ElectromagneticModel::evaluate(double position_m, StackedGain& gain, Wrench& cogging) const noexcept {
   const int count = coil_set_count();
   gain.resize(3, 2 * count);
   cogging.setZero();
+  const PositionFeatures f = features(*this, position_m);
   for (int l = 0; l < count; ++l) {
     CoilGain coil_gain;
     Wrench coil_cogging;
-    evaluate_coil_set(l, position_m, coil_gain, coil_cogging);
+    evaluate_part(*this, coil_sets[static_cast<std::size_t>(l)], f, coil_gain, coil_cogging);
     gain.middleCols<2>(2 * l) = coil_gain;
     cogging += coil_cogging;
   }
@@ -93,6 +118,67 @@ void ElectromagneticModel::validate() const {
       }
     }
   }
+}
+
+bool FusedPgnnEvaluator::supports(const ElectromagneticModel& model) {
+  if (model.kind != ModelKind::kPgnn) return false;
+  for (const auto& part : model.coil_sets) {
+    for (const Network* network : {&part.column_a, &part.column_b, &part.cogging}) {
+      if (network->layers.size() != 2) return false;
+    }
+  }
+  return true;
+}
+
+FusedPgnnEvaluator::FusedPgnnEvaluator(const ElectromagneticModel& model) : model_(&model) {
+  if (!supports(model)) throw ModelError("fused evaluation needs a PGNN with one hidden layer per network");
+  int total = 0;
+  for (const auto& part : model.coil_sets) {
+    for (const Network* network : {&part.column_a, &part.column_b, &part.cogging}) {
+      total += static_cast<int>(network->layers[0].biases.size());
+    }
+  }
+  input_weight_.resize(total);
+  input_bias_.resize(total);
+  hidden_.resize(total);
+  int first = 0;
+  for (const auto& part : model.coil_sets) {
+    for (const Network* network : {&part.column_a, &part.column_b, &part.cogging}) {
+      const auto& hidden = network->layers[0];
+      const auto width = static_cast<int>(hidden.biases.size());
+      input_weight_.segment(first, width) = hidden.weights.col(0).array();
+      input_bias_.segment(first, width) = hidden.biases.array();
+      outputs_.push_back({first, width, network->layers[1].weights, network->layers[1].biases});
+      first += width;
+    }
+  }
+}
+
+void FusedPgnnEvaluator::evaluate(double position_m, StackedGain& gain, Wrench& cogging) const noexcept {
+  const auto& model = *model_;
+  const int count = model.coil_set_count();
+  const double theta = electrical_angle_rad(position_m, model.pole_pitch_m);
+  const double c = std::cos(theta);
+  const double s = std::sin(theta);
+  const double input = model.normalisation.apply(position_m);
+  hidden_ = tanh_activation(input_weight_ * input + input_bias_);
+  gain.resize(3, 2 * count);
+  cogging.setZero();
+  for (int l = 0; l < count; ++l) {
+    const auto& part = model.coil_sets[static_cast<std::size_t>(l)];
+    gain.middleCols<2>(2 * l) = part.a_N_per_A * c + part.b_N_per_A * s;
+    for (int n = 0; n < 3; ++n) {
+      const Output& out = outputs_[static_cast<std::size_t>(3 * l + n)];
+      Eigen::Vector3d value = out.bias;
+      value.noalias() += out.weights * hidden_.segment(out.first, out.width).matrix();
+      if (n < 2) {
+        gain.col(2 * l + n) += value;
+      } else {
+        cogging += value;
+      }
+    }
+  }
+  cogging /= static_cast<double>(count);  // eq. (35)
 }
 
 ElectromagneticModel make_classical_model(double pole_pitch_m, std::span<const ClassicalCoilSet> coil_sets,

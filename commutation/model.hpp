@@ -72,6 +72,31 @@ struct ElectromagneticModel {
   void validate() const;
 };
 
+/// All networks of a PGNN model with one hidden layer each, fused into one
+/// hidden vector so that the cycle evaluates every tanh in a single vectorised
+/// pass (the paper's architecture). Built once from a model; evaluate() gives
+/// the same K̂ and averaged cogging as ElectromagneticModel::evaluate.
+class FusedPgnnEvaluator {
+ public:
+  /// True when every network of every coil set has exactly one hidden layer.
+  static bool supports(const ElectromagneticModel& model);
+  explicit FusedPgnnEvaluator(const ElectromagneticModel& model);
+  void evaluate(double position_m, StackedGain& gain, Wrench& cogging) const noexcept;
+
+ private:
+  struct Output {
+    int first = 0;   // offset of this network's neurons in the hidden vector
+    int width = 0;
+    Eigen::Matrix<double, 3, Eigen::Dynamic> weights;
+    Eigen::Vector3d bias;
+  };
+  const ElectromagneticModel* model_;
+  Eigen::ArrayXd input_weight_;
+  Eigen::ArrayXd input_bias_;
+  mutable Eigen::ArrayXd hidden_;  // scratch, sized at construction
+  std::vector<Output> outputs_;   // 3 per coil set: column_a, column_b, cogging
+};
+
 /// The classical model (7) as a PGNN with zero networks of the given hidden sizes
 /// (empty: no networks at all).
 ElectromagneticModel make_classical_model(double pole_pitch_m, std::span<const ClassicalCoilSet> coil_sets,

@@ -29,31 +29,36 @@ int Network::parameter_count() const {
 
 Eigen::Vector3d Network::evaluate(double input) const noexcept {
   if (layers.empty()) return Eigen::Vector3d::Zero();
-  double buffer[2][kMaxWidth];
-  double* in = buffer[0];
-  double* out = buffer[1];
-  in[0] = input;
-  Eigen::Index in_size = 1;
+  // Raw stack buffers and Eigen maps: no allocation, no dynamic-size bookkeeping.
+  alignas(16) double activation[kMaxWidth];
+  alignas(16) double sum[kMaxWidth];
+  activation[0] = input;
+  Eigen::Index width = 1;
   const std::size_t hidden = layers.size() - 1;
   for (std::size_t i = 0; i < hidden; ++i) {
     const auto& layer = layers[i];
     const Eigen::Index rows = layer.weights.rows();
-    for (Eigen::Index r = 0; r < rows; ++r) {
-      double sum = layer.biases[r];
-      for (Eigen::Index c = 0; c < in_size; ++c) sum += layer.weights(r, c) * in[c];
-      out[r] = std::tanh(sum);
+    const double* w = layer.weights.data();  // column-major, rows × width
+    const double* b = layer.biases.data();
+    for (Eigen::Index r = 0; r < rows; ++r) sum[r] = b[r];
+    for (Eigen::Index c = 0; c < width; ++c) {
+      const double x = activation[c];
+      const double* column = w + c * rows;
+      for (Eigen::Index r = 0; r < rows; ++r) sum[r] += column[r] * x;
     }
-    std::swap(in, out);
-    in_size = rows;
+    Eigen::Map<Eigen::ArrayXd>(activation, rows) = tanh_activation(Eigen::Map<const Eigen::ArrayXd>(sum, rows));
+    width = rows;
   }
   const auto& last = layers.back();
-  Eigen::Vector3d result;
-  for (Eigen::Index r = 0; r < kOutputSize; ++r) {
-    double sum = last.biases[r];
-    for (Eigen::Index c = 0; c < in_size; ++c) sum += last.weights(r, c) * in[c];
-    result[r] = sum;
+  const double* w = last.weights.data();  // 3 × width, column-major
+  double out0 = last.biases[0], out1 = last.biases[1], out2 = last.biases[2];
+  for (Eigen::Index c = 0; c < width; ++c) {
+    const double x = activation[c];
+    out0 += w[3 * c] * x;
+    out1 += w[3 * c + 1] * x;
+    out2 += w[3 * c + 2] * x;
   }
-  return result;
+  return {out0, out1, out2};
 }
 
 std::string Network::shape_error() const {

@@ -14,6 +14,14 @@ struct DenseLayer {
   Eigen::VectorXd biases;   ///< n_i
 };
 
+/// tanh(x) written as 1 − 2/(1 + e^{2x}) so that whole layers evaluate with
+/// Eigen's vectorised exp; saturates exactly to ±1. Identification and the
+/// cycle use this same function.
+template <typename Derived>
+auto tanh_activation(const Eigen::ArrayBase<Derived>& x) {
+  return 1.0 - 2.0 / (1.0 + (2.0 * x).exp());
+}
+
 class Network {
  public:
   /// Widest hidden layer the cycle's fixed storage holds.

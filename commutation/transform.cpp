@@ -22,8 +22,10 @@ Eigen::Matrix2d gamma_inverse(const DriveCommutation& drive, double position_m, 
   const double eta = electrical_angle_rad(position_m, pole_pitch_m) + drive.phase_offset_rad;
   const double s0 = std::sin(eta);
   const double c0 = std::cos(eta);
-  const double s1 = std::sin(eta + kTwoPiOverThree);
-  const double c1 = std::cos(eta + kTwoPiOverThree);
+  // sin/cos of η + 2π/3 by the angle-sum rule: one sin/cos pair per call.
+  const double sin_120 = std::sin(kTwoPiOverThree);
+  const double s1 = s0 * -0.5 + c0 * sin_120;
+  const double c1 = c0 * -0.5 - s0 * sin_120;
   // det [[s0, c0], [s1, c1]] = sin(η − (η + 2π/3)) = −sin(2π/3).
   const double inv_det = -1.0 / std::sin(kTwoPiOverThree);
   Eigen::Matrix2d inverse;
@@ -39,14 +41,17 @@ Eigen::Vector2d transform_forward(const DriveSetpoint& setpoint) {
 DriveSetpoint transform_inverse(const Eigen::Vector2d& f12_N, PhaseConvention convention) {
   if (f12_N.x() == 0.0 && f12_N.y() == 0.0) return {0.0, 0.0};
   double delta = std::atan2(f12_N.y(), f12_N.x());  // (−π, π]
+  double magnitude = std::hypot(f12_N.x(), f12_N.y());
   if (convention == PhaseConvention::kSignedMagnitude) {
     // Fold into (−π/2, π/2]; the magnitude takes the sign.
-    if (delta > 0.5 * kPi) delta -= kPi;
-    if (delta <= -0.5 * kPi) delta += kPi;
+    if (delta > 0.5 * kPi) {
+      delta -= kPi;
+      magnitude = -magnitude;
+    } else if (delta <= -0.5 * kPi) {
+      delta += kPi;
+      magnitude = -magnitude;
+    }
   }
-  // Projection onto the unit vector of Δ: equals ±‖f12‖ and is exact when the
-  // atan2 result lies on a branch boundary.
-  const double magnitude = f12_N.x() * std::cos(delta) + f12_N.y() * std::sin(delta);
   return {magnitude, delta};
 }
 

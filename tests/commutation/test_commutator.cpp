@@ -45,9 +45,11 @@ TEST_CASE("PGNN and spline commutation produce the desired wrench for L >= 2", "
   std::mt19937_64 rng(20);
   std::uniform_real_distribution<double> position(-0.12, 0.12);
   for (int coil_sets : {2, 3, 4, 8}) {
-    for (int kind = 0; kind < 2; ++kind) {
-      const auto model = kind == 0 ? test::random_pgnn_model(coil_sets, kPolePitch, rng)
-                                   : test::random_spline_model(coil_sets, kPolePitch, rng);
+    for (int kind = 0; kind < 3; ++kind) {
+      // 0: paper-sized PGNN (fused evaluation), 1: spline, 2: two hidden layers (generic evaluation).
+      const auto model = kind == 0   ? test::random_pgnn_model(coil_sets, kPolePitch, rng)
+                         : kind == 1 ? test::random_spline_model(coil_sets, kPolePitch, rng)
+                                     : test::random_pgnn_model(coil_sets, kPolePitch, rng, {4, 3}, {8, 8});
       for (auto metric : {PowerMetric::kTruePower, PowerMetric::kCurrentNorm}) {
         const ModelCommutator law(model, kDrive, {metric, PhaseConvention::kSignedMagnitude, 1e-6});
         CommutationOutput out;
