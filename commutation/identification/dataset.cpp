@@ -1,0 +1,51 @@
+#include "commutation/identification/dataset.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace clm {
+
+CoilSetDataset CoilSetDataset::subset(const std::vector<Eigen::Index>& indices) const {
+  CoilSetDataset out;
+  const auto n = static_cast<Eigen::Index>(indices.size());
+  out.position_m.resize(n);
+  out.currents_A.resize(2, n);
+  out.wrench.resize(3, n);
+  out.group.resize(indices.size());
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const Eigen::Index i = indices[static_cast<std::size_t>(k)];
+    out.position_m[k] = position_m[i];
+    out.currents_A.col(k) = currents_A.col(i);
+    out.wrench.col(k) = wrench.col(i);
+    out.group[static_cast<std::size_t>(k)] = group[static_cast<std::size_t>(i)];
+  }
+  return out;
+}
+
+DataSplit split_contiguous_blocks(const CoilSetDataset& data, double validation_fraction, int blocks_per_group) {
+  if (!(validation_fraction >= 0.0 && validation_fraction < 1.0)) {
+    throw std::invalid_argument("validation fraction must lie in [0, 1), got " + std::to_string(validation_fraction));
+  }
+  if (blocks_per_group < 1) throw std::invalid_argument("blocks_per_group must be at least 1");
+  const int held_out = static_cast<int>(std::lround(validation_fraction * blocks_per_group));
+  std::vector<bool> is_validation_block(static_cast<std::size_t>(blocks_per_group), false);
+  for (int k = 0; k < held_out; ++k) {
+    const int block = static_cast<int>((k + 0.5) * blocks_per_group / held_out);
+    is_validation_block[static_cast<std::size_t>(std::min(block, blocks_per_group - 1))] = true;
+  }
+  DataSplit split;
+  for (int g = 0; g < 2; ++g) {
+    std::vector<Eigen::Index> members;
+    for (Eigen::Index i = 0; i < data.size(); ++i) {
+      if (data.group[static_cast<std::size_t>(i)] == g) members.push_back(i);
+    }
+    const auto count = static_cast<double>(members.size());
+    for (std::size_t k = 0; k < members.size(); ++k) {
+      const auto block = static_cast<std::size_t>(std::min<double>(blocks_per_group - 1, std::floor(k * blocks_per_group / count)));
+      (is_validation_block[block] ? split.validation : split.training).push_back(members[k]);
+    }
+  }
+  return split;
+}
+
+}  // namespace clm

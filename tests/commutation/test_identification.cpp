@@ -1,0 +1,159 @@
+// Identification on synthetic data whose truth is known: the physics-only fit,
+// eq. (31), Proposition 4.1, the PGNN and the spline model.
+#include <catch2/catch.hpp>
+#include <random>
+
+#include "commutation/identification/identification.hpp"
+#include "support/random_model.hpp"
+
+using namespace clm;
+
+namespace {
+
+constexpr double kPolePitch = 0.032;
+const DriveCommutation kDrive{67.0, -0.52};
+
+// Coil set `coil_set` of `truth` driven alone with offsets ±π/4 along a
+// back-and-forth sweep with varying magnitude, plus Gaussian force noise.
+CoilSetDataset synthetic_data(const ElectromagneticModel& truth, int coil_set, double noise_N, int samples_per_group,
+                              std::mt19937_64& rng) {
+  std::normal_distribution<double> noise(0.0, noise_N);
+  CoilSetDataset data;
+  const auto n = 2 * samples_per_group;
+  data.position_m.resize(n);
+  data.currents_A.resize(2, n);
+  data.wrench.resize(3, n);
+  data.group.resize(static_cast<std::size_t>(n));
+  for (int g = 0; g < 2; ++g) {
+    const double delta = g == 0 ? -kPi / 4 : kPi / 4;
+    for (int k = 0; k < samples_per_group; ++k) {
+      const Eigen::Index t = g * samples_per_group + k;
+      const double phase = 6.0 * kPi * k / samples_per_group;
+      const double y = 0.1 * std::sin(phase + 0.3 * g);
+      const double magnitude = 40.0 * std::cos(phase * 1.7) + 15.0 * std::sin(phase * 0.37) + 5.0;
+      const Eigen::Vector2d i = drive_phase_currents(kDrive, {magnitude, delta}, y, kPolePitch);
+      CoilGain gain;
+      Wrench cogging;
+      truth.evaluate_coil_set(coil_set, y, gain, cogging);
+      data.position_m[t] = y;
+      data.currents_A.col(t) = i;
+      data.wrench.col(t) = gain * i + cogging + Wrench(noise(rng), noise(rng), 0.02 * noise(rng));
+      data.group[static_cast<std::size_t>(t)] = g;
+    }
+  }
+  return data;
+}
+
+}  // namespace
+
+TEST_CASE("physics-only fit recovers a classical coil set exactly", "[identification]") {
+  std::mt19937_64 rng(40);
+  const auto coil_sets = test::random_classical_coil_sets(3, rng);
+  const auto truth = make_classical_model(kPolePitch, coil_sets);
+  const auto data = synthetic_data(truth, 1, 0.0, 2000, rng);
+  CoilGain a, b;
+  fit_physics_only(data, kPolePitch, a, b);
+  CHECK((a - truth.coil_sets[1].a_N_per_A).cwiseAbs().maxCoeff() < 1e-9);
+  CHECK((b - truth.coil_sets[1].b_N_per_A).cwiseAbs().maxCoeff() < 1e-9);
+}
+
+TEST_CASE("contiguous validation blocks hold out the requested share of each group", "[identification]") {
+  std::mt19937_64 rng(41);
+  const auto truth = make_classical_model(kPolePitch, test::random_classical_coil_sets(1, rng));
+  const auto data = synthetic_data(truth, 0, 0.0, 1000, rng);
+  const auto split = split_contiguous_blocks(data, 0.2);
+  CHECK(split.validation.size() == 400);
+  CHECK(split.training.size() == 1600);
+  // Contiguity: the held-out indices of group 0 form two runs of 100.
+  int runs = 0;
+  for (std::size_t k = 0; k < split.validation.size(); ++k) {
+    if (k == 0 || split.validation[k] != split.validation[k - 1] + 1) ++runs;
+  }
+  CHECK(runs == 4);
+}
+
+TEST_CASE("eq. (31) minimises the regularised cost over the linear parameters", "[identification]") {
+  std::mt19937_64 rng(42);
+  const auto truth = test::random_pgnn_model(1, kPolePitch, rng);
+  const auto data = synthetic_data(truth, 0, 0.5, 1500, rng);
+  const PositionNormalisation normalisation = truth.normalisation;
+  CoilGain pa, pb;
+  fit_physics_only(data, kPolePitch, pa, pb);
+  // Hidden layers from a different random model; output layers solved.
+  auto other = test::random_pgnn_model(1, kPolePitch, rng);
+  CoilSetModel coil_set = other.coil_sets[0];
+  solve_linear_parameters(data, kPolePitch, normalisation, pa, pb, 0.1, coil_set);
+  ElectromagneticModel model = other;
+  model.coil_sets[0] = coil_set;
+  const auto regularised = [&](const ElectromagneticModel& m) {
+    const auto& c = m.coil_sets[0];
+    const double prior = 0.01 * ((c.a_N_per_A - pa).squaredNorm() + (c.b_N_per_A - pb).squaredNorm());
+    return coil_set_cost(m, 0, data).sum() + prior;
+  };
+  const double optimum = regularised(model);
+  // Any perturbation of a linear parameter raises the cost.
+  for (double step : {1e-3, -1e-3}) {
+    ElectromagneticModel perturbed = model;
+    perturbed.coil_sets[0].a_N_per_A(0, 1) += step;
+    CHECK(regularised(perturbed) > optimum);
+    perturbed = model;
+    perturbed.coil_sets[0].cogging.layers[1].weights(2, 5) += step;
+    CHECK(regularised(perturbed) > optimum);
+    perturbed = model;
+    perturbed.coil_sets[0].column_b.layers[1].biases[1] += step;
+    CHECK(regularised(perturbed) > optimum);
+  }
+  // Proposition 4.1 for arbitrary hidden layers: never worse than physics-only.
+  ElectromagneticModel physics = model;
+  physics.coil_sets[0].a_N_per_A = pa;
+  physics.coil_sets[0].b_N_per_A = pb;
+  for (auto* net : {&physics.coil_sets[0].column_a, &physics.coil_sets[0].column_b, &physics.coil_sets[0].cogging}) {
+    for (auto& layer : net->layers) {
+      layer.weights.setZero();
+      layer.biases.setZero();
+    }
+  }
+  CHECK(optimum <= coil_set_cost(physics, 0, data).sum());
+}
+
+TEST_CASE("PGNN identification fits a PGNN-structured coil set to the noise level", "[identification]") {
+  std::mt19937_64 rng(43);
+  const auto truth = test::random_pgnn_model(1, kPolePitch, rng);
+  const double noise = 0.5;
+  const auto all = synthetic_data(truth, 0, noise, 4000, rng);
+  const auto split = split_contiguous_blocks(all, 0.2);
+  const auto training = all.subset(split.training);
+  const auto validation = all.subset(split.validation);
+  PgnnOptions options;
+  options.restarts = 5;
+  IdentificationReport report;
+  const auto coil_set = identify_pgnn_coil_set(training, validation, kPolePitch, truth.normalisation, options, report);
+  INFO("model y/x/z " << report.model_training.transpose() << " physics " << report.physics_training.transpose());
+  for (int q = 0; q < 3; ++q) CHECK(report.proposition_holds[q]);
+  // Noise variance is 0.25 N² in y and x; the physics-only model is far off.
+  CHECK(report.physics_training[0] > 4 * report.model_training[0]);
+  CHECK(report.model_training[0] < 1.2 * noise * noise);
+  CHECK(report.model_validation[0] < 1.5 * noise * noise);
+  CHECK(coil_set.column_a.hidden_sizes() == std::vector<int>{2});
+  CHECK(coil_set.cogging.hidden_sizes() == std::vector<int>{16});
+}
+
+TEST_CASE("spline identification recovers a spline-structured coil set", "[identification]") {
+  std::mt19937_64 rng(44);
+  auto truth = test::random_spline_model(1, kPolePitch, rng);
+  const double noise = 0.5;
+  const auto all = synthetic_data(truth, 0, noise, 6000, rng);
+  const auto split = split_contiguous_blocks(all, 0.2);
+  const auto training = all.subset(split.training);
+  const auto validation = all.subset(split.validation);
+  SplineOptions options;
+  options.knot_spacing_m = truth.spline_basis.spacing_m();
+  IdentificationReport report;
+  const auto basis = truth.spline_basis;  // the truth's own grid
+  identify_spline_coil_set(training, validation, kPolePitch, basis, options, report);
+  INFO("model " << report.model_training.transpose() << " validation " << report.model_validation.transpose());
+  for (int q = 0; q < 3; ++q) CHECK(report.proposition_holds[q]);
+  CHECK(report.model_training[0] < 1.2 * noise * noise);
+  CHECK(report.model_validation[0] < 1.5 * noise * noise);
+  CHECK(report.physics_training[0] > 5 * report.model_training[0]);
+}
