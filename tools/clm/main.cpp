@@ -1,24 +1,32 @@
-// clm: the command-line tool of clm-servo. Subcommands are added by the
-// components they belong to; each has --help.
+// clm: the command-line tool of clm-servo: calibration, identification,
+// feedforward, commutation and (later) commissioning and daemon control.
 
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <exception>
 #include <iostream>
 
 #include "clm_version.hpp"
+#include "tools/clm/commands.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"clm: commissioning and commutation tools for coreless linear motors"};
   app.set_version_flag("--version", std::string("clm ") + CLM_SERVO_VERSION);
-  app.require_subcommand(0, 1);
+  app.require_subcommand(1);
+  clm::cli::add_calibrate(app);
+  clm::cli::add_identify(app);
+  clm::cli::add_ff_identify(app);
+  clm::cli::add_commutate(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
-  }
-  if (app.get_subcommands().empty()) {
-    std::cout << app.help();
-    return 0;
+  } catch (const std::exception& e) {
+    // One line naming what is wrong and where; nothing was written.
+    const auto subcommands = app.get_subcommands();
+    std::fprintf(stderr, "clm %s: error: %s\n", subcommands.empty() ? "" : subcommands.front()->get_name().c_str(),
+                 e.what());
+    return 2;
   }
   return 0;
 }

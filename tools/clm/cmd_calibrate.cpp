@@ -1,0 +1,49 @@
+// clm calibrate: Algorithm 1 per coil set from its two offset groups.
+#include <cstdio>
+#include <iostream>
+
+#include "commutation/model_file.hpp"
+#include "config/atomic_file.hpp"
+#include "tools/clm/commands.hpp"
+#include "tools/data/commissioning_steps.hpp"
+#include "tools/data/sha256.hpp"
+
+namespace clm::cli {
+
+void add_calibrate(CLI::App& app) {
+  auto* sub = app.add_subcommand("calibrate", "Algorithm 1: calibrate k and zeta of every coil set from force data");
+  struct Options {
+    std::string motor, data, output;
+    bool robust = false;
+  };
+  auto options = std::make_shared<Options>();
+  sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--data", options->data, "experiment data (CSV, docs/data-formats.md)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--output", options->output, "calibration file to write (YAML)")->required();
+  sub->add_flag("--robust", options->robust,
+                "write the offset-robust fit (a position-dependent offset fitted beside c_i) instead of the paper's");
+  sub->callback([options] {
+    const auto motor = load_motor_description(options->motor);
+    const auto table = CsvTable::load(options->data);
+    const auto data = read_experiment_data(table, motor);
+    const auto paper = calibrate_motor(data, motor, CalibrationMethod::kAlgorithm1);
+    const auto robust = calibrate_motor(data, motor, CalibrationMethod::kOffsetRobust);
+    CalibrationFile chosen = options->robust ? robust : paper;
+    chosen.data_sha256 = sha256_file(options->data);
+    chosen.generator = generator_name("calibrate");
+    write_file_atomically(options->output, format_calibration_file(chosen));
+
+    std::printf("coil set  method         k [N/A]   zeta [rad]  c1       c2       residual rms [N]\n");
+    for (std::size_t l = 0; l < paper.coil_sets.size(); ++l) {
+      for (const CalibrationFile* file : {&paper, &robust}) {
+        const auto& c = file->coil_sets[l];
+        std::printf("%-9zu %-14s %-9.4f %-11.4f %-8.5f %-8.5f %.3f / %.3f\n", l + 1, file->method.c_str(),
+                    c.estimate.motor_constant_N_per_A, c.estimate.phase_offset_rad, c.gain_ratio[0], c.gain_ratio[1],
+                    c.residual_rms_N[0], c.residual_rms_N[1]);
+      }
+    }
+    std::printf("wrote %s (%s)\n", options->output.c_str(), chosen.method.c_str());
+  });
+}
+
+}  // namespace clm::cli

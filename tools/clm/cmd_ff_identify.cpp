@@ -1,0 +1,48 @@
+// clm ff-identify: m, f_v, f_c of eq. (40) from closed-loop data.
+#include <cstdio>
+
+#include "config/atomic_file.hpp"
+#include "daemon/control/position_controller.hpp"
+#include "tools/clm/commands.hpp"
+#include "tools/data/commissioning_steps.hpp"
+#include "tools/data/feedforward_file.hpp"
+#include "tools/data/sha256.hpp"
+
+namespace clm::cli {
+
+void add_ff_identify(CLI::App& app) {
+  auto* sub = app.add_subcommand("ff-identify", "identify the feedforward (40): mass, viscous and Coulomb friction");
+  struct Options {
+    std::string data, output;
+  };
+  auto options = std::make_shared<Options>();
+  sub->add_option("--data", options->data, "closed-loop data (CSV with t_s, r_m, F_star_N)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--output", options->output, "feedforward file to write (YAML)")->required();
+  sub->callback([options] {
+    const auto table = CsvTable::load(options->data);
+    const auto time = table.numbers("t_s");
+    const auto reference = table.numbers("r_m");
+    const auto force = table.numbers("F_star_N");
+    for (std::size_t r = 1; r < time.size(); ++r) {
+      if (!(time[r] > time[r - 1])) {
+        throw std::runtime_error(options->data + ":" + std::to_string(table.line_of(r)) +
+                                 ": column 't_s': time does not increase");
+      }
+    }
+    const auto samples = control::reference_from_positions(time, reference);
+    FeedforwardFile file;
+    try {
+      file.parameters = control::identify_feedforward(samples, force);
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(options->data + ": " + e.what());
+    }
+    file.data_sha256 = sha256_file(options->data);
+    file.created_utc = utc_timestamp();
+    file.generator = generator_name("ff-identify");
+    write_file_atomically(options->output, format_feedforward_file(file));
+    std::printf("mass_kg %.6g  viscous_N_s_per_m %.6g  coulomb_N %.6g\nwrote %s\n", file.parameters.mass_kg,
+                file.parameters.viscous_N_s_per_m, file.parameters.coulomb_N, options->output.c_str());
+  });
+}
+
+}  // namespace clm::cli

@@ -1,0 +1,81 @@
+// clm identify: Algorithm 2 (PGNN) or the spline model for every coil set.
+#include <cstdio>
+#include <iostream>
+
+#include "commutation/model_file.hpp"
+#include "config/atomic_file.hpp"
+#include "tools/clm/commands.hpp"
+#include "tools/data/commissioning_steps.hpp"
+#include "tools/data/sha256.hpp"
+
+namespace clm::cli {
+
+void add_identify(CLI::App& app) {
+  auto* sub = app.add_subcommand("identify", "Algorithm 2: identify a PGNN (or spline) model of the electromagnetics");
+  struct Options {
+    std::string motor, data, output, model = "pgnn";
+    IdentifyOptions identify;
+  };
+  auto options = std::make_shared<Options>();
+  auto& o = options->identify;
+  sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--data", options->data, "experiment data (CSV)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--output", options->output, "model file to write (YAML)")->required();
+  sub->add_option("--model", options->model, "model class")->check(CLI::IsMember({"pgnn", "spline"}))->capture_default_str();
+  sub->add_option("--validation-fraction", o.validation_fraction, "held-out share, in contiguous blocks")
+      ->check(CLI::Range(0.0, 0.9))->capture_default_str();
+  sub->add_option("--column-neurons", o.pgnn.column_hidden, "tanh neurons per column network of K")
+      ->check(CLI::Range(1, 64))->capture_default_str();
+  sub->add_option("--cogging-neurons", o.pgnn.cogging_hidden, "tanh neurons of the cogging network")
+      ->check(CLI::Range(1, 64))->capture_default_str();
+  sub->add_option("--regularisation", o.pgnn.regularisation, "Lambda = value * I in eq. (26)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  sub->add_option("--restarts", o.pgnn.restarts, "seeded random restarts, best kept")->check(CLI::Range(1, 1000))->capture_default_str();
+  sub->add_option("--seed", o.pgnn.seed, "seed of the restarts")->capture_default_str();
+  sub->add_option("--restart-iterations", o.pgnn.restart_iterations, "LM iterations per restart")
+      ->check(CLI::Range(1, 100000))->capture_default_str();
+  sub->add_option("--final-iterations", o.pgnn.final_iterations, "LM iterations polishing the best restart")
+      ->check(CLI::Range(0, 100000))->capture_default_str();
+  sub->add_option("--restart-decimation", o.pgnn.restart_decimation, "restarts use every n-th training sample")
+      ->check(CLI::Range(1, 1000))->capture_default_str();
+  sub->add_option("--threads", o.pgnn.threads, "solver threads")->check(CLI::Range(1, 64))->capture_default_str();
+  sub->add_option("--knot-spacing-m", o.spline.knot_spacing_m, "spline knot spacing (0: pole pitch / 8)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  sub->add_option("--smoothing", o.spline.smoothing, "spline roughness penalty")->check(CLI::NonNegativeNumber)->capture_default_str();
+  sub->callback([options] {
+    options->identify.kind = options->model == "pgnn" ? ModelKind::kPgnn : ModelKind::kSpline;
+    options->identify.spline.regularisation = options->identify.pgnn.regularisation;
+    const auto motor = load_motor_description(options->motor);
+    const auto table = CsvTable::load(options->data);
+    const auto data = read_experiment_data(table, motor);
+    std::vector<CoilSetIdentification> reports;
+    ProgressBar bar("identify " + options->model);
+    ModelFile file = identify_motor(data, motor, options->identify, reports, [&](const IdentifyProgress& p) {
+      const double fraction = (p.coil_set - 1 + static_cast<double>(p.step) / p.steps) / p.coil_sets;
+      bar.update(fraction, "coil set " + std::to_string(p.coil_set) + "/" + std::to_string(p.coil_sets) + " step " +
+                               std::to_string(p.step) + "/" + std::to_string(p.steps));
+    });
+    bar.finish();
+    file.provenance.data_sha256 = sha256_file(options->data);
+    file.provenance.generator = generator_name("identify");
+    write_file_atomically(options->output, format_model_file(file));
+
+    std::printf("%s model, %d coil sets; data-term cost (mean squared error) per direction y [N^2], x [N^2], z [N^2 m^2]\n",
+                options->model.c_str(), motor.coil_sets);
+    std::printf("coil set  data        physics-only                     %-6s                           Prop. 4.1\n",
+                options->model.c_str());
+    for (std::size_t l = 0; l < reports.size(); ++l) {
+      const auto& r = reports[l].report;
+      const bool holds = r.proposition_holds[0] && r.proposition_holds[1] && r.proposition_holds[2];
+      std::printf("%-9zu training    %9.4g %9.4g %9.4g      %9.4g %9.4g %9.4g      %s\n", l + 1, r.physics_training[0],
+                  r.physics_training[1], r.physics_training[2], r.model_training[0], r.model_training[1],
+                  r.model_training[2], holds ? "holds" : "VIOLATED");
+      std::printf("%-9s validation  %9.4g %9.4g %9.4g      %9.4g %9.4g %9.4g\n", "", r.physics_validation[0],
+                  r.physics_validation[1], r.physics_validation[2], r.model_validation[0], r.model_validation[1],
+                  r.model_validation[2]);
+    }
+    std::printf("wrote %s\n", options->output.c_str());
+  });
+}
+
+}  // namespace clm::cli

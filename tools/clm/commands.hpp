@@ -1,0 +1,32 @@
+#pragma once
+// Subcommands of `clm`. Each registers itself on the app; its callback throws
+// std::exception with a one-line message on bad input, which main prints.
+
+#include <CLI/CLI.hpp>
+#include <string>
+
+namespace clm::cli {
+
+void add_calibrate(CLI::App& app);
+void add_identify(CLI::App& app);
+void add_ff_identify(CLI::App& app);
+void add_commutate(CLI::App& app);
+
+/// "clm <version>" for provenance records.
+std::string generator_name(const std::string& subcommand);
+
+/// Progress of a long step on stderr: a bar on a terminal, one line per
+/// update otherwise.
+class ProgressBar {
+ public:
+  explicit ProgressBar(std::string label);
+  void update(double fraction, const std::string& detail);
+  void finish();
+
+ private:
+  std::string label_;
+  bool terminal_;
+  int last_percent_ = -1;
+};
+
+}  // namespace clm::cli

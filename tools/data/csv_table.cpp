@@ -1,0 +1,132 @@
+#include "tools/data/csv_table.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "config/atomic_file.hpp"
+
+namespace clm {
+namespace {
+
+std::string_view trim(std::string_view text) {
+  while (!text.empty() && (text.front() == ' ' || text.front() == '\t')) text.remove_prefix(1);
+  while (!text.empty() && (text.back() == ' ' || text.back() == '\t' || text.back() == '\r')) text.remove_suffix(1);
+  return text;
+}
+
+void split_line(std::string_view line, std::vector<std::string_view>& out) {
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = line.find(',', start);
+    out.push_back(trim(line.substr(start, comma == std::string_view::npos ? std::string_view::npos : comma - start)));
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+}
+
+}  // namespace
+
+CsvTable CsvTable::load(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return parse(buffer.str(), path);
+}
+
+CsvTable CsvTable::parse(std::string text, const std::string& origin) {
+  CsvTable table;
+  table.origin_ = origin;
+  table.text_ = std::make_shared<std::string>(std::move(text));
+  const std::string_view all(*table.text_);
+  std::size_t start = 0;
+  std::size_t line_number = 0;
+  std::vector<std::string_view> cells;
+  while (start < all.size()) {
+    std::size_t end = all.find('\n', start);
+    if (end == std::string_view::npos) end = all.size();
+    const std::string_view line = trim(all.substr(start, end - start));
+    start = end + 1;
+    ++line_number;
+    if (line.empty()) continue;
+    cells.clear();
+    split_line(line, cells);
+    if (table.header_.empty()) {
+      table.header_ = cells;
+      continue;
+    }
+    if (cells.size() != table.header_.size()) {
+      throw std::runtime_error(origin + ":" + std::to_string(line_number) + ": " + std::to_string(cells.size()) +
+                               " cells, the header has " + std::to_string(table.header_.size()));
+    }
+    table.cells_.insert(table.cells_.end(), cells.begin(), cells.end());
+    ++table.rows_;
+    if (line_number != table.rows_ + 1) {
+      // Blank lines inside the data would make row numbers lie; refuse them.
+      throw std::runtime_error(origin + ":" + std::to_string(line_number) + ": blank line inside the data");
+    }
+  }
+  if (table.header_.empty()) throw std::runtime_error(origin + ": empty file, expected a header row");
+  return table;
+}
+
+bool CsvTable::has(std::string_view column) const {
+  for (auto name : header_) {
+    if (name == column) return true;
+  }
+  return false;
+}
+
+std::vector<double> CsvTable::numbers(std::string_view column) const {
+  std::size_t index = header_.size();
+  for (std::size_t c = 0; c < header_.size(); ++c) {
+    if (header_[c] == column) index = c;
+  }
+  if (index == header_.size()) {
+    throw std::runtime_error(origin_ + ":1: missing column '" + std::string(column) + "'");
+  }
+  std::vector<double> values(rows_);
+  for (std::size_t r = 0; r < rows_; ++r) {
+    const std::string_view cell = cells_[r * header_.size() + index];
+    double value = 0.0;
+    const auto result = std::from_chars(cell.data(), cell.data() + cell.size(), value);
+    if (cell.empty() || result.ec != std::errc() || result.ptr != cell.data() + cell.size() || !std::isfinite(value)) {
+      throw std::runtime_error(origin_ + ":" + std::to_string(line_of(r)) + ": column '" + std::string(column) +
+                               "': '" + std::string(cell) + "' is not a finite number");
+    }
+    values[r] = value;
+  }
+  return values;
+}
+
+std::string shortest_double(double value) {
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  return std::string(buffer, result.ptr);
+}
+
+void write_csv_atomically(const std::string& path, std::span<const std::string> columns,
+                          std::span<const std::vector<double>> values) {
+  if (columns.size() != values.size()) throw std::invalid_argument("CSV: column names and value columns differ");
+  const std::size_t rows = values.empty() ? 0 : values[0].size();
+  std::string out;
+  out.reserve(rows * columns.size() * 12 + 256);
+  for (std::size_t c = 0; c < columns.size(); ++c) {
+    if (c > 0) out += ',';
+    out += columns[c];
+  }
+  out += '\n';
+  for (std::size_t r = 0; r < rows; ++r) {
+    for (std::size_t c = 0; c < columns.size(); ++c) {
+      if (c > 0) out += ',';
+      out += shortest_double(values[c][r]);
+    }
+    out += '\n';
+  }
+  write_file_atomically(path, out);
+}
+
+}  // namespace clm

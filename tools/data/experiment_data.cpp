@@ -1,0 +1,96 @@
+#include "tools/data/experiment_data.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "commutation/classical.hpp"
+
+namespace clm {
+
+ExperimentData read_experiment_data(const CsvTable& table, const MotorDescription& motor) {
+  const std::string& file = table.origin();
+  const auto coil_set = table.numbers("coil_set");
+  const auto delta = table.numbers("delta_rad");
+  const auto magnitude = table.numbers("magnitude_N");
+  const auto position = table.numbers("y_m");
+  const auto fy = table.numbers("Fy_N");
+  const auto fx = table.numbers("Fx_N");
+  const auto tz = table.numbers("Tz_Nm");
+  table.numbers("t_s");  // required and must be numeric, though the fits do not use time
+  const bool measured = table.has("ia_A") || table.has("ib_A");
+  std::vector<double> ia, ib;
+  if (measured) {
+    ia = table.numbers("ia_A");
+    ib = table.numbers("ib_A");
+  }
+
+  ExperimentData data;
+  data.origin = file;
+  data.measured_currents = measured;
+  data.coil_sets.resize(static_cast<std::size_t>(motor.coil_sets));
+  std::vector<std::vector<std::size_t>> rows(static_cast<std::size_t>(motor.coil_sets));
+  std::vector<int> offsets_seen(static_cast<std::size_t>(motor.coil_sets), 0);
+  for (std::size_t r = 0; r < table.rows(); ++r) {
+    const double value = coil_set[r];
+    if (value != std::floor(value) || value < 1 || value > motor.coil_sets) {
+      throw std::runtime_error(file + ":" + std::to_string(table.line_of(r)) + ": column 'coil_set': value " +
+                               shortest_double(value) + " is not a coil set of this motor (1.." +
+                               std::to_string(motor.coil_sets) + ")");
+    }
+    const auto l = static_cast<std::size_t>(value) - 1;
+    auto& experiment = data.coil_sets[l];
+    int group = -1;
+    for (int g = 0; g < offsets_seen[l]; ++g) {
+      if (std::abs(delta[r] - experiment.delta_rad[static_cast<std::size_t>(g)]) <= 1e-9) group = g;
+    }
+    if (group < 0) {
+      if (offsets_seen[l] == 2) {
+        throw std::runtime_error(file + ":" + std::to_string(table.line_of(r)) + ": column 'delta_rad': coil set " +
+                                 std::to_string(l + 1) + " has a third phase offset " + shortest_double(delta[r]) +
+                                 " rad; each coil set needs exactly two");
+      }
+      group = offsets_seen[l]++;
+      experiment.delta_rad[static_cast<std::size_t>(group)] = delta[r];
+    }
+    const auto g = static_cast<std::size_t>(group);
+    experiment.position_m[g].push_back(position[r]);
+    experiment.magnitude_N[g].push_back(magnitude[r]);
+    experiment.driving_force_N[g].push_back(fy[r]);
+    rows[l].push_back(r);
+  }
+  for (std::size_t l = 0; l < data.coil_sets.size(); ++l) {
+    auto& experiment = data.coil_sets[l];
+    experiment.coil_set = static_cast<int>(l + 1);
+    if (offsets_seen[l] == 0) {
+      throw std::runtime_error(file + ": column 'coil_set': no rows for coil set " + std::to_string(l + 1) +
+                               " (the motor has " + std::to_string(motor.coil_sets) + ")");
+    }
+    if (offsets_seen[l] == 1) {
+      throw std::runtime_error(file + ": column 'delta_rad': coil set " + std::to_string(l + 1) +
+                               " has a single phase offset (" + shortest_double(experiment.delta_rad[0]) +
+                               " rad); calibration and identification need two distinct offsets");
+    }
+    auto& set = experiment.dataset;
+    const auto n = static_cast<Eigen::Index>(rows[l].size());
+    set.position_m.resize(n);
+    set.currents_A.resize(2, n);
+    set.wrench.resize(3, n);
+    set.group.resize(rows[l].size());
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const std::size_t r = rows[l][static_cast<std::size_t>(k)];
+      const int group = std::abs(delta[r] - experiment.delta_rad[0]) <= 1e-9 ? 0 : 1;
+      set.position_m[k] = position[r];
+      if (measured) {
+        set.currents_A.col(k) << ia[r], ib[r];
+      } else {
+        set.currents_A.col(k) =
+            drive_phase_currents(motor.drive, {magnitude[r], delta[r]}, position[r], motor.pole_pitch_m);
+      }
+      set.wrench.col(k) << fy[r], fx[r], tz[r];
+      set.group[static_cast<std::size_t>(k)] = group;
+    }
+  }
+  return data;
+}
+
+}  // namespace clm

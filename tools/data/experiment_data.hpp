@@ -1,0 +1,38 @@
+#pragma once
+// Experiment data of the tools (docs/data-formats.md): each coil set driven
+// alone with two phase offsets, as a CSV with columns
+// t_s, coil_set, delta_rad, magnitude_N, y_m, Fy_N, Fx_N, Tz_Nm [, ia_A, ib_A].
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "commutation/identification/dataset.hpp"
+#include "commutation/model_file.hpp"
+#include "tools/data/csv_table.hpp"
+
+namespace clm {
+
+struct CoilSetExperiment {
+  int coil_set = 0;  ///< 1-based
+  std::array<double, 2> delta_rad{};
+  /// Per offset group: the columns Algorithm 1 needs.
+  std::array<std::vector<double>, 2> position_m, magnitude_N, driving_force_N;
+  /// Both groups with currents (measured ia_A/ib_A when present, else
+  /// reconstructed through the drive's fixed commutation, eq. 19).
+  CoilSetDataset dataset;
+};
+
+struct ExperimentData {
+  std::string origin;
+  bool measured_currents = false;
+  std::vector<CoilSetExperiment> coil_sets;  ///< index l − 1
+};
+
+/// Validates and groups the rows. Throws std::runtime_error with one line
+/// naming file, row and column: missing column, non-finite value, coil_set
+/// not an integer in 1..L, a coil set without rows or without exactly two
+/// distinct offsets.
+ExperimentData read_experiment_data(const CsvTable& table, const MotorDescription& motor);
+
+}  // namespace clm
