@@ -1,0 +1,159 @@
+#pragma once
+// Parameters of the simulated coreless linear motor: the true electromagnetics
+// (eq. 7 plus the parasitics the classical model lacks), the mechanics, the
+// drive with its fixed commutation and the sensors. docs/simulator.md explains
+// every parameter physically; config/motor-sim.yaml is the default motor.
+//
+// Conventions: wrench triples are [F_y N, F_x N, T_z N·m] like clm::Wrench;
+// positions are along the driving direction y; a "track position" is where on
+// the magnet track a point of the translator is, u = y + offset.
+
+#include <cstdint>
+#include <stdexcept>
+#include <vector>
+
+#include "commutation/types.hpp"
+
+namespace clm::sim {
+
+/// Thrown by validate() and the constructors for inconsistent parameters. The
+/// message names the parameter and its value.
+class ParameterError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+/// A smooth random function of track position u: a uniform cubic B-spline
+/// with knot spacing `correlation_length_m` and independent normal
+/// coefficients scaled so that its expected RMS is `rms`, plus a linear trend
+/// `slope_per_m`·(u − track centre). Its unit is that of the quantity it
+/// varies (named where it is used).
+struct SmoothVariation {
+  double rms = 0.0;                    ///< expected RMS of the random part [unit]
+  double correlation_length_m = 0.02;  ///< knot spacing [m], > 0
+  double slope_per_m = 0.0;            ///< slow linear trend [unit/m]
+};
+
+/// The true parameters of one coil set in eq. (7)/(8).
+struct CoilSetParameters {
+  double motor_constant_N_per_A = 0.0;  ///< k^l [N/A], > 0
+  double phase_offset_rad = 0.0;        ///< ζ^l [rad]
+  /// d^l [m]: position of the coil set along y relative to the translator's
+  /// centre of mass. It is the lever of F_x onto T_z (eq. 7) and says where on
+  /// the magnet track the coil set is (track position y + d^l).
+  double lever_arm_m = 0.0;
+  /// e^l [m]: x offset of the line of action of the coil set's driving force;
+  /// adds e^l·F_y^l to T_z.
+  double driving_force_lever_arm_m = 0.0;
+};
+
+/// One harmonic of the periodic cogging force: amplitude per axis of
+/// sin(2π·order·y/d_m + φ), φ drawn from the seed per axis.
+struct CoggingHarmonic {
+  int order = 1;                                     ///< multiple of the pole-pitch frequency, ≥ 1
+  Wrench amplitude_N_N_Nm = Wrench::Zero();          ///< [N, N, N·m], ≥ 0
+};
+
+/// The true electromagnetic part Ψ: force = Σ_l K^l(y)·i^l + F_cog(y) + C·tanh(v/v_c).
+struct ElectromagneticParameters {
+  double pole_pitch_m = 0.0;        ///< d_m of eq. (8) [m], > 0
+  double orthogonal_ratio = 0.0;    ///< μ of eq. (7) [-]
+  std::vector<CoilSetParameters> coil_sets;  ///< L = 1..kMaxCoilSets entries
+
+  /// Relative gain error of each phase winding, g_p = 1 + ε_p, ε_p ~ N(0, rms²)
+  /// per coil set and phase [-].
+  double phase_gain_mismatch_rms = 0.0;
+  /// Relative magnet field intensity a(u): every coil set's gain is scaled by
+  /// 1 + a(y + d^l) [-].
+  SmoothVariation magnet_intensity;
+  /// Magnet orientation β(u): shifts the electrical angle of eq. (8) by
+  /// β(y + d^l) [rad].
+  SmoothVariation magnet_orientation_rad;
+  /// Relative amplitudes of the 5th and 7th field harmonics in every phase's
+  /// force function sin(η_p) + h5·sin(5η_p + ψ5) + h7·sin(7η_p + ψ7) [-];
+  /// ψ5, ψ7 drawn from the seed.
+  double fifth_harmonic_relative = 0.0;
+  double seventh_harmonic_relative = 0.0;
+
+  /// Periodic cogging / cable force over the pole pitch.
+  std::vector<CoggingHarmonic> cogging_periodic;
+  /// Slow cogging / cable force over the stroke: one smooth random function
+  /// per axis with these RMS values [N, N, N·m] and a common correlation length.
+  Wrench cogging_slow_rms_N_N_Nm = Wrench::Zero();
+  double cogging_slow_correlation_length_m = 0.05;  ///< [m], > 0
+  /// Spring term of the cable slab: −rate·(y − neutral) per axis [N/m, N/m, N·m/m].
+  Wrench cogging_spring_rate_N_N_Nm_per_m = Wrench::Zero();
+  double cogging_spring_neutral_m = 0.0;  ///< [m]
+
+  /// Direction-dependent force C·tanh(v/v_c) (paper Remark 5.1) [N, N, N·m]:
+  /// seen by the force sensor, captured by no static model.
+  Wrench direction_dependent_N_N_Nm = Wrench::Zero();
+  double direction_smoothing_velocity_m_per_s = 1e-3;  ///< v_c [m/s], > 0
+
+  /// Seed of every random draw of the truth (track functions, harmonic and
+  /// cogging phases, phase gain errors).
+  std::uint64_t seed = 1;
+
+  int coil_set_count() const { return static_cast<int>(coil_sets.size()); }
+  /// Throws ParameterError naming the first invalid field.
+  void validate() const;
+};
+
+/// Rigid translator moving along y on a bearing.
+struct MechanicsParameters {
+  double translator_mass_kg = 0.0;                     ///< m [kg], > 0
+  double viscous_friction_N_s_per_m = 0.0;             ///< b [N·s/m], ≥ 0
+  double coulomb_friction_N = 0.0;                     ///< F_c [N], ≥ 0
+  double friction_smoothing_velocity_m_per_s = 5e-4;   ///< v_s of F_c·tanh(v/v_s) [m/s], > 0
+  /// Largest integration substep h [s], > 0: step(T) integrates with
+  /// n = max(10, ⌈T/h⌉) equal substeps.
+  double integration_step_s = 5e-5;
+  double end_stop_min_m = -0.13;  ///< lower hard stop [m]
+  double end_stop_max_m = 0.13;   ///< upper hard stop [m], > end_stop_min_m
+
+  void validate() const;
+};
+
+/// The drive: a fixed classical commutation (eq. 18/19), current limit,
+/// setpoint watchdog.
+struct DriveParameters {
+  DriveCommutation commutation;        ///< k̂_d [N/A], ζ̂_d [rad]
+  double phase_current_limit_A = 10.0; ///< |i_a|, |i_b|, |i_c| ≤ limit [A], > 0
+  double watchdog_timeout_s = 0.01;    ///< current stops this long after the last setpoint [s], > 0
+
+  void validate() const;
+};
+
+/// Encoder and force/torque sensor, sampled by sense().
+struct SensorParameters {
+  double encoder_resolution_m = 0.0;  ///< quantisation step [m], 0 = none, ≥ 0
+  double encoder_noise_m = 0.0;       ///< standard deviation before quantisation [m], ≥ 0
+  Wrench force_noise_N_N_Nm = Wrench::Zero();  ///< standard deviation per axis [N, N, N·m], ≥ 0
+  Wrench force_bias_N_N_Nm = Wrench::Zero();   ///< constant offset per axis [N, N, N·m]
+  std::uint64_t noise_seed = 2;                ///< seed of the measurement noise
+
+  void validate() const;
+};
+
+struct MotorParameters {
+  double stroke_min_m = -0.1;  ///< lower end of the usable travel [m]
+  double stroke_max_m = 0.1;   ///< upper end of the usable travel [m]
+  ElectromagneticParameters electromagnetics;
+  MechanicsParameters mechanics;
+  DriveParameters drive;
+  SensorParameters sensors;
+
+  int coil_set_count() const { return electromagnetics.coil_set_count(); }
+  double pole_pitch_m() const { return electromagnetics.pole_pitch_m; }
+  /// Validates every part and their consistency (stroke inside the end stops,
+  /// integration step small enough for the friction smoothing).
+  void validate() const;
+};
+
+/// Sets every parasitic to zero (magnet track, harmonics, phase gain
+/// mismatch, cogging, direction-dependent force, driving-force lever arms):
+/// what is left is the classical motor of eq. (7). Mechanics, drive and
+/// sensors are kept.
+void switch_off_parasitics(ElectromagneticParameters& parameters);
+
+}  // namespace clm::sim
