@@ -42,9 +42,10 @@ struct DirectionMse {
 /// MSE of e_k = measured_k − desired_k ([F_y, F_x, T_z] in [N, N, N·m]) per
 /// direction over all N samples, unfiltered and filtered with
 /// CommutationErrorFilter(cutoff_hz, period_s). The filter state starts at
-/// zero and no sample is discarded, as for a record that starts at rest with
-/// no error; otherwise the start-up transient of about 3/(2π·f_c) (≈ 10 ms at
-/// 50 Hz) biases the filtered MSE by at most a few samples' worth.
+/// zero and no sample is discarded: the filtered error needs about
+/// 3/(2π·f_c) (≈ 10 ms at 50 Hz) to settle, which is negligible for a record
+/// that starts at rest with a small error (as the Fig. 8 runs do); trim the
+/// record beforehand if it starts with a large error.
 /// Throws std::invalid_argument if the sizes differ, the record is empty, or
 /// period/cutoff are not positive and finite.
 DirectionMse commutation_error_mse(std::span<const Eigen::Vector3d> measured_wrench,

@@ -84,6 +84,15 @@ void check_move_invariants(const ThirdOrderMove& move, double start_m, double en
     const double dv = (move.sample(t + dh).velocity_m_per_s - move.sample(t - dh).velocity_m_per_s) / (2 * dh);
     REQUIRE(std::abs(dp - s.velocity_m_per_s) <= j_max * dh * dh / 6 * (1 + 1e-6) + position_roundoff_m / dh + tol_v);
     REQUIRE(std::abs(dv - s.acceleration_m_per_s2) <= j_max * dh / 2 * (1 + 1e-6) + 4 * tol_v / dh + tol_a);
+    // The jerk is the slope of the acceleration, over a step so small that no
+    // segment fits inside it (segments can be far shorter than dh); the
+    // tolerance covers the rounding of t inside the segment formulas.
+    const double dj = duration_s * 1e-8;
+    if (move.sample(t - dj).jerk_m_per_s3 == s.jerk_m_per_s3 && move.sample(t + dj).jerk_m_per_s3 == s.jerk_m_per_s3) {
+      const double da =
+          (move.sample(t + dj).acceleration_m_per_s2 - move.sample(t - dj).acceleration_m_per_s2) / (2 * dj);
+      REQUIRE(std::abs(da - s.jerk_m_per_s3) <= 1e-5 * j_max + 16 * std::numeric_limits<double>::epsilon() * a_max / dj);
+    }
   }
 
   // Continuity at every jerk switch, located by bisection on the reported
