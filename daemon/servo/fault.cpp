@@ -1,0 +1,29 @@
+#include "daemon/servo/fault.hpp"
+
+namespace clm::servo {
+
+const char* describe(Fault fault) noexcept {
+  switch (fault) {
+    case Fault::kNone: return "none";
+    case Fault::kEncoderFrameMissing: return "encoder frame missing";
+    case Fault::kForceFrameMissing: return "force-sensor frame missing";
+    case Fault::kEncoderAliveJump: return "drive alive counter jumped";
+    case Fault::kForceAliveJump: return "force-sensor alive counter jumped";
+    case Fault::kFrameRejected: return "feedback frame rejected (length or content)";
+    case Fault::kBusOff: return "CAN bus-off";
+    case Fault::kBusErrorPassive: return "CAN error-passive";
+    case Fault::kSendFailed: return "setpoint frame could not be sent";
+    case Fault::kMeasurementNotFinite: return "measurement not finite";
+    case Fault::kPositionOutOfRange: return "position outside soft limits";
+    case Fault::kFollowingError: return "following error above limit";
+    case Fault::kForceSaturated: return "force demand saturated too long";
+    case Fault::kRepeatedOverruns: return "repeated cycle overruns";
+    case Fault::kDriveFault: return "drive reported a fault";
+    case Fault::kSetpointOutOfRange: return "setpoint outside CAN signal range";
+    case Fault::kCommutationNotFinite: return "commutation produced a non-finite setpoint";
+    case Fault::kFeedbackNotFinite: return "position loop produced a non-finite force";
+  }
+  return "unknown fault";
+}
+
+}  // namespace clm::servo

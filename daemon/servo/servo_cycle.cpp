@@ -1,0 +1,438 @@
+#include "daemon/servo/servo_cycle.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace clm::servo {
+namespace {
+
+constexpr double kProgramStartTolerance_m = 1e-6;
+// Velocity estimate: first-order filter on the position difference with this
+// time constant [s], enough to tell standstill from motion through encoder noise.
+constexpr double kVelocityFilter_s = 0.01;
+
+}  // namespace
+
+const char* name(CommutationMode mode) noexcept {
+  switch (mode) {
+    case CommutationMode::kOriginal: return "original";
+    case CommutationMode::kClassical: return "classical";
+    case CommutationMode::kPgnn: return "pgnn";
+    case CommutationMode::kSpline: return "spline";
+    case CommutationMode::kOracle: return "oracle";
+    case CommutationMode::kExperiment: return "experiment";
+  }
+  return "unknown";
+}
+
+const char* name(ServoState state) noexcept {
+  switch (state) {
+    case ServoState::kDisabled: return "disabled";
+    case ServoState::kEnabled: return "enabled";
+    case ServoState::kFault: return "fault";
+  }
+  return "unknown";
+}
+
+const char* describe(CommandStatus status) noexcept {
+  switch (status) {
+    case CommandStatus::kAccepted: return "accepted";
+    case CommandStatus::kDeferred: return "accepted, takes effect at the next standstill";
+    case CommandStatus::kRejectedFault: return "rejected: a fault is latched, clear it first";
+    case CommandStatus::kRejectedDisabled: return "rejected: the axis is disabled";
+    case CommandStatus::kRejectedNoLaw: return "rejected: no calibration or model loaded for that commutation";
+    case CommandStatus::kRejectedBusy: return "rejected: a program is running";
+    case CommandStatus::kRejectedInvalid: return "rejected: argument out of range";
+  }
+  return "unknown";
+}
+
+void ServoSettings::validate() const {
+  const auto require = [](bool ok, const std::string& what) {
+    if (!ok) throw std::invalid_argument(what);
+  };
+  require(period_s > 0.0 && std::isfinite(period_s), "period_s must be positive");
+  require(pole_pitch_m > 0.0, "pole_pitch_m must be positive");
+  require(drive.motor_constant_N_per_A > 0.0, "drive motor constant must be positive");
+  protocol.validate();
+  require(soft_limit_max_m > soft_limit_min_m, "soft_limit_max_m must be above soft_limit_min_m");
+  require(following_error_limit_m > 0.0, "following_error_limit_m must be positive");
+  require(force_limit_N > 0.0, "force_limit_N must be positive");
+  require(saturation_time_limit_s >= 0.0, "saturation_time_limit_s must not be negative");
+  require(missing_frame_limit >= 1, "missing_frame_limit must be at least 1");
+  require(overrun_limit >= 1, "overrun_limit must be at least 1");
+  require(standstill_velocity_m_per_s > 0.0, "standstill_velocity_m_per_s must be positive");
+}
+
+ServoCycle::ServoCycle(const ServoSettings& settings)
+    : settings_((settings.validate(), settings)),
+      controller_(settings.pid, settings.feedforward, settings.period_s) {
+  commutation_.currents_A.resize(2 * settings.protocol.coil_sets);
+  record_.coil_sets = settings.protocol.coil_sets;
+}
+
+void ServoCycle::install_law(CommutationMode mode, const CommutationLaw* law) noexcept {
+  const auto index = static_cast<std::size_t>(mode);
+  laws_[index] = law;
+  law_offers_[index].set_current(law);
+}
+
+Handover<CommutationLaw>& ServoCycle::law_handover(CommutationMode mode) noexcept {
+  return law_offers_[static_cast<std::size_t>(mode)];
+}
+
+bool ServoCycle::at_standstill() const noexcept {
+  return running_ == nullptr && std::abs(velocity_estimate_m_per_s_) < settings_.standstill_velocity_m_per_s;
+}
+
+void ServoCycle::latch(Fault fault) noexcept {
+  if (state_ == ServoState::kFault) return;  // the first reason stays
+  state_ = ServoState::kFault;
+  fault_ = fault;
+  fault_cycle_ = cycle_;
+  running_ = nullptr;
+  program_.set_current(nullptr);
+  idle_.store(true, std::memory_order_release);
+}
+
+CommandStatus ServoCycle::enable() noexcept {
+  if (state_ == ServoState::kFault) return CommandStatus::kRejectedFault;
+  if (state_ == ServoState::kEnabled) return CommandStatus::kAccepted;
+  if (mode_ != CommutationMode::kExperiment && laws_[static_cast<std::size_t>(mode_)] == nullptr) {
+    return CommandStatus::kRejectedNoLaw;
+  }
+  // Bumpless: hold where the axis is, fresh integrator.
+  state_ = ServoState::kEnabled;
+  hold_m_ = position_m_;
+  hold_position_m_.store(hold_m_, std::memory_order_release);
+  controller_.reset();
+  saturated_time_s_ = 0.0;
+  return CommandStatus::kAccepted;
+}
+
+CommandStatus ServoCycle::disable() noexcept {
+  if (state_ == ServoState::kEnabled) state_ = ServoState::kDisabled;
+  running_ = nullptr;
+  program_.set_current(nullptr);
+  idle_.store(true, std::memory_order_release);
+  return CommandStatus::kAccepted;
+}
+
+CommandStatus ServoCycle::clear_fault() noexcept {
+  if (state_ != ServoState::kFault) return CommandStatus::kAccepted;
+  state_ = ServoState::kDisabled;
+  fault_ = Fault::kNone;
+  fault_cycle_ = -1;
+  clear_drive_fault_ = true;  // one cycle with the clear bit to the drive
+  drive_missed_ = force_missed_ = 0;
+  consecutive_overruns_ = 0;
+  drive_alive_known_ = force_alive_known_ = false;
+  return CommandStatus::kAccepted;
+}
+
+CommandStatus ServoCycle::stop() noexcept {
+  if (running_ != nullptr) {
+    const double t = static_cast<double>(cycle_ - program_start_cycle_) * settings_.period_s;
+    hold_m_ = running_->sample(t).position_m;
+    hold_position_m_.store(hold_m_, std::memory_order_release);
+    running_ = nullptr;
+    program_.set_current(nullptr);
+    idle_.store(true, std::memory_order_release);
+  }
+  return CommandStatus::kAccepted;
+}
+
+CommandStatus ServoCycle::request_mode(CommutationMode mode, int coil_set, double delta_rad) noexcept {
+  if (mode == CommutationMode::kExperiment) {
+    if (coil_set < 1 || coil_set > settings_.protocol.coil_sets || !std::isfinite(delta_rad) ||
+        std::abs(delta_rad) > kPi) {
+      return CommandStatus::kRejectedInvalid;
+    }
+  } else if (laws_[static_cast<std::size_t>(mode)] == nullptr &&
+             !law_offers_[static_cast<std::size_t>(mode)].pending()) {
+    return CommandStatus::kRejectedNoLaw;
+  }
+  requested_mode_ = mode;
+  requested_coil_set_ = mode == CommutationMode::kExperiment ? coil_set : 0;
+  requested_delta_rad_ = mode == CommutationMode::kExperiment ? delta_rad : 0.0;
+  mode_pending_ = true;
+  if (state_ != ServoState::kEnabled || at_standstill()) {
+    mode_ = requested_mode_;
+    experiment_coil_set_ = requested_coil_set_;
+    experiment_delta_rad_ = requested_delta_rad_;
+    mode_pending_ = false;
+    return CommandStatus::kAccepted;
+  }
+  return CommandStatus::kDeferred;
+}
+
+void ServoCycle::set_feedforward(const control::FeedforwardParameters& parameters) noexcept {
+  controller_.set_feedforward(parameters);
+}
+
+void ServoCycle::adopt_offers() noexcept {
+  // Laws change only at standstill (or when the axis is not driven).
+  if (state_ != ServoState::kEnabled || at_standstill()) {
+    for (std::size_t m = 0; m < law_offers_.size(); ++m) {
+      if (const CommutationLaw* law = law_offers_[m].adopt()) laws_[m] = law;
+    }
+    if (mode_pending_) {
+      mode_ = requested_mode_;
+      experiment_coil_set_ = requested_coil_set_;
+      experiment_delta_rad_ = requested_delta_rad_;
+      mode_pending_ = false;
+    }
+  }
+  if (const control::MoveProgram* offered = program_.adopt()) {
+    const bool ready = state_ == ServoState::kEnabled && running_ == nullptr &&
+                       std::abs(offered->start_m() - hold_m_) <= kProgramStartTolerance_m;
+    if (ready) {
+      running_ = offered;
+      program_start_cycle_ = cycle_;
+      idle_.store(false, std::memory_order_release);
+    } else {
+      program_.set_current(running_);
+      ++counters_.programs_rejected;
+    }
+  }
+}
+
+can::Frame ServoCycle::begin_cycle(std::int64_t sync_time_ns) noexcept {
+  ++cycle_;
+  ++counters_.cycles;
+  sync_time_ns_ = sync_time_ns;
+  drive_fresh_ = force_fresh_ = false;
+  adopt_offers();
+  can::Frame sync;
+  can::encode_sync(sync_counter_, sync);
+  sync_counter_ = can::next_sync_counter(sync_counter_);
+  ++counters_.frames_sent;
+  return sync;
+}
+
+void ServoCycle::track_alive(std::uint8_t counter, std::uint8_t& last, bool& known, int missed,
+                             Fault jump_fault) noexcept {
+  if (known) {
+    const auto expected = static_cast<std::uint8_t>(last + 1 + missed);
+    if (counter != expected) latch(jump_fault);
+  }
+  last = counter;
+  known = true;
+}
+
+void ServoCycle::on_frame(const drivers::ReceivedFrame& received) noexcept {
+  ++counters_.frames_received;
+  const can::Frame& frame = received.frame;
+  const bool late = received.timestamp_ns < sync_time_ns_;
+  if (frame.id == can::drive_feedback_id(settings_.protocol)) {
+    can::DriveFeedback feedback;
+    if (can::decode_drive_feedback(settings_.protocol, frame, feedback) != can::CodecStatus::kOk) {
+      ++counters_.frames_rejected;
+      return;
+    }
+    if (drive_fresh_ && feedback.alive_counter == drive_alive_) {
+      ++counters_.frames_duplicate;
+      return;
+    }
+    if (late) {
+      // Belongs to an earlier cycle: it was counted missing there.
+      ++counters_.frames_late;
+      track_alive(feedback.alive_counter, drive_alive_, drive_alive_known_, drive_missed_ > 0 ? drive_missed_ - 1 : 0,
+                  Fault::kEncoderAliveJump);
+      if (drive_missed_ > 0) --drive_missed_;
+      return;
+    }
+    track_alive(feedback.alive_counter, drive_alive_, drive_alive_known_, drive_missed_, Fault::kEncoderAliveJump);
+    drive_ = feedback;
+    drive_fresh_ = true;
+  } else if (frame.id == can::force_feedback_id(settings_.protocol)) {
+    can::ForceFeedback feedback;
+    if (can::decode_force_feedback(settings_.protocol, frame, feedback) != can::CodecStatus::kOk) {
+      ++counters_.frames_rejected;
+      return;
+    }
+    if (force_fresh_ && feedback.alive_counter == force_alive_) {
+      ++counters_.frames_duplicate;
+      return;
+    }
+    if (late) {
+      ++counters_.frames_late;
+      track_alive(feedback.alive_counter, force_alive_, force_alive_known_, force_missed_ > 0 ? force_missed_ - 1 : 0,
+                  Fault::kForceAliveJump);
+      if (force_missed_ > 0) --force_missed_;
+      return;
+    }
+    track_alive(feedback.alive_counter, force_alive_, force_alive_known_, force_missed_, Fault::kForceAliveJump);
+    force_ = feedback;
+    force_fresh_ = true;
+  } else {
+    ++counters_.frames_rejected;
+  }
+}
+
+void ServoCycle::report_overrun(bool overran) noexcept {
+  if (!overran) {
+    consecutive_overruns_ = 0;
+    return;
+  }
+  ++counters_.overruns;
+  if (++consecutive_overruns_ >= settings_.overrun_limit) latch(Fault::kRepeatedOverruns);
+}
+
+void ServoCycle::report_bus(drivers::BusState bus_state, bool send_failed) noexcept {
+  if (bus_state == drivers::BusState::kBusOff) latch(Fault::kBusOff);
+  if (bus_state == drivers::BusState::kErrorPassive) latch(Fault::kBusErrorPassive);
+  if (send_failed) latch(Fault::kSendFailed);
+}
+
+void ServoCycle::zero_setpoints() noexcept {
+  for (auto& setpoint : record_.setpoints) setpoint = {};
+  record_.ia_A.fill(0.0);
+  record_.ib_A.fill(0.0);
+  record_.damping_engaged = false;
+  record_.current_square_sum_A2 = 0.0;
+}
+
+void ServoCycle::commutate(double position_m, double force_N) noexcept {
+  const int coil_sets = settings_.protocol.coil_sets;
+  record_.desired_wrench = Wrench(force_N, 0.0, 0.0);
+  if (mode_ == CommutationMode::kExperiment) {
+    // Algorithms 1 and 2: the whole demand through one coil set at Δ.
+    zero_setpoints();
+    const auto l = static_cast<std::size_t>(experiment_coil_set_ - 1);
+    record_.setpoints[l] = {force_N, experiment_delta_rad_};
+    const Eigen::Vector2d i = drive_phase_currents(settings_.drive, record_.setpoints[l], position_m,
+                                                   settings_.pole_pitch_m);
+    record_.ia_A[l] = i.x();
+    record_.ib_A[l] = i.y();
+    record_.current_square_sum_A2 = i.squaredNorm() + (i.x() + i.y()) * (i.x() + i.y());
+    return;
+  }
+  const CommutationLaw* law = laws_[static_cast<std::size_t>(mode_)];
+  law->commutate(position_m, record_.desired_wrench, commutation_);
+  for (int l = 0; l < coil_sets; ++l) {
+    const auto s = static_cast<std::size_t>(l);
+    record_.setpoints[s] = commutation_.setpoints[s];
+    record_.ia_A[s] = commutation_.currents_A[2 * l];
+    record_.ib_A[s] = commutation_.currents_A[2 * l + 1];
+    if (!std::isfinite(record_.setpoints[s].magnitude_N) || !std::isfinite(record_.setpoints[s].delta_rad)) {
+      latch(Fault::kCommutationNotFinite);
+    }
+  }
+  record_.damping_engaged = commutation_.damping_engaged;
+  record_.current_square_sum_A2 = commutation_.current_square_sum_A2;
+  if (commutation_.damping_engaged) ++counters_.damping_cycles;
+}
+
+std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
+  // 1. Feedback bookkeeping: ride through missing frames up to the limit.
+  if (drive_fresh_) {
+    drive_missed_ = 0;
+  } else {
+    ++counters_.frames_missing;
+    if (++drive_missed_ >= settings_.missing_frame_limit && have_position_) latch(Fault::kEncoderFrameMissing);
+  }
+  if (force_fresh_) {
+    force_missed_ = 0;
+  } else {
+    ++counters_.frames_missing;
+    if (++force_missed_ >= settings_.missing_frame_limit && have_position_) latch(Fault::kForceFrameMissing);
+  }
+  if (drive_fresh_) {
+    if (!std::isfinite(drive_.position_m)) latch(Fault::kMeasurementNotFinite);
+    previous_position_m_ = have_position_ ? position_m_ : drive_.position_m;
+    position_m_ = drive_.position_m;
+    have_position_ = true;
+    const double raw_velocity = (position_m_ - previous_position_m_) / settings_.period_s;
+    const double alpha = settings_.period_s / (kVelocityFilter_s + settings_.period_s);
+    velocity_estimate_m_per_s_ += alpha * (raw_velocity - velocity_estimate_m_per_s_);
+    if (drive_.status_word & can::kStatusFault) latch(Fault::kDriveFault);
+  }
+  if (force_fresh_ && !force_.wrench.allFinite()) latch(Fault::kMeasurementNotFinite);
+  if (have_position_ && (position_m_ < settings_.soft_limit_min_m || position_m_ > settings_.soft_limit_max_m)) {
+    latch(Fault::kPositionOutOfRange);
+  }
+
+  // 2. Reference and position loop.
+  record_.force_limited = false;
+  if (state_ == ServoState::kEnabled) {
+    control::ReferenceSample now{hold_m_, 0.0, 0.0, 0.0};
+    control::ReferenceSample next = now;
+    if (running_ != nullptr) {
+      const double t = static_cast<double>(cycle_ - program_start_cycle_) * settings_.period_s;
+      now = running_->sample(t);
+      next = running_->sample(t + settings_.period_s);  // one-sample preview for eq. (40)
+      record_.program_time_s = t;
+      if (t >= running_->duration_s()) {
+        hold_m_ = running_->end_m();
+        hold_position_m_.store(hold_m_, std::memory_order_release);
+        running_ = nullptr;
+        program_.set_current(nullptr);
+        idle_.store(true, std::memory_order_release);
+      }
+    }
+    double force = controller_.update(now, next, position_m_);
+    record_.reference = now;
+    record_.error_m = now.position_m - position_m_;
+    record_.feedback_N = controller_.last_feedback_N();
+    record_.feedforward_N = controller_.last_feedforward_N();
+    if (!std::isfinite(force)) latch(Fault::kFeedbackNotFinite);
+    if (std::abs(record_.error_m) > settings_.following_error_limit_m) latch(Fault::kFollowingError);
+    if (std::abs(force) > settings_.force_limit_N) {
+      force = std::copysign(settings_.force_limit_N, force);
+      record_.force_limited = true;
+      ++counters_.force_limited_cycles;
+      saturated_time_s_ += settings_.period_s;
+      if (saturated_time_s_ > settings_.saturation_time_limit_s) latch(Fault::kForceSaturated);
+    } else {
+      saturated_time_s_ = 0.0;
+    }
+    record_.force_demand_N = force;
+    if (state_ == ServoState::kEnabled) commutate(position_m_, force);
+  } else {
+    // Not driving: the reference follows the axis so that enabling is bumpless.
+    hold_m_ = position_m_;
+    hold_position_m_.store(hold_m_, std::memory_order_release);
+    record_.reference = {position_m_, 0.0, 0.0, 0.0};
+    record_.error_m = record_.feedback_N = record_.feedforward_N = record_.force_demand_N = 0.0;
+    record_.desired_wrench.setZero();
+  }
+  if (state_ != ServoState::kEnabled) zero_setpoints();
+
+  // 3. Setpoint frames. A fault found while encoding sends zero at once.
+  can::SetpointCommand command;
+  command.coil_sets = settings_.protocol.coil_sets;
+  command.enable = state_ == ServoState::kEnabled;
+  command.clear_fault = clear_drive_fault_;
+  command.alive_counter = setpoint_alive_++;
+  for (int l = 0; l < command.coil_sets; ++l) command.setpoints[static_cast<std::size_t>(l)] = record_.setpoints[static_cast<std::size_t>(l)];
+  can::CodecStatus status = can::CodecStatus::kOk;
+  std::size_t count = can::encode_setpoints(settings_.protocol, command, frames_, status);
+  if (status != can::CodecStatus::kOk) {
+    latch(Fault::kSetpointOutOfRange);
+    zero_setpoints();
+    command.enable = false;
+    for (auto& setpoint : command.setpoints) setpoint = {};
+    count = can::encode_setpoints(settings_.protocol, command, frames_, status);
+  }
+  clear_drive_fault_ = false;
+  counters_.frames_sent += static_cast<std::int64_t>(count);
+
+  // 4. Record.
+  record_.cycle = cycle_;
+  record_.time_s = time_s;
+  record_.state = state_;
+  record_.fault = fault_;
+  record_.mode = mode_;
+  record_.experiment_coil_set = mode_ == CommutationMode::kExperiment ? experiment_coil_set_ : 0;
+  record_.experiment_delta_rad = mode_ == CommutationMode::kExperiment ? experiment_delta_rad_ : 0.0;
+  record_.position_m = position_m_;
+  record_.measured_wrench = force_.wrench;
+  record_.program_running = running_ != nullptr;
+  if (!record_.program_running) record_.program_time_s = 0.0;
+  record_.drive_status_word = drive_.status_word;
+  return {frames_.data(), count};
+}
+
+}  // namespace clm::servo

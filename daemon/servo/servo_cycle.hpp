@@ -1,0 +1,227 @@
+#pragma once
+// The servo cycle: everything one period of clm-servod does between its wake-up
+// and its last frame, without I/O of its own. The loop around it (real-time
+// or virtual clock, SocketCAN or the in-process simulated motor) hands it the
+// received frames and sends the frames it returns:
+//
+//   SYNC = begin_cycle(t)   → send
+//   on_frame(f)              ← every frame received until the deadline
+//   frames = end_cycle()     → send the setpoints
+//
+// The cycle does not allocate, lock, throw or log; faults latch with a reason
+// (fault.hpp). Objects built elsewhere (move programs, commutation laws) come
+// in through Handover slots and are adopted between cycles.
+
+#include <array>
+#include <cstdint>
+#include <span>
+
+#include "commutation/commutator.hpp"
+#include "daemon/control/position_controller.hpp"
+#include "daemon/control/trajectory.hpp"
+#include "daemon/servo/fault.hpp"
+#include "daemon/servo/handover.hpp"
+#include "drivers/can_bus.hpp"
+#include "drivers/can_protocol.hpp"
+
+namespace clm::servo {
+
+enum class ServoState : std::uint8_t { kDisabled = 0, kEnabled = 1, kFault = 2 };
+
+/// The commutation the cycle uses; values are those of the LCM types.
+enum class CommutationMode : std::uint8_t {
+  kOriginal = 0,    ///< the drive's own fixed law, uncalibrated
+  kClassical = 1,   ///< classical law (12) with calibrated constants
+  kPgnn = 2,        ///< inverse (37) of the PGNN model
+  kSpline = 3,      ///< inverse (37) of the spline model
+  kOracle = 4,      ///< inverse of the simulator's static truth (simulation only)
+  kExperiment = 5,  ///< one coil set driven with F* and a constant offset Δ (Algorithms 1, 2)
+};
+inline constexpr int kCommutationModes = 6;
+const char* name(CommutationMode mode) noexcept;
+const char* name(ServoState state) noexcept;
+
+struct ServoSettings {
+  double period_s = 1e-3;
+  double pole_pitch_m = 0.0;
+  DriveCommutation drive;
+  can::ProtocolConfig protocol;
+  control::PidGains pid{};
+  control::FeedforwardParameters feedforward{};
+  double soft_limit_min_m = -0.1;
+  double soft_limit_max_m = 0.1;
+  double following_error_limit_m = 1e-3;
+  double force_limit_N = 500.0;           ///< |F*| is limited to this (reported, never silent)
+  double saturation_time_limit_s = 0.05;  ///< fault when limited longer than this
+  int missing_frame_limit = 3;            ///< consecutive cycles without a feedback frame → fault
+  int overrun_limit = 5;                  ///< consecutive overruns → fault
+  double standstill_velocity_m_per_s = 2e-3;
+  /// Throws std::invalid_argument naming the setting.
+  void validate() const;
+};
+
+enum class CommandStatus : std::uint8_t {
+  kAccepted,
+  kDeferred,          ///< takes effect at the next standstill
+  kRejectedFault,     ///< clear the fault first
+  kRejectedDisabled,  ///< enable first
+  kRejectedNoLaw,     ///< no calibration/model loaded for that mode
+  kRejectedBusy,      ///< a program is running
+  kRejectedInvalid,   ///< argument out of range
+};
+const char* describe(CommandStatus status) noexcept;
+
+/// What one cycle did, for telemetry. Fixed size.
+struct CycleRecord {
+  std::int64_t cycle = 0;
+  double time_s = 0.0;
+  ServoState state = ServoState::kDisabled;
+  Fault fault = Fault::kNone;
+  CommutationMode mode = CommutationMode::kOriginal;
+  int experiment_coil_set = 0;  ///< 1-based, 0 when not in experiment mode
+  double experiment_delta_rad = 0.0;
+  control::ReferenceSample reference;
+  double position_m = 0.0;
+  double error_m = 0.0;
+  double force_demand_N = 0.0;
+  double feedback_N = 0.0;
+  double feedforward_N = 0.0;
+  bool force_limited = false;
+  Wrench desired_wrench = Wrench::Zero();
+  Wrench measured_wrench = Wrench::Zero();
+  int coil_sets = 0;
+  std::array<DriveSetpoint, kMaxCoilSets> setpoints{};
+  std::array<double, kMaxCoilSets> ia_A{};
+  std::array<double, kMaxCoilSets> ib_A{};
+  bool damping_engaged = false;
+  double current_square_sum_A2 = 0.0;
+  bool program_running = false;
+  double program_time_s = 0.0;
+  std::uint16_t drive_status_word = 0;
+};
+
+struct CycleCounters {
+  std::int64_t cycles = 0;
+  std::int64_t frames_sent = 0;
+  std::int64_t frames_received = 0;
+  std::int64_t frames_missing = 0;   ///< expected feedback frames that did not come in time
+  std::int64_t frames_late = 0;      ///< feedback frames stamped before their cycle's SYNC
+  std::int64_t frames_rejected = 0;  ///< wrong length/content, or an unexpected ID
+  std::int64_t frames_duplicate = 0;
+  std::int64_t overruns = 0;
+  std::int64_t damping_cycles = 0;
+  std::int64_t force_limited_cycles = 0;
+  std::int64_t programs_rejected = 0;
+};
+
+class ServoCycle {
+ public:
+  /// Validates the settings (throws std::invalid_argument).
+  explicit ServoCycle(const ServoSettings& settings);
+
+  // --- set-up and owner side (not the real-time thread) ---
+  /// Law for a mode before the loop starts (nullptr: not available).
+  void install_law(CommutationMode mode, const CommutationLaw* law) noexcept;
+  /// Offer a new law for a mode; the cycle adopts it at the next standstill.
+  Handover<CommutationLaw>& law_handover(CommutationMode mode) noexcept;
+  /// Offer a move program; the cycle starts it at the next cycle if it is
+  /// enabled, idle and at the program's start (within 1 µm), else drops it and
+  /// counts it in programs_rejected.
+  Handover<control::MoveProgram>& program_handover() noexcept { return program_; }
+  /// Position the axis holds when idle [m] (for planning a move from it).
+  double hold_position_m() const noexcept { return hold_position_m_.load(std::memory_order_acquire); }
+  bool idle() const noexcept { return idle_.load(std::memory_order_acquire); }
+
+  // --- commands, called on the real-time thread between cycles ---
+  CommandStatus enable() noexcept;
+  CommandStatus disable() noexcept;
+  CommandStatus clear_fault() noexcept;
+  /// Stop a running program: the reference holds where it is.
+  CommandStatus stop() noexcept;
+  /// Switch the commutation law (deferred to standstill). For kExperiment,
+  /// `coil_set` (1-based) and `delta_rad` select the experiment.
+  CommandStatus request_mode(CommutationMode mode, int coil_set = 0, double delta_rad = 0.0) noexcept;
+  /// Replace the feedforward parameters (takes effect at once).
+  void set_feedforward(const control::FeedforwardParameters& parameters) noexcept;
+
+  // --- the cycle ---
+  /// Starts a cycle whose SYNC leaves at `sync_time_ns` (CLOCK_MONOTONIC or
+  /// virtual): adopts offered objects, returns the SYNC frame.
+  can::Frame begin_cycle(std::int64_t sync_time_ns) noexcept;
+  /// A frame received during the cycle.
+  void on_frame(const drivers::ReceivedFrame& frame) noexcept;
+  /// Both feedback frames of this cycle are in.
+  bool feedback_complete() const noexcept { return drive_fresh_ && force_fresh_; }
+  /// Checks, position loop, commutation, setpoint frames. `time_s` is the
+  /// cycle's time for the record.
+  std::span<const can::Frame> end_cycle(double time_s) noexcept;
+  /// The loop reports whether the previous cycle overran its period.
+  void report_overrun(bool overran) noexcept;
+  /// The loop reports the bus state and whether sending failed.
+  void report_bus(drivers::BusState state, bool send_failed) noexcept;
+
+  // --- state ---
+  ServoState state() const noexcept { return state_; }
+  Fault fault() const noexcept { return fault_; }
+  std::int64_t fault_cycle() const noexcept { return fault_cycle_; }
+  CommutationMode mode() const noexcept { return mode_; }
+  const CycleRecord& record() const noexcept { return record_; }
+  const CycleCounters& counters() const noexcept { return counters_; }
+  const ServoSettings& settings() const noexcept { return settings_; }
+  bool at_standstill() const noexcept;
+
+ private:
+  void latch(Fault fault) noexcept;
+  void track_alive(std::uint8_t counter, std::uint8_t& last, bool& have_last, int missed, Fault jump_fault) noexcept;
+  void adopt_offers() noexcept;
+  void commutate(double position_m, double force_N) noexcept;
+  void zero_setpoints() noexcept;
+
+  ServoSettings settings_;
+  control::PositionController controller_;
+  std::array<const CommutationLaw*, kCommutationModes> laws_{};
+  std::array<Handover<CommutationLaw>, kCommutationModes> law_offers_;
+  Handover<control::MoveProgram> program_;
+  const control::MoveProgram* running_ = nullptr;
+  std::int64_t program_start_cycle_ = 0;
+
+  ServoState state_ = ServoState::kDisabled;
+  Fault fault_ = Fault::kNone;
+  std::int64_t fault_cycle_ = -1;
+  bool clear_drive_fault_ = false;
+  CommutationMode mode_ = CommutationMode::kOriginal;
+  CommutationMode requested_mode_ = CommutationMode::kOriginal;
+  int experiment_coil_set_ = 0, requested_coil_set_ = 0;
+  double experiment_delta_rad_ = 0.0, requested_delta_rad_ = 0.0;
+  bool mode_pending_ = false;
+
+  // Feedback of the current cycle.
+  std::int64_t cycle_ = 0;
+  std::int64_t sync_time_ns_ = 0;
+  std::uint8_t sync_counter_ = can::kSyncCounterFirst;
+  bool drive_fresh_ = false, force_fresh_ = false;
+  can::DriveFeedback drive_{};
+  can::ForceFeedback force_{};
+  std::uint8_t drive_alive_ = 0, force_alive_ = 0;
+  bool drive_alive_known_ = false, force_alive_known_ = false;
+  int drive_missed_ = 0, force_missed_ = 0;  // consecutive cycles without the frame
+  bool have_position_ = false;
+  double position_m_ = 0.0, previous_position_m_ = 0.0;
+  double velocity_estimate_m_per_s_ = 0.0;
+
+  // Reference and loop.
+  double hold_m_ = 0.0;
+  std::atomic<double> hold_position_m_{0.0};
+  std::atomic<bool> idle_{true};
+  double saturated_time_s_ = 0.0;
+  int consecutive_overruns_ = 0;
+
+  // Output.
+  std::uint8_t setpoint_alive_ = 0;
+  CommutationOutput commutation_;
+  std::array<can::Frame, can::kMaxSetpointFrames> frames_{};
+  CycleRecord record_;
+  CycleCounters counters_;
+};
+
+}  // namespace clm::servo

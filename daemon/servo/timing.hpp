@@ -1,0 +1,30 @@
+#pragma once
+// Fixed-bin latency histogram for the cycle: log-spaced bins from 100 ns to
+// 100 ms, no allocation, percentiles read from the bins.
+
+#include <array>
+#include <cstdint>
+
+namespace clm::servo {
+
+class LatencyHistogram {
+ public:
+  static constexpr int kBins = 120;  // 20 per decade over 6 decades
+  static constexpr double kMin_s = 1e-7;
+
+  void add(double value_s) noexcept;
+  void reset() noexcept;
+  std::uint64_t count() const noexcept { return count_; }
+  double max_s() const noexcept { return max_s_; }
+  /// Upper edge of the bin holding quantile q in [0, 1]; 0 when empty.
+  double quantile_s(double q) const noexcept;
+  /// Upper edge of bin `bin` [s].
+  static double bin_upper_s(int bin) noexcept;
+
+ private:
+  std::array<std::uint64_t, kBins> bins_{};
+  std::uint64_t count_ = 0;
+  double max_s_ = 0.0;
+};
+
+}  // namespace clm::servo

@@ -1,0 +1,41 @@
+#include "daemon/servod/program_file.hpp"
+
+#include <cmath>
+
+namespace clm::servod {
+
+ProgramFile parse_program_file(const yaml::Node& root) {
+  root.expect_keys({"format", "format_version", "description", "start_m", "steps"});
+  if (root["format"].as_string() != "clm-servo-program") root["format"].fail("expected 'clm-servo-program'");
+  root["format_version"].as_integer_in(1, 1);
+  ProgramFile file;
+  file.start_m = root["start_m"].as_double();
+  const yaml::Node steps = root["steps"];
+  if (steps.size() == 0) steps.fail("a program needs at least one step");
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    const yaml::Node step = steps.at(i);
+    step.expect_keys({"target_m", "velocity_m_per_s", "acceleration_m_per_s2", "jerk_m_per_s3", "dwell_s"});
+    control::ProgramStep parsed{step["target_m"].as_double(),
+                                {step["velocity_m_per_s"].as_positive(), step["acceleration_m_per_s2"].as_positive(),
+                                 step["jerk_m_per_s3"].as_positive()},
+                                step.has("dwell_s") ? step["dwell_s"].as_double_in(0.0, 3600.0) : 0.0};
+    file.steps.push_back(parsed);
+  }
+  try {
+    control::MoveProgram check(file.start_m, file.steps);
+  } catch (const std::invalid_argument& e) {
+    steps.fail(e.what());
+  }
+  return file;
+}
+
+ProgramFile load_program_file(const std::string& path) { return parse_program_file(yaml::Node::load_file(path)); }
+
+control::MoveProgram program_from(const ProgramFile& file, double hold_m) {
+  std::vector<control::ProgramStep> steps;
+  if (std::abs(file.start_m - hold_m) > 1e-9) steps.push_back({file.start_m, file.steps.front().limits, 0.0});
+  steps.insert(steps.end(), file.steps.begin(), file.steps.end());
+  return control::MoveProgram(hold_m, std::move(steps));
+}
+
+}  // namespace clm::servod

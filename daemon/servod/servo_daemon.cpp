@@ -1,0 +1,327 @@
+#include "daemon/servod/servo_daemon.hpp"
+
+#include <time.h>
+
+#include <stdexcept>
+
+#include "daemon/servod/wakeup_schedule.hpp"
+#include "daemon/simbus/in_process_bus.hpp"
+#include "daemon/simbus/simulated_nodes.hpp"
+#include "drivers/socket_can_bus.hpp"
+#include "tools/sim/motor.hpp"
+#include "tools/sim/motor_file.hpp"
+#include "tools/sim/oracle.hpp"
+
+namespace clm::servod {
+namespace {
+
+std::int64_t monotonic_ns() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+void sleep_until(std::int64_t time_ns) noexcept {
+  timespec ts{};
+  ts.tv_sec = time_ns / 1'000'000'000;
+  ts.tv_nsec = time_ns % 1'000'000'000;
+  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+  }
+}
+
+}  // namespace
+
+struct ServoDaemon::RtCommand {
+  DaemonCommand::Kind kind = DaemonCommand::Kind::kEnable;
+  std::int64_t sequence = 0;
+  servo::CommutationMode mode = servo::CommutationMode::kOriginal;
+  int coil_set = 0;
+  double delta_rad = 0.0;
+  control::FeedforwardParameters feedforward{};
+};
+
+struct ServoDaemon::RtReply {
+  std::int64_t sequence = 0;
+  servo::CommandStatus status = servo::CommandStatus::kAccepted;
+};
+
+// A law with the files it was built from; the law refers into them.
+struct ServoDaemon::OwnedLaw {
+  servo::CommutationMode mode = servo::CommutationMode::kOriginal;
+  std::string source;
+  CalibrationFile calibration;
+  std::vector<ClassicalEstimate> estimates;
+  ModelFile model;
+  std::unique_ptr<CommutationLaw> law;
+};
+
+ServoDaemon::ServoDaemon(const ServodConfig& config) : config_(config) {
+  const auto& protocol = config_.servo.protocol;
+  if (config_.can.interface == "sim") {
+    motor_ = std::make_unique<sim::SimulatedMotor>(sim::load_motor_parameters(config_.motor_file));
+    if (motor_->coil_sets() != config_.motor.coil_sets) {
+      throw std::runtime_error(config_.motor_file + ": simulated motor has " + std::to_string(motor_->coil_sets()) +
+                               " coil sets, motor.coil_sets says " + std::to_string(config_.motor.coil_sets));
+    }
+    nodes_ = std::make_unique<simbus::SimulatedNodes>(*motor_, protocol, config_.servo.period_s);
+    auto bus = std::make_unique<simbus::InProcessBus>(*nodes_);
+    in_process_ = bus.get();
+    bus_ = std::move(bus);
+  } else {
+    const auto ids = can::daemon_receive_ids(protocol);
+    bus_ = std::make_unique<drivers::SocketCanBus>(config_.can.interface, std::vector<std::uint32_t>(ids.begin(), ids.end()));
+  }
+  cycle_ = std::make_unique<servo::ServoCycle>(config_.servo);
+
+  // The drive's own law, always available.
+  auto original = std::make_unique<OwnedLaw>();
+  original->mode = servo::CommutationMode::kOriginal;
+  original->source = "drive commutation";
+  original->estimates.assign(static_cast<std::size_t>(config_.motor.coil_sets),
+                             {config_.motor.drive.motor_constant_N_per_A, config_.motor.drive.phase_offset_rad});
+  original->law = std::make_unique<ClassicalCommutator>(original->estimates, config_.motor.pole_pitch_m,
+                                                        config_.motor.drive, config_.commutation.options.phase_convention);
+  cycle_->install_law(servo::CommutationMode::kOriginal, original->law.get());
+  laws_.push_back(std::move(original));
+  const std::pair<servo::CommutationMode, std::string> files[] = {
+      {servo::CommutationMode::kClassical, config_.commutation.calibration_file},
+      {servo::CommutationMode::kPgnn, config_.commutation.pgnn_model_file},
+      {servo::CommutationMode::kSpline, config_.commutation.spline_model_file},
+  };
+  for (const auto& [mode, path] : files) {
+    if (path.empty()) continue;
+    auto law = build_law(mode, path);
+    cycle_->install_law(mode, law->law.get());
+    laws_.push_back(std::move(law));
+  }
+  if (motor_) {
+    auto oracle = std::make_unique<OwnedLaw>();
+    oracle->mode = servo::CommutationMode::kOracle;
+    oracle->source = "simulator truth";
+    oracle->law = std::make_unique<sim::OracleCommutator>(motor_->electromagnetics(), config_.motor.drive,
+                                                          config_.commutation.options);
+    cycle_->install_law(servo::CommutationMode::kOracle, oracle->law.get());
+    laws_.push_back(std::move(oracle));
+  }
+  const auto status = cycle_->request_mode(config_.commutation.mode);
+  if (status != servo::CommandStatus::kAccepted) {
+    throw std::runtime_error(config_.origin + ": commutation.mode: " + servo::describe(status));
+  }
+  commands_ = std::make_unique<telemetry::SpscQueue<RtCommand>>(64);
+  replies_ = std::make_unique<telemetry::SpscQueue<RtReply>>(64);
+}
+
+ServoDaemon::~ServoDaemon() = default;
+
+sim::SimulatedMotor* ServoDaemon::simulated_motor() noexcept { return motor_.get(); }
+simbus::InProcessBus* ServoDaemon::in_process_bus() noexcept { return in_process_; }
+
+std::string ServoDaemon::law_source(servo::CommutationMode mode) const {
+  const CommutationLaw* current = nullptr;
+  for (auto it = laws_.rbegin(); it != laws_.rend(); ++it) {
+    if ((*it)->mode == mode && cycle_->law_handover(mode).in_use((*it)->law.get())) {
+      current = (*it)->law.get();
+      return (*it)->source;
+    }
+  }
+  (void)current;
+  return "";
+}
+
+std::unique_ptr<ServoDaemon::OwnedLaw> ServoDaemon::build_law(servo::CommutationMode mode, const std::string& path) const {
+  auto owned = std::make_unique<OwnedLaw>();
+  owned->mode = mode;
+  owned->source = path;
+  if (mode == servo::CommutationMode::kClassical) {
+    owned->calibration = load_calibration_file(path);
+    check_matches_motor(owned->calibration, config_.motor, path, config_.motor_file);
+    owned->estimates = owned->calibration.estimates();
+    owned->law = std::make_unique<ClassicalCommutator>(owned->estimates, config_.motor.pole_pitch_m, config_.motor.drive,
+                                                       config_.commutation.options.phase_convention);
+  } else {
+    owned->model = load_model_file(path);
+    check_matches_motor(owned->model.model, config_.motor, path, config_.motor_file);
+    const ModelKind expected = mode == servo::CommutationMode::kPgnn ? ModelKind::kPgnn : ModelKind::kSpline;
+    if (owned->model.model.kind != expected) {
+      throw std::runtime_error(path + ": kind: the file holds a " +
+                               std::string(owned->model.model.kind == ModelKind::kPgnn ? "pgnn" : "spline") +
+                               " model, the " + servo::name(mode) + " commutation needs a " +
+                               (expected == ModelKind::kPgnn ? "pgnn" : "spline") + " model");
+    }
+    owned->law = std::make_unique<ModelCommutator>(owned->model.model, config_.motor.drive, config_.commutation.options);
+  }
+  return owned;
+}
+
+CommandReply ServoDaemon::queue(const DaemonCommand& command) {
+  RtCommand rt;
+  rt.kind = command.kind;
+  rt.sequence = command.sequence;
+  rt.mode = command.mode;
+  rt.coil_set = command.coil_set;
+  rt.delta_rad = command.delta_rad;
+  rt.feedforward = command.feedforward;
+  if (!commands_->try_push(rt)) return {command.sequence, false, "command queue full"};
+  return {command.sequence, true, "queued"};
+}
+
+CommandReply ServoDaemon::submit(const DaemonCommand& command) {
+  using Kind = DaemonCommand::Kind;
+  collect_garbage();
+  try {
+    switch (command.kind) {
+      case Kind::kEnable:
+      case Kind::kDisable:
+      case Kind::kClearFault:
+      case Kind::kStop:
+      case Kind::kSetCommutation:
+      case Kind::kSetExperiment:
+      case Kind::kSetFeedforward:
+        return queue(command);
+      case Kind::kMoveTo:
+      case Kind::kRunProgram: {
+        if (!cycle_->idle()) return {command.sequence, false, "rejected: a program is running"};
+        if (cycle_->program_handover().pending()) return {command.sequence, false, "rejected: a program is waiting to start"};
+        const double hold = cycle_->hold_position_m();
+        std::unique_ptr<control::MoveProgram> program;
+        if (command.kind == Kind::kMoveTo) {
+          if (!(command.target_m >= config_.servo.soft_limit_min_m && command.target_m <= config_.servo.soft_limit_max_m)) {
+            return {command.sequence, false, "rejected: target outside the soft limits"};
+          }
+          program = std::make_unique<control::MoveProgram>(
+              hold, std::vector<control::ProgramStep>{{command.target_m, command.limits, 0.0}});
+        } else {
+          const ProgramFile file = command.program ? *command.program : load_program_file(command.path);
+          for (const auto& step : file.steps) {
+            if (step.target_m < config_.servo.soft_limit_min_m || step.target_m > config_.servo.soft_limit_max_m) {
+              return {command.sequence, false, "rejected: a program target lies outside the soft limits"};
+            }
+          }
+          program = std::make_unique<control::MoveProgram>(program_from(file, hold));
+        }
+        if (!cycle_->program_handover().post(program.get())) return {command.sequence, false, "rejected: busy"};
+        programs_.push_back(std::move(program));
+        return {command.sequence, true, "program posted"};
+      }
+      case Kind::kLoadCalibration:
+      case Kind::kLoadModel: {
+        const servo::CommutationMode mode =
+            command.kind == Kind::kLoadCalibration ? servo::CommutationMode::kClassical : command.mode;
+        if (mode != servo::CommutationMode::kClassical && mode != servo::CommutationMode::kPgnn &&
+            mode != servo::CommutationMode::kSpline) {
+          return {command.sequence, false, "rejected: models load into pgnn or spline"};
+        }
+        auto law = build_law(mode, command.path);  // throws on any problem: the running law stays
+        if (!cycle_->law_handover(mode).post(law->law.get())) {
+          return {command.sequence, false, "rejected: an earlier load is still waiting for standstill"};
+        }
+        laws_.push_back(std::move(law));
+        return {command.sequence, true, "loaded; swapped in at the next standstill"};
+      }
+    }
+  } catch (const std::exception& e) {
+    return {command.sequence, false, std::string("rejected: ") + e.what()};
+  }
+  return {command.sequence, false, "unknown command"};
+}
+
+std::vector<CommandReply> ServoDaemon::take_replies() {
+  std::vector<CommandReply> out;
+  RtReply reply;
+  while (replies_->try_pop(reply)) {
+    const bool ok = reply.status == servo::CommandStatus::kAccepted || reply.status == servo::CommandStatus::kDeferred;
+    out.push_back({reply.sequence, ok, servo::describe(reply.status)});
+  }
+  return out;
+}
+
+void ServoDaemon::collect_garbage() {
+  std::erase_if(programs_, [&](const std::unique_ptr<control::MoveProgram>& program) {
+    return !cycle_->program_handover().in_use(program.get());
+  });
+  std::erase_if(laws_, [&](const std::unique_ptr<OwnedLaw>& law) {
+    return !cycle_->law_handover(law->mode).in_use(law->law.get());
+  });
+}
+
+void ServoDaemon::drain_commands() noexcept {
+  using Kind = DaemonCommand::Kind;
+  RtCommand command;
+  while (commands_->try_pop(command)) {
+    servo::CommandStatus status = servo::CommandStatus::kAccepted;
+    switch (command.kind) {
+      case Kind::kEnable: status = cycle_->enable(); break;
+      case Kind::kDisable: status = cycle_->disable(); break;
+      case Kind::kClearFault: status = cycle_->clear_fault(); break;
+      case Kind::kStop: status = cycle_->stop(); break;
+      case Kind::kSetCommutation: status = cycle_->request_mode(command.mode); break;
+      case Kind::kSetExperiment:
+        status = cycle_->request_mode(servo::CommutationMode::kExperiment, command.coil_set, command.delta_rad);
+        break;
+      case Kind::kSetFeedforward: cycle_->set_feedforward(command.feedforward); break;
+      default: status = servo::CommandStatus::kRejectedInvalid; break;
+    }
+    replies_->try_push({command.sequence, status});
+  }
+}
+
+void ServoDaemon::one_cycle(std::int64_t sync_time_ns, std::int64_t deadline_ns, double time_s,
+                            std::int64_t next_sync_ns, bool realtime) noexcept {
+  drain_commands();
+  if (in_process_ != nullptr) in_process_->set_time_ns(sync_time_ns);
+  const can::Frame sync = cycle_->begin_cycle(sync_time_ns);
+  bool send_failed = !bus_->send(sync);
+  drivers::ReceivedFrame received;
+  while (!cycle_->feedback_complete() && bus_->receive(received, deadline_ns)) cycle_->on_frame(received);
+  const auto frames = cycle_->end_cycle(time_s);
+  // Setpoints never outlive their cycle: past the next SYNC they are dropped.
+  if (realtime && monotonic_ns() >= next_sync_ns) {
+    ++timing_.late_setpoints;
+  } else {
+    for (const auto& frame : frames) send_failed = !bus_->send(frame) || send_failed;
+  }
+  cycle_->report_bus(bus_->state(), send_failed);
+  if (observer_ != nullptr) observer_->on_cycle(*cycle_, timing_);
+  cycles_done_.fetch_add(1, std::memory_order_release);
+}
+
+void ServoDaemon::run_cycles(std::int64_t cycles) {
+  const auto period_ns = static_cast<std::int64_t>(config_.servo.period_s * 1e9);
+  for (std::int64_t k = 0; k < cycles; ++k) {
+    virtual_time_ns_ += period_ns;
+    one_cycle(virtual_time_ns_, virtual_time_ns_ + period_ns / 2, static_cast<double>(virtual_time_ns_) * 1e-9,
+              virtual_time_ns_ + period_ns, false);
+  }
+}
+
+std::int64_t ServoDaemon::run_until_idle(std::int64_t max_cycles) {
+  std::int64_t done = 0;
+  // One cycle first so a freshly posted program is adopted.
+  while (done < max_cycles) {
+    run_cycles(1);
+    ++done;
+    if (cycle_->idle() && !cycle_->program_handover().pending()) break;
+  }
+  return done;
+}
+
+void ServoDaemon::run_realtime(const std::atomic<bool>& stop) {
+  const auto period_ns = static_cast<std::int64_t>(config_.servo.period_s * 1e9);
+  const auto window_ns = static_cast<std::int64_t>(config_.loop.receive_window_fraction * static_cast<double>(period_ns));
+  const std::int64_t start_ns = monotonic_ns();
+  WakeupSchedule schedule(start_ns + period_ns, period_ns);
+  while (!stop.load(std::memory_order_acquire)) {
+    const std::int64_t planned = schedule.next_ns();
+    sleep_until(planned);
+    const std::int64_t wake = monotonic_ns();
+    timing_.wakeup_latency.add(static_cast<double>(wake - planned) * 1e-9);
+    one_cycle(wake, planned + window_ns, static_cast<double>(planned - start_ns) * 1e-9, planned + period_ns, true);
+    const std::int64_t done = monotonic_ns();
+    timing_.compute_time.add(static_cast<double>(done - wake) * 1e-9);
+    const std::int64_t missed = schedule.advance(done);
+    timing_.missed_deadlines += missed;
+    cycle_->report_overrun(missed > 0);
+  }
+}
+
+}  // namespace clm::servod

@@ -1,0 +1,133 @@
+#pragma once
+// clm-servod's core: the configuration made concrete (bus, simulated motor,
+// commutation laws, servo cycle), the loop on a real-time or virtual clock,
+// and the command path. Commands arrive on any non-real-time thread through
+// submit(); whatever needs files or planning happens there, and the cycle
+// only receives ready objects (Handover) and small commands (SPSC queue).
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "daemon/servo/servo_cycle.hpp"
+#include "daemon/servo/timing.hpp"
+#include "daemon/servod/program_file.hpp"
+#include "daemon/servod/servod_config.hpp"
+#include "daemon/telemetry/spsc_queue.hpp"
+#include "drivers/can_bus.hpp"
+
+namespace clm::sim {
+class SimulatedMotor;
+}
+namespace clm::simbus {
+class SimulatedNodes;
+class InProcessBus;
+}
+
+namespace clm::servod {
+
+struct DaemonCommand {
+  enum class Kind {
+    kEnable, kDisable, kClearFault, kStop, kMoveTo, kRunProgram, kSetCommutation, kSetExperiment,
+    kLoadCalibration, kLoadModel, kSetFeedforward,
+  };
+  Kind kind = Kind::kEnable;
+  std::int64_t sequence = 0;
+  double target_m = 0.0;                         ///< kMoveTo
+  control::MotionLimits limits{0.1, 1.0, 1000.0};  ///< kMoveTo
+  std::string path;                              ///< kRunProgram, kLoadCalibration, kLoadModel
+  std::optional<ProgramFile> program;            ///< kRunProgram without a file
+  servo::CommutationMode mode = servo::CommutationMode::kOriginal;  ///< kSetCommutation, kLoadModel (pgnn or spline)
+  int coil_set = 0;                              ///< kSetExperiment (1-based)
+  double delta_rad = 0.0;                        ///< kSetExperiment
+  control::FeedforwardParameters feedforward{};  ///< kSetFeedforward
+};
+
+struct CommandReply {
+  std::int64_t sequence = 0;
+  bool accepted = false;
+  std::string text;
+};
+
+/// Timing of the loop (real-time clock); filled by the loop, read by status.
+struct LoopTiming {
+  servo::LatencyHistogram wakeup_latency;
+  servo::LatencyHistogram compute_time;
+  std::int64_t missed_deadlines = 0;   ///< grid points skipped after overruns
+  std::int64_t late_setpoints = 0;     ///< setpoints not sent because their cycle was over
+};
+
+/// Sees every cycle on the loop thread: must not block or allocate.
+class CycleObserver {
+ public:
+  virtual ~CycleObserver() = default;
+  virtual void on_cycle(const servo::ServoCycle& cycle, const LoopTiming& timing) noexcept = 0;
+};
+
+class ServoDaemon {
+ public:
+  /// Builds everything the configuration names; throws with a precise message
+  /// (file, key, value) on any problem.
+  explicit ServoDaemon(const ServodConfig& config);
+  ~ServoDaemon();
+  ServoDaemon(const ServoDaemon&) = delete;
+  ServoDaemon& operator=(const ServoDaemon&) = delete;
+
+  /// Non-real-time: validates and prepares a command. Small commands are
+  /// queued for the cycle and answered in the reply queue once executed;
+  /// file and planning commands are answered here.
+  CommandReply submit(const DaemonCommand& command);
+  /// Replies of queued commands executed by the cycle since the last call.
+  std::vector<CommandReply> take_replies();
+  /// Frees programs and laws the cycle no longer uses. Non-real-time.
+  void collect_garbage();
+
+  /// Virtual clock: runs `cycles` cycles on this thread at full speed.
+  void run_cycles(std::int64_t cycles);
+  /// Virtual clock: runs until the running program ends (and the axis is
+  /// idle), at most `max_cycles`; returns the cycles run.
+  std::int64_t run_until_idle(std::int64_t max_cycles);
+  /// Real-time clock: runs on the calling thread until `stop` is set.
+  void run_realtime(const std::atomic<bool>& stop);
+
+  void set_observer(CycleObserver* observer) noexcept { observer_ = observer; }
+  servo::ServoCycle& cycle() noexcept { return *cycle_; }
+  const LoopTiming& timing() const noexcept { return timing_; }
+  const ServodConfig& config() const noexcept { return config_; }
+  /// Cycles completed; the watchdog thread checks it advances.
+  std::int64_t cycles_done() const noexcept { return cycles_done_.load(std::memory_order_acquire); }
+  /// The simulated motor when can.interface is sim, else nullptr.
+  sim::SimulatedMotor* simulated_motor() noexcept;
+  simbus::InProcessBus* in_process_bus() noexcept;
+  std::string law_source(servo::CommutationMode mode) const;
+
+ private:
+  struct RtCommand;
+  struct RtReply;
+  struct OwnedLaw;
+  void one_cycle(std::int64_t sync_time_ns, std::int64_t deadline_ns, double time_s, std::int64_t next_sync_ns,
+                 bool realtime) noexcept;
+  void drain_commands() noexcept;
+  std::unique_ptr<OwnedLaw> build_law(servo::CommutationMode mode, const std::string& path) const;
+  CommandReply queue(const DaemonCommand& command);
+
+  ServodConfig config_;
+  std::unique_ptr<sim::SimulatedMotor> motor_;
+  std::unique_ptr<simbus::SimulatedNodes> nodes_;
+  std::unique_ptr<drivers::CanBus> bus_;
+  simbus::InProcessBus* in_process_ = nullptr;
+  std::unique_ptr<servo::ServoCycle> cycle_;
+  std::vector<std::unique_ptr<OwnedLaw>> laws_;
+  std::vector<std::unique_ptr<control::MoveProgram>> programs_;
+  std::unique_ptr<telemetry::SpscQueue<RtCommand>> commands_;
+  std::unique_ptr<telemetry::SpscQueue<RtReply>> replies_;
+  LoopTiming timing_;
+  CycleObserver* observer_ = nullptr;
+  std::atomic<std::int64_t> cycles_done_{0};
+  std::int64_t virtual_time_ns_ = 0;
+};
+
+}  // namespace clm::servod

@@ -1,0 +1,202 @@
+#include "daemon/servod/servod_config.hpp"
+
+#include <filesystem>
+
+#include "daemon/control/position_controller.hpp"
+#include "drivers/can_protocol.hpp"
+#include "tools/data/feedforward_file.hpp"
+
+namespace clm::servod {
+namespace {
+
+std::string resolve(const std::string& directory, const std::string& path) {
+  if (path.empty()) return path;
+  const std::filesystem::path p(path);
+  return p.is_absolute() ? path : (std::filesystem::path(directory) / p).lexically_normal().string();
+}
+
+servo::CommutationMode parse_mode(const yaml::Node& node) {
+  const std::string text = node.as_string();
+  if (text == "original") return servo::CommutationMode::kOriginal;
+  if (text == "classical") return servo::CommutationMode::kClassical;
+  if (text == "pgnn") return servo::CommutationMode::kPgnn;
+  if (text == "spline") return servo::CommutationMode::kSpline;
+  if (text == "oracle") return servo::CommutationMode::kOracle;
+  node.fail("expected original, classical, pgnn, spline or oracle, got '" + text + "'");
+}
+
+std::string optional_path(const yaml::Node& section, const char* key, const std::string& directory) {
+  const auto node = section.optional(key);
+  return node ? resolve(directory, node->as_string()) : std::string();
+}
+
+void require_file(const yaml::Node& section, const char* key, const std::string& path) {
+  if (!path.empty() && !std::filesystem::exists(path)) section[key].fail("file '" + path + "' does not exist");
+}
+
+}  // namespace
+
+ServodConfig parse_servod_config(const yaml::Node& root, const std::string& directory) {
+  root.expect_keys({"motor_file", "loop", "can", "control", "commutation", "faults", "telemetry"});
+  ServodConfig config;
+  config.origin = root.file();
+  config.motor_file = resolve(directory, root["motor_file"].as_string());
+  if (!std::filesystem::exists(config.motor_file)) root["motor_file"].fail("file '" + config.motor_file + "' does not exist");
+  config.motor = load_motor_description(config.motor_file);
+
+  if (const auto loop = root.optional("loop")) {
+    loop->expect_keys({"rate_hz", "clock", "priority", "cpu", "lock_memory", "require_realtime",
+                       "receive_window_fraction"});
+    if (const auto v = loop->optional("rate_hz")) config.loop.rate_hz = v->as_double_in(10.0, 20000.0);
+    if (const auto v = loop->optional("clock")) {
+      const std::string clock = v->as_string();
+      if (clock == "realtime") {
+        config.loop.clock = ClockMode::kRealtime;
+      } else if (clock == "virtual") {
+        config.loop.clock = ClockMode::kVirtual;
+      } else {
+        v->fail("expected realtime or virtual, got '" + clock + "'");
+      }
+    }
+    if (const auto v = loop->optional("priority")) config.loop.priority = static_cast<int>(v->as_integer_in(0, 99));
+    if (const auto v = loop->optional("cpu")) config.loop.cpu = static_cast<int>(v->as_integer_in(-1, 1023));
+    if (const auto v = loop->optional("lock_memory")) config.loop.lock_memory = v->as_bool();
+    if (const auto v = loop->optional("require_realtime")) config.loop.require_realtime = v->as_bool();
+    if (const auto v = loop->optional("receive_window_fraction")) config.loop.receive_window_fraction = v->as_double_in(0.05, 0.9);
+  }
+  config.servo.period_s = 1.0 / config.loop.rate_hz;
+  config.servo.pole_pitch_m = config.motor.pole_pitch_m;
+  config.servo.drive = config.motor.drive;
+  config.servo.protocol.coil_sets = config.motor.coil_sets;
+  config.servo.soft_limit_min_m = config.motor.stroke_min_m;
+  config.servo.soft_limit_max_m = config.motor.stroke_max_m;
+
+  if (const auto can = root.optional("can")) {
+    can->expect_keys({"interface", "bitrate_bps", "drive_node_id", "force_sensor_node_id", "bus_load_limit"});
+    if (const auto v = can->optional("interface")) {
+      config.can.interface = v->as_string();
+      if (config.can.interface.empty() || config.can.interface.size() > 15) v->fail("interface name must have 1..15 characters");
+    }
+    if (const auto v = can->optional("bitrate_bps")) config.can.bitrate_bps = v->as_double_in(10e3, 1e6);
+    if (const auto v = can->optional("drive_node_id")) config.servo.protocol.drive_node_id = static_cast<std::uint8_t>(v->as_integer_in(1, 127));
+    if (const auto v = can->optional("force_sensor_node_id")) config.servo.protocol.force_sensor_node_id = static_cast<std::uint8_t>(v->as_integer_in(1, 127));
+    if (const auto v = can->optional("bus_load_limit")) config.can.bus_load_limit = v->as_double_in(0.01, 0.7);
+  }
+  try {
+    config.servo.protocol.validate();
+  } catch (const std::invalid_argument& e) {
+    root["motor_file"].fail(std::string("motor does not fit the CAN protocol: ") + e.what());
+  }
+  try {
+    can::check_bus_load(config.servo.protocol, config.can.bitrate_bps, config.loop.rate_hz, config.can.bus_load_limit);
+  } catch (const std::invalid_argument& e) {
+    (root.has("can") ? root["can"] : root["motor_file"]).fail(e.what());
+  }
+
+  double mass_kg = 0.0;
+  if (const auto control = root.optional("control")) {
+    control->expect_keys({"bandwidth_hz", "mass_kg", "feedforward", "feedforward_file", "soft_limit_min_m",
+                          "soft_limit_max_m", "following_error_limit_m", "force_limit_N", "saturation_time_limit_s",
+                          "standstill_velocity_m_per_s"});
+    if (const auto v = control->optional("bandwidth_hz")) config.control_bandwidth_hz = v->as_double_in(1.0, config.loop.rate_hz / 6.0);
+    mass_kg = (*control)["mass_kg"].as_positive();
+    if (const auto ff = control->optional("feedforward")) {
+      ff->expect_keys({"mass_kg", "viscous_N_s_per_m", "coulomb_N"});
+      if (const auto v = ff->optional("mass_kg")) config.servo.feedforward.mass_kg = v->as_double_in(0.0, 1e4);
+      if (const auto v = ff->optional("viscous_N_s_per_m")) config.servo.feedforward.viscous_N_s_per_m = v->as_double_in(0.0, 1e5);
+      if (const auto v = ff->optional("coulomb_N")) config.servo.feedforward.coulomb_N = v->as_double_in(0.0, 1e4);
+    }
+    config.feedforward_file = optional_path(*control, "feedforward_file", directory);
+    require_file(*control, "feedforward_file", config.feedforward_file);
+    if (!config.feedforward_file.empty()) {
+      if (control->has("feedforward")) (*control)["feedforward_file"].fail("give feedforward or feedforward_file, not both");
+      config.servo.feedforward = load_feedforward_file(config.feedforward_file).parameters;
+    }
+    if (const auto v = control->optional("soft_limit_min_m")) config.servo.soft_limit_min_m = v->as_double();
+    if (const auto v = control->optional("soft_limit_max_m")) config.servo.soft_limit_max_m = v->as_double();
+    if (!(config.servo.soft_limit_max_m > config.servo.soft_limit_min_m)) {
+      (*control)["soft_limit_max_m"].fail("must be above soft_limit_min_m");
+    }
+    if (const auto v = control->optional("following_error_limit_m")) config.servo.following_error_limit_m = v->as_double_in(1e-7, 1.0);
+    if (const auto v = control->optional("force_limit_N")) config.servo.force_limit_N = v->as_double_in(1.0, 819.0);
+    if (const auto v = control->optional("saturation_time_limit_s")) config.servo.saturation_time_limit_s = v->as_double_in(0.0, 10.0);
+    if (const auto v = control->optional("standstill_velocity_m_per_s")) config.servo.standstill_velocity_m_per_s = v->as_double_in(1e-6, 1.0);
+  } else {
+    root["control"];  // throws "missing key 'control'": mass_kg has no default
+  }
+  config.control_mass_kg = mass_kg;
+  config.servo.pid = control::tune_pid(mass_kg, config.control_bandwidth_hz);
+
+  if (const auto commutation = root.optional("commutation")) {
+    commutation->expect_keys({"mode", "calibration_file", "pgnn_model_file", "spline_model_file", "power",
+                              "phase_convention", "min_singular_value_ratio"});
+    if (const auto v = commutation->optional("mode")) config.commutation.mode = parse_mode(*v);
+    config.commutation.calibration_file = optional_path(*commutation, "calibration_file", directory);
+    config.commutation.pgnn_model_file = optional_path(*commutation, "pgnn_model_file", directory);
+    config.commutation.spline_model_file = optional_path(*commutation, "spline_model_file", directory);
+    require_file(*commutation, "calibration_file", config.commutation.calibration_file);
+    require_file(*commutation, "pgnn_model_file", config.commutation.pgnn_model_file);
+    require_file(*commutation, "spline_model_file", config.commutation.spline_model_file);
+    if (const auto v = commutation->optional("power")) {
+      const std::string power = v->as_string();
+      if (power == "true") {
+        config.commutation.options.power_metric = PowerMetric::kTruePower;
+      } else if (power == "paper") {
+        config.commutation.options.power_metric = PowerMetric::kCurrentNorm;
+      } else {
+        v->fail("expected true or paper, got '" + power + "'");
+      }
+    }
+    if (const auto v = commutation->optional("phase_convention")) {
+      const std::string convention = v->as_string();
+      if (convention == "signed_magnitude") {
+        config.commutation.options.phase_convention = PhaseConvention::kSignedMagnitude;
+      } else if (convention == "nonnegative_magnitude") {
+        config.commutation.options.phase_convention = PhaseConvention::kNonNegativeMagnitude;
+      } else {
+        v->fail("expected signed_magnitude or nonnegative_magnitude, got '" + convention + "'");
+      }
+    }
+    if (const auto v = commutation->optional("min_singular_value_ratio")) {
+      config.commutation.options.min_singular_value_ratio = v->as_double_in(0.0, 0.5);
+    }
+    const auto needs = [&](servo::CommutationMode mode, const std::string& file, const char* key) {
+      if (config.commutation.mode == mode && file.empty()) {
+        (*commutation)["mode"].fail(std::string("mode needs commutation.") + key);
+      }
+    };
+    needs(servo::CommutationMode::kClassical, config.commutation.calibration_file, "calibration_file");
+    needs(servo::CommutationMode::kPgnn, config.commutation.pgnn_model_file, "pgnn_model_file");
+    needs(servo::CommutationMode::kSpline, config.commutation.spline_model_file, "spline_model_file");
+    if (config.commutation.mode == servo::CommutationMode::kOracle && config.can.interface != "sim") {
+      (*commutation)["mode"].fail("the oracle commutation exists only with can.interface: sim");
+    }
+  }
+
+  if (const auto faults = root.optional("faults")) {
+    faults->expect_keys({"missing_frame_limit", "overrun_limit"});
+    if (const auto v = faults->optional("missing_frame_limit")) config.servo.missing_frame_limit = static_cast<int>(v->as_integer_in(1, 1000));
+    if (const auto v = faults->optional("overrun_limit")) config.servo.overrun_limit = static_cast<int>(v->as_integer_in(1, 1000));
+  }
+  if (const auto telemetry = root.optional("telemetry")) {
+    telemetry->expect_keys({"enabled", "lcm_url", "state_decimation", "status_rate_hz"});
+    if (const auto v = telemetry->optional("enabled")) config.telemetry.enabled = v->as_bool();
+    if (const auto v = telemetry->optional("lcm_url")) config.telemetry.lcm_url = v->as_string();
+    if (const auto v = telemetry->optional("state_decimation")) config.telemetry.state_decimation = static_cast<int>(v->as_integer_in(1, 100000));
+    if (const auto v = telemetry->optional("status_rate_hz")) config.telemetry.status_rate_hz = v->as_double_in(0.1, 100.0);
+  }
+  try {
+    config.servo.validate();
+  } catch (const std::invalid_argument& e) {
+    root.fail(e.what());
+  }
+  return config;
+}
+
+ServodConfig load_servod_config(const std::string& path) {
+  const auto root = yaml::Node::load_file(path);
+  const std::string directory = std::filesystem::path(path).parent_path().string();
+  return parse_servod_config(root, directory.empty() ? "." : directory);
+}
+
+}  // namespace clm::servod

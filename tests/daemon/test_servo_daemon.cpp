@@ -1,0 +1,42 @@
+// The daemon core on the in-process simulated motor, virtual clock.
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "daemon/control/metrics.hpp"
+#include "daemon/servod/servo_daemon.hpp"
+#include "daemon/simbus/in_process_bus.hpp"
+#include "tests/daemon/daemon_support.hpp"
+#include "tools/sim/motor.hpp"
+
+using namespace clm;
+using Kind = servod::DaemonCommand::Kind;
+
+TEST_CASE("the daemon runs the Fig. 8 program with the drive's own commutation and tracks it", "[daemon][slow]") {
+  servod::ServoDaemon daemon(test::virtual_config());
+  daemon.run_cycles(10);
+  test::command(daemon, Kind::kEnable);
+  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  servod::DaemonCommand run;
+  run.kind = Kind::kRunProgram;
+  run.path = test::source_path("config/programs/fig8.yaml");
+  const auto reply = daemon.submit(run);
+  REQUIRE(reply.accepted);
+  double max_error = 0.0, sum_sq = 0.0;
+  std::int64_t n = 0;
+  while (true) {
+    daemon.run_cycles(1);
+    const auto& record = daemon.cycle().record();
+    REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+    if (!record.program_running && n > 10) break;
+    // Independent of the daemon's own record: the simulator's true position.
+    const double error = record.reference.position_m - daemon.simulated_motor()->truth().position_m;
+    max_error = std::max(max_error, std::abs(error));
+    sum_sq += error * error;
+    ++n;
+    REQUIRE(n < 40000);
+  }
+  INFO("cycles " << n << " max error " << max_error << " mse " << sum_sq / n);
+  CHECK(n > 25000);
+  CHECK(max_error < 1e-3);
+  CHECK(std::abs(daemon.simulated_motor()->truth().position_m - (-0.1)) < 1e-4);
+}
