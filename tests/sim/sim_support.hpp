@@ -3,11 +3,13 @@
 // motors built in code for tests that need a known, simple truth.
 
 #include <string>
+#include <vector>
 
+#include "daemon/control/trajectory.hpp"
 #include "tools/sim/motor_file.hpp"
 #include "tools/sim/parameters.hpp"
 
-namespace clm::sim::test {
+namespace clm::sim::fixtures {
 
 inline std::string source_path(const std::string& relative) { return std::string(CLM_SOURCE_DIR) + "/" + relative; }
 
@@ -44,4 +46,26 @@ inline void ideal_sensors(MotorParameters& motor) {
   motor.sensors.force_bias_N_N_Nm.setZero();
 }
 
-}  // namespace clm::sim::test
+/// A back-and-forth over 80 % of the motor's stroke with the Fig. 8 limits at
+/// `velocity_m_per_s` (the Fig. 8 reference itself assumes ±0.1 m of stroke).
+inline control::MoveProgram stroke_program(const MotorParameters& motor, double velocity_m_per_s) {
+  const double margin = 0.1 * (motor.stroke_max_m - motor.stroke_min_m);
+  const auto limits = control::fig8_limits(velocity_m_per_s);
+  return control::MoveProgram(motor.stroke_min_m + margin, {{motor.stroke_max_m - margin, limits, 0.25},
+                                                            {motor.stroke_min_m + margin, limits, 0.25}});
+}
+
+/// The Fig. 8 reference scaled to 80 % of the motor's stroke: three
+/// back-and-forths at 0.025, 0.075 and 0.15 m/s with 0.25 s dwells.
+inline control::MoveProgram stroke_fig8_program(const MotorParameters& motor) {
+  const double margin = 0.1 * (motor.stroke_max_m - motor.stroke_min_m);
+  std::vector<control::ProgramStep> steps;
+  for (const double velocity : {0.025, 0.075, 0.15}) {
+    const auto limits = control::fig8_limits(velocity);
+    steps.push_back({motor.stroke_max_m - margin, limits, 0.25});
+    steps.push_back({motor.stroke_min_m + margin, limits, 0.25});
+  }
+  return control::MoveProgram(motor.stroke_min_m + margin, std::move(steps));
+}
+
+}  // namespace clm::sim::fixtures

@@ -15,7 +15,7 @@ enum TruthStream : std::uint64_t {
   kStreamHarmonicPhases = 3,
   kStreamPhaseGains = 4,
   kStreamCoggingPhases = 5,
-  kStreamCoggingSlow = 6,  // + axis
+  kStreamCoggingSlow = 6,
 };
 
 // Mean over a knot interval of Σ_k B_k(t)² for the uniform cubic B-spline:
@@ -34,25 +34,73 @@ Complex multiply(Complex a, Complex b) { return {a.re * b.re - a.im * b.im, a.re
 SmoothRandomFunction::SmoothRandomFunction(const SmoothVariation& variation, double track_start_m,
                                            double track_end_m, std::uint64_t seed)
     : slope_per_m_(variation.slope_per_m), centre_m_(0.5 * (track_start_m + track_end_m)) {
-  if (variation.rms == 0.0) return;  // only the trend
-  const double margin = variation.correlation_length_m;
+  if (variation.rms != 0.0) {
+    draw(std::span<const double>(&variation.rms, 1), variation.correlation_length_m, track_start_m, track_end_m, seed);
+  }
+}
+
+SmoothRandomFunction::SmoothRandomFunction(const Wrench& rms, double correlation_length_m, double track_start_m,
+                                           double track_end_m, std::uint64_t seed)
+    : centre_m_(0.5 * (track_start_m + track_end_m)) {
+  if (!rms.isZero(0.0)) draw(std::span<const double>(rms.data(), 3), correlation_length_m, track_start_m, track_end_m, seed);
+}
+
+void SmoothRandomFunction::draw(std::span<const double> rms, double correlation_length_m, double track_start_m,
+                                double track_end_m, std::uint64_t seed) {
+  const double margin = correlation_length_m;
   basis_.start_m = track_start_m - margin;
   basis_.end_m = track_end_m + margin;
-  basis_.intervals =
-      std::max(1, static_cast<int>(std::ceil((basis_.end_m - basis_.start_m) / variation.correlation_length_m)));
+  basis_.intervals = std::max(1, static_cast<int>(std::ceil((basis_.end_m - basis_.start_m) / correlation_length_m)));
+  inverse_spacing_per_m_ = 1.0 / basis_.spacing_m();
+  components_ = static_cast<int>(rms.size());
+  coefficients_.resize(static_cast<std::size_t>(basis_.size() * components_));
   RandomStream random(seed);
-  const double scale = variation.rms / std::sqrt(kMeanSplineVariance);
-  coefficients_.resize(static_cast<std::size_t>(basis_.size()));
-  for (auto& coefficient : coefficients_) coefficient = scale * random.normal();
+  // Component by component, so that component c draws the same numbers
+  // whatever the RMS of the others.
+  for (int c = 0; c < components_; ++c) {
+    const double scale = rms[static_cast<std::size_t>(c)] / std::sqrt(kMeanSplineVariance);
+    for (int j = 0; j < basis_.size(); ++j) {
+      coefficients_[static_cast<std::size_t>(j * components_ + c)] = scale * random.normal();
+    }
+  }
+}
+
+int SmoothRandomFunction::span(double track_position_m, double value[4]) const noexcept {
+  const double u = (std::clamp(track_position_m, basis_.start_m, basis_.end_m) - basis_.start_m) * inverse_spacing_per_m_;
+  const int interval = std::clamp(static_cast<int>(u), 0, basis_.intervals - 1);  // u ≥ 0: truncation is floor
+  const double t = u - interval;
+  const double s = 1.0 - t;
+  const double t2 = t * t;
+  const double t3 = t2 * t;
+  value[0] = s * s * s / 6.0;
+  value[1] = (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0;
+  value[2] = (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0;
+  value[3] = t3 / 6.0;
+  return interval;
 }
 
 double SmoothRandomFunction::operator()(double track_position_m) const noexcept {
-  double value = slope_per_m_ * (track_position_m - centre_m_);
-  if (!coefficients_.empty()) {
-    const auto span = basis_.evaluate(track_position_m);
-    for (int k = 0; k < 4; ++k) value += span.value[k] * coefficients_[static_cast<std::size_t>(span.first + k)];
+  double result = slope_per_m_ * (track_position_m - centre_m_);
+  if (components_ > 0) {
+    double value[4];
+    const int first = span(track_position_m, value);
+    for (int k = 0; k < 4; ++k) result += value[k] * coefficients_[static_cast<std::size_t>((first + k) * components_)];
   }
-  return value;
+  return result;
+}
+
+Wrench SmoothRandomFunction::wrench(double track_position_m) const noexcept {
+  Wrench result = Wrench::Constant(slope_per_m_ * (track_position_m - centre_m_));
+  if (components_ > 0) {
+    double value[4];
+    const int first = span(track_position_m, value);
+    for (int k = 0; k < 4; ++k) {
+      for (int c = 0; c < components_; ++c) {
+        result[c] += value[k] * coefficients_[static_cast<std::size_t>((first + k) * components_ + c)];
+      }
+    }
+  }
+  return result;
 }
 
 ElectromagneticTruth::ElectromagneticTruth(const ElectromagneticParameters& parameters, double travel_min_m,
@@ -112,15 +160,11 @@ ElectromagneticTruth::ElectromagneticTruth(const ElectromagneticParameters& para
     cogging_sin_.push_back(sin_part);
     max_cogging_order_ = std::max(max_cogging_order_, harmonic.order);
   }
-  for (int q = 0; q < 3; ++q) {
-    const SmoothVariation slow{parameters_.cogging_slow_rms_N_N_Nm[q], parameters_.cogging_slow_correlation_length_m,
-                               0.0};
-    cogging_slow_[static_cast<std::size_t>(q)] = SmoothRandomFunction(
-        slow, travel_min_m, travel_max_m, stream_seed(seed, kStreamCoggingSlow + static_cast<std::uint64_t>(q)));
-  }
+  cogging_slow_ = SmoothRandomFunction(parameters_.cogging_slow_rms_N_N_Nm, parameters_.cogging_slow_correlation_length_m,
+                                       travel_min_m, travel_max_m, stream_seed(seed, kStreamCoggingSlow));
 }
 
-CoilGain ElectromagneticTruth::gain(int coil_set, double position_m) const noexcept {
+void ElectromagneticTruth::phase_functions(int coil_set, double position_m, double s[3], double c[3]) const noexcept {
   const auto l = static_cast<std::size_t>(coil_set);
   const CoilSetParameters& set = parameters_.coil_sets[l];
   const double track_position = position_m + set.lever_arm_m;
@@ -132,27 +176,40 @@ CoilGain ElectromagneticTruth::gain(int coil_set, double position_m) const noexc
   const Complex z7 = multiply(z5, z2);
   const double h5 = parameters_.fifth_harmonic_relative;
   const double h7 = parameters_.seventh_harmonic_relative;
-  const double mu = parameters_.orthogonal_ratio;
   const double scale = 2.0 / 3.0 * set.motor_constant_N_per_A * (1.0 + intensity_(track_position));
-  // Fundamental of phase p: e^{i(η + φ_p)}, φ = 0, +2π/3, −2π/3.
-  const Complex shift[3] = {{1.0, 0.0},
-                            {std::cos(kTwoPiOverThree), std::sin(kTwoPiOverThree)},
-                            {std::cos(kTwoPiOverThree), -std::sin(kTwoPiOverThree)}};
-  Eigen::Vector3d column[3];
+  // e^{iφ_p}, φ = 0, +2π/3, −2π/3: the fundamental of phase p is z·e^{iφ_p}.
+  constexpr double kCos120 = -0.5;
+  const double sin120 = std::sqrt(3.0) / 2.0;
+  const Complex shift[3] = {{1.0, 0.0}, {kCos120, sin120}, {kCos120, -sin120}};
   for (int p = 0; p < 3; ++p) {
     const auto pi = static_cast<std::size_t>(p);
     const Complex e1 = multiply(z, shift[p]);
     const Complex e5 = multiply(z5, {fifth_rotation_[pi].cos, fifth_rotation_[pi].sin});
     const Complex e7 = multiply(z7, {seventh_rotation_[pi].cos, seventh_rotation_[pi].sin});
-    const double s = e1.im + h5 * e5.im + h7 * e7.im;
-    const double c = e1.re + h5 * e5.re + h7 * e7.re;
     const double phase_scale = scale * phase_gain_[l][pi];
-    column[p] = phase_scale * Eigen::Vector3d(s, mu * c, set.lever_arm_m * mu * c + set.driving_force_lever_arm_m * s);
+    s[p] = phase_scale * (e1.im + h5 * e5.im + h7 * e7.im);
+    c[p] = phase_scale * (e1.re + h5 * e5.re + h7 * e7.re);
   }
-  // Star constraint (5): i_c = −i_a − i_b.
+}
+
+CoilGain ElectromagneticTruth::gain(int coil_set, double position_m) const noexcept {
+  const CoilSetParameters& set = parameters_.coil_sets[static_cast<std::size_t>(coil_set)];
+  double s[3];
+  double c[3];
+  phase_functions(coil_set, position_m, s, c);
+  const double mu = parameters_.orthogonal_ratio;
+  const double lever_x = set.lever_arm_m * mu;
+  const double lever_y = set.driving_force_lever_arm_m;
+  // Column p of eq. (7) is [s_p, μ·c_p, d·μ·c_p + e·s_p]; the star constraint
+  // (5), i_c = −i_a − i_b, leaves columns a − c and b − c.
   CoilGain result;
-  result.col(0) = column[0] - column[2];
-  result.col(1) = column[1] - column[2];
+  for (int column = 0; column < 2; ++column) {
+    const double ds = s[column] - s[2];
+    const double dc = c[column] - c[2];
+    result(0, column) = ds;
+    result(1, column) = mu * dc;
+    result(2, column) = lever_x * dc + lever_y * ds;
+  }
   return result;
 }
 
@@ -162,22 +219,23 @@ void ElectromagneticTruth::stacked_gain(double position_m, StackedGain& gain_N_p
 }
 
 Wrench ElectromagneticTruth::cogging(double position_m) const noexcept {
-  Wrench force = Wrench::Zero();
+  Wrench force = cogging_slow_.wrench(position_m);
   if (max_cogging_order_ > 0) {
     const double theta = electrical_angle_rad(position_m, parameters_.pole_pitch_m);
     const Complex z{std::cos(theta), std::sin(theta)};
-    std::array<Complex, 65> power;  // z^n, n ≤ 64 (validated)
-    power[0] = {1.0, 0.0};
-    for (int n = 1; n <= max_cogging_order_; ++n) {
-      power[static_cast<std::size_t>(n)] = multiply(power[static_cast<std::size_t>(n - 1)], z);
-    }
+    Complex zn{1.0, 0.0};
+    int n = 0;
+    // Harmonics in the order given; z^n by repeated multiplication (orders ≤ 64).
     for (std::size_t h = 0; h < cogging_order_.size(); ++h) {
-      const Complex zn = power[static_cast<std::size_t>(cogging_order_[h])];
+      if (cogging_order_[h] < n) {
+        zn = {1.0, 0.0};
+        n = 0;
+      }
+      for (; n < cogging_order_[h]; ++n) zn = multiply(zn, z);
       // A·sin(nθ + φ) = A cos φ·sin nθ + A sin φ·cos nθ
       force += cogging_cos_[h] * zn.im + cogging_sin_[h] * zn.re;
     }
   }
-  for (int q = 0; q < 3; ++q) force[q] += cogging_slow_[static_cast<std::size_t>(q)](position_m);
   force -= parameters_.cogging_spring_rate_N_N_Nm_per_m * (position_m - parameters_.cogging_spring_neutral_m);
   return force;
 }
@@ -191,6 +249,19 @@ Wrench ElectromagneticTruth::wrench(double position_m, double velocity_m_per_s,
                                     const CurrentVector& currents_A) const noexcept {
   Wrench force = cogging(position_m) + direction_dependent(velocity_m_per_s);
   for (int l = 0; l < count_; ++l) force.noalias() += gain(l, position_m) * currents_A.segment<2>(2 * l);
+  return force;
+}
+
+double ElectromagneticTruth::driving_force_N(double position_m, double velocity_m_per_s,
+                                             const CurrentVector& currents_A) const noexcept {
+  // Row y of wrench(); the same arithmetic, the other rows left out.
+  double force = cogging(position_m).x() + direction_dependent(velocity_m_per_s).x();
+  for (int l = 0; l < count_; ++l) {
+    double s[3];
+    double c[3];
+    phase_functions(l, position_m, s, c);
+    force += (s[0] - s[2]) * currents_A[2 * l] + (s[1] - s[2]) * currents_A[2 * l + 1];
+  }
   return force;
 }
 

@@ -14,6 +14,7 @@
 // force is linear in the currents for every position (Lorentz, Assumption 2.1).
 
 #include <array>
+#include <span>
 #include <vector>
 
 #include "commutation/bspline.hpp"
@@ -22,19 +23,43 @@
 
 namespace clm::sim {
 
-/// A drawn SmoothVariation: B-spline over [start, end] (constant beyond), plus
-/// the linear trend about the centre. Evaluation does not allocate.
+/// A drawn SmoothVariation: a uniform cubic B-spline (the basis of
+/// clm::UniformCubicBasis) with knot spacing ≤ ℓ over [start − ℓ, end + ℓ],
+/// constant beyond, plus the linear trend about the centre of [start, end].
+/// One component, or three sharing the knots with independent coefficients
+/// (the wrench form). Evaluation does not allocate.
 class SmoothRandomFunction {
  public:
   SmoothRandomFunction() = default;  ///< identically zero
-  /// Draws the coefficients from a stream seeded with `seed`.
+  /// One component; coefficients drawn from a stream seeded with `seed`.
   SmoothRandomFunction(const SmoothVariation& variation, double track_start_m, double track_end_m,
                        std::uint64_t seed);
+  /// Three components with RMS rms[q] and no trend.
+  SmoothRandomFunction(const Wrench& rms, double correlation_length_m, double track_start_m, double track_end_m,
+                       std::uint64_t seed);
+
+  /// Value of the first component.
   double operator()(double track_position_m) const noexcept;
+  /// All three components (the wrench form).
+  Wrench wrench(double track_position_m) const noexcept;
+
+  const UniformCubicBasis& basis() const noexcept { return basis_; }
+  /// Coefficient j of component c (0 if none were drawn).
+  double coefficient(int component, int j) const noexcept {
+    return components_ == 0 ? 0.0 : coefficients_[static_cast<std::size_t>(j * components_ + component)];
+  }
 
  private:
+  void draw(std::span<const double> rms, double correlation_length_m, double track_start_m, double track_end_m,
+            std::uint64_t seed);
+  /// First basis index and the four basis values at a position; as
+  /// UniformCubicBasis::evaluate, with the spacing inverted once.
+  int span(double track_position_m, double value[4]) const noexcept;
+
   UniformCubicBasis basis_;
-  std::vector<double> coefficients_;
+  double inverse_spacing_per_m_ = 0.0;
+  int components_ = 0;
+  std::vector<double> coefficients_;  ///< [basis index][component]
   double slope_per_m_ = 0.0;
   double centre_m_ = 0.0;
 };
@@ -62,6 +87,8 @@ class ElectromagneticTruth {
   Wrench direction_dependent(double velocity_m_per_s) const noexcept;
   /// The whole wrench for currents [i_a^1, i_b^1, ...] (2L entries) [N, N, N·m].
   Wrench wrench(double position_m, double velocity_m_per_s, const CurrentVector& currents_A) const noexcept;
+  /// Its first component F_y alone [N] (what the mechanics needs, cheaper).
+  double driving_force_N(double position_m, double velocity_m_per_s, const CurrentVector& currents_A) const noexcept;
 
   /// Drawn parasitics, for reports and tests.
   double magnet_intensity(double track_position_m) const noexcept { return intensity_(track_position_m); }
@@ -76,6 +103,9 @@ class ElectromagneticTruth {
     double cos = 1.0;
     double sin = 0.0;
   };
+  /// Per-phase force functions s_p (row y) and c_p (rows x, z) of coil set l
+  /// times (2/3)·k^l·(1 + a)·g_p.
+  void phase_functions(int coil_set, double position_m, double s[3], double c[3]) const noexcept;
 
   ElectromagneticParameters parameters_;
   int count_ = 0;
@@ -90,7 +120,7 @@ class ElectromagneticTruth {
   std::vector<Wrench> cogging_cos_;
   std::vector<Wrench> cogging_sin_;
   int max_cogging_order_ = 0;
-  std::array<SmoothRandomFunction, 3> cogging_slow_;
+  SmoothRandomFunction cogging_slow_;
 };
 
 }  // namespace clm::sim

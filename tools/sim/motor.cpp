@@ -133,7 +133,7 @@ StepResult SimulatedMotor::step(double period_s) noexcept {
       limited_in_last_step_ = true;
       ++current_limited_substeps_;
     }
-    const double driving_force_N = truth_.wrench(position_m_, velocity_m_per_s_, currents_A_).x();
+    const double driving_force_N = truth_.driving_force_N(position_m_, velocity_m_per_s_, currents_A_);
     // Semi-implicit (symplectic) Euler: velocity first, then the position
     // with the new velocity.
     velocity_m_per_s_ += h * inverse_mass * (driving_force_N - friction_N(velocity_m_per_s_));
