@@ -90,6 +90,11 @@ SocketCanBus::SocketCanBus(const std::string& interface_name, std::span<const st
                                 std::to_string(CAN_RAW_FILTER_MAX));
   }
 
+  if (interface_name.empty() || interface_name.size() >= IFNAMSIZ) {
+    throw std::runtime_error("socketcan: interface name '" + interface_name + "' must have 1.." +
+                             std::to_string(IFNAMSIZ - 1) + " characters");
+  }
+
   DescriptorGuard socket_fd(::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW));
   if (socket_fd.get() < 0) {
     const int error = errno;
@@ -99,10 +104,6 @@ SocketCanBus::SocketCanBus(const std::string& interface_name, std::span<const st
     throw std::runtime_error(message);
   }
 
-  if (interface_name.empty() || interface_name.size() >= IFNAMSIZ) {
-    throw std::runtime_error("socketcan: interface name '" + interface_name + "' must have 1.." +
-                             std::to_string(IFNAMSIZ - 1) + " characters");
-  }
   ifreq request{};
   std::memcpy(request.ifr_name, interface_name.c_str(), interface_name.size() + 1);
   if (::ioctl(socket_fd.get(), SIOCGIFINDEX, &request) != 0) {

@@ -1,0 +1,307 @@
+// drivers/clm-servo.dbc against the codec: the DBC is read by a small parser
+// (dbc.cpp) and every frame and signal in it must be what the codec writes and
+// reads, bit for bit, so that the file cannot drift from the code.
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <map>
+#include <random>
+#include <set>
+
+#include "dbc.hpp"
+#include "drivers/can_protocol.hpp"
+
+namespace {
+
+using clm::can::CodecStatus;
+using clm::can::Frame;
+using clm::test::DbcFile;
+using clm::test::DbcMessage;
+using clm::test::DbcSignal;
+using Values = std::map<std::string, double>;
+
+const DbcFile& dbc() {
+  static const DbcFile file = clm::test::read_dbc(CLM_DBC_PATH);
+  return file;
+}
+
+const DbcMessage& message_named(const std::string& name) {
+  for (const auto& message : dbc().messages) {
+    if (message.name == name) return message;
+  }
+  FAIL("no message " << name << " in the DBC");
+  throw std::logic_error("unreachable");
+}
+
+// The DBC describes the default node IDs and all four coil sets.
+clm::can::ProtocolConfig dbc_config() {
+  clm::can::ProtocolConfig config;
+  config.coil_sets = 4;
+  return config;
+}
+
+/// The codec seen through the DBC's signal names, one adapter per message.
+struct MessageCodec {
+  std::function<CodecStatus(const Values&, Frame&)> encode;
+  std::function<CodecStatus(const Frame&, Values&)> decode;
+};
+
+double bit(std::uint32_t word, int index) { return static_cast<double>((word >> index) & 1u); }
+
+clm::can::SetpointCommand command_from(const Values& v) {
+  clm::can::SetpointCommand command;
+  command.coil_sets = 4;
+  const auto get = [&](const std::string& name) { return v.count(name) ? v.at(name) : 0.0; };
+  command.enable = get("ControlEnable") != 0.0;
+  command.clear_fault = get("ControlClearFault") != 0.0;
+  command.alive_counter = static_cast<std::uint8_t>(get("AliveCounter"));
+  for (int l = 0; l < 4; ++l) {
+    command.setpoints[static_cast<std::size_t>(l)].magnitude_N = get("Magnitude" + std::to_string(l + 1) + "_N");
+    command.setpoints[static_cast<std::size_t>(l)].delta_rad = get("Delta" + std::to_string(l + 1) + "_rad");
+  }
+  return command;
+}
+
+CodecStatus encode_setpoint_frame(const Values& v, std::size_t index, Frame& out) {
+  std::array<Frame, clm::can::kMaxSetpointFrames> frames{};
+  CodecStatus status = CodecStatus::kOk;
+  const std::size_t count = clm::can::encode_setpoints(dbc_config(), command_from(v), frames, status);
+  if (status == CodecStatus::kOk) {
+    REQUIRE(count == 3);
+    out = frames[index];
+  }
+  return status;
+}
+
+const std::map<std::string, MessageCodec>& codecs() {
+  static const std::map<std::string, MessageCodec> table = [] {
+    std::map<std::string, MessageCodec> t;
+    t["Sync"] = {[](const Values& v, Frame& out) {
+                   return clm::can::encode_sync(static_cast<std::uint8_t>(v.at("SyncCounter")), out);
+                 },
+                 [](const Frame& frame, Values& v) {
+                   std::uint8_t counter = 0;
+                   const CodecStatus status = clm::can::decode_sync(frame, counter);
+                   v["SyncCounter"] = counter;
+                   return status;
+                 }};
+    t["DriveFeedback"] = {
+        [](const Values& v, Frame& out) {
+          clm::can::DriveFeedback feedback;
+          feedback.position_m = v.at("Position_m");
+          feedback.status_word = static_cast<std::uint16_t>(
+              static_cast<unsigned>(v.at("StatusEnabled")) << 0 | static_cast<unsigned>(v.at("StatusFault")) << 1 |
+              static_cast<unsigned>(v.at("StatusWatchdogExpired")) << 2 |
+              static_cast<unsigned>(v.at("StatusCurrentLimited")) << 3 |
+              static_cast<unsigned>(v.at("StatusEndStop")) << 4 | static_cast<unsigned>(v.at("StatusReserved")) << 5);
+          feedback.alive_counter = static_cast<std::uint8_t>(v.at("AliveCounter"));
+          return clm::can::encode_drive_feedback(dbc_config(), feedback, out);
+        },
+        [](const Frame& frame, Values& v) {
+          clm::can::DriveFeedback feedback;
+          const CodecStatus status = clm::can::decode_drive_feedback(dbc_config(), frame, feedback);
+          v["Position_m"] = feedback.position_m;
+          v["StatusEnabled"] = bit(feedback.status_word, 0);
+          v["StatusFault"] = bit(feedback.status_word, 1);
+          v["StatusWatchdogExpired"] = bit(feedback.status_word, 2);
+          v["StatusCurrentLimited"] = bit(feedback.status_word, 3);
+          v["StatusEndStop"] = bit(feedback.status_word, 4);
+          v["StatusReserved"] = static_cast<double>(feedback.status_word >> 5);
+          v["AliveCounter"] = feedback.alive_counter;
+          return status;
+        }};
+    t["ForceFeedback"] = {[](const Values& v, Frame& out) {
+                            clm::can::ForceFeedback feedback;
+                            feedback.wrench = clm::Wrench(v.at("Fy_N"), v.at("Fx_N"), v.at("Tz_Nm"));
+                            feedback.alive_counter = static_cast<std::uint8_t>(v.at("AliveCounter"));
+                            return clm::can::encode_force_feedback(dbc_config(), feedback, out);
+                          },
+                          [](const Frame& frame, Values& v) {
+                            clm::can::ForceFeedback feedback;
+                            const CodecStatus status = clm::can::decode_force_feedback(dbc_config(), frame, feedback);
+                            v["Fy_N"] = feedback.wrench[0];
+                            v["Fx_N"] = feedback.wrench[1];
+                            v["Tz_Nm"] = feedback.wrench[2];
+                            v["AliveCounter"] = feedback.alive_counter;
+                            return status;
+                          }};
+    const auto setpoint_decoder = [](std::vector<int> coil_sets, bool rpdo1) {
+      return [coil_sets, rpdo1](const Frame& frame, Values& v) {
+        clm::can::SetpointCommand command;
+        const CodecStatus status = clm::can::decode_setpoint_frame(dbc_config(), frame, command);
+        if (rpdo1) {
+          v["ControlEnable"] = command.enable ? 1.0 : 0.0;
+          v["ControlClearFault"] = command.clear_fault ? 1.0 : 0.0;
+          v["ControlReserved"] = 0.0;  // a decoded command cannot carry reserved bits
+          v["AliveCounter"] = command.alive_counter;
+        }
+        for (const int l : coil_sets) {
+          v["Magnitude" + std::to_string(l) + "_N"] = command.setpoints[static_cast<std::size_t>(l - 1)].magnitude_N;
+          v["Delta" + std::to_string(l) + "_rad"] = command.setpoints[static_cast<std::size_t>(l - 1)].delta_rad;
+        }
+        return status;
+      };
+    };
+    t["DriveSetpoint1"] = {[](const Values& v, Frame& out) { return encode_setpoint_frame(v, 0, out); },
+                           setpoint_decoder({1}, true)};
+    t["DriveSetpoint2"] = {[](const Values& v, Frame& out) { return encode_setpoint_frame(v, 1, out); },
+                           setpoint_decoder({2, 3}, false)};
+    t["DriveSetpoint3"] = {[](const Values& v, Frame& out) { return encode_setpoint_frame(v, 2, out); },
+                           setpoint_decoder({4}, false)};
+    return t;
+  }();
+  return table;
+}
+
+}  // namespace
+
+TEST_CASE("the DBC names the three nodes and exactly the six frames of the protocol", "[can][dbc]") {
+  CHECK(dbc().nodes == std::vector<std::string>{"Daemon", "Drive", "ForceSensor"});
+  std::set<std::string> names;
+  for (const auto& message : dbc().messages) names.insert(message.name);
+  CHECK(names == std::set<std::string>{"Sync", "DriveFeedback", "ForceFeedback", "DriveSetpoint1", "DriveSetpoint2",
+                                       "DriveSetpoint3"});
+  CHECK(dbc().messages.size() == 6);
+}
+
+TEST_CASE("every DBC frame has the codec's identifier and DLC and sender for the default node IDs", "[can][dbc]") {
+  const auto config = dbc_config();
+  CHECK(message_named("Sync").id == clm::can::kSyncId);
+  CHECK(message_named("DriveFeedback").id == clm::can::drive_feedback_id(config));
+  CHECK(message_named("ForceFeedback").id == clm::can::force_feedback_id(config));
+  CHECK(message_named("DriveSetpoint1").id == clm::can::setpoint_id(config, 0));
+  CHECK(message_named("DriveSetpoint2").id == clm::can::setpoint_id(config, 1));
+  CHECK(message_named("DriveSetpoint3").id == clm::can::setpoint_id(config, 2));
+  CHECK(message_named("Sync").sender == "Daemon");
+  CHECK(message_named("DriveFeedback").sender == "Drive");
+  CHECK(message_named("ForceFeedback").sender == "ForceSensor");
+  for (const char* name : {"DriveSetpoint1", "DriveSetpoint2", "DriveSetpoint3"}) {
+    CHECK(message_named(name).sender == "Daemon");
+  }
+
+  // The DLC of the frame the codec writes (all-zero values: in range everywhere but SYNC).
+  for (const auto& message : dbc().messages) {
+    INFO(message.name);
+    Values zeros;
+    for (const auto& signal : message.signals) zeros[signal.name] = static_cast<double>(signal.raw_minimum() < 0 ? 0 : signal.raw_minimum()) * signal.scale;
+    Frame frame;
+    REQUIRE(codecs().at(message.name).encode(zeros, frame) == CodecStatus::kOk);
+    CHECK(frame.id == message.id);
+    CHECK(frame.dlc == message.dlc);
+  }
+}
+
+TEST_CASE("every DBC signal is little-endian and covers its frame's bits exactly once and names its unit", "[can][dbc]") {
+  const std::map<std::string, std::string> unit_of_suffix{{"_m", "m"}, {"_N", "N"}, {"_Nm", "Nm"}, {"_rad", "rad"}};
+  for (const auto& message : dbc().messages) {
+    INFO(message.name);
+    std::vector<int> owners(static_cast<std::size_t>(8 * message.dlc), 0);
+    for (const auto& signal : message.signals) {
+      INFO(signal.name);
+      CHECK(signal.little_endian);
+      CHECK(signal.offset == 0.0);
+      for (int b = signal.start_bit; b < signal.start_bit + signal.length_bits; ++b) {
+        REQUIRE(b < 8 * message.dlc);
+        ++owners[static_cast<std::size_t>(b)];
+      }
+      // Rule 1: the unit is in the name, and the DBC's unit string agrees.
+      std::string expected_unit;
+      for (const auto& [suffix, unit] : unit_of_suffix) {
+        if (signal.name.size() > suffix.size() &&
+            signal.name.compare(signal.name.size() - suffix.size(), suffix.size(), suffix) == 0) {
+          expected_unit = unit;
+        }
+      }
+      CHECK(signal.unit == expected_unit);
+      // The range fits the field.
+      const std::int64_t field_min = signal.is_signed ? -(std::int64_t{1} << (signal.length_bits - 1)) : 0;
+      const std::int64_t field_max =
+          signal.is_signed ? (std::int64_t{1} << (signal.length_bits - 1)) - 1 : (std::int64_t{1} << signal.length_bits) - 1;
+      CHECK(signal.raw_minimum() >= field_min);
+      CHECK(signal.raw_maximum() <= field_max);
+      // Physical signals use the whole field (no range narrower than the codec's).
+      if (!signal.unit.empty()) {
+        CHECK(signal.raw_minimum() == field_min);
+        CHECK(signal.raw_maximum() == field_max);
+      }
+      const std::string receiver = message.sender == "Daemon" ? "Drive" : "Daemon";
+      CHECK(std::find(signal.receivers.begin(), signal.receivers.end(), receiver) != signal.receivers.end());
+    }
+    for (std::size_t b = 0; b < owners.size(); ++b) {
+      INFO("bit " << b);
+      CHECK(owners[b] == 1);
+    }
+  }
+}
+
+TEST_CASE("codec and DBC agree bit for bit on random values of every signal", "[can][dbc][property]") {
+  std::mt19937_64 random(20240611);
+  for (const auto& message : dbc().messages) {
+    INFO(message.name);
+    const MessageCodec& codec = codecs().at(message.name);
+    for (int trial = 0; trial < 2000; ++trial) {
+      // Random raw values in each signal's DBC range; the trials start with the range ends.
+      Values values;
+      Frame packed;
+      packed.id = message.id;
+      packed.dlc = static_cast<std::uint8_t>(message.dlc);
+      for (const auto& signal : message.signals) {
+        std::int64_t raw = 0;
+        if (trial == 0) {
+          raw = signal.raw_minimum();
+        } else if (trial == 1) {
+          raw = signal.raw_maximum();
+        } else {
+          raw = std::uniform_int_distribution<std::int64_t>(signal.raw_minimum(), signal.raw_maximum())(random);
+        }
+        clm::test::insert_raw(signal, raw, packed);
+        values[signal.name] = static_cast<double>(raw) * signal.scale + signal.offset;
+      }
+
+      // Decoding the DBC-packed frame gives the DBC's physical values.
+      Values decoded;
+      REQUIRE(codec.decode(packed, decoded) == CodecStatus::kOk);
+      REQUIRE(decoded.size() == message.signals.size());
+      for (const auto& signal : message.signals) {
+        INFO(signal.name << " raw " << clm::test::extract_raw(signal, packed));
+        REQUIRE(decoded.count(signal.name) == 1);
+        CHECK(std::abs(decoded.at(signal.name) - values.at(signal.name)) <= 1e-6 * signal.scale);
+      }
+
+      // Encoding the physical values gives the DBC-packed bytes.
+      Frame encoded;
+      REQUIRE(codec.encode(values, encoded) == CodecStatus::kOk);
+      INFO(clm::can::describe(packed) << " vs " << clm::can::describe(encoded));
+      CHECK(encoded.id == packed.id);
+      CHECK(encoded.dlc == packed.dlc);
+      CHECK(encoded.data == packed.data);
+    }
+  }
+}
+
+TEST_CASE("the codec refuses one LSB beyond each end of every physical DBC signal", "[can][dbc]") {
+  for (const auto& message : dbc().messages) {
+    const MessageCodec& codec = codecs().at(message.name);
+    for (const auto& signal : message.signals) {
+      if (signal.unit.empty()) continue;
+      INFO(message.name << "." << signal.name);
+      Values values;
+      for (const auto& other : message.signals) values[other.name] = 0.0;
+      Frame frame;
+      frame.data.fill(0xA5);
+      const Frame untouched = frame;
+      values[signal.name] = signal.maximum + signal.scale;
+      CHECK(codec.encode(values, frame) == CodecStatus::kOutOfRange);
+      values[signal.name] = signal.minimum - signal.scale;
+      CHECK(codec.encode(values, frame) == CodecStatus::kOutOfRange);
+      CHECK(frame.data == untouched.data);
+      values[signal.name] = signal.maximum;
+      CHECK(codec.encode(values, frame) == CodecStatus::kOk);
+      values[signal.name] = signal.minimum;
+      CHECK(codec.encode(values, frame) == CodecStatus::kOk);
+    }
+  }
+}
