@@ -2,6 +2,7 @@
 // together, experiment mode, and its argument checks.
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <stdexcept>
 
 #include "commutation/classical.hpp"
 #include "commutation/commutator.hpp"
@@ -42,6 +43,7 @@ TEST_CASE("every sample is one snapshot: the wrench and currents follow from its
     REQUIRE(s.r_m == program.sample((k + 1) * kPeriod).position_m);
     REQUIRE(s.y_m == s.true_position_m);  // ideal encoder
     REQUIRE(s.desired == Wrench(s.force_demand_N, 0.0, 0.0));
+    REQUIRE(s.coil_set == 0);
     for (int l = 0; l < 3; ++l) {
       const Eigen::Vector2d expected =
           drive_phase_currents(drive, s.setpoints[static_cast<std::size_t>(l)], s.true_position_m, parameters.pole_pitch_m());
@@ -50,6 +52,7 @@ TEST_CASE("every sample is one snapshot: the wrench and currents follow from its
     const Wrench expected =
         motor.electromagnetics().wrench(s.true_position_m, s.true_velocity_m_per_s, s.currents_A);
     REQUIRE((s.measured - expected).norm() < 1e-12);
+    REQUIRE(Wrench(s.Fy_N(), s.Fx_N(), s.Tz_Nm()) == s.measured);
     max_tracking_error = std::max(max_tracking_error, std::abs(s.r_m - s.y_m));
   }
   // 40 Hz feedback without feedforward keeps the translator within 0.5 mm.
@@ -70,15 +73,19 @@ TEST_CASE("experiment mode drives one coil set alone with magnitude F*_y and a c
                                           LoopCommutation::experiment(l, delta));
       REQUIRE(record.first_fault_sample < 0);
       double sum_squares = 0.0;
+      REQUIRE(record.magnitudes_N(l) == record.force_demands_N());
       for (const auto& s : record.samples) {
+        REQUIRE(s.coil_set == l + 1);  // 1-based, as the CSV column
         for (int m = 0; m < coil_sets; ++m) {
           const auto& setpoint = s.setpoints[static_cast<std::size_t>(m)];
           if (m == l) {
             REQUIRE(setpoint.magnitude_N == s.force_demand_N);
-            REQUIRE(setpoint.delta_rad == delta);
+            REQUIRE(s.magnitude_N(m) == s.force_demand_N);
+            REQUIRE(s.delta_rad(m) == delta);
           } else {
             REQUIRE(setpoint.magnitude_N == 0.0);
-            REQUIRE(s.currents_A.segment<2>(2 * m).isZero(0.0));
+            REQUIRE(s.ia_A(m) == 0.0);
+            REQUIRE(s.ib_A(m) == 0.0);
           }
         }
         sum_squares += (s.r_m - s.y_m) * (s.r_m - s.y_m);
@@ -92,7 +99,7 @@ TEST_CASE("experiment mode drives one coil set alone with magnitude F*_y and a c
 TEST_CASE("the runner refuses a commutation that does not fit the motor", "[sim][loop]") {
   const MotorParameters parameters = fixtures::two_coil_motor();
   SimulatedMotor motor(parameters);
-  const control::MoveProgram program = control::fig8_program_at(0.15);
+  const control::MoveProgram program = fixtures::stroke_program(parameters, 0.15);
   const control::PositionController controller(control::tune_pid(8.0, 30.0), {}, kPeriod);
   const std::vector<ClassicalEstimate> three(3, {50.0, 0.25});
   const ClassicalCommutator law(three, parameters.pole_pitch_m(), parameters.drive.commutation);
@@ -101,4 +108,6 @@ TEST_CASE("the runner refuses a commutation that does not fit the motor", "[sim]
   REQUIRE_THROWS_WITH(run_closed_loop(motor, program, controller, LoopCommutation::experiment(2, 0.0)),
                       Catch::Contains("experiment coil set 2"));
   REQUIRE_THROWS(run_closed_loop(motor, program, controller, LoopCommutation::experiment(-1, 0.0)));
+  const auto record = run_closed_loop(motor, program, controller, LoopCommutation::experiment(1, 0.0));
+  REQUIRE_THROWS_AS(record.magnitudes_N(2), std::out_of_range);
 }

@@ -64,15 +64,16 @@ CommutationFigures measure(SimulatedMotor& motor, const control::MoveProgram& pr
   return figures;
 }
 
-PaperFigures evaluate(const MotorParameters& parameters, const control::MoveProgram& program,
-                      bool with_offset_robust) {
-  SimulatedMotor motor(parameters);
+// Algorithm 1 (and, if asked, its offset-robust variant) on experiment-mode
+// data: each coil set alone, Δ = ∓π/4 (ζ̂_i = ζ̂ + (−1)^i Δ), no feedforward.
+void calibrate(SimulatedMotor& motor, const control::MoveProgram& program, bool with_offset_robust,
+               PaperFigures& figures) {
+  const MotorParameters& parameters = motor.parameters();
   const DriveCommutation drive = parameters.drive.commutation;
   const auto gains = control::tune_pid(parameters.mechanics.translator_mass_kg, kBandwidth_Hz);
   const UniformCubicBasis offset_basis{parameters.stroke_min_m, parameters.stroke_max_m, 48};
-  PaperFigures figures;
   for (int l = 0; l < motor.coil_sets(); ++l) {
-    const double deltas[2] = {-kPi / 4.0, kPi / 4.0};  // ζ̂_i = ζ̂ + (−1)^i Δ
+    const double deltas[2] = {-kPi / 4.0, kPi / 4.0};
     std::array<std::vector<double>, 2> positions, magnitudes, forces;
     for (int i = 0; i < 2; ++i) {
       const auto run = run_closed_loop(motor, program, control::PositionController(gains, {}, kPeriod_s),
@@ -92,6 +93,14 @@ PaperFigures evaluate(const MotorParameters& parameters, const control::MoveProg
       figures.offset_robust.push_back({robust.motor_constant_N_per_A, robust.phase_offset_rad});
     }
   }
+}
+
+PaperFigures evaluate(const MotorParameters& parameters, const control::MoveProgram& program,
+                      bool with_offset_robust) {
+  SimulatedMotor motor(parameters);
+  const DriveCommutation drive = parameters.drive.commutation;
+  PaperFigures figures;
+  calibrate(motor, program, with_offset_robust, figures);
   const std::vector<ClassicalEstimate> original(static_cast<std::size_t>(motor.coil_sets()),
                                                 {drive.motor_constant_N_per_A, drive.phase_offset_rad});
   figures.original = measure(motor, program, ClassicalCommutator(original, parameters.pole_pitch_m(), drive));
@@ -100,14 +109,7 @@ PaperFigures evaluate(const MotorParameters& parameters, const control::MoveProg
   return figures;
 }
 
-void print(const char* name, const CommutationFigures& f) {
-  std::printf("  %-9s filtered (unfiltered) MSE: y %6.2f (%6.2f) N², x %.3f (%.3f) N², z %.3f (%.3f) N²m²; "
-              "tracking %.3g m²\n",
-              name, f.mse.filtered[0], f.mse.unfiltered[0], f.mse.filtered[1], f.mse.unfiltered[1], f.mse.filtered[2],
-              f.mse.unfiltered[2], f.tracking_mse_m2);
-}
-
-void print(const MotorParameters& parameters, const PaperFigures& figures) {
+void print_estimates(const MotorParameters& parameters, const PaperFigures& figures) {
   for (std::size_t l = 0; l < figures.algorithm1.size(); ++l) {
     const auto& truth = parameters.electromagnetics.coil_sets[l];
     std::printf("  coil set %zu: true k %.2f N/A, zeta %.3f rad; Algorithm 1 k %.2f N/A, zeta %.3f rad", l + 1,
@@ -119,6 +121,17 @@ void print(const MotorParameters& parameters, const PaperFigures& figures) {
     }
     std::printf("\n");
   }
+}
+
+void print(const char* name, const CommutationFigures& f) {
+  std::printf("  %-9s filtered (unfiltered) MSE: y %6.2f (%6.2f) N², x %.3f (%.3f) N², z %.3f (%.3f) N²m²; "
+              "tracking %.3g m²\n",
+              name, f.mse.filtered[0], f.mse.unfiltered[0], f.mse.filtered[1], f.mse.unfiltered[1], f.mse.filtered[2],
+              f.mse.unfiltered[2], f.tracking_mse_m2);
+}
+
+void print(const MotorParameters& parameters, const PaperFigures& figures) {
+  print_estimates(parameters, figures);
   print("original", figures.original);
   print("classical", figures.classical);
   print("oracle", figures.oracle);
@@ -150,6 +163,24 @@ TEST_CASE("default motor figures for other truth and noise seeds", "[.][paper_st
     std::printf("truth seed %llu, noise seed %llu:\n", static_cast<unsigned long long>(seed),
                 static_cast<unsigned long long>(100 + seed));
     print(parameters, evaluate(parameters, control::fig8_program(), true));
+  }
+  // What biases Algorithm 1: the default motor with the direction-dependent
+  // force and/or the cogging switched off.
+  for (int variant = 0; variant < 4; ++variant) {
+    MotorParameters parameters = fixtures::default_motor();
+    auto& em = parameters.electromagnetics;
+    if ((variant & 1) != 0) em.direction_dependent_N_N_Nm.setZero();
+    if ((variant & 2) != 0) {
+      em.cogging_periodic.clear();
+      em.cogging_slow_rms_N_N_Nm.setZero();
+      em.cogging_spring_rate_N_N_Nm_per_m.setZero();
+    }
+    std::printf("default motor%s%s:\n", (variant & 1) != 0 ? " without the direction-dependent force" : "",
+                (variant & 2) != 0 ? " without cogging" : "");
+    SimulatedMotor motor(parameters);
+    PaperFigures figures;
+    calibrate(motor, control::fig8_program(), true, figures);
+    print_estimates(parameters, figures);
   }
   const MotorParameters two_coil = fixtures::two_coil_motor();
   std::printf("two-coil motor (config/motor-sim-2coil.yaml), Fig. 8 reference scaled to its stroke:\n");

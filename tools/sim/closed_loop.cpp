@@ -74,6 +74,7 @@ ClosedLoopRecord run_closed_loop(SimulatedMotor& motor, const control::MoveProgr
     sample.force_demand_N = force_demand_N;
     sample.measured = frame.wrench;
     sample.desired = desired;
+    sample.coil_set = commutation.law == nullptr ? commutation.experiment_coil_set + 1 : 0;
     sample.setpoints = setpoints;
     sample.currents_A = truth.currents_A;
     sample.true_position_m = truth.position_m;
@@ -107,9 +108,13 @@ std::vector<double> ClosedLoopRecord::measured_positions_m() const {
 }
 
 std::vector<double> ClosedLoopRecord::magnitudes_N(int coil_set) const {
+  if (coil_set < 0 || coil_set >= coil_sets) {
+    throw std::out_of_range("closed-loop record: coil set " + std::to_string(coil_set) + " outside 0.." +
+                            std::to_string(coil_sets - 1));
+  }
   std::vector<double> result;
   result.reserve(samples.size());
-  for (const auto& sample : samples) result.push_back(sample.setpoints.at(static_cast<std::size_t>(coil_set)).magnitude_N);
+  for (const auto& sample : samples) result.push_back(sample.magnitude_N(coil_set));
   return result;
 }
 

@@ -45,19 +45,33 @@ struct ClosedLoopOptions {
 /// frame at t_s, and the command that was in effect up to t_s (computed at
 /// t_s − T from the previous frame). So y_m, the wrench, the setpoints and
 /// ia_A/ib_A of one sample belong together (Ψ(Γ(y)T(setpoint), y) = wrench up
-/// to noise), and Fy_N − F*_y is the commutation error of that command.
+/// to noise), and Fy_N − F*_y is the commutation error of that command. The
+/// accessors carry the project's CSV column names (t_s, coil_set, delta_rad,
+/// magnitude_N, y_m, Fy_N, Fx_N, Tz_Nm, ia_A, ib_A); coil-set arguments are
+/// 0-based like the rest of the API.
 struct ClosedLoopSample {
-  double t_s = 0.0;             ///< time of the snapshot [s]
+  double t_s = 0.0;             ///< time of the snapshot since the start of the run [s]
   double r_m = 0.0;             ///< reference at t_s [m]
   double y_m = 0.0;             ///< measured position at t_s [m]
   double force_demand_N = 0.0;  ///< F*_y in effect (computed at t_s − T) [N]
   Wrench measured = Wrench::Zero();  ///< measured [Fy_N, Fx_N, Tz_Nm]
   Wrench desired = Wrench::Zero();   ///< desired wrench [F*_y, 0, 0] [N, N, N·m]
+  /// Experiment mode: the driven coil set, 1-based as the CSV column
+  /// coil_set; 0 when a commutation law drives all coil sets.
+  int coil_set = 0;
   std::array<DriveSetpoint, kMaxCoilSets> setpoints{};  ///< magnitude_N, delta_rad per coil set
   CurrentVector currents_A;          ///< true applied [ia_A, ib_A] per coil set [A]
   double true_position_m = 0.0;      ///< [m]
   double true_velocity_m_per_s = 0.0;  ///< [m/s]
   std::uint32_t status_word = 0;     ///< DriveStatus::word at t_s
+
+  double Fy_N() const { return measured.x(); }
+  double Fx_N() const { return measured.y(); }
+  double Tz_Nm() const { return measured.z(); }
+  double magnitude_N(int l) const { return setpoints[static_cast<std::size_t>(l)].magnitude_N; }
+  double delta_rad(int l) const { return setpoints[static_cast<std::size_t>(l)].delta_rad; }
+  double ia_A(int l) const { return currents_A[2 * l]; }
+  double ib_A(int l) const { return currents_A[2 * l + 1]; }
 };
 
 struct ClosedLoopRecord {
@@ -73,7 +87,7 @@ struct ClosedLoopRecord {
   std::vector<Eigen::Vector3d> measured_wrenches() const;
   std::vector<Eigen::Vector3d> desired_wrenches() const;
   std::vector<double> measured_positions_m() const;
-  std::vector<double> magnitudes_N(int coil_set) const;
+  std::vector<double> magnitudes_N(int coil_set) const;  ///< 0-based; throws std::out_of_range
   std::vector<double> driving_forces_N() const;
   std::vector<double> force_demands_N() const;
   std::vector<double> tracking_errors_m() const;  ///< r_m − y_m
