@@ -1,0 +1,142 @@
+#pragma once
+// Samples with a distinct value in every field, and field-by-field checks of
+// the decoded LCM messages against them.
+
+#include <catch2/catch.hpp>
+
+#include "daemon/telemetry/telemetry.hpp"
+
+namespace clm::test {
+
+/// A state whose fields all differ (so a swapped field is caught); `cycle`
+/// shifts every value.
+inline telemetry::ServoStateSample make_state(std::int64_t cycle, int coil_sets = 3) {
+  telemetry::ServoStateSample s;
+  const double k = static_cast<double>(cycle);
+  s.utime = 1'700'000'000'000'000 + cycle * 1000;
+  s.cycle = cycle;
+  s.t_s = 1e-3 * k;
+  s.r_m = 0.01 + 1e-6 * k;
+  s.r_dot_m_per_s = 0.02 + 1e-6 * k;
+  s.r_ddot_m_per_s2 = 0.03 + 1e-6 * k;
+  s.y_m = 0.04 + 1e-6 * k;
+  s.e_m = -0.03 - 1e-6 * k;
+  s.F_star_N = 5.5 + k;
+  s.u_fb_N = 1.25 + k;
+  s.u_ff_N = 4.25 + k;
+  s.Fy_star_N = 6.5 + k;
+  s.Fx_star_N = -7.5 - k;
+  s.Tz_star_Nm = 0.125 + k;
+  s.Fy_N = 6.25 + k;
+  s.Fx_N = -7.25 - k;
+  s.Tz_Nm = 0.375 + k;
+  s.commutation = 5;
+  s.coil_set = static_cast<std::int8_t>(1 + cycle % coil_sets);
+  s.delta_rad = cycle % 2 == 0 ? 0.0 : 1.5707963267948966;
+  s.coil_sets = static_cast<std::int8_t>(coil_sets);
+  for (int l = 0; l < coil_sets; ++l) {
+    s.magnitude_N[l] = 10.0 * (l + 1) + k;
+    s.setpoint_delta_rad[l] = 0.1 * (l + 1) + 1e-3 * k;
+    s.ia_A[l] = 0.5 * (l + 1) + 1e-3 * k;
+    s.ib_A[l] = -0.25 * (l + 1) - 1e-3 * k;
+  }
+  s.damping_engaged = cycle % 3 == 0;
+  s.current_square_sum_A2 = 2.5 + k;
+  return s;
+}
+
+inline void check_state(const telemetry::ServoStateSample& s, const clm_lcm::servo_state_t& m) {
+  CHECK(m.utime == s.utime);
+  CHECK(m.cycle == s.cycle);
+  CHECK(m.t_s == s.t_s);
+  CHECK(m.r_m == s.r_m);
+  CHECK(m.r_dot_m_per_s == s.r_dot_m_per_s);
+  CHECK(m.r_ddot_m_per_s2 == s.r_ddot_m_per_s2);
+  CHECK(m.y_m == s.y_m);
+  CHECK(m.e_m == s.e_m);
+  CHECK(m.F_star_N == s.F_star_N);
+  CHECK(m.u_fb_N == s.u_fb_N);
+  CHECK(m.u_ff_N == s.u_ff_N);
+  CHECK(m.Fy_star_N == s.Fy_star_N);
+  CHECK(m.Fx_star_N == s.Fx_star_N);
+  CHECK(m.Tz_star_Nm == s.Tz_star_Nm);
+  CHECK(m.Fy_N == s.Fy_N);
+  CHECK(m.Fx_N == s.Fx_N);
+  CHECK(m.Tz_Nm == s.Tz_Nm);
+  CHECK(m.commutation == s.commutation);
+  CHECK(m.coil_set == s.coil_set);
+  CHECK(m.delta_rad == s.delta_rad);
+  REQUIRE(m.coil_sets == s.coil_sets);
+  REQUIRE(m.magnitude_N.size() == static_cast<std::size_t>(s.coil_sets));
+  REQUIRE(m.setpoint_delta_rad.size() == static_cast<std::size_t>(s.coil_sets));
+  REQUIRE(m.ia_A.size() == static_cast<std::size_t>(s.coil_sets));
+  REQUIRE(m.ib_A.size() == static_cast<std::size_t>(s.coil_sets));
+  for (std::size_t l = 0; l < static_cast<std::size_t>(s.coil_sets); ++l) {
+    CHECK(m.magnitude_N[l] == s.magnitude_N[l]);
+    CHECK(m.setpoint_delta_rad[l] == s.setpoint_delta_rad[l]);
+    CHECK(m.ia_A[l] == s.ia_A[l]);
+    CHECK(m.ib_A[l] == s.ib_A[l]);
+  }
+  CHECK(static_cast<bool>(m.damping_engaged) == s.damping_engaged);
+  CHECK(m.current_square_sum_A2 == s.current_square_sum_A2);
+}
+
+inline telemetry::ServoStatusSample make_status() {
+  telemetry::ServoStatusSample s;
+  s.utime = 1'700'000'000'123'456;
+  s.state = 2;
+  s.fault = 203;
+  s.fault_reason.assign("following error 1.2 mm above the 1 mm limit");
+  s.fault_cycle = 123456;
+  s.commutation = 2;
+  s.model_file.assign("/var/lib/clm-servo/model.yaml");
+  s.calibration_file.assign("/var/lib/clm-servo/calibration.yaml");
+  s.wakeup_latency_p50_s = 11e-6;
+  s.wakeup_latency_p99_s = 23e-6;
+  s.wakeup_latency_max_s = 47e-6;
+  s.compute_time_p50_s = 13e-6;
+  s.compute_time_p99_s = 29e-6;
+  s.compute_time_max_s = 53e-6;
+  s.overruns = 3;
+  s.cycles = 1000001;
+  s.frames_sent = 3000003;
+  s.frames_received = 2000002;
+  s.frames_missing = 5;
+  s.frames_late = 7;
+  s.frames_rejected = 11;
+  s.bus_state = 1;
+  s.damping_cycles = 13;
+  s.program_running = true;
+  s.program_time_s = 2.75;
+  return s;
+}
+
+inline void check_status(const telemetry::ServoStatusSample& s, const clm_lcm::servo_status_t& m) {
+  CHECK(m.utime == s.utime);
+  CHECK(m.state == s.state);
+  CHECK(m.fault == s.fault);
+  CHECK(m.fault_reason == s.fault_reason.view());
+  CHECK(m.fault_cycle == s.fault_cycle);
+  CHECK(m.commutation == s.commutation);
+  CHECK(m.model_file == s.model_file.view());
+  CHECK(m.calibration_file == s.calibration_file.view());
+  CHECK(m.wakeup_latency_p50_s == s.wakeup_latency_p50_s);
+  CHECK(m.wakeup_latency_p99_s == s.wakeup_latency_p99_s);
+  CHECK(m.wakeup_latency_max_s == s.wakeup_latency_max_s);
+  CHECK(m.compute_time_p50_s == s.compute_time_p50_s);
+  CHECK(m.compute_time_p99_s == s.compute_time_p99_s);
+  CHECK(m.compute_time_max_s == s.compute_time_max_s);
+  CHECK(m.overruns == s.overruns);
+  CHECK(m.cycles == s.cycles);
+  CHECK(m.frames_sent == s.frames_sent);
+  CHECK(m.frames_received == s.frames_received);
+  CHECK(m.frames_missing == s.frames_missing);
+  CHECK(m.frames_late == s.frames_late);
+  CHECK(m.frames_rejected == s.frames_rejected);
+  CHECK(m.bus_state == s.bus_state);
+  CHECK(m.damping_cycles == s.damping_cycles);
+  CHECK(static_cast<bool>(m.program_running) == s.program_running);
+  CHECK(m.program_time_s == s.program_time_s);
+}
+
+}  // namespace clm::test

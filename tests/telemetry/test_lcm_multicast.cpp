@@ -1,0 +1,160 @@
+// A real LCM round trip over UDP multicast on this host (label `lcm`). When
+// multicast does not work here, these tests fail and say so: they never pass
+// without having sent anything.
+#include <catch2/catch.hpp>
+#include <lcm/lcm-cpp.hpp>
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "telemetry/telemetry_samples.hpp"
+
+using namespace clm::telemetry;
+
+namespace {
+
+// A port of its own per test process, so parallel runs and a daemon on the
+// default port 7667 do not hear each other.
+std::string test_url() {
+  return "udpm://239.255.76.67:" + std::to_string(7700 + ::getpid() % 2000) + "?ttl=0";
+}
+
+constexpr const char* kNoMulticast =
+    "LCM over UDP multicast is unavailable on this machine (%s). The test cannot run; it does not pass silently. "
+    "On Linux a loopback route usually fixes it: `sudo ip route add 224.0.0.0/4 dev lo` and `sudo ip link set lo "
+    "multicast on`; or exclude these tests with `ctest -LE lcm`.";
+
+std::string no_multicast(const std::string& what) {
+  char buffer[1024];
+  std::snprintf(buffer, sizeof(buffer), kNoMulticast, what.c_str());
+  return buffer;
+}
+
+/// Collects the messages of one channel.
+template <typename Message>
+class Collector {
+ public:
+  void on_message(const lcm::ReceiveBuffer*, const std::string&, const Message* message) { messages.push_back(*message); }
+  std::vector<Message> messages;
+};
+
+/// Handles `subscriber` until `done()` or `timeout`; true if done.
+template <typename Done>
+bool handle_until(lcm::LCM& subscriber, Done done, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    subscriber.handleTimeout(20);
+  }
+  return true;
+}
+
+}  // namespace
+
+TEST_CASE("A state pushed by the cycle arrives over udpm multicast with every field equal", "[telemetry][lcm]") {
+  const std::string url = test_url();
+  lcm::LCM subscriber(url);
+  if (!subscriber.good()) FAIL(no_multicast("cannot open " + url));
+  Collector<clm_lcm::servo_state_t> states;
+  Collector<clm_lcm::servo_status_t> statuses;
+  subscriber.subscribe(kStateChannel, &Collector<clm_lcm::servo_state_t>::on_message, &states);
+  subscriber.subscribe(kStatusChannel, &Collector<clm_lcm::servo_status_t>::on_message, &statuses);
+
+  TelemetryConfig config;
+  config.lcm_url = url;
+  std::optional<TelemetryPublisher> publisher;
+  try {
+    publisher.emplace(config);
+  } catch (const std::runtime_error& e) {
+    FAIL(no_multicast(e.what()));
+  }
+  publisher->start();
+  const auto sample = clm::test::make_state(4242, 4);
+  const auto status = clm::test::make_status();
+  // Datagrams may be lost; send again until one arrives (at most 5 times).
+  bool received = false;
+  for (int attempt = 0; attempt < 5 && !received; ++attempt) {
+    REQUIRE(publisher->push_state(sample));
+    REQUIRE(publisher->push_status(status));
+    received = handle_until(
+        subscriber, [&] { return !states.messages.empty() && !statuses.messages.empty(); },
+        std::chrono::milliseconds(1000));
+  }
+  publisher->stop();
+  if (!received) {
+    FAIL(no_multicast("published on " + url + " but nothing came back within 5 s; publish failures: " +
+                      std::to_string(publisher->counters().publish_failures)));
+  }
+  clm::test::check_state(sample, states.messages.front());
+  clm::test::check_status(status, statuses.messages.front());
+  CHECK(statuses.messages.front().telemetry_dropped == 0);
+}
+
+TEST_CASE("Commands sent over udpm multicast reach poll_command, and a too-long path is refused with an ack",
+          "[telemetry][lcm]") {
+  const std::string url = test_url();
+  lcm::LCM operator_side(url);
+  if (!operator_side.good()) FAIL(no_multicast("cannot open " + url));
+  Collector<clm_lcm::servo_command_ack_t> acks;
+  operator_side.subscribe(kCommandAckChannel, &Collector<clm_lcm::servo_command_ack_t>::on_message, &acks);
+
+  TelemetryConfig config;
+  config.lcm_url = url;
+  std::optional<TelemetryPublisher> publisher;
+  try {
+    publisher.emplace(config);
+  } catch (const std::runtime_error& e) {
+    FAIL(no_multicast(e.what()));
+  }
+  publisher->start();
+
+  clm_lcm::servo_command_t move{};
+  move.utime = wall_clock_utime();
+  move.sequence = 1001;
+  move.command = clm_lcm::servo_command_t::MOVE_TO;
+  move.target_m = 0.025;
+  move.velocity_m_per_s = 0.2;
+  move.acceleration_m_per_s2 = 5.0;
+  move.jerk_m_per_s3 = 500.0;
+  clm_lcm::servo_command_t load{};
+  load.utime = wall_clock_utime();
+  load.sequence = 1002;
+  load.command = clm_lcm::servo_command_t::LOAD_MODEL;
+  load.path = "/" + std::string(400, 'x');
+
+  // The real-time side polls; resend until the command is taken (datagrams may be lost).
+  ServoCommand command;
+  bool taken = false;
+  for (int attempt = 0; attempt < 5 && !taken; ++attempt) {
+    REQUIRE(operator_side.publish(kCommandChannel, &move) == 0);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+    while (!(taken = publisher->poll_command(command)) && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
+  if (!taken) FAIL(no_multicast("a command published on " + url + " never reached the publisher"));
+  CHECK(command.sequence == 1001);
+  CHECK(command.command == CommandKind::kMoveTo);
+  CHECK(command.target_m == 0.025);
+  CHECK(command.velocity_m_per_s == 0.2);
+  CHECK(command.acceleration_m_per_s2 == 5.0);
+  CHECK(command.jerk_m_per_s3 == 500.0);
+
+  bool refused = false;
+  for (int attempt = 0; attempt < 5 && !refused; ++attempt) {
+    REQUIRE(operator_side.publish(kCommandChannel, &load) == 0);
+    refused = handle_until(
+        operator_side, [&] { return !acks.messages.empty(); }, std::chrono::milliseconds(1000));
+  }
+  publisher->stop();
+  REQUIRE(refused);
+  CHECK(acks.messages.front().sequence == 1002);
+  CHECK_FALSE(acks.messages.front().accepted);
+  CHECK(acks.messages.front().text == "path is 401 characters long, at most 255 fit");
+  while (publisher->poll_command(command)) CHECK(command.sequence == 1001);  // resent duplicates only
+}

@@ -1,0 +1,245 @@
+#include "tools/lcmlog/servo_log.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <initializer_list>
+#include <limits>
+#include <stdexcept>
+
+#include "commutation/types.hpp"
+
+namespace clm::lcmlog {
+namespace {
+
+constexpr const char* kStateChannel = "CLM_SERVO_STATE";
+constexpr std::size_t kEventHeaderBytes = 4 + 8 + 8 + 4 + 4;
+constexpr std::uint64_t kSyncWord = 0xEDA1DA01;
+// lcm's own reader refuses channel names of 1000 bytes or more.
+constexpr std::int32_t kMaxChannelBytes = 1000;
+
+std::uint64_t big_endian(const std::uint8_t* bytes, int count) {
+  std::uint64_t value = 0;
+  for (int i = 0; i < count; ++i) value = (value << 8) | bytes[i];
+  return value;
+}
+
+std::string event_prefix(const std::string& path, std::int64_t event) {
+  return path + ": event " + std::to_string(event) + ": ";
+}
+
+void check_state(const clm_lcm::servo_state_t& state, const std::string& path, std::int64_t event) {
+  const auto fail = [&](const std::string& what) {
+    throw std::runtime_error(event_prefix(path, event) + kStateChannel + ": " + what);
+  };
+  if (state.coil_sets < 0 || state.coil_sets > kMaxCoilSets) {
+    fail("coil_sets " + std::to_string(state.coil_sets) + " outside 0.." + std::to_string(kMaxCoilSets));
+  }
+  if (state.coil_set < 0 || state.coil_set > state.coil_sets) {
+    fail("coil_set " + std::to_string(state.coil_set) + " outside 0.." + std::to_string(state.coil_sets) +
+         " (coil_sets)");
+  }
+}
+
+}  // namespace
+
+std::vector<clm_lcm::servo_state_t> read_servo_states(const std::string& lcm_log_path) {
+  // The log format (lcm/eventlog.c), every integer big-endian:
+  //   sync 0xEDA1DA01 (4), event number (8), timestamp [µs] (8),
+  //   channel length (4), data length (4), channel, data.
+  // Read here rather than through lcm::LogFile, whose reader stops quietly at
+  // damage (blaming the event before it) and prints to stderr.
+  std::ifstream in(lcm_log_path, std::ios::binary);
+  if (!in) throw std::runtime_error(lcm_log_path + ": cannot open: " + std::strerror(errno));
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  if (size < 0) throw std::runtime_error(lcm_log_path + ": cannot read (not a regular file?)");
+  const auto file_bytes = static_cast<std::uint64_t>(size);
+  in.seekg(0, std::ios::beg);
+
+  std::vector<clm_lcm::servo_state_t> states;
+  std::vector<std::uint8_t> data;
+  std::string channel;
+  std::uint64_t offset = 0;
+  for (std::int64_t event = 0; offset < file_bytes; ++event) {
+    const auto fail = [&](const std::string& what) {
+      throw std::runtime_error(event_prefix(lcm_log_path, event) + what);
+    };
+    std::array<std::uint8_t, kEventHeaderBytes> header{};
+    if (file_bytes - offset < kEventHeaderBytes) {
+      fail("truncated: " + std::to_string(file_bytes - offset) + " bytes at byte " + std::to_string(offset) +
+           ", less than an event header");
+    }
+    in.read(reinterpret_cast<char*>(header.data()), kEventHeaderBytes);
+    if (!in) fail("read error at byte " + std::to_string(offset));
+    if (big_endian(header.data(), 4) != kSyncWord) {
+      fail("no LCM sync word at byte " + std::to_string(offset) + " (corrupt log, or not an LCM log)");
+    }
+    const auto channel_length = static_cast<std::int32_t>(big_endian(header.data() + 20, 4));
+    const auto data_length = static_cast<std::int32_t>(big_endian(header.data() + 24, 4));
+    if (channel_length <= 0 || channel_length >= kMaxChannelBytes) {
+      fail("channel length " + std::to_string(channel_length) + " outside 1.." + std::to_string(kMaxChannelBytes - 1) +
+           " (corrupt log)");
+    }
+    if (data_length < 0) fail("negative data length " + std::to_string(data_length) + " (corrupt log)");
+    const std::uint64_t body = static_cast<std::uint64_t>(channel_length) + static_cast<std::uint64_t>(data_length);
+    if (file_bytes - offset - kEventHeaderBytes < body) {
+      fail("truncated: the event at byte " + std::to_string(offset) + " needs " + std::to_string(body) +
+           " bytes after its header, the file has " + std::to_string(file_bytes - offset - kEventHeaderBytes));
+    }
+    channel.resize(static_cast<std::size_t>(channel_length));
+    data.resize(static_cast<std::size_t>(data_length));
+    in.read(channel.data(), channel_length);
+    in.read(reinterpret_cast<char*>(data.data()), data_length);
+    if (!in) fail("read error at byte " + std::to_string(offset));
+    offset += kEventHeaderBytes + body;
+
+    if (channel != kStateChannel) continue;
+    clm_lcm::servo_state_t state;
+    if (state.decode(data.data(), 0, data_length) != data_length) fail(std::string("cannot decode ") + kStateChannel);
+    check_state(state, lcm_log_path, event);
+    states.push_back(std::move(state));
+  }
+  return states;
+}
+
+CsvFormat parse_csv_format(std::string_view name) {
+  if (name == "experiment") return CsvFormat::kExperiment;
+  if (name == "feedforward") return CsvFormat::kFeedforward;
+  if (name == "full") return CsvFormat::kFull;
+  throw std::invalid_argument("unknown CSV format '" + std::string(name) + "' (experiment, feedforward, full)");
+}
+
+namespace {
+
+/// Builds columns row by row: add(name, value) in the same order each row.
+class ColumnBuilder {
+ public:
+  void begin_row() { column_ = 0; }
+  void add(const std::string& name, double value) {
+    if (rows_ == 0) {
+      columns_.names.push_back(name);
+      columns_.values.emplace_back();
+    }
+    columns_.values[column_++].push_back(value);
+  }
+  void end_row() { ++rows_; }
+  CsvColumns finish(std::initializer_list<const char*> names_if_empty) {
+    if (rows_ == 0) {
+      for (const char* name : names_if_empty) {
+        columns_.names.emplace_back(name);
+        columns_.values.emplace_back();
+      }
+    }
+    return std::move(columns_);
+  }
+
+ private:
+  CsvColumns columns_;
+  std::size_t column_ = 0;
+  std::size_t rows_ = 0;
+};
+
+}  // namespace
+
+CsvColumns experiment_columns(std::span<const clm_lcm::servo_state_t> states) {
+  ColumnBuilder out;
+  for (const auto& s : states) {
+    if (s.commutation != clm_lcm::servo_state_t::COMMUTATION_EXPERIMENT || s.coil_set < 1) continue;
+    const auto l = static_cast<std::size_t>(s.coil_set - 1);
+    out.begin_row();
+    out.add("t_s", s.t_s);
+    out.add("coil_set", s.coil_set);
+    out.add("delta_rad", s.delta_rad);
+    out.add("magnitude_N", s.magnitude_N.at(l));
+    out.add("y_m", s.y_m);
+    out.add("Fy_N", s.Fy_N);
+    out.add("Fx_N", s.Fx_N);
+    out.add("Tz_Nm", s.Tz_Nm);
+    out.add("ia_A", s.ia_A.at(l));
+    out.add("ib_A", s.ib_A.at(l));
+    out.end_row();
+  }
+  auto columns = out.finish({});
+  if (columns.rows() == 0) {
+    throw std::invalid_argument("no state in experiment mode (commutation 5 with a coil set) among " +
+                                std::to_string(states.size()) + " CLM_SERVO_STATE messages");
+  }
+  return columns;
+}
+
+CsvColumns feedforward_columns(std::span<const clm_lcm::servo_state_t> states) {
+  ColumnBuilder out;
+  for (const auto& s : states) {
+    out.begin_row();
+    out.add("t_s", s.t_s);
+    out.add("r_m", s.r_m);
+    out.add("F_star_N", s.F_star_N);
+    out.end_row();
+  }
+  return out.finish({"t_s", "r_m", "F_star_N"});
+}
+
+CsvColumns full_columns(std::span<const clm_lcm::servo_state_t> states) {
+  int coil_sets = 0;
+  for (const auto& s : states) coil_sets = std::max(coil_sets, static_cast<int>(s.coil_sets));
+  constexpr double kAbsent = std::numeric_limits<double>::quiet_NaN();
+  ColumnBuilder out;
+  for (const auto& s : states) {
+    out.begin_row();
+    out.add("utime", static_cast<double>(s.utime));
+    out.add("cycle", static_cast<double>(s.cycle));
+    out.add("t_s", s.t_s);
+    out.add("r_m", s.r_m);
+    out.add("r_dot_m_per_s", s.r_dot_m_per_s);
+    out.add("r_ddot_m_per_s2", s.r_ddot_m_per_s2);
+    out.add("y_m", s.y_m);
+    out.add("e_m", s.e_m);
+    out.add("F_star_N", s.F_star_N);
+    out.add("u_fb_N", s.u_fb_N);
+    out.add("u_ff_N", s.u_ff_N);
+    out.add("Fy_star_N", s.Fy_star_N);
+    out.add("Fx_star_N", s.Fx_star_N);
+    out.add("Tz_star_Nm", s.Tz_star_Nm);
+    out.add("Fy_N", s.Fy_N);
+    out.add("Fx_N", s.Fx_N);
+    out.add("Tz_Nm", s.Tz_Nm);
+    out.add("commutation", s.commutation);
+    out.add("coil_set", s.coil_set);
+    out.add("delta_rad", s.delta_rad);
+    out.add("coil_sets", s.coil_sets);
+    for (int l = 0; l < coil_sets; ++l) {
+      const bool present = l < s.coil_sets;
+      const auto i = static_cast<std::size_t>(l);
+      const std::string suffix = "_" + std::to_string(l + 1);
+      out.add("magnitude_N" + suffix, present ? s.magnitude_N[i] : kAbsent);
+      out.add("setpoint_delta_rad" + suffix, present ? s.setpoint_delta_rad[i] : kAbsent);
+      out.add("ia_A" + suffix, present ? s.ia_A[i] : kAbsent);
+      out.add("ib_A" + suffix, present ? s.ib_A[i] : kAbsent);
+    }
+    out.add("damping_engaged", s.damping_engaged ? 1.0 : 0.0);
+    out.add("current_square_sum_A2", s.current_square_sum_A2);
+    out.end_row();
+  }
+  return out.finish({"utime", "cycle", "t_s", "r_m", "r_dot_m_per_s", "r_ddot_m_per_s2", "y_m", "e_m",
+                             "F_star_N", "u_fb_N", "u_ff_N", "Fy_star_N", "Fx_star_N", "Tz_star_Nm", "Fy_N", "Fx_N",
+                             "Tz_Nm", "commutation", "coil_set", "delta_rad", "coil_sets", "damping_engaged",
+                             "current_square_sum_A2"});
+}
+
+CsvColumns to_csv_columns(std::span<const clm_lcm::servo_state_t> states, CsvFormat format) {
+  switch (format) {
+    case CsvFormat::kExperiment:
+      return experiment_columns(states);
+    case CsvFormat::kFeedforward:
+      return feedforward_columns(states);
+    case CsvFormat::kFull:
+      break;
+  }
+  return full_columns(states);
+}
+
+}  // namespace clm::lcmlog

@@ -1,0 +1,59 @@
+#pragma once
+// clm-servod's LCM logs (written by lcm-logger or clm::telemetry::LcmLogWriter)
+// read back and turned into the tools' CSV column sets (docs/data-formats.md,
+// docs/telemetry.md).
+
+#include <cstddef>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "clm_lcm/servo_state_t.hpp"
+
+namespace clm::lcmlog {
+
+/// Every CLM_SERVO_STATE message of the log at `lcm_log_path`, in file order;
+/// other channels are skipped. Throws std::runtime_error with one line naming
+/// the file and the event (0-based, counting every channel, as lcm-logplayer):
+///   "run.lcm: cannot open: No such file or directory"
+///   "run.lcm: event 17: cannot decode CLM_SERVO_STATE"
+///   "run.lcm: event 17: CLM_SERVO_STATE: coil_sets 9 outside 0..8"
+///   "run.lcm: event 17: no LCM sync word at byte 5120 (corrupt log, or not an LCM log)"
+///   "run.lcm: event 17: truncated: the event at byte 5120 needs 415 bytes after its header, the file has 12"
+std::vector<clm_lcm::servo_state_t> read_servo_states(const std::string& lcm_log_path);
+
+/// Named columns of equal length, ready for clm::write_csv_atomically.
+struct CsvColumns {
+  std::vector<std::string> names;
+  std::vector<std::vector<double>> values;  ///< values[column][row]
+  std::size_t rows() const { return values.empty() ? 0 : values.front().size(); }
+};
+
+enum class CsvFormat {
+  kExperiment,   ///< t_s, coil_set, delta_rad, magnitude_N, y_m, Fy_N, Fx_N, Tz_Nm, ia_A, ib_A
+  kFeedforward,  ///< t_s, r_m, F_star_N
+  kFull,         ///< every field; per coil set l: magnitude_N_<l>, setpoint_delta_rad_<l>, ia_A_<l>, ib_A_<l>
+};
+
+/// "experiment", "feedforward", "full" → CsvFormat; std::invalid_argument otherwise.
+CsvFormat parse_csv_format(std::string_view name);
+
+/// Experiment data for `clm calibrate` / `clm identify`: one row per state in
+/// experiment mode (commutation 5) with a coil set; magnitude_N, ia_A, ib_A
+/// are those of the driven coil set, delta_rad the experiment's offset. ia_A,
+/// ib_A are the commanded currents. Throws std::invalid_argument when no
+/// state is in experiment mode.
+CsvColumns experiment_columns(std::span<const clm_lcm::servo_state_t> states);
+
+/// Feedforward identification data for `clm ff-identify`: every state.
+CsvColumns feedforward_columns(std::span<const clm_lcm::servo_state_t> states);
+
+/// Every field of every state. utime is exact (< 2^53 µs); booleans are 0/1;
+/// coil-set columns run to the largest coil_sets in the log, NaN where a
+/// state has fewer coil sets.
+CsvColumns full_columns(std::span<const clm_lcm::servo_state_t> states);
+
+CsvColumns to_csv_columns(std::span<const clm_lcm::servo_state_t> states, CsvFormat format);
+
+}  // namespace clm::lcmlog
