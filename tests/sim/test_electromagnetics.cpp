@@ -189,6 +189,34 @@ TEST_CASE("smooth random track functions have the configured RMS and correlation
   REQUIRE(std::abs(lagged_product / count / mean_square) < 0.1);
 }
 
+TEST_CASE("smooth random functions are cubic B-splines as clm::UniformCubicBasis evaluates them",
+          "[sim][electromagnetics]") {
+  const SmoothRandomFunction scalar({0.05, 0.013, 0.2}, -0.1, 0.14, 17);
+  const SmoothRandomFunction triple(Wrench(1.0, 0.0, 0.3), 0.02, -0.1, 0.14, 18);
+  for (const auto* function : {&scalar, &triple}) {
+    const UniformCubicBasis& basis = function->basis();
+    REQUIRE(basis.spacing_m() <= (function == &scalar ? 0.013 : 0.02));
+    REQUIRE(basis.start_m <= -0.1);
+    REQUIRE(basis.end_m >= 0.14);
+  }
+  const double centre = 0.5 * (-0.1 + 0.14);
+  for (double u = -0.2; u <= 0.25; u += 0.00037) {
+    const auto span = scalar.basis().evaluate(u);
+    double expected = 0.2 * (u - centre);
+    for (int k = 0; k < 4; ++k) expected += span.value[k] * scalar.coefficient(0, span.first + k);
+    REQUIRE(scalar(u) == Approx(expected).margin(1e-13));
+    REQUIRE(scalar.wrench(u) == Wrench(scalar(u), 0.0, 0.0));
+    const auto triple_span = triple.basis().evaluate(u);
+    Wrench expected_triple = Wrench::Zero();
+    for (int k = 0; k < 4; ++k) {
+      for (int c = 0; c < 3; ++c) expected_triple[c] += triple_span.value[k] * triple.coefficient(c, triple_span.first + k);
+    }
+    REQUIRE((triple.wrench(u) - expected_triple).cwiseAbs().maxCoeff() < 1e-13);
+    REQUIRE(triple.wrench(u).y() == 0.0);  // zero RMS: zero coefficients
+  }
+  REQUIRE(SmoothRandomFunction()(0.1) == 0.0);
+}
+
 TEST_CASE("cogging: periodic part over the pole pitch, slow part, cable spring", "[sim][electromagnetics]") {
   MotorParameters motor = fixtures::ideal_motor(3);
   auto& em = motor.electromagnetics;

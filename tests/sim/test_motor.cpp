@@ -240,6 +240,7 @@ TEST_CASE("invalid setpoints are rejected and latch a fault", "[sim][motor][driv
   REQUIRE(motor.truth().currents_A.isZero(0.0));
   REQUIRE(motor.step(0.0) == StepResult::kInvalidPeriod);
   REQUIRE(motor.step(std::nan("")) == StepResult::kInvalidPeriod);
+  REQUIRE(motor.step(1e9) == StepResult::kInvalidPeriod);
   REQUIRE(motor.truth().time_s == 0.0);
 }
 

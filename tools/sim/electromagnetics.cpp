@@ -90,15 +90,12 @@ double SmoothRandomFunction::operator()(double track_position_m) const noexcept 
 }
 
 Wrench SmoothRandomFunction::wrench(double track_position_m) const noexcept {
+  if (components_ < 3) return Wrench((*this)(track_position_m), 0.0, 0.0);
   Wrench result = Wrench::Constant(slope_per_m_ * (track_position_m - centre_m_));
-  if (components_ > 0) {
-    double value[4];
-    const int first = span(track_position_m, value);
-    for (int k = 0; k < 4; ++k) {
-      for (int c = 0; c < components_; ++c) {
-        result[c] += value[k] * coefficients_[static_cast<std::size_t>((first + k) * components_ + c)];
-      }
-    }
+  double value[4];
+  const int first = span(track_position_m, value);
+  for (int k = 0; k < 4; ++k) {
+    for (int c = 0; c < 3; ++c) result[c] += value[k] * coefficients_[static_cast<std::size_t>((first + k) * 3 + c)];
   }
   return result;
 }

@@ -40,7 +40,8 @@ class SmoothRandomFunction {
 
   /// Value of the first component.
   double operator()(double track_position_m) const noexcept;
-  /// All three components (the wrench form).
+  /// All three components (the wrench form); a one-component function fills
+  /// the first only.
   Wrench wrench(double track_position_m) const noexcept;
 
   const UniformCubicBasis& basis() const noexcept { return basis_; }

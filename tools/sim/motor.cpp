@@ -10,6 +10,9 @@ namespace clm::sim {
 namespace {
 
 constexpr int kMinSubsteps = 10;
+// One step() may integrate at most this many substeps (about 500 s of motor
+// time at the default 50 µs); longer periods are refused.
+constexpr double kMaxSubsteps = 1e7;
 // The watchdog trips at the first substep boundary at or after the deadline;
 // the tolerance absorbs the rounding of the accumulated time.
 constexpr double kWatchdogTolerance_s = 1e-9;
@@ -113,13 +116,15 @@ double SimulatedMotor::friction_N(double velocity_m_per_s) const noexcept {
 int SimulatedMotor::substeps(double period_s) const noexcept {
   // The small tolerance keeps 1e-3/5e-5 = 20.000000000000004 at 20 substeps.
   const double ratio = std::ceil(period_s / parameters_.mechanics.integration_step_s - 1e-9);
+  if (!(ratio <= kMaxSubsteps)) return -1;  // also NaN
   return std::max(kMinSubsteps, static_cast<int>(ratio));
 }
 
 StepResult SimulatedMotor::step(double period_s) noexcept {
   if (!std::isfinite(period_s) || !(period_s > 0.0)) return StepResult::kInvalidPeriod;
-  const auto& mechanics = parameters_.mechanics;
   const int count = substeps(period_s);
+  if (count < 0) return StepResult::kInvalidPeriod;
+  const auto& mechanics = parameters_.mechanics;
   const double h = period_s / count;
   const double inverse_mass = 1.0 / mechanics.translator_mass_kg;
   const double deadline_s = parameters_.drive.watchdog_timeout_s - kWatchdogTolerance_s;

@@ -56,7 +56,7 @@ enum class CommandResult {
 
 enum class StepResult {
   kOk,
-  kInvalidPeriod,  ///< period_s not finite or ≤ 0: nothing happened
+  kInvalidPeriod,  ///< period_s not finite, ≤ 0, or over 10^7 substeps: nothing happened
 };
 
 /// One sample of the sensors, taken by sense().
@@ -94,8 +94,10 @@ class SimulatedMotor {
   /// starts at rest at the centre of the stroke with the drive disabled.
   explicit SimulatedMotor(const MotorParameters& parameters);
 
-  /// A fresh setpoint per coil set (feeds the watchdog). enable = false stops
-  /// the current. Rejected commands latch kStatusInvalidSetpoint and a fault.
+  /// A fresh setpoint per coil set (feeds the watchdog); the drive applies it
+  /// at once. enable = false stops the current. Rejected commands latch
+  /// kStatusInvalidSetpoint and a fault. While a fault is latched, accepted
+  /// commands drive no current (see clear_fault()).
   CommandResult command(std::span<const DriveSetpoint> setpoints, bool enable) noexcept;
 
   /// Advances the simulation by `period_s` in n = max(10, ⌈period_s/h⌉) equal
@@ -131,7 +133,7 @@ class SimulatedMotor {
   const MotorParameters& parameters() const noexcept { return parameters_; }
   int coil_sets() const noexcept { return truth_.coil_sets(); }
 
-  /// Number of substeps step(period_s) uses.
+  /// Number of substeps step(period_s) uses, −1 if it would exceed 10^7.
   int substeps(double period_s) const noexcept;
 
  private:

@@ -26,7 +26,7 @@ class ParameterError : public std::invalid_argument {
 /// A smooth random function of track position u: a uniform cubic B-spline
 /// with knot spacing `correlation_length_m` and independent normal
 /// coefficients scaled so that its expected RMS is `rms`, plus a linear trend
-/// `slope_per_m`·(u − track centre). Its unit is that of the quantity it
+/// `slope_per_m`·(u − centre of the travel). Its unit is that of the quantity it
 /// varies (named where it is used).
 struct SmoothVariation {
   double rms = 0.0;                    ///< expected RMS of the random part [unit]
