@@ -292,7 +292,7 @@ TEST_CASE("the wrench is linear in the currents plus cogging and the direction-d
   }
 }
 
-TEST_CASE("each parasitic draws from its own stream; the seed decides everything", "[sim][electromagnetics]") {
+TEST_CASE("each parasitic draws from its own stream and the seed decides everything", "[sim][electromagnetics]") {
   MotorParameters motor = fixtures::default_motor();
   const ElectromagneticTruth reference = make_truth(motor.electromagnetics);
   const ElectromagneticTruth again = make_truth(motor.electromagnetics);

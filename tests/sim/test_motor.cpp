@@ -324,7 +324,7 @@ TEST_CASE("sensors: encoder quantisation, force noise and bias with the configur
   }
 }
 
-TEST_CASE("the same seed and inputs give bit-identical runs; the noise seed changes only the measurements",
+TEST_CASE("the same seed and inputs give bit-identical runs, the noise seed changes only the measurements",
           "[sim][motor][determinism]") {
   MotorParameters parameters = fixtures::default_motor();
   MotorParameters other_noise = parameters;
