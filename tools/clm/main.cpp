@@ -8,6 +8,7 @@
 
 #include "clm_version.hpp"
 #include "tools/clm/commands.hpp"
+#include "tools/lcmlog/cmd_log2csv.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"clm: commissioning and commutation tools for coreless linear motors"};
@@ -17,6 +18,8 @@ int main(int argc, char** argv) {
   clm::cli::add_identify(app);
   clm::cli::add_ff_identify(app);
   clm::cli::add_commutate(app);
+  clm::cli::add_commission(app);
+  clm::cli::add_log2csv(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,85 @@
+// clm commission: calibrate, identify and evaluate every commutation on the
+// embedded simulated motor, and write the report.
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+
+#include "tools/clm/commands.hpp"
+#include "tools/commission/commission.hpp"
+
+namespace clm::cli {
+
+namespace {
+
+// Plots by Debian's python3-matplotlib; the report says when they are missing.
+bool make_plots(const std::string& out_dir) {
+  const std::string script = std::string(CLM_SOURCE_DIR) + "/tools/commission/plot_report.py";
+  // Debian's interpreter, which has python3-matplotlib; another python3 may come first on PATH.
+  const std::string python = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+  const std::string command = python + " '" + script + "' '" + out_dir + "'";
+  return std::system(command.c_str()) == 0;
+}
+
+std::string cell(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%9.3g", value);
+  return buffer;
+}
+
+}  // namespace
+
+void add_commission(CLI::App& app) {
+  auto* sub = app.add_subcommand("commission",
+                                 "calibrate, identify and evaluate all commutations on the embedded simulated motor");
+  struct Options {
+    commission::Options run;
+    bool plots = true;
+  };
+  auto options = std::make_shared<Options>();
+  options->run.config_path = std::string(CLM_SOURCE_DIR) + "/config/servod.yaml";
+  sub->add_option("--config", options->run.config_path, "daemon configuration (YAML)")->check(CLI::ExistingFile)->capture_default_str();
+  sub->add_option("--out", options->run.out_dir, "output directory")->required();
+  sub->add_option("--program", options->run.program_path, "reference program (default: programs/fig8.yaml beside the config)")
+      ->check(CLI::ExistingFile);
+  sub->add_option("--restarts", options->run.identify.pgnn.restarts, "PGNN restarts")->check(CLI::Range(1, 1000))->capture_default_str();
+  sub->add_option("--seed", options->run.identify.pgnn.seed, "seed of the PGNN restarts")->capture_default_str();
+  sub->add_flag("!--no-plots", options->plots, "skip the PNG plots");
+  sub->callback([options] {
+    ProgressBar bar("commission");
+    std::string current;
+    const auto report = commission::run(options->run, [&](const commission::Progress& p) {
+      if (p.step != current) {
+        if (!current.empty()) bar.finish();
+        bar = ProgressBar(p.step);
+        current = p.step;
+      }
+      bar.update(p.fraction, p.detail);
+    });
+    bar.finish();
+    const bool plotted = options->plots && make_plots(options->run.out_dir);
+    std::printf("\ncommutation  MSE y [N^2]  MSE x [N^2]  MSE z [N^2m^2]  (filtered)  tracking [m^2]\n");
+    for (const auto& r : report.results) {
+      if (!r.evaluated) {
+        std::printf("%-11s  not evaluated: %s\n", r.name.c_str(), r.skipped_reason.c_str());
+        continue;
+      }
+      std::printf("%-11s  %s    %s    %s                   %s\n", r.name.c_str(), cell(r.mse.filtered[0]).c_str(),
+                  cell(r.mse.filtered[1]).c_str(), cell(r.mse.filtered[2]).c_str(), cell(r.tracking_mse_m2).c_str());
+    }
+    const commission::CommutationResult* classical = nullptr;
+    const commission::CommutationResult* pgnn = nullptr;
+    for (const auto& r : report.results) {
+      if (r.name == "classical" && r.evaluated) classical = &r;
+      if (r.name == "pgnn" && r.evaluated) pgnn = &r;
+    }
+    if (classical && pgnn) {
+      std::printf("\nPGNN vs calibrated classical: commutation MSE y %.1fx lower, tracking MSE %.1fx lower "
+                  "(paper: 11.2x and 4.6x)\n",
+                  classical->mse.filtered[0] / pgnn->mse.filtered[0], classical->tracking_mse_m2 / pgnn->tracking_mse_m2);
+    }
+    std::printf("report: %s/report.md, %s/report.json%s; total %.1f s\n", options->run.out_dir.c_str(),
+                options->run.out_dir.c_str(), plotted ? ", plots" : " (no plots)", report.total_wall_s);
+  });
+}
+
+}  // namespace clm::cli

@@ -1,0 +1,289 @@
+#include "tools/commission/commission.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+
+#include "config/atomic_file.hpp"
+#include "tools/data/csv_table.hpp"
+#include "tools/data/feedforward_file.hpp"
+#include "tools/data/sha256.hpp"
+#include "tools/sim/motor.hpp"
+
+namespace clm::commission {
+namespace {
+
+using Kind = servod::DaemonCommand::Kind;
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+servod::DaemonCommand make(Kind kind) {
+  servod::DaemonCommand command;
+  command.kind = kind;
+  return command;
+}
+
+// Experiment rows of the recordings, in the tools' CSV format.
+void write_experiment_csv(const std::string& path, const std::vector<Recording>& runs) {
+  const std::vector<std::string> names = {"t_s", "coil_set", "delta_rad", "magnitude_N", "y_m", "Fy_N", "Fx_N", "Tz_Nm"};
+  std::vector<std::vector<double>> columns(names.size());
+  double offset_s = 0.0;
+  for (const auto& run : runs) {
+    for (const auto& s : run.samples) {
+      const auto l = static_cast<std::size_t>(s.coil_set - 1);
+      const double row[] = {offset_s + s.t_s, static_cast<double>(s.coil_set), s.delta_rad, s.setpoints[l].magnitude_N,
+                            s.y_m, s.measured.x(), s.measured.y(), s.measured.z()};
+      for (std::size_t c = 0; c < names.size(); ++c) columns[c].push_back(row[c]);
+    }
+    if (!run.samples.empty()) offset_s += run.samples.back().t_s + 1.0;
+  }
+  write_csv_atomically(path, names, columns);
+}
+
+void write_feedforward_csv(const std::string& path, const Recording& run) {
+  const std::vector<std::string> names = {"t_s", "r_m", "F_star_N"};
+  std::vector<std::vector<double>> columns(3);
+  for (const auto& s : run.samples) {
+    columns[0].push_back(s.t_s);
+    columns[1].push_back(s.r_m);
+    columns[2].push_back(s.F_star_N);
+  }
+  write_csv_atomically(path, names, columns);
+}
+
+void write_evaluation_csv(const std::string& path, const Recording& run, const control::MoveProgram& program) {
+  const std::vector<std::string> names = {"t_s", "step", "r_m", "y_m", "e_m", "F_star_N", "u_ff_N", "Fy_star_N",
+                                          "Fy_N", "Fx_N", "Tz_Nm", "current_square_sum_A2"};
+  std::vector<std::vector<double>> columns(names.size());
+  std::size_t step = 0;
+  for (const auto& s : run.samples) {
+    while (step + 1 < program.steps().size() && s.t_s >= program.step_start_s(step + 1)) ++step;
+    const double row[] = {s.t_s, static_cast<double>(step), s.r_m, s.y_m, s.r_m - s.y_m, s.F_star_N, s.u_ff_N,
+                          s.desired.x(), s.measured.x(), s.measured.y(), s.measured.z(), s.current_square_sum_A2};
+    for (std::size_t c = 0; c < names.size(); ++c) columns[c].push_back(row[c]);
+  }
+  write_csv_atomically(path, names, columns);
+}
+
+control::FeedforwardParameters identify_ff(const Recording& run) {
+  std::vector<control::ReferenceSample> reference;
+  std::vector<double> force;
+  reference.reserve(run.samples.size());
+  for (const auto& s : run.samples) {
+    reference.push_back({s.r_m, s.r_dot_m_per_s, s.r_ddot_m_per_s2, 0.0});
+    force.push_back(s.F_star_N);
+  }
+  return control::identify_feedforward(reference, force);
+}
+
+CommutationResult evaluate(const Recording& run, double period_s) {
+  CommutationResult result;
+  std::vector<Eigen::Vector3d> measured, desired;
+  double tracking = 0.0, current = 0.0;
+  for (const auto& s : run.samples) {
+    measured.push_back(s.measured);
+    desired.push_back(s.desired);
+    tracking += (s.r_m - s.y_m) * (s.r_m - s.y_m);
+    current += s.current_square_sum_A2;
+  }
+  const double n = static_cast<double>(run.samples.size());
+  result.mse = control::commutation_error_mse(measured, desired, period_s);
+  result.tracking_mse_m2 = tracking / n;
+  result.mean_current_square_A2 = current / n;
+  result.damping_cycles = run.damping_cycles;
+  result.force_limited_cycles = run.force_limited_cycles;
+  result.evaluated = true;
+  return result;
+}
+
+// Identified against true cogging and gains on a position grid (Fig. 9).
+void write_truth_comparison(const std::string& directory, const sim::SimulatedMotor& motor, const ModelFile& pgnn,
+                            const ModelFile& spline, const MotorDescription& description) {
+  std::vector<std::string> names = {"y_m"};
+  for (const char* who : {"true", "pgnn", "spline"}) {
+    for (const char* axis : {"Fy_N", "Fx_N", "Tz_Nm"}) names.push_back(std::string("cogging_") + who + "_" + axis);
+  }
+  for (int l = 1; l <= description.coil_sets; ++l) {
+    for (const char* who : {"true", "pgnn", "spline"}) {
+      for (const char* entry : {"Kya", "Kyb", "Kxa", "Kxb", "Kza", "Kzb"}) {
+        names.push_back(std::string(entry) + "_" + who + "_" + std::to_string(l));
+      }
+    }
+  }
+  std::vector<std::vector<double>> columns(names.size());
+  const ModelFile* models[2] = {&pgnn, &spline};
+  for (double y = description.stroke_min_m; y <= description.stroke_max_m + 1e-12; y += 2.5e-4) {
+    std::size_t c = 0;
+    columns[c++].push_back(y);
+    const Wrench truth = motor.true_cogging(y);
+    for (int k = 0; k < 3; ++k) columns[c++].push_back(truth[k]);
+    for (const ModelFile* model : models) {
+      StackedGain gain;
+      Wrench cogging;
+      model->model.evaluate(y, gain, cogging);
+      for (int k = 0; k < 3; ++k) columns[c++].push_back(cogging[k]);
+    }
+    for (int l = 0; l < description.coil_sets; ++l) {
+      const CoilGain true_gain = motor.true_gain(l, y);
+      for (int k = 0; k < 6; ++k) columns[c++].push_back(true_gain(k / 2, k % 2));
+      for (const ModelFile* model : models) {
+        CoilGain gain;
+        Wrench cogging;
+        model->model.evaluate_coil_set(l, y, gain, cogging);
+        for (int k = 0; k < 6; ++k) columns[c++].push_back(gain(k / 2, k % 2));
+      }
+    }
+  }
+  write_csv_atomically(directory + "/truth-comparison.csv", names, columns);
+}
+
+}  // namespace
+
+Report run(const Options& options, const std::function<void(const Progress&)>& progress) {
+  const auto start = Clock::now();
+  const auto tell = [&](const std::string& step, double fraction, const std::string& detail) {
+    if (progress) progress({step, fraction, detail});
+  };
+  Report report;
+  report.config_path = options.config_path;
+  std::filesystem::create_directories(options.out_dir);
+  const std::string dir = options.out_dir;
+  const auto written = [&](const std::string& name) { report.files.push_back(name); return dir + "/" + name; };
+
+  servod::ServodConfig config = servod::load_servod_config(options.config_path);
+  if (config.can.interface != "sim") {
+    throw std::runtime_error(options.config_path + ": can.interface: commissioning runs against the embedded "
+                             "simulated motor (interface sim); use --live for a running daemon");
+  }
+  config.loop.clock = servod::ClockMode::kVirtual;
+  config.telemetry.enabled = false;
+  config.commutation.mode = servo::CommutationMode::kOriginal;
+  config.servo.feedforward = {};
+  const MotorDescription motor = config.motor;
+  report.coil_sets = motor.coil_sets;
+  const servod::ProgramFile program =
+      servod::load_program_file(options.program_path.empty() ? std::filesystem::path(options.config_path).parent_path().string() + "/programs/fig8.yaml"
+                                                             : options.program_path);
+  const control::MoveProgram timeline(program.start_m, program.steps);
+
+  servod::ServoDaemon daemon(config);
+  daemon.run_cycles(20);
+  execute(daemon, make(Kind::kEnable));
+
+  // 1. Experiments of Algorithms 1 and 2.
+  auto step_start = Clock::now();
+  std::vector<Recording> experiments;
+  const int runs = 2 * motor.coil_sets;
+  for (int l = 1; l <= motor.coil_sets; ++l) {
+    for (double delta : {-kPi / 4, kPi / 4}) {
+      tell("experiments", static_cast<double>(experiments.size()) / runs,
+           "coil set " + std::to_string(l) + ", delta " + (delta < 0 ? "-pi/4" : "+pi/4"));
+      auto command = make(Kind::kSetExperiment);
+      command.coil_set = l;
+      command.delta_rad = delta;
+      execute(daemon, command);
+      experiments.push_back(run_program(daemon, program, "experiment coil set " + std::to_string(l)));
+    }
+  }
+  tell("experiments", 1.0, "done");
+  const std::string experiment_csv = written("experiments.csv");
+  write_experiment_csv(experiment_csv, experiments);
+  report.steps.push_back({"experiments", seconds_since(step_start)});
+
+  // 2. Calibration and identification, through the same code as the offline tools.
+  step_start = Clock::now();
+  const ExperimentData data = read_experiment_data(CsvTable::load(experiment_csv), motor);
+  const std::string data_hash = sha256_file(experiment_csv);
+  report.calibration_paper = calibrate_motor(data, motor, CalibrationMethod::kAlgorithm1);
+  report.calibration_robust = calibrate_motor(data, motor, CalibrationMethod::kOffsetRobust);
+  for (CalibrationFile* file : {&report.calibration_paper, &report.calibration_robust}) {
+    file->data_sha256 = data_hash;
+    file->generator = "clm commission";
+  }
+  write_file_atomically(written("calibration.yaml"), format_calibration_file(report.calibration_paper));
+  write_file_atomically(written("calibration-robust.yaml"), format_calibration_file(report.calibration_robust));
+  report.steps.push_back({"calibration", seconds_since(step_start)});
+
+  ModelFile models[2];
+  for (int k = 0; k < 2; ++k) {
+    step_start = Clock::now();
+    IdentifyOptions identify = options.identify;
+    identify.kind = k == 0 ? ModelKind::kPgnn : ModelKind::kSpline;
+    const std::string label = k == 0 ? "identify pgnn" : "identify spline";
+    auto& reports = k == 0 ? report.pgnn : report.spline;
+    models[k] = identify_motor(data, motor, identify, reports, [&](const IdentifyProgress& p) {
+      tell(label, (p.coil_set - 1 + static_cast<double>(p.step) / p.steps) / p.coil_sets,
+           "coil set " + std::to_string(p.coil_set));
+    });
+    models[k].provenance.data_sha256 = data_hash;
+    models[k].provenance.generator = "clm commission";
+    write_file_atomically(written(k == 0 ? "model-pgnn.yaml" : "model-spline.yaml"), format_model_file(models[k]));
+    report.steps.push_back({label, seconds_since(step_start)});
+  }
+  if (const sim::SimulatedMotor* simulated = daemon.simulated_motor()) {
+    write_truth_comparison(dir, *simulated, models[0], models[1], motor);
+    report.files.push_back("truth-comparison.csv");
+  }
+
+  // 3. Load the results into the daemon.
+  auto load = make(Kind::kLoadCalibration);
+  load.path = dir + "/calibration.yaml";
+  execute(daemon, load);
+  for (auto [mode, file] : {std::pair{servo::CommutationMode::kPgnn, "model-pgnn.yaml"},
+                            std::pair{servo::CommutationMode::kSpline, "model-spline.yaml"}}) {
+    auto command = make(Kind::kLoadModel);
+    command.mode = mode;
+    command.path = dir + "/" + file;
+    execute(daemon, command);
+  }
+
+  // 4. Per commutation: feedforward identification, then evaluation.
+  const std::pair<const char*, servo::CommutationMode> commutations[] = {
+      {"original", servo::CommutationMode::kOriginal}, {"classical", servo::CommutationMode::kClassical},
+      {"pgnn", servo::CommutationMode::kPgnn},         {"spline", servo::CommutationMode::kSpline},
+      {"oracle", servo::CommutationMode::kOracle}};
+  int index = 0;
+  for (const auto& [name, mode] : commutations) {
+    step_start = Clock::now();
+    tell("evaluation", index / 5.0, name);
+    ++index;
+    if (mode == servo::CommutationMode::kOracle && daemon.simulated_motor() == nullptr) {
+      report.results.push_back({name, false, "no simulator", {}, {}, 0, 0, 0, 0});
+      continue;
+    }
+    auto set = make(Kind::kSetCommutation);
+    set.mode = mode;
+    execute(daemon, set);
+    daemon.run_cycles(5);
+    auto ff = make(Kind::kSetFeedforward);
+    ff.feedforward = {};
+    execute(daemon, ff);
+    const Recording identification_run = run_program(daemon, program, std::string(name) + " feedforward data");
+    write_feedforward_csv(written(std::string("feedforward-data-") + name + ".csv"), identification_run);
+    FeedforwardFile ff_file;
+    ff_file.parameters = identify_ff(identification_run);
+    ff_file.generator = "clm commission";
+    write_file_atomically(written(std::string("feedforward-") + name + ".yaml"), format_feedforward_file(ff_file));
+    ff.feedforward = ff_file.parameters;
+    execute(daemon, ff);
+    const Recording evaluation = run_program(daemon, program, std::string(name) + " evaluation");
+    write_evaluation_csv(written(std::string("evaluation-") + name + ".csv"), evaluation, timeline);
+    CommutationResult result = evaluate(evaluation, config.servo.period_s);
+    result.name = name;
+    result.feedforward = ff_file.parameters;
+    report.results.push_back(result);
+    report.steps.push_back({std::string("evaluation ") + name, seconds_since(step_start)});
+  }
+  tell("evaluation", 1.0, "done");
+  report.total_wall_s = seconds_since(start);
+  write_file_atomically(written("report.json"), report_json(report));
+  write_file_atomically(written("report.md"), report_markdown(report));
+  return report;
+}
+
+}  // namespace clm::commission

@@ -1,0 +1,74 @@
+#pragma once
+// `clm commission`: calibrate and identify a motor and evaluate every
+// commutation on the paper's Fig. 8 reference, as in the paper's Sec. 5:
+//  1. Algorithm 1/2 experiments: each coil set alone, Δ = ±π/4, no feedforward;
+//  2. calibration (paper and offset-robust), PGNN and spline identification;
+//  3. per commutation: feedforward identification, then the evaluation run;
+//  4. report.json, report.md, CSV data for the plots.
+
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "daemon/control/metrics.hpp"
+#include "tools/commission/runs.hpp"
+#include "tools/data/commissioning_steps.hpp"
+
+namespace clm::commission {
+
+struct Options {
+  std::string config_path;
+  std::string out_dir;
+  IdentifyOptions identify;
+  /// Experiment reference (the paper's Fig. 8 unless replaced).
+  std::string program_path;
+};
+
+struct CommutationResult {
+  std::string name;
+  bool evaluated = false;
+  std::string skipped_reason;
+  control::FeedforwardParameters feedforward{};
+  control::DirectionMse mse{};
+  double tracking_mse_m2 = 0.0;
+  double mean_current_square_A2 = 0.0;
+  std::int64_t damping_cycles = 0;
+  std::int64_t force_limited_cycles = 0;
+};
+
+struct StepTime {
+  std::string step;
+  double wall_s = 0.0;
+};
+
+struct Report {
+  std::string config_path;
+  int coil_sets = 0;
+  CalibrationFile calibration_paper;
+  CalibrationFile calibration_robust;
+  std::vector<CoilSetIdentification> pgnn;
+  std::vector<CoilSetIdentification> spline;
+  std::vector<CommutationResult> results;  ///< original, classical, pgnn, spline, oracle
+  std::vector<StepTime> steps;
+  double total_wall_s = 0.0;
+  std::vector<std::string> files;          ///< written, relative to the output directory
+};
+
+struct Progress {
+  std::string step;
+  double fraction = 0.0;
+  std::string detail;
+};
+
+/// Runs the whole commissioning against the configuration's embedded
+/// simulated motor on the virtual clock. Writes into options.out_dir
+/// (created if needed) with atomic writes. Throws with a precise message.
+Report run(const Options& options, const std::function<void(const Progress&)>& progress = {});
+
+/// The report as JSON (docs/report-format.md) and as Markdown with the
+/// paper's Table 2 beside ours.
+std::string report_json(const Report& report);
+std::string report_markdown(const Report& report);
+
+}  // namespace clm::commission

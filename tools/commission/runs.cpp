@@ -1,0 +1,81 @@
+#include "tools/commission/runs.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "tools/sim/motor.hpp"
+
+namespace clm::commission {
+
+void Recorder::start(const std::string& name) {
+  recording_ = Recording{name, {}, 0, 0};
+  recording_.samples.reserve(40000);
+  active_ = true;
+}
+
+void Recorder::on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming& /*timing*/) noexcept {
+  const auto& record = cycle.record();
+  if (!active_ || !record.program_running || record.state != servo::ServoState::kEnabled) return;
+  Sample s;
+  s.t_s = record.program_time_s;
+  s.r_m = record.reference.position_m;
+  s.r_dot_m_per_s = record.reference.velocity_m_per_s;
+  s.r_ddot_m_per_s2 = record.reference.acceleration_m_per_s2;
+  s.y_m = record.position_m;
+  const sim::SimulatedMotor* motor = daemon_->simulated_motor();
+  s.y_true_m = motor != nullptr ? motor->truth().position_m : std::numeric_limits<double>::quiet_NaN();
+  s.F_star_N = record.force_demand_N;
+  s.u_ff_N = record.feedforward_N;
+  s.desired = record.desired_wrench;
+  s.measured = record.measured_wrench;
+  s.coil_set = record.experiment_coil_set;
+  s.delta_rad = record.experiment_delta_rad;
+  s.setpoints = record.setpoints;
+  s.current_square_sum_A2 = record.current_square_sum_A2;
+  if (record.damping_engaged) ++recording_.damping_cycles;
+  if (record.force_limited) ++recording_.force_limited_cycles;
+  recording_.samples.push_back(s);  // offline tool: the vector was reserved
+}
+
+void execute(servod::ServoDaemon& daemon, servod::DaemonCommand command) {
+  const auto reply = daemon.submit(command);
+  if (!reply.accepted) throw std::runtime_error("daemon refused a command: " + reply.text);
+  daemon.run_cycles(1);
+  for (const auto& r : daemon.take_replies()) {
+    if (!r.accepted) throw std::runtime_error("daemon refused a command: " + r.text);
+  }
+}
+
+Recording run_program(servod::ServoDaemon& daemon, const servod::ProgramFile& program, const std::string& name) {
+  using Kind = servod::DaemonCommand::Kind;
+  // Approach: move to the start and settle.
+  servod::DaemonCommand approach;
+  approach.kind = Kind::kMoveTo;
+  approach.target_m = program.start_m;
+  approach.limits = program.steps.front().limits;
+  execute(daemon, approach);
+  daemon.run_until_idle(1'000'000);
+  daemon.run_cycles(200);
+
+  Recorder recorder(daemon);
+  daemon.set_observer(&recorder);
+  recorder.start(name);
+  servod::DaemonCommand run;
+  run.kind = Kind::kRunProgram;
+  run.program = program;
+  try {
+    execute(daemon, run);
+    daemon.run_until_idle(10'000'000);
+  } catch (...) {
+    daemon.set_observer(nullptr);
+    throw;
+  }
+  daemon.set_observer(nullptr);
+  if (daemon.cycle().state() != servo::ServoState::kEnabled) {
+    throw std::runtime_error("run '" + name + "' ended in fault: " + servo::describe(daemon.cycle().fault()));
+  }
+  return std::move(recorder.recording());
+}
+
+}  // namespace clm::commission

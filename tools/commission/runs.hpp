@@ -1,0 +1,61 @@
+#pragma once
+// Experiments on the servo daemon (virtual clock): the Algorithm 1/2 data
+// runs and the evaluation runs of the commissioning, recorded cycle by cycle.
+// No file I/O: callers write what they need.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "daemon/servod/servo_daemon.hpp"
+
+namespace clm::commission {
+
+/// One cycle as recorded: what the daemon commanded and measured, plus the
+/// simulator's truth when there is one.
+struct Sample {
+  double t_s = 0.0;
+  double r_m = 0.0;         ///< reference
+  double r_dot_m_per_s = 0.0;
+  double r_ddot_m_per_s2 = 0.0;
+  double y_m = 0.0;         ///< measured (encoder)
+  double y_true_m = 0.0;    ///< simulator truth (NaN without a simulator)
+  double F_star_N = 0.0;    ///< force demand
+  double u_ff_N = 0.0;
+  Wrench desired = Wrench::Zero();
+  Wrench measured = Wrench::Zero();
+  int coil_set = 0;         ///< experiment coil set, 0 otherwise
+  double delta_rad = 0.0;   ///< experiment offset
+  std::array<DriveSetpoint, kMaxCoilSets> setpoints{};
+  double current_square_sum_A2 = 0.0;
+};
+
+struct Recording {
+  std::string name;
+  std::vector<Sample> samples;
+  std::int64_t damping_cycles = 0;
+  std::int64_t force_limited_cycles = 0;
+};
+
+/// Observer that appends every enabled cycle of a running program.
+class Recorder final : public servod::CycleObserver {
+ public:
+  explicit Recorder(servod::ServoDaemon& daemon) : daemon_(&daemon) {}
+  void on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming& timing) noexcept override;
+  Recording& recording() noexcept { return recording_; }
+  void start(const std::string& name);
+
+ private:
+  servod::ServoDaemon* daemon_;
+  Recording recording_;
+  bool active_ = false;
+};
+
+/// Throws std::runtime_error with the daemon's reply text when a command is refused.
+void execute(servod::ServoDaemon& daemon, servod::DaemonCommand command);
+
+/// Runs `program` from the program's start (an approach move first, not
+/// recorded) and returns the recording of the program proper.
+Recording run_program(servod::ServoDaemon& daemon, const servod::ProgramFile& program, const std::string& name);
+
+}  // namespace clm::commission
