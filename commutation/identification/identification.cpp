@@ -422,6 +422,8 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
 
   const CoilSetDataset coarse = decimate(training, options.restart_decimation);
   const Features coarse_features = features_of(coarse, pole_pitch_m, normalisation);
+  const CoilSetDataset polish = decimate(training, options.final_decimation);
+  const Features polish_features = features_of(polish, pole_pitch_m, normalisation);
   const Features full_features = features_of(training, pole_pitch_m, normalisation);
 
   std::mt19937_64 rng(options.seed);
@@ -461,7 +463,7 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
     if (progress) progress({restart, options.restarts, cost});
   }
 
-  const double final_cost = levenberg_marquardt(training, full_features, layout, physics_a, physics_b,
+  const double final_cost = levenberg_marquardt(polish, polish_features, layout, physics_a, physics_b,
                                                 options.regularisation, options.final_iterations, options.threads,
                                                 best_nonlinear, best_linear, report.iterations);
   // Eq. (31) last: the model can then never fit worse than the physics-only one.

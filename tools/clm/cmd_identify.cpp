@@ -38,6 +38,8 @@ void add_identify(CLI::App& app) {
       ->check(CLI::Range(0, 100000))->capture_default_str();
   sub->add_option("--restart-decimation", o.pgnn.restart_decimation, "restarts use every n-th training sample")
       ->check(CLI::Range(1, 1000))->capture_default_str();
+  sub->add_option("--final-decimation", o.pgnn.final_decimation, "the polish uses every n-th training sample")
+      ->check(CLI::Range(1, 1000))->capture_default_str();
   sub->add_option("--threads", o.pgnn.threads, "solver threads")->check(CLI::Range(1, 64))->capture_default_str();
   sub->add_option("--knot-spacing-m", o.spline.knot_spacing_m, "spline knot spacing (0: pole pitch / 8)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
