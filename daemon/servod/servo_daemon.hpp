@@ -103,6 +103,7 @@ class ServoDaemon {
   sim::SimulatedMotor* simulated_motor() noexcept;
   simbus::InProcessBus* in_process_bus() noexcept;
   std::string law_source(servo::CommutationMode mode) const;
+  drivers::BusState bus_state() const noexcept { return bus_->state(); }
 
  private:
   struct RtCommand;

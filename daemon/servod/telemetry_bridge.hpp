@@ -1,0 +1,41 @@
+#pragma once
+// Telemetry of the servo cycle: every cycle's state (decimated), a status at
+// the configured rate, and an event when a fault latches or the state
+// changes. In the daemon the samples go through the publisher's lock-free
+// queues (nothing blocks or allocates on the loop thread); offline (commissioning
+// on the virtual clock) they are written straight to a sink such as an LCM log,
+// so nothing is dropped.
+
+#include <string>
+
+#include "daemon/servod/servo_daemon.hpp"
+#include "daemon/telemetry/telemetry.hpp"
+
+namespace clm::servod {
+
+class TelemetryBridge final : public CycleObserver {
+ public:
+  /// Real-time use: samples go to `publisher`'s queues.
+  TelemetryBridge(telemetry::TelemetryPublisher& publisher, const ServoDaemon& daemon);
+  /// Offline use: samples are encoded and written to `sink` on the calling thread.
+  TelemetryBridge(telemetry::TelemetrySink& sink, const ServoDaemon& daemon, int state_decimation);
+
+  void on_cycle(const servo::ServoCycle& cycle, const LoopTiming& timing) noexcept override;
+
+  static void fill_state(const servo::ServoCycle& cycle, telemetry::ServoStateSample& out) noexcept;
+  void fill_status(const servo::ServoCycle& cycle, const LoopTiming& timing, telemetry::ServoStatusSample& out) const noexcept;
+
+ private:
+  telemetry::TelemetryPublisher* publisher_ = nullptr;
+  telemetry::TelemetrySink* sink_ = nullptr;
+  const ServoDaemon* daemon_;
+  int state_decimation_ = 1;
+  std::int64_t status_every_cycles_ = 100;
+  servo::ServoState last_state_ = servo::ServoState::kDisabled;
+  servo::Fault last_fault_ = servo::Fault::kNone;
+  telemetry::ServoStateSample state_{};
+  telemetry::ServoStatusSample status_{};
+  telemetry::ServoEventSample event_{};
+};
+
+}  // namespace clm::servod
