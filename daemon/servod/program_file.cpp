@@ -31,6 +31,24 @@ ProgramFile parse_program_file(const yaml::Node& root) {
 
 ProgramFile load_program_file(const std::string& path) { return parse_program_file(yaml::Node::load_file(path)); }
 
+ProgramFile fit_program(const ProgramFile& file, double min_m, double max_m, bool& scaled) {
+  const double centre = 0.5 * (min_m + max_m);
+  const double half = 0.5 * (max_m - min_m);
+  double farthest = std::abs(file.start_m - centre);
+  bool inside = file.start_m >= min_m && file.start_m <= max_m;
+  for (const auto& step : file.steps) {
+    farthest = std::max(farthest, std::abs(step.target_m - centre));
+    inside = inside && step.target_m >= min_m && step.target_m <= max_m;
+  }
+  scaled = !inside;
+  if (inside) return file;
+  const double factor = 0.9 * half / farthest;
+  ProgramFile fitted = file;
+  fitted.start_m = centre + factor * (file.start_m - centre);
+  for (auto& step : fitted.steps) step.target_m = centre + factor * (step.target_m - centre);
+  return fitted;
+}
+
 control::MoveProgram program_from(const ProgramFile& file, double hold_m) {
   std::vector<control::ProgramStep> steps;
   if (std::abs(file.start_m - hold_m) > 1e-9) steps.push_back({file.start_m, file.steps.front().limits, 0.0});

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -166,10 +167,26 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
   config.servo.feedforward = {};
   const MotorDescription motor = config.motor;
   report.coil_sets = motor.coil_sets;
+  // The reference must fit this motor's soft limits; a program made for a
+  // longer stroke is scaled about the stroke centre (and the report says so).
+  const auto fit = [&](const std::string& path, const char* what) {
+    bool scaled = false;
+    auto fitted = servod::fit_program(servod::load_program_file(path), config.servo.soft_limit_min_m,
+                                      config.servo.soft_limit_max_m, scaled);
+    if (scaled) report.notes.push_back(std::string(what) + " '" + path + "' scaled to the soft limits of this motor");
+    return fitted;
+  };
   const servod::ProgramFile program =
-      servod::load_program_file(options.program_path.empty() ? std::filesystem::path(options.config_path).parent_path().string() + "/programs/fig8.yaml"
-                                                             : options.program_path);
+      fit(options.program_path.empty() ? std::filesystem::path(options.config_path).parent_path().string() + "/programs/fig8.yaml"
+                                       : options.program_path, "experiment program");
   const control::MoveProgram timeline(program.start_m, program.steps);
+  const std::string config_dir = std::filesystem::path(options.config_path).parent_path().string();
+  std::optional<servod::ProgramFile> validation_program;
+  if (options.validation_program_path != "none") {
+    report.validation_program = options.validation_program_path.empty() ? config_dir + "/programs/validation.yaml"
+                                                                        : options.validation_program_path;
+    validation_program = fit(report.validation_program, "validation program");
+  }
 
   servod::ServoDaemon daemon(config);
   daemon.run_cycles(20);
@@ -254,6 +271,7 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
     ++index;
     if (mode == servo::CommutationMode::kOracle && daemon.simulated_motor() == nullptr) {
       report.results.push_back({name, false, "no simulator", {}, {}, 0, 0, 0, 0});
+      if (validation_program) report.validation.push_back({name, false, "no simulator", {}, {}, 0, 0, 0, 0});
       continue;
     }
     auto set = make(Kind::kSetCommutation);
@@ -277,6 +295,16 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
     result.name = name;
     result.feedforward = ff_file.parameters;
     report.results.push_back(result);
+    if (validation_program) {
+      // Held out: neither the models nor the feedforward saw this trajectory.
+      const Recording held_out = run_program(daemon, *validation_program, std::string(name) + " validation");
+      const control::MoveProgram validation_timeline(validation_program->start_m, validation_program->steps);
+      write_evaluation_csv(written(std::string("validation-") + name + ".csv"), held_out, validation_timeline);
+      CommutationResult validation = evaluate(held_out, config.servo.period_s);
+      validation.name = name;
+      validation.feedforward = ff_file.parameters;
+      report.validation.push_back(validation);
+    }
     report.steps.push_back({std::string("evaluation ") + name, seconds_since(step_start)});
   }
   tell("evaluation", 1.0, "done");

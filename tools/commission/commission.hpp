@@ -23,6 +23,9 @@ struct Options {
   IdentifyOptions identify;
   /// Experiment reference (the paper's Fig. 8 unless replaced).
   std::string program_path;
+  /// Held-out trajectory on which every commutation is evaluated as well
+  /// (programs/validation.yaml beside the config unless replaced; "none" skips).
+  std::string validation_program_path;
 };
 
 struct CommutationResult {
@@ -50,9 +53,12 @@ struct Report {
   std::vector<CoilSetIdentification> pgnn;
   std::vector<CoilSetIdentification> spline;
   std::vector<CommutationResult> results;  ///< original, classical, pgnn, spline, oracle
+  std::vector<CommutationResult> validation;  ///< the same on the held-out trajectory
+  std::string validation_program;
   std::vector<StepTime> steps;
   double total_wall_s = 0.0;
   std::vector<std::string> files;          ///< written, relative to the output directory
+  std::vector<std::string> notes;          ///< adaptations made for this motor
 };
 
 struct Progress {

@@ -91,6 +91,9 @@ std::string report_json(const Report& report) {
   std::ostringstream out;
   out << "{\n  \"schema\": \"clm-servo-report\",\n  \"schema_version\": 1,\n";
   out << "  \"config\": " << quoted(report.config_path) << ",\n  \"coil_sets\": " << report.coil_sets << ",\n";
+  out << "  \"notes\": [";
+  for (std::size_t k = 0; k < report.notes.size(); ++k) out << (k ? ", " : "") << quoted(report.notes[k]);
+  out << "],\n";
   out << "  \"commutations\": {\n";
   bool first = true;
   for (const auto& r : report.results) {
@@ -109,6 +112,18 @@ std::string report_json(const Report& report) {
         << ", \"damping_cycles\": " << r.damping_cycles << ", \"force_limited_cycles\": " << r.force_limited_cycles << "}";
   }
   out << "\n  },\n";
+  out << "  \"validation\": {\"program\": " << quoted(report.validation_program) << ", \"commutations\": {";
+  for (std::size_t k = 0; k < report.validation.size(); ++k) {
+    const auto& r = report.validation[k];
+    out << (k ? ", " : "") << quoted(r.name) << ": ";
+    if (!r.evaluated) {
+      out << "{\"evaluated\": false}";
+      continue;
+    }
+    out << "{\"evaluated\": true, \"commutation_mse\": {\"filtered\": " << triple(r.mse.filtered)
+        << ", \"unfiltered\": " << triple(r.mse.unfiltered) << "}, \"tracking_mse_m2\": " << number(r.tracking_mse_m2) << "}";
+  }
+  out << "}},\n";
   const auto* classical = find(report, "classical");
   const auto* pgnn = find(report, "pgnn");
   const auto* spline = find(report, "spline");
@@ -157,6 +172,7 @@ std::string report_markdown(const Report& report) {
       << " coil sets, simulated motor, virtual clock. Every run is the paper's Fig. 8 reference "
          "(third-order moves between -0.1 and 0.1 m at 0.025, 0.075 and 0.15 m/s, 1 m/s², 1000 m/s³); each "
          "commutation is evaluated with its own identified feedforward (40).\n\n";
+  for (const auto& note : report.notes) out << "Note: " << note << ".\n\n";
   out << "## Commutation error (paper Table 2 layout)\n\n";
   out << "MSE of F − F*, low-pass filtered at 50 Hz (unfiltered in brackets). Paper values beside ours.\n\n";
   out << "| commutation | y [N²] | y paper | x [N²] | x paper | z [N²m²] | z paper | tracking [m²] | tracking paper |\n";
@@ -207,6 +223,17 @@ std::string report_markdown(const Report& report) {
         << fixed(pgnn->mse.filtered[0] / oracle->mse.filtered[0]) << "× the oracle's y-MSE";
     if (spline) out << ", spline " << fixed(spline->mse.filtered[0] / oracle->mse.filtered[0]) << "×";
     out << ".\n";
+  }
+  if (!report.validation.empty()) {
+    out << "\n## Held-out trajectory\n\nThe same commutations and feedforwards on `" << report.validation_program
+        << "`, a trajectory used for neither identification nor feedforward fitting.\n\n"
+           "| commutation | y [N²] | x [N²] | z [N²m²] | tracking [m²] |\n|---|---|---|---|---|\n";
+    for (const auto& r : report.validation) {
+      if (!r.evaluated) continue;
+      out << "| " << r.name;
+      for (std::size_t q = 0; q < 3; ++q) out << " | " << fixed(r.mse.filtered[q]) << " (" << fixed(r.mse.unfiltered[q]) << ")";
+      out << " | " << fixed(r.tracking_mse_m2) << " |\n";
+    }
   }
   out << "\n## Calibration (Algorithm 1)\n\n| coil set | k̂ [N/A] | ζ̂ [rad] | k̂ robust | ζ̂ robust | paper k̂ | paper ζ̂ |\n|---|---|---|---|---|---|---|\n";
   const double paper_k[] = {61.34, 61.62, 60.07};
