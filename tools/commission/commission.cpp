@@ -11,6 +11,8 @@
 #include "tools/data/csv_table.hpp"
 #include "tools/data/feedforward_file.hpp"
 #include "tools/data/sha256.hpp"
+#include "daemon/servod/telemetry_bridge.hpp"
+#include "daemon/telemetry/telemetry.hpp"
 #include "tools/sim/motor.hpp"
 
 namespace clm::commission {
@@ -194,6 +196,19 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
 
   // 1. Experiments of Algorithms 1 and 2.
   auto step_start = Clock::now();
+  std::filesystem::create_directories(dir + "/logs");
+  // Every run is also an LCM log (the daemon's own telemetry types), from
+  // which `clm log2csv`, `clm calibrate` and `clm identify` re-run the steps.
+  struct RunLog {
+    telemetry::LcmLogWriter writer;
+    servod::TelemetryBridge bridge;
+    RunLog(const std::string& path, const servod::ServoDaemon& d) : writer(path), bridge(writer, d, 1) {}
+  };
+  const auto open_log = [&](const std::string& name) {
+    report.files.push_back("logs/" + name);
+    return std::make_unique<RunLog>(dir + "/logs/" + name, daemon);
+  };
+  auto experiment_log = open_log("experiments.lcm");
   std::vector<Recording> experiments;
   const int runs = 2 * motor.coil_sets;
   for (int l = 1; l <= motor.coil_sets; ++l) {
@@ -204,9 +219,11 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
       command.coil_set = l;
       command.delta_rad = delta;
       execute(daemon, command);
-      experiments.push_back(run_program(daemon, program, "experiment coil set " + std::to_string(l)));
+      experiments.push_back(
+          run_program(daemon, program, "experiment coil set " + std::to_string(l), &experiment_log->bridge));
     }
   }
+  experiment_log->writer.close();
   tell("experiments", 1.0, "done");
   const std::string experiment_csv = written("experiments.csv");
   write_experiment_csv(experiment_csv, experiments);
@@ -281,7 +298,10 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
     auto ff = make(Kind::kSetFeedforward);
     ff.feedforward = {};
     execute(daemon, ff);
-    const Recording identification_run = run_program(daemon, program, std::string(name) + " feedforward data");
+    auto ff_log = open_log(std::string("feedforward-data-") + name + ".lcm");
+    const Recording identification_run =
+        run_program(daemon, program, std::string(name) + " feedforward data", &ff_log->bridge);
+    ff_log->writer.close();
     write_feedforward_csv(written(std::string("feedforward-data-") + name + ".csv"), identification_run);
     FeedforwardFile ff_file;
     ff_file.parameters = identify_ff(identification_run);
@@ -289,7 +309,9 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
     write_file_atomically(written(std::string("feedforward-") + name + ".yaml"), format_feedforward_file(ff_file));
     ff.feedforward = ff_file.parameters;
     execute(daemon, ff);
-    const Recording evaluation = run_program(daemon, program, std::string(name) + " evaluation");
+    auto evaluation_log = open_log(std::string("evaluation-") + name + ".lcm");
+    const Recording evaluation = run_program(daemon, program, std::string(name) + " evaluation", &evaluation_log->bridge);
+    evaluation_log->writer.close();
     write_evaluation_csv(written(std::string("evaluation-") + name + ".csv"), evaluation, timeline);
     CommutationResult result = evaluate(evaluation, config.servo.period_s);
     result.name = name;
@@ -297,7 +319,10 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
     report.results.push_back(result);
     if (validation_program) {
       // Held out: neither the models nor the feedforward saw this trajectory.
-      const Recording held_out = run_program(daemon, *validation_program, std::string(name) + " validation");
+      auto validation_log = open_log(std::string("validation-") + name + ".lcm");
+      const Recording held_out =
+          run_program(daemon, *validation_program, std::string(name) + " validation", &validation_log->bridge);
+      validation_log->writer.close();
       const control::MoveProgram validation_timeline(validation_program->start_m, validation_program->steps);
       write_evaluation_csv(written(std::string("validation-") + name + ".csv"), held_out, validation_timeline);
       CommutationResult validation = evaluate(held_out, config.servo.period_s);

@@ -14,7 +14,7 @@ void Recorder::start(const std::string& name) {
   active_ = true;
 }
 
-void Recorder::on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming& /*timing*/) noexcept {
+void Recorder::on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming& timing) noexcept {
   const auto& record = cycle.record();
   if (!active_ || !record.program_running || record.state != servo::ServoState::kEnabled) return;
   Sample s;
@@ -36,6 +36,7 @@ void Recorder::on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming
   if (record.damping_engaged) ++recording_.damping_cycles;
   if (record.force_limited) ++recording_.force_limited_cycles;
   recording_.samples.push_back(s);  // offline tool: the vector was reserved
+  if (forward_ != nullptr) forward_->on_cycle(cycle, timing);
 }
 
 void execute(servod::ServoDaemon& daemon, servod::DaemonCommand command) {
@@ -47,7 +48,8 @@ void execute(servod::ServoDaemon& daemon, servod::DaemonCommand command) {
   }
 }
 
-Recording run_program(servod::ServoDaemon& daemon, const servod::ProgramFile& program, const std::string& name) {
+Recording run_program(servod::ServoDaemon& daemon, const servod::ProgramFile& program, const std::string& name,
+                      servod::CycleObserver* log) {
   using Kind = servod::DaemonCommand::Kind;
   // Approach: move to the start and settle.
   servod::DaemonCommand approach;
@@ -59,6 +61,7 @@ Recording run_program(servod::ServoDaemon& daemon, const servod::ProgramFile& pr
   daemon.run_cycles(200);
 
   Recorder recorder(daemon);
+  recorder.forward_to(log);
   daemon.set_observer(&recorder);
   recorder.start(name);
   servod::DaemonCommand run;

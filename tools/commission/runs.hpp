@@ -44,9 +44,13 @@ class Recorder final : public servod::CycleObserver {
   void on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming& timing) noexcept override;
   Recording& recording() noexcept { return recording_; }
   void start(const std::string& name);
+  /// Also hands every recorded cycle to `observer` (e.g. a telemetry bridge
+  /// writing an LCM log), or to nobody with nullptr.
+  void forward_to(servod::CycleObserver* observer) noexcept { forward_ = observer; }
 
  private:
   servod::ServoDaemon* daemon_;
+  servod::CycleObserver* forward_ = nullptr;
   Recording recording_;
   bool active_ = false;
 };
@@ -56,6 +60,9 @@ void execute(servod::ServoDaemon& daemon, servod::DaemonCommand command);
 
 /// Runs `program` from the program's start (an approach move first, not
 /// recorded) and returns the recording of the program proper.
-Recording run_program(servod::ServoDaemon& daemon, const servod::ProgramFile& program, const std::string& name);
+/// With `log` set, the cycles of the program are also written there (one
+/// CLM_SERVO_STATE per cycle, status and events) as an LCM log.
+Recording run_program(servod::ServoDaemon& daemon, const servod::ProgramFile& program, const std::string& name,
+                      servod::CycleObserver* log = nullptr);
 
 }  // namespace clm::commission
