@@ -1,0 +1,70 @@
+#pragma once
+// clm-servod's command thread (non-real-time): takes the checked commands
+// the telemetry publisher received on CLM_SERVO_COMMAND, translates them
+// into DaemonCommands, submits them to the ServoDaemon and acknowledges each
+// with exactly one CLM_SERVO_COMMAND_ACK:
+//
+//   - commands the daemon answers at once (move_to, run_program,
+//     load_calibration, load_model; and any refusal) are acked with that reply;
+//   - commands queued for the cycle (enable, disable, clear_fault, stop,
+//     set_commutation, set_experiment) are acked with the cycle's decision,
+//     which take_replies() delivers a cycle later.
+//
+// It is the only thread that calls poll_command (single consumer),
+// ServoDaemon::submit (single producer of the cycle's command queue) and
+// take_replies; it also frees retired programs and laws (collect_garbage).
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <thread>
+
+#include "daemon/servod/servo_daemon.hpp"
+#include "daemon/telemetry/telemetry.hpp"
+
+namespace clm::servod {
+
+/// Translates a checked LCM command. Returns "" and fills `out`, or the
+/// one-line reason it cannot be carried out (set_commutation to experiment;
+/// load_model whose file cannot be read or whose `kind:` is neither pgnn nor
+/// spline: the file's kind chooses the law it loads into). Non-real-time:
+/// load_model reads the file.
+std::string to_daemon_command(const telemetry::ServoCommand& command, DaemonCommand& out);
+
+/// True for the commands ServoDaemon::submit queues for the cycle: their
+/// accepted reply is only "queued" and the decision comes from take_replies().
+bool answered_by_cycle(DaemonCommand::Kind kind) noexcept;
+
+class CommandServer {
+ public:
+  /// `poll_period_s`: how long the thread sleeps when there is nothing to do.
+  CommandServer(telemetry::TelemetryPublisher& publisher, ServoDaemon& daemon, double poll_period_s = 0.002);
+  /// stop().
+  ~CommandServer();
+  CommandServer(const CommandServer&) = delete;
+  CommandServer& operator=(const CommandServer&) = delete;
+
+  /// Starts the thread. std::logic_error when it runs already.
+  void start();
+  /// Stops and joins the thread; idempotent. Afterwards the caller may use
+  /// ServoDaemon::submit and take_replies itself (shutdown).
+  void stop();
+
+  /// One pass, for tests and for running without a thread: every waiting
+  /// command and every cycle reply, then garbage collection when due.
+  /// Returns the acks published.
+  int serve_once();
+
+  std::int64_t commands_served() const noexcept { return served_.load(std::memory_order_relaxed); }
+
+ private:
+  telemetry::TelemetryPublisher& publisher_;
+  ServoDaemon& daemon_;
+  double poll_period_s_;
+  std::int64_t passes_ = 0;
+  std::atomic<std::int64_t> served_{0};
+  std::atomic<bool> stop_requested_{false};
+  std::thread thread_;
+};
+
+}  // namespace clm::servod

@@ -1,0 +1,255 @@
+// clm-servod: the servo daemon of a coreless linear motor (docs/servod.md).
+//
+// Threads, all created here:
+//   main       start-up, the loop thread's real-time set-up, signals
+//              (SIGINT/SIGTERM are blocked everywhere and taken with
+//              sigtimedwait here: no asynchronous handler), shutdown;
+//   loop       the servo cycle: a std::thread held at a start gate until
+//              main has pinned it (loop.cpu) and given it SCHED_FIFO
+//              (loop.priority), then ServoDaemon::run_realtime, or
+//              run_cycles at full speed on the virtual clock;
+//   commands   CommandServer: LCM commands → ServoDaemon::submit → acks;
+//   telemetry  TelemetryPublisher's own thread (LCM out, commands in);
+//   monitor    ServiceMonitor: WATCHDOG=1 while the loop's cycle counter
+//              advances, STATUS= lines (systemd, Type=notify).
+// Only the loop thread runs with real-time priority.
+//
+// Exit status: 0 after a clean shutdown, 2 when start-up fails (one line on
+// stderr), 1 when the loop thread failed while running.
+
+#include <pthread.h>
+#include <signal.h>
+#include <time.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <exception>
+#include <functional>
+#include <future>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <thread>
+
+#include "clm_version.hpp"
+#include "daemon/servod/command_server.hpp"
+#include "daemon/servod/loop_health.hpp"
+#include "daemon/servod/realtime.hpp"
+#include "daemon/servod/sd_notify.hpp"
+#include "daemon/servod/servo_daemon.hpp"
+#include "daemon/servod/servod_config.hpp"
+#include "daemon/servod/telemetry_bridge.hpp"
+#include "daemon/telemetry/telemetry.hpp"
+
+namespace {
+
+using namespace clm;
+using Clock = std::chrono::steady_clock;
+
+void warn(const std::string& message) { std::fprintf(stderr, "clm-servod: warning: %s\n", message.c_str()); }
+void note(const std::string& message) { std::fprintf(stderr, "clm-servod: %s\n", message.c_str()); }
+
+/// Cycles run with zero setpoints after the disable at shutdown, so the
+/// drives see the axis disabled before the bus goes quiet.
+constexpr std::int64_t kShutdownCycles = 10;
+
+/// How long start-up waits for the first cycle before giving up.
+constexpr double kFirstCycleTimeout_s = 5.0;
+
+/// Waits until `done()` or `timeout_s`; true if done.
+template <typename Done>
+bool wait_for(Done done, double timeout_s) {
+  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
+  while (!done()) {
+    if (Clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return true;
+}
+
+/// Sleeps until SIGINT/SIGTERM (blocked in every thread), the deadline, or
+/// `loop_exited`. Returns the signal number, or 0.
+int wait_for_stop(const sigset_t& signals, std::optional<Clock::time_point> deadline, const std::atomic<bool>& loop_exited) {
+  while (!loop_exited.load(std::memory_order_acquire)) {
+    if (deadline && Clock::now() >= *deadline) return 0;
+    const timespec timeout{0, 100'000'000};  // 0.1 s: bounds how late the deadline and a dead loop are seen
+    const int signal = ::sigtimedwait(&signals, nullptr, &timeout);
+    if (signal > 0) return signal;
+  }
+  return 0;
+}
+
+int run(const std::string& config_path, double duration_s) {
+  const servod::ServodConfig config = servod::load_servod_config(config_path);
+
+  // SIGINT and SIGTERM go to main's sigtimedwait only: block them before
+  // any thread exists, so every thread inherits the mask.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
+  const servod::SystemdNotifier notifier = servod::SystemdNotifier::from_environment();
+  const double watchdog_period_s = servod::watchdog_period_from_environment();
+
+  servod::ServoDaemon daemon(config);
+
+  std::unique_ptr<telemetry::TelemetryPublisher> publisher;
+  std::unique_ptr<servod::TelemetryBridge> bridge;
+  if (config.telemetry.enabled) {
+    telemetry::TelemetryConfig telemetry_config;
+    telemetry_config.lcm_url = config.telemetry.lcm_url;
+    telemetry_config.state_decimation = config.telemetry.state_decimation;
+    publisher = std::make_unique<telemetry::TelemetryPublisher>(telemetry_config);
+    bridge = std::make_unique<servod::TelemetryBridge>(*publisher, daemon);
+  }
+  servod::LoopHealth health(bridge.get());
+  daemon.set_observer(&health);
+
+  // ---- the loop thread, held at its start gate --------------------------
+  std::promise<bool> gate;
+  std::atomic<bool> loop_stop{false};
+  std::atomic<bool> loop_exited{false};
+  std::exception_ptr loop_error;
+  const bool realtime_clock = config.loop.clock == servod::ClockMode::kRealtime;
+  std::thread loop([&, released = gate.get_future()]() mutable {
+    if (released.get()) {
+      try {
+        if (realtime_clock) {
+          servod::prefault_stack();
+          daemon.run_realtime(loop_stop);
+        } else {
+          while (!loop_stop.load(std::memory_order_acquire)) daemon.run_cycles(100);
+        }
+      } catch (...) {
+        loop_error = std::current_exception();
+      }
+    }
+    loop_exited.store(true, std::memory_order_release);
+  });
+  // Whatever throws from here on leaves through this: the loop thread is
+  // released (or refused) and joined before anything it uses goes away.
+  bool gate_open = false;
+  struct LoopJoiner {
+    std::function<void()> join;
+    ~LoopJoiner() { join(); }
+  } joiner{[&] {
+    if (!loop.joinable()) return;
+    loop_stop.store(true, std::memory_order_release);
+    if (!gate_open) gate.set_value(false);
+    gate_open = true;
+    loop.join();
+  }};
+
+  // ---- real-time set-up of the loop thread -------------------------------
+  // Steps in this order: memory first (it also locks the stacks of the
+  // threads created so far), then the CPU, then the scheduler. A failed step
+  // is fatal with loop.require_realtime, else a warning. On the virtual clock
+  // the loop never sleeps, so SCHED_FIFO would starve the other threads on
+  // its CPU: the set-up is skipped.
+  if (realtime_clock) {
+    const auto step = [&](const std::string& name, int error) {
+      const auto result = servod::judge_realtime_step(name, error, config.loop.require_realtime);
+      if (result.message.empty()) return;
+      if (result.fatal) throw std::runtime_error(result.message);
+      warn(result.message);
+    };
+    if (config.loop.lock_memory) step("mlockall(MCL_CURRENT | MCL_FUTURE)", servod::lock_memory());
+    if (config.loop.cpu >= 0) {
+      step("pinning the loop thread to CPU " + std::to_string(config.loop.cpu),
+           servod::pin_thread_to_cpu(loop.native_handle(), config.loop.cpu));
+    }
+    if (config.loop.priority > 0) {
+      step("SCHED_FIFO priority " + std::to_string(config.loop.priority) + " for the loop thread",
+           servod::set_fifo_priority(loop.native_handle(), config.loop.priority));
+    }
+  }
+
+  // ---- start ------------------------------------------------------------
+  if (publisher) publisher->start();
+  std::optional<servod::CommandServer> commands;
+  if (publisher) commands.emplace(*publisher, daemon);
+  if (commands) commands->start();
+  gate.set_value(true);
+  gate_open = true;
+
+  if (!wait_for([&] { return daemon.cycles_done() > 0 || loop_exited.load(); }, kFirstCycleTimeout_s) ||
+      daemon.cycles_done() == 0) {
+    throw std::runtime_error("the loop ran no cycle within " + std::to_string(kFirstCycleTimeout_s) + " s");
+  }
+  servod::ServiceMonitor monitor(notifier, watchdog_period_s, [&] { return daemon.cycles_done(); },
+                                 [&] { return health.status_line(); });
+  monitor.start();
+  notifier.notify("READY=1\nSTATUS=" + health.status_line());
+  note(std::string("running: ") + std::to_string(static_cast<int>(config.loop.rate_hz)) + " Hz on the " +
+       (realtime_clock ? "real-time" : "virtual") + " clock, CAN " + config.can.interface + ", telemetry " +
+       (config.telemetry.enabled ? config.telemetry.lcm_url : std::string("off")) +
+       (watchdog_period_s > 0.0 ? ", systemd watchdog " + std::to_string(watchdog_period_s) + " s" : ""));
+
+  std::optional<Clock::time_point> deadline;
+  if (duration_s > 0.0) {
+    deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(duration_s));
+  }
+  const int signal = wait_for_stop(stop_signals, deadline, loop_exited);
+
+  // ---- shutdown -----------------------------------------------------------
+  notifier.notify("STOPPING=1");
+  if (signal != 0) note(std::string("stopping on ") + (signal == SIGINT ? "SIGINT" : "SIGTERM"));
+  if (commands) commands->stop();  // from here on main alone submits and takes replies
+  if (!loop_exited.load(std::memory_order_acquire)) {
+    servod::DaemonCommand disable;
+    disable.kind = servod::DaemonCommand::Kind::kDisable;
+    disable.sequence = -1;
+    daemon.submit(disable);
+    const std::int64_t until = daemon.cycles_done() + kShutdownCycles;
+    // Disabled cycles send zero setpoints; a generous bound for a slow loop.
+    const double bound_s = 1.0 + 2.0 * static_cast<double>(kShutdownCycles) * config.servo.period_s;
+    if (!wait_for([&] { return (daemon.cycles_done() >= until && health.state() != servo::ServoState::kEnabled) ||
+                               loop_exited.load(); },
+                  bound_s)) {
+      warn("the axis did not report disabled within " + std::to_string(bound_s) + " s of the disable command");
+    }
+    daemon.take_replies();
+  }
+  loop_stop.store(true, std::memory_order_release);
+  loop.join();
+  monitor.stop();
+  daemon.set_observer(nullptr);
+  if (publisher) publisher->stop();
+  if (loop_error) {
+    try {
+      std::rethrow_exception(loop_error);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "clm-servod: error: the loop stopped: %s\n", e.what());
+    }
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"clm-servod: real-time servo daemon for coreless linear motors (docs/servod.md)"};
+  app.set_version_flag("--version", std::string("clm-servod ") + CLM_SERVO_VERSION);
+  std::string config_path;
+  double duration_s = 0.0;
+  app.add_option("--config", config_path, "configuration file (YAML, e.g. config/servod.yaml)")->required();
+  app.add_option("--duration-s", duration_s, "stop cleanly after this many seconds [s]; default: run until SIGINT/SIGTERM")
+      ->check(CLI::PositiveNumber);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    return run(config_path, duration_s);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "clm-servod: error: %s\n", e.what());
+    return 2;
+  }
+}

@@ -1,0 +1,272 @@
+// clm ctl: talks to a running clm-servod over LCM (docs/servod.md). `status`
+// waits for one CLM_SERVO_STATUS; every other subcommand publishes one
+// servo_command_t with a fresh sequence number on CLM_SERVO_COMMAND and waits
+// for the CLM_SERVO_COMMAND_ACK with that sequence.
+//
+// Exit status: 0 status received / command accepted; 1 timeout or command
+// refused (the ack's text says why); 2 bad arguments or no LCM.
+#include <lcm/lcm-cpp.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <random>
+#include <stdexcept>
+#include <string>
+
+#include "clm_lcm/servo_command_ack_t.hpp"
+#include "clm_lcm/servo_command_t.hpp"
+#include "clm_lcm/servo_state_t.hpp"
+#include "clm_lcm/servo_status_t.hpp"
+#include "daemon/telemetry/telemetry.hpp"
+#include "tools/clm/commands.hpp"
+
+namespace clm::cli {
+namespace {
+
+using Command = clm_lcm::servo_command_t;
+
+struct CtlOptions {
+  std::string lcm_url = telemetry::kDefaultLcmUrl;
+  double timeout_s = 2.0;
+};
+
+/// Exits `clm` with status 1 without a further message (CLI11 prints nothing for it).
+[[noreturn]] void fail_quietly() { throw CLI::RuntimeError(1); }
+
+std::unique_ptr<lcm::LCM> open_lcm(const CtlOptions& options) {
+  auto lcm = std::make_unique<lcm::LCM>(options.lcm_url);
+  if (!lcm->good()) {
+    throw std::runtime_error("cannot open LCM at '" + options.lcm_url +
+                             "' (for udpm a multicast route is needed: docs/telemetry.md)");
+  }
+  return lcm;
+}
+
+/// Handles `lcm` until `done()` or the timeout; true if done.
+template <typename Done>
+bool handle_until(lcm::LCM& lcm, const Done& done, double timeout_s) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                                std::chrono::duration<double>(timeout_s));
+  while (!done()) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) return false;
+    lcm.handleTimeout(static_cast<int>(std::min<long long>(left.count(), 50)));
+  }
+  return true;
+}
+
+const char* state_name(int state) {
+  switch (state) {
+    case clm_lcm::servo_status_t::STATE_DISABLED: return "disabled";
+    case clm_lcm::servo_status_t::STATE_ENABLED: return "enabled";
+    case clm_lcm::servo_status_t::STATE_FAULT: return "fault";
+    default: return "unknown";
+  }
+}
+
+const char* commutation_name(int mode) {
+  static const char* const names[] = {"original", "classical", "pgnn", "spline", "oracle", "experiment"};
+  return mode >= 0 && mode < 6 ? names[mode] : "unknown";
+}
+
+const char* bus_state_name(int state) {
+  switch (state) {
+    case clm_lcm::servo_status_t::BUS_STATE_NONE: return "none (in-process simulated motor)";
+    case clm_lcm::servo_status_t::BUS_STATE_ERROR_ACTIVE: return "error-active";
+    case clm_lcm::servo_status_t::BUS_STATE_ERROR_WARNING: return "error-warning";
+    case clm_lcm::servo_status_t::BUS_STATE_ERROR_PASSIVE: return "error-passive";
+    case clm_lcm::servo_status_t::BUS_STATE_BUS_OFF: return "bus-off";
+    default: return "unknown";
+  }
+}
+
+/// One `field: value` line per servo_status_t field, the field names as in
+/// lcmtypes/servo_status_t.lcm, so scripts can pick lines out.
+void print_status(const clm_lcm::servo_status_t& s) {
+  std::printf("state: %s\n", state_name(s.state));
+  std::printf("fault: %d\n", s.fault);
+  std::printf("fault_reason: %s\n", s.fault_reason.c_str());
+  std::printf("fault_cycle: %lld\n", static_cast<long long>(s.fault_cycle));
+  std::printf("commutation: %s\n", commutation_name(s.commutation));
+  std::printf("model_file: %s\n", s.model_file.c_str());
+  std::printf("calibration_file: %s\n", s.calibration_file.c_str());
+  std::printf("program_running: %s\n", s.program_running ? "true" : "false");
+  std::printf("program_time_s: %.3f\n", s.program_time_s);
+  std::printf("cycles: %lld\n", static_cast<long long>(s.cycles));
+  std::printf("overruns: %lld\n", static_cast<long long>(s.overruns));
+  std::printf("wakeup_latency_s: p50 %.1e, p99 %.1e, max %.1e\n", s.wakeup_latency_p50_s, s.wakeup_latency_p99_s,
+              s.wakeup_latency_max_s);
+  std::printf("compute_time_s: p50 %.1e, p99 %.1e, max %.1e\n", s.compute_time_p50_s, s.compute_time_p99_s,
+              s.compute_time_max_s);
+  std::printf("frames: sent %lld, received %lld, missing %lld, late %lld, rejected %lld\n",
+              static_cast<long long>(s.frames_sent), static_cast<long long>(s.frames_received),
+              static_cast<long long>(s.frames_missing), static_cast<long long>(s.frames_late),
+              static_cast<long long>(s.frames_rejected));
+  std::printf("bus_state: %s\n", bus_state_name(s.bus_state));
+  std::printf("damping_cycles: %lld\n", static_cast<long long>(s.damping_cycles));
+  std::printf("telemetry_dropped: %lld\n", static_cast<long long>(s.telemetry_dropped));
+}
+
+void run_status(const CtlOptions& options) {
+  auto lcm = open_lcm(options);
+  std::optional<clm_lcm::servo_status_t> status;
+  struct Handler {
+    std::optional<clm_lcm::servo_status_t>* out;
+    void on_status(const lcm::ReceiveBuffer*, const std::string&, const clm_lcm::servo_status_t* message) {
+      if (!*out) *out = *message;
+    }
+  } handler{&status};
+  lcm->subscribe(telemetry::kStatusChannel, &Handler::on_status, &handler);
+  if (!handle_until(*lcm, [&] { return status.has_value(); }, options.timeout_s)) {
+    std::fprintf(stderr, "clm ctl: no %s on %s within %g s (is clm-servod running with that lcm_url?)\n",
+                 telemetry::kStatusChannel, options.lcm_url.c_str(), options.timeout_s);
+    fail_quietly();
+  }
+  print_status(*status);
+}
+
+/// A sequence number no other client is likely to use at the same time:
+/// wall-clock µs times 1000 plus a random 0..999 (positive, < 2^63 until 2262).
+std::int64_t fresh_sequence() {
+  std::random_device random;
+  return telemetry::wall_clock_utime() * 1000 + static_cast<std::int64_t>(random() % 1000);
+}
+
+/// A servo_command_t of kind `kind` with every field set (strings empty).
+Command make_command(std::int8_t kind) {
+  Command command{};
+  command.utime = telemetry::wall_clock_utime();
+  command.sequence = fresh_sequence();
+  command.command = kind;
+  return command;
+}
+
+void send_command(const CtlOptions& options, const Command& command) {
+  auto lcm = open_lcm(options);
+  std::optional<clm_lcm::servo_command_ack_t> ack;
+  struct Handler {
+    std::int64_t sequence;
+    std::optional<clm_lcm::servo_command_ack_t>* out;
+    void on_ack(const lcm::ReceiveBuffer*, const std::string&, const clm_lcm::servo_command_ack_t* message) {
+      if (message->sequence == sequence && !*out) *out = *message;
+    }
+  } handler{command.sequence, &ack};
+  // Subscribe before publishing, so a fast ack is not missed.
+  lcm->subscribe(telemetry::kCommandAckChannel, &Handler::on_ack, &handler);
+  if (lcm->publish(telemetry::kCommandChannel, &command) != 0) {
+    throw std::runtime_error(std::string("LCM refused to publish on ") + telemetry::kCommandChannel + " at " +
+                             options.lcm_url);
+  }
+  if (!handle_until(*lcm, [&] { return ack.has_value(); }, options.timeout_s)) {
+    std::fprintf(stderr, "clm ctl: no %s for sequence %lld on %s within %g s (is clm-servod running with that lcm_url?)\n",
+                 telemetry::kCommandAckChannel, static_cast<long long>(command.sequence), options.lcm_url.c_str(),
+                 options.timeout_s);
+    fail_quietly();
+  }
+  std::printf("%s\n", ack->text.c_str());
+  if (!ack->accepted) fail_quietly();
+}
+
+/// The daemon opens files itself, from its own working directory: send absolute paths.
+std::string absolute_path(const std::string& path) { return std::filesystem::absolute(path).lexically_normal().string(); }
+
+}  // namespace
+
+void add_ctl(CLI::App& app) {
+  auto* ctl = app.add_subcommand("ctl", "control a running clm-servod over LCM: status and commands");
+  ctl->require_subcommand(1);
+  ctl->fallthrough();  // --lcm-url and --timeout-s also after the subcommand
+  auto options = std::make_shared<CtlOptions>();
+  ctl->add_option("--lcm-url", options->lcm_url, "LCM URL of the daemon (its telemetry.lcm_url)")->capture_default_str();
+  ctl->add_option("--timeout-s", options->timeout_s, "how long to wait for the status or the ack [s]")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+
+  ctl->add_subcommand("status", "wait for one CLM_SERVO_STATUS and print it")->callback([options] {
+    run_status(*options);
+  });
+
+  const auto simple = [&](const char* name, std::int8_t kind, const char* help) {
+    ctl->add_subcommand(name, help)->callback([options, kind] { send_command(*options, make_command(kind)); });
+  };
+  simple("enable", Command::ENABLE, "close the loop at the present position");
+  simple("disable", Command::DISABLE, "open the loop, drives off");
+  simple("clear-fault", Command::CLEAR_FAULT, "leave the fault state (to disabled)");
+  simple("stop", Command::STOP, "stop the running motion (jerk-limited), stay enabled");
+
+  struct MoveOptions {
+    double target_m = 0.0, velocity_m_per_s = 0.1, acceleration_m_per_s2 = 1.0, jerk_m_per_s3 = 1000.0;
+  };
+  auto move = std::make_shared<MoveOptions>();
+  auto* move_to = ctl->add_subcommand("move-to", "jerk-limited move to a position");
+  move_to->add_option("--target-m", move->target_m, "target position [m]")->required();
+  move_to->add_option("--velocity-m-per-s", move->velocity_m_per_s, "velocity limit [m/s]")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  move_to->add_option("--acceleration-m-per-s2", move->acceleration_m_per_s2, "acceleration limit [m/s^2]")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  move_to->add_option("--jerk-m-per-s3", move->jerk_m_per_s3, "jerk limit [m/s^3]")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  move_to->callback([options, move] {
+    if (!std::isfinite(move->target_m)) throw std::runtime_error("--target-m must be finite");
+    Command command = make_command(Command::MOVE_TO);
+    command.target_m = move->target_m;
+    command.velocity_m_per_s = move->velocity_m_per_s;
+    command.acceleration_m_per_s2 = move->acceleration_m_per_s2;
+    command.jerk_m_per_s3 = move->jerk_m_per_s3;
+    send_command(*options, command);
+  });
+
+  const auto with_file = [&](const char* name, std::int8_t kind, const char* help, const char* what) {
+    auto file = std::make_shared<std::string>();
+    auto* sub = ctl->add_subcommand(name, help);
+    sub->add_option("FILE", *file, what)->required()->check(CLI::ExistingFile);
+    sub->callback([options, file, kind] {
+      Command command = make_command(kind);
+      (kind == Command::RUN_PROGRAM ? command.program : command.path) = absolute_path(*file);
+      send_command(*options, command);
+    });
+  };
+  with_file("run-program", Command::RUN_PROGRAM, "run a motion program file (config/programs/*.yaml)",
+            "program file (format clm-servo-program)");
+  with_file("load-calibration", Command::LOAD_CALIBRATION, "load a calibration file into the classical law",
+            "calibration file (clm calibrate)");
+  with_file("load-model", Command::LOAD_MODEL, "load a model file into the pgnn or spline law (the file's kind:)",
+            "model file (clm identify)");
+
+  auto mode = std::make_shared<std::string>();
+  auto* commutation = ctl->add_subcommand("commutation", "switch the commutation law (at the next standstill)");
+  commutation->add_option("MODE", *mode, "original | classical | pgnn | spline | oracle")
+      ->required()
+      ->check(CLI::IsMember({"original", "classical", "pgnn", "spline", "oracle"}));
+  commutation->callback([options, mode] {
+    static const char* const names[] = {"original", "classical", "pgnn", "spline", "oracle"};
+    Command command = make_command(Command::SET_COMMUTATION);
+    for (std::int8_t code = 0; code < 5; ++code) {
+      if (*mode == names[code]) command.commutation = code;  // servo_state_t::COMMUTATION_* codes
+    }
+    send_command(*options, command);
+  });
+
+  struct ExperimentOptions {
+    int coil_set = 0;
+    double delta_rad = 0.0;
+  };
+  auto experiment = std::make_shared<ExperimentOptions>();
+  auto* sub = ctl->add_subcommand("experiment", "identification experiment: drive one coil set with a phase offset");
+  sub->add_option("--coil-set", experiment->coil_set, "coil set l = 1..L")->required()->check(CLI::Range(1, 8));
+  sub->add_option("--delta-rad", experiment->delta_rad, "phase offset added to the drive's commutation angle [rad]")
+      ->required();
+  sub->callback([options, experiment] {
+    if (!std::isfinite(experiment->delta_rad)) throw std::runtime_error("--delta-rad must be finite");
+    Command command = make_command(Command::SET_EXPERIMENT);
+    command.coil_set = static_cast<std::int8_t>(experiment->coil_set);
+    command.delta_rad = experiment->delta_rad;
+    send_command(*options, command);
+  });
+}
+
+}  // namespace clm::cli
