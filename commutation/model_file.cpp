@@ -98,6 +98,9 @@ MotorDescription read_motor_description(const yaml::Node& root) {
   MotorDescription motor;
   const yaml::Node section = root["motor"];
   section.expect_map();
+  // The motor: section is this reader's alone (the simulator reads the same
+  // four keys), so a misspelt key is an error rather than a silent default.
+  section.expect_keys({"pole_pitch_m", "coil_sets", "stroke_min_m", "stroke_max_m"});
   motor.pole_pitch_m = section["pole_pitch_m"].as_positive();
   motor.coil_sets = static_cast<int>(section["coil_sets"].as_integer_in(1, kMaxCoilSets));
   if (const auto low = section.optional("stroke_min_m")) motor.stroke_min_m = low->as_double();

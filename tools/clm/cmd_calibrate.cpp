@@ -7,6 +7,7 @@
 #include "tools/clm/commands.hpp"
 #include "tools/data/commissioning_steps.hpp"
 #include "tools/data/sha256.hpp"
+#include "tools/lcmlog/data_input.hpp"
 
 namespace clm::cli {
 
@@ -18,13 +19,14 @@ void add_calibrate(CLI::App& app) {
   };
   auto options = std::make_shared<Options>();
   sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(CLI::ExistingFile);
-  sub->add_option("--data", options->data, "experiment data (CSV, docs/data-formats.md)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--data", options->data,
+                  "experiment data: CSV, or an LCM log of clm-servod (docs/data-formats.md)")->required()->check(CLI::ExistingFile);
   sub->add_option("--output", options->output, "calibration file to write (YAML)")->required();
   sub->add_flag("--robust", options->robust,
                 "write the offset-robust fit (a position-dependent offset fitted beside c_i) instead of the paper's");
   sub->callback([options] {
     const auto motor = load_motor_description(options->motor);
-    const auto table = CsvTable::load(options->data);
+    const auto table = lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment);
     const auto data = read_experiment_data(table, motor);
     const auto paper = calibrate_motor(data, motor, CalibrationMethod::kAlgorithm1);
     const auto robust = calibrate_motor(data, motor, CalibrationMethod::kOffsetRobust);

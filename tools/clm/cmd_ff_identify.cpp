@@ -7,6 +7,7 @@
 #include "tools/data/commissioning_steps.hpp"
 #include "tools/data/feedforward_file.hpp"
 #include "tools/data/sha256.hpp"
+#include "tools/lcmlog/data_input.hpp"
 
 namespace clm::cli {
 
@@ -16,17 +17,17 @@ void add_ff_identify(CLI::App& app) {
     std::string data, output;
   };
   auto options = std::make_shared<Options>();
-  sub->add_option("--data", options->data, "closed-loop data (CSV with t_s, r_m, F_star_N)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--data", options->data,
+                  "closed-loop data: CSV with t_s, r_m, F_star_N, or an LCM log of clm-servod")->required()->check(CLI::ExistingFile);
   sub->add_option("--output", options->output, "feedforward file to write (YAML)")->required();
   sub->callback([options] {
-    const auto table = CsvTable::load(options->data);
+    const auto table = lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kFeedforward);
     const auto time = table.numbers("t_s");
     const auto reference = table.numbers("r_m");
     const auto force = table.numbers("F_star_N");
     for (std::size_t r = 1; r < time.size(); ++r) {
       if (!(time[r] > time[r - 1])) {
-        throw std::runtime_error(options->data + ":" + std::to_string(table.line_of(r)) +
-                                 ": column 't_s': time does not increase");
+        throw std::runtime_error(table.where(r) + ": column 't_s': time does not increase");
       }
     }
     const auto samples = control::reference_from_positions(time, reference);

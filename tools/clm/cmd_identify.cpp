@@ -7,6 +7,7 @@
 #include "tools/clm/commands.hpp"
 #include "tools/data/commissioning_steps.hpp"
 #include "tools/data/sha256.hpp"
+#include "tools/lcmlog/data_input.hpp"
 
 namespace clm::cli {
 
@@ -19,7 +20,7 @@ void add_identify(CLI::App& app) {
   auto options = std::make_shared<Options>();
   auto& o = options->identify;
   sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(CLI::ExistingFile);
-  sub->add_option("--data", options->data, "experiment data (CSV)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--data", options->data, "experiment data: CSV, or an LCM log of clm-servod")->required()->check(CLI::ExistingFile);
   sub->add_option("--output", options->output, "model file to write (YAML)")->required();
   sub->add_option("--model", options->model, "model class")->check(CLI::IsMember({"pgnn", "spline"}))->capture_default_str();
   sub->add_option("--validation-fraction", o.validation_fraction, "held-out share, in contiguous blocks")
@@ -48,7 +49,7 @@ void add_identify(CLI::App& app) {
     options->identify.kind = options->model == "pgnn" ? ModelKind::kPgnn : ModelKind::kSpline;
     options->identify.spline.regularisation = options->identify.pgnn.regularisation;
     const auto motor = load_motor_description(options->motor);
-    const auto table = CsvTable::load(options->data);
+    const auto table = lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment);
     const auto data = read_experiment_data(table, motor);
     std::vector<CoilSetIdentification> reports;
     ProgressBar bar("identify " + options->model);

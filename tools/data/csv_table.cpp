@@ -73,7 +73,42 @@ CsvTable CsvTable::parse(std::string text, const std::string& origin) {
   return table;
 }
 
+CsvTable CsvTable::from_columns(std::string origin, std::vector<std::string> names,
+                                std::vector<std::vector<double>> values, std::string row_word,
+                                std::vector<std::int64_t> row_numbers) {
+  if (names.size() != values.size()) throw std::invalid_argument("CsvTable: column names and value columns differ");
+  CsvTable table;
+  table.numeric_ = true;
+  table.origin_ = std::move(origin);
+  table.rows_ = values.empty() ? 0 : values.front().size();
+  for (const auto& column : values) {
+    if (column.size() != table.rows_) throw std::invalid_argument("CsvTable: columns of different lengths");
+  }
+  if (!row_numbers.empty() && row_numbers.size() != table.rows_) {
+    throw std::invalid_argument("CsvTable: row numbers and rows differ");
+  }
+  table.names_ = std::move(names);
+  table.values_ = std::move(values);
+  table.row_word_ = std::move(row_word);
+  table.row_numbers_ = std::move(row_numbers);
+  return table;
+}
+
+std::string CsvTable::where(std::size_t row) const {
+  if (!numeric_) return origin_ + ":" + std::to_string(line_of(row));
+  const std::int64_t number = row_numbers_.empty() ? static_cast<std::int64_t>(row + 1) : row_numbers_[row];
+  return origin_ + ": " + row_word_ + " " + std::to_string(number);
+}
+
+std::string CsvTable::where_header() const { return numeric_ ? origin_ : origin_ + ":1"; }
+
 bool CsvTable::has(std::string_view column) const {
+  if (numeric_) {
+    for (const auto& name : names_) {
+      if (name == column) return true;
+    }
+    return false;
+  }
   for (auto name : header_) {
     if (name == column) return true;
   }
@@ -81,21 +116,35 @@ bool CsvTable::has(std::string_view column) const {
 }
 
 std::vector<double> CsvTable::numbers(std::string_view column) const {
+  const auto missing = [&] {
+    return std::runtime_error(where_header() + ": missing column '" + std::string(column) + "'");
+  };
+  if (numeric_) {
+    for (std::size_t c = 0; c < names_.size(); ++c) {
+      if (names_[c] != column) continue;
+      for (std::size_t r = 0; r < rows_; ++r) {
+        if (!std::isfinite(values_[c][r])) {
+          throw std::runtime_error(where(r) + ": column '" + std::string(column) + "': '" +
+                                   shortest_double(values_[c][r]) + "' is not a finite number");
+        }
+      }
+      return values_[c];
+    }
+    throw missing();
+  }
   std::size_t index = header_.size();
   for (std::size_t c = 0; c < header_.size(); ++c) {
     if (header_[c] == column) index = c;
   }
-  if (index == header_.size()) {
-    throw std::runtime_error(origin_ + ":1: missing column '" + std::string(column) + "'");
-  }
+  if (index == header_.size()) throw missing();
   std::vector<double> values(rows_);
   for (std::size_t r = 0; r < rows_; ++r) {
     const std::string_view cell = cells_[r * header_.size() + index];
     double value = 0.0;
     const auto result = std::from_chars(cell.data(), cell.data() + cell.size(), value);
     if (cell.empty() || result.ec != std::errc() || result.ptr != cell.data() + cell.size() || !std::isfinite(value)) {
-      throw std::runtime_error(origin_ + ":" + std::to_string(line_of(r)) + ": column '" + std::string(column) +
-                               "': '" + std::string(cell) + "' is not a finite number");
+      throw std::runtime_error(where(r) + ": column '" + std::string(column) + "': '" + std::string(cell) +
+                               "' is not a finite number");
     }
     values[r] = value;
   }

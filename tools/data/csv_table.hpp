@@ -3,6 +3,7 @@
 // by name, extra columns ignored. Errors name the file, the row (the file's
 // line number) and the column.
 
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <string>
@@ -17,6 +18,16 @@ class CsvTable {
   /// an empty file or a row with a different number of cells than the header.
   static CsvTable load(const std::string& path);
   static CsvTable parse(std::string text, const std::string& origin);
+  /// A table whose numbers come from elsewhere than CSV text (an LCM log
+  /// converted by clm::lcmlog): `values[column][row]`, one name per column,
+  /// columns of equal length. Rows are named in errors as
+  /// "<origin>: <row_word> <row_numbers[row]>" (e.g. "run.lcm: event 1742"),
+  /// or "<origin>: row <row + 1>" without row numbers. The numbers are used
+  /// exactly as given: no text round trip. Throws std::invalid_argument on
+  /// mismatched lengths.
+  static CsvTable from_columns(std::string origin, std::vector<std::string> names,
+                               std::vector<std::vector<double>> values, std::string row_word = "row",
+                               std::vector<std::int64_t> row_numbers = {});
 
   const std::string& origin() const { return origin_; }
   std::size_t rows() const { return rows_; }
@@ -24,8 +35,13 @@ class CsvTable {
   /// Values of a column, every one a finite number; throws naming file, row and
   /// column for a missing column, a non-number, NaN or infinity.
   std::vector<double> numbers(std::string_view column) const;
-  /// Line number in the file of data row `row` (0-based).
+  /// Line number in the file of data row `row` (0-based); CSV text only.
   std::size_t line_of(std::size_t row) const { return row + 2; }
+  /// Where data row `row` (0-based) is, for an error message: "data.csv:17"
+  /// (the file's line) or, for a table from_columns, "run.lcm: event 1742".
+  std::string where(std::size_t row) const;
+  /// Where the column names are: "data.csv:1", or the origin alone.
+  std::string where_header() const;
 
  private:
   std::string origin_;
@@ -33,6 +49,12 @@ class CsvTable {
   std::vector<std::string_view> header_;
   std::vector<std::string_view> cells_;  // row-major
   std::size_t rows_ = 0;
+  // from_columns only: the numbers themselves and how rows are named.
+  bool numeric_ = false;
+  std::vector<std::string> names_;
+  std::vector<std::vector<double>> values_;
+  std::string row_word_;
+  std::vector<std::int64_t> row_numbers_;
 };
 
 /// Writes a CSV atomically; `columns` and `values[column][row]` have equal lengths.

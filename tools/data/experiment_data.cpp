@@ -33,7 +33,7 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
   for (std::size_t r = 0; r < table.rows(); ++r) {
     const double value = coil_set[r];
     if (value != std::floor(value) || value < 1 || value > motor.coil_sets) {
-      throw std::runtime_error(file + ":" + std::to_string(table.line_of(r)) + ": column 'coil_set': value " +
+      throw std::runtime_error(table.where(r) + ": column 'coil_set': value " +
                                shortest_double(value) + " is not a coil set of this motor (1.." +
                                std::to_string(motor.coil_sets) + ")");
     }
@@ -45,7 +45,7 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
     }
     if (group < 0) {
       if (offsets_seen[l] == 2) {
-        throw std::runtime_error(file + ":" + std::to_string(table.line_of(r)) + ": column 'delta_rad': coil set " +
+        throw std::runtime_error(table.where(r) + ": column 'delta_rad': coil set " +
                                  std::to_string(l + 1) + " has a third phase offset " + shortest_double(delta[r]) +
                                  " rad; each coil set needs exactly two");
       }

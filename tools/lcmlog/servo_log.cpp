@@ -47,6 +47,10 @@ void check_state(const clm_lcm::servo_state_t& state, const std::string& path, s
 }  // namespace
 
 std::vector<clm_lcm::servo_state_t> read_servo_states(const std::string& lcm_log_path) {
+  return read_servo_state_log(lcm_log_path).states;
+}
+
+ServoStateLog read_servo_state_log(const std::string& lcm_log_path) {
   // The log format (lcm/eventlog.c), every integer big-endian:
   //   sync 0xEDA1DA01 (4), event number (8), timestamp [µs] (8),
   //   channel length (4), data length (4), channel, data.
@@ -60,7 +64,7 @@ std::vector<clm_lcm::servo_state_t> read_servo_states(const std::string& lcm_log
   const auto file_bytes = static_cast<std::uint64_t>(size);
   in.seekg(0, std::ios::beg);
 
-  std::vector<clm_lcm::servo_state_t> states;
+  ServoStateLog log;
   std::vector<std::uint8_t> data;
   std::string channel;
   std::uint64_t offset = 0;
@@ -101,9 +105,10 @@ std::vector<clm_lcm::servo_state_t> read_servo_states(const std::string& lcm_log
     clm_lcm::servo_state_t state;
     if (state.decode(data.data(), 0, data_length) != data_length) fail(std::string("cannot decode ") + kStateChannel);
     check_state(state, lcm_log_path, event);
-    states.push_back(std::move(state));
+    log.states.push_back(std::move(state));
+    log.events.push_back(event);
   }
-  return states;
+  return log;
 }
 
 CsvFormat parse_csv_format(std::string_view name) {
@@ -118,7 +123,10 @@ namespace {
 /// Builds columns row by row: add(name, value) in the same order each row.
 class ColumnBuilder {
  public:
-  void begin_row() { column_ = 0; }
+  void begin_row(std::size_t source_state) {
+    column_ = 0;
+    columns_.source_states.push_back(source_state);
+  }
   void add(const std::string& name, double value) {
     if (rows_ == 0) {
       columns_.names.push_back(name);
@@ -147,10 +155,11 @@ class ColumnBuilder {
 
 CsvColumns experiment_columns(std::span<const clm_lcm::servo_state_t> states) {
   ColumnBuilder out;
-  for (const auto& s : states) {
+  for (std::size_t k = 0; k < states.size(); ++k) {
+    const auto& s = states[k];
     if (s.commutation != clm_lcm::servo_state_t::COMMUTATION_EXPERIMENT || s.coil_set < 1) continue;
     const auto l = static_cast<std::size_t>(s.coil_set - 1);
-    out.begin_row();
+    out.begin_row(k);
     out.add("t_s", s.t_s);
     out.add("coil_set", s.coil_set);
     out.add("delta_rad", s.delta_rad);
@@ -173,8 +182,9 @@ CsvColumns experiment_columns(std::span<const clm_lcm::servo_state_t> states) {
 
 CsvColumns feedforward_columns(std::span<const clm_lcm::servo_state_t> states) {
   ColumnBuilder out;
-  for (const auto& s : states) {
-    out.begin_row();
+  for (std::size_t k = 0; k < states.size(); ++k) {
+    const auto& s = states[k];
+    out.begin_row(k);
     out.add("t_s", s.t_s);
     out.add("r_m", s.r_m);
     out.add("F_star_N", s.F_star_N);
@@ -188,8 +198,9 @@ CsvColumns full_columns(std::span<const clm_lcm::servo_state_t> states) {
   for (const auto& s : states) coil_sets = std::max(coil_sets, static_cast<int>(s.coil_sets));
   constexpr double kAbsent = std::numeric_limits<double>::quiet_NaN();
   ColumnBuilder out;
-  for (const auto& s : states) {
-    out.begin_row();
+  for (std::size_t k = 0; k < states.size(); ++k) {
+    const auto& s = states[k];
+    out.begin_row(k);
     out.add("utime", static_cast<double>(s.utime));
     out.add("cycle", static_cast<double>(s.cycle));
     out.add("t_s", s.t_s);

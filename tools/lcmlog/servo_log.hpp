@@ -4,6 +4,7 @@
 // docs/telemetry.md).
 
 #include <cstddef>
+#include <cstdint>
 #include <span>
 #include <string>
 #include <string_view>
@@ -23,10 +24,19 @@ namespace clm::lcmlog {
 ///   "run.lcm: event 17: truncated: the event at byte 5120 needs 415 bytes after its header, the file has 12"
 std::vector<clm_lcm::servo_state_t> read_servo_states(const std::string& lcm_log_path);
 
+/// The CLM_SERVO_STATE messages of a log with the event number of each.
+struct ServoStateLog {
+  std::vector<clm_lcm::servo_state_t> states;
+  std::vector<std::int64_t> events;  ///< events[k]: event number of states[k] (0-based, every channel)
+};
+/// As read_servo_states, keeping each state's event number; same errors.
+ServoStateLog read_servo_state_log(const std::string& lcm_log_path);
+
 /// Named columns of equal length, ready for clm::write_csv_atomically.
 struct CsvColumns {
   std::vector<std::string> names;
   std::vector<std::vector<double>> values;  ///< values[column][row]
+  std::vector<std::size_t> source_states;   ///< index in the input states of each row
   std::size_t rows() const { return values.empty() ? 0 : values.front().size(); }
 };
 

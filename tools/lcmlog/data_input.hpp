@@ -1,0 +1,27 @@
+#pragma once
+// The --data input of `clm calibrate`, `clm identify` and `clm ff-identify`:
+// a CSV file, or an LCM log of clm-servod recognised by its first bytes and
+// converted to the same columns (docs/data-formats.md), so that both take the
+// same validation and the same code path.
+
+#include <string>
+
+#include "tools/data/csv_table.hpp"
+#include "tools/lcmlog/servo_log.hpp"
+
+namespace clm::lcmlog {
+
+/// True when the file at `path` begins with the LCM log sync word 0xEDA1DA01
+/// (big-endian, as lcm-logger and LcmLogWriter write it), whatever its name.
+/// False for a shorter file; throws std::runtime_error if it cannot be opened.
+bool is_lcm_log(const std::string& path);
+
+/// A CSV file as CsvTable::load, or an LCM log (is_lcm_log) whose
+/// CLM_SERVO_STATE messages are converted to `format`'s columns
+/// (experiment_columns, feedforward_columns) without a text round trip; rows
+/// of a log are named by event number in later errors ("run.lcm: event 1742:
+/// column 'Fy_N': 'nan' is not a finite number"). Throws std::runtime_error
+/// with one line naming the file (and the event for a damaged log).
+CsvTable load_data_table(const std::string& path, CsvFormat format);
+
+}  // namespace clm::lcmlog
