@@ -67,7 +67,13 @@ void commutate_with_gain(const StackedGain& gain, const Wrench& cogging, const W
   out.currents_A.resize(2 * count);
   if (2 * count >= 3) {
     // Overactuated: i = W⁻¹K̂ᵀ(K̂W⁻¹K̂ᵀ + λ²I)⁻¹ r, λ = 0 unless ill-conditioned.
-    Eigen::Matrix3d normal = weighted * gain.transpose();
+    // Block by block with fixed 3×2 sizes: cheaper than one dynamic product.
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    for (int l = 0; l < count; ++l) {
+      const Eigen::Matrix<double, 3, 2> w = weighted.middleCols<2>(2 * l);
+      const Eigen::Matrix<double, 3, 2> k = gain.middleCols<2>(2 * l);
+      normal.noalias() += w * k.transpose();
+    }
     normal = 0.5 * (normal + normal.transpose()).eval();
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
     eigen.computeDirect(normal, Eigen::EigenvaluesOnly);

@@ -141,6 +141,7 @@ FusedPgnnEvaluator::FusedPgnnEvaluator(const ElectromagneticModel& model) : mode
   input_weight_.resize(total);
   input_bias_.resize(total);
   hidden_.resize(total);
+  output_weights_.resize(3 * static_cast<std::size_t>(total));
   int first = 0;
   for (const auto& part : model.coil_sets) {
     for (const Network* network : {&part.column_a, &part.column_b, &part.cogging}) {
@@ -148,7 +149,12 @@ FusedPgnnEvaluator::FusedPgnnEvaluator(const ElectromagneticModel& model) : mode
       const auto width = static_cast<int>(hidden.biases.size());
       input_weight_.segment(first, width) = hidden.weights.col(0).array();
       input_bias_.segment(first, width) = hidden.biases.array();
-      outputs_.push_back({first, width, network->layers[1].weights, network->layers[1].biases});
+      const auto& last = network->layers[1];
+      Output out{first, width, {last.biases[0], last.biases[1], last.biases[2]}};
+      for (int n = 0; n < width; ++n) {
+        for (int r = 0; r < 3; ++r) output_weights_[3 * static_cast<std::size_t>(first + n) + r] = last.weights(r, n);
+      }
+      outputs_.push_back(out);
       first += width;
     }
   }
@@ -169,12 +175,20 @@ void FusedPgnnEvaluator::evaluate(double position_m, StackedGain& gain, Wrench& 
     gain.middleCols<2>(2 * l) = part.a_N_per_A * c + part.b_N_per_A * s;
     for (int n = 0; n < 3; ++n) {
       const Output& out = outputs_[static_cast<std::size_t>(3 * l + n)];
-      Eigen::Vector3d value = out.bias;
-      value.noalias() += out.weights * hidden_.segment(out.first, out.width).matrix();
+      double v0 = out.bias[0], v1 = out.bias[1], v2 = out.bias[2];
+      const double* h = hidden_.data() + out.first;
+      const double* w = output_weights_.data() + 3 * static_cast<std::size_t>(out.first);
+      for (int k = 0; k < out.width; ++k) {
+        v0 += w[3 * k] * h[k];
+        v1 += w[3 * k + 1] * h[k];
+        v2 += w[3 * k + 2] * h[k];
+      }
       if (n < 2) {
-        gain.col(2 * l + n) += value;
+        gain(0, 2 * l + n) += v0;
+        gain(1, 2 * l + n) += v1;
+        gain(2, 2 * l + n) += v2;
       } else {
-        cogging += value;
+        cogging += Wrench(v0, v1, v2);
       }
     }
   }

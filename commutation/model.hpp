@@ -87,13 +87,15 @@ class FusedPgnnEvaluator {
   struct Output {
     int first = 0;   // offset of this network's neurons in the hidden vector
     int width = 0;
-    Eigen::Matrix<double, 3, Eigen::Dynamic> weights;
-    Eigen::Vector3d bias;
+    double bias[3] = {0.0, 0.0, 0.0};
   };
   const ElectromagneticModel* model_;
   Eigen::ArrayXd input_weight_;
   Eigen::ArrayXd input_bias_;
   mutable Eigen::ArrayXd hidden_;  // scratch, sized at construction
+  // Output weights of every network, neuron by neuron: 3 values per hidden
+  // neuron at 3·(neuron index in the hidden vector).
+  std::vector<double> output_weights_;
   std::vector<Output> outputs_;   // 3 per coil set: column_a, column_b, cogging
 };
 
