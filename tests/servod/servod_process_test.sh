@@ -1,0 +1,111 @@
+#!/usr/bin/env bash
+# Process-level test of clm-servod and `clm ctl` over LCM (label unit): the
+# daemon on the real-time clock at 1 kHz without real-time rights (priority 0,
+# no mlockall), on an LCM port of its own; status, enable, a short program,
+# a refusal, then SIGTERM and a clean exit 0 within 2 s. About 5 s.
+#
+#   servod_process_test.sh CLM_SERVOD CLM SOURCE_DIR WORK_DIR
+set -euo pipefail
+servod=$1 clm=$2 source_dir=$3 work=$4
+
+# A port of its own (the LCM tests use 7700..9699), so parallel runs and a
+# daemon on the default port 7667 do not hear each other.
+port=$((9800 + $$ % 150))
+url="udpm://239.255.76.67:${port}?ttl=0"
+rm -rf "$work"
+mkdir -p "$work"
+
+fail() {
+  echo "FAIL: $*" >&2
+  echo "--- clm-servod stderr:" >&2
+  cat "$work/servod.log" >&2 || true
+  exit 1
+}
+
+# config/servod.yaml with an absolute motor file, no real-time rights, our port.
+sed -e "s|^motor_file: [^ ]*|motor_file: $source_dir/config/motor-sim.yaml|" \
+    -e 's|^\(  priority:\) [0-9]*|\1 0|' \
+    -e 's|^\(  lock_memory:\) [a-z]*|\1 false|' \
+    -e 's|^\(  clock:\) [a-z]*|\1 realtime|' \
+    -e "s|^\(  lcm_url:\) .*|\1 \"$url\"|" \
+    "$source_dir/config/servod.yaml" > "$work/servod.yaml"
+for expected in "motor_file: $source_dir/config/motor-sim.yaml" "  priority: 0" "  lock_memory: false" \
+                "  rate_hz: 1000" "  lcm_url: \"$url\""; do
+  grep -qxF -- "$expected" <(sed 's/ *#.*//' "$work/servod.yaml") || fail "config: no line '$expected' after editing"
+done
+
+# 0.01 m out and back at 0.05 m/s: about 1 s.
+cat > "$work/short-program.yaml" <<'PROGRAM'
+format: clm-servo-program
+format_version: 1
+description: "process test: a short move out and back"
+start_m: 0.0
+steps:
+  - {target_m: 0.01, velocity_m_per_s: 0.05, acceleration_m_per_s2: 1.0, jerk_m_per_s3: 1000.0, dwell_s: 0.1}
+  - {target_m: 0.0, velocity_m_per_s: 0.05, acceleration_m_per_s2: 1.0, jerk_m_per_s3: 1000.0, dwell_s: 0.1}
+PROGRAM
+
+"$servod" --config "$work/servod.yaml" 2> "$work/servod.log" &
+pid=$!
+trap 'kill -KILL $pid 2>/dev/null || true' EXIT
+
+ctl() { "$clm" ctl --lcm-url "$url" "$@"; }  # waits 2 s for a status or an ack unless --timeout-s
+field() { sed -n "s/^$1: //p" <<< "$2"; }
+
+# 1. The daemon is up: a status arrives (the first within 5 s).
+status=""
+for _ in 1 2 3 4 5; do
+  status=$(ctl status --timeout-s 1 2>/dev/null) && break
+  kill -0 $pid 2>/dev/null || fail "clm-servod exited at start-up"
+done
+[ -n "$status" ] || fail "clm ctl status saw no CLM_SERVO_STATUS within 5 s"
+[ "$(field state "$status")" = disabled ] || fail "state after start: $(field state "$status")"
+[ "$(field fault "$status")" = 0 ] || fail "fault after start: $(field fault "$status")"
+
+# 2. enable, and the program.
+reply=$(ctl enable) || fail "enable refused: $reply"
+[ "$reply" = accepted ] || fail "enable: '$reply'"
+reply=$(ctl run-program "$work/short-program.yaml") || fail "run-program refused: $reply"
+[ "$reply" = "program posted" ] || fail "run-program: '$reply'"
+
+# 3. It runs and ends, without a fault.
+saw_running=0 ended=0
+for _ in $(seq 1 50); do
+  status=$(ctl status) || fail "no status while the program runs"
+  [ "$(field fault "$status")" = 0 ] || fail "fault during the program: $(field fault_reason "$status")"
+  [ "$(field state "$status")" = enabled ] || fail "state during the program: $(field state "$status")"
+  if [ "$(field program_running "$status")" = true ]; then
+    saw_running=1
+  elif [ $saw_running = 1 ]; then
+    ended=1
+    break
+  fi
+  sleep 0.05
+done
+[ $saw_running = 1 ] || fail "never saw program_running: true"
+[ $ended = 1 ] || fail "the program did not end within the wait"
+
+# 4. A refusal comes back as exit status 1 with the reason.
+set +e
+reply=$(ctl move-to --target-m 1.0)
+rc=$?
+set -e
+[ $rc = 1 ] || fail "move-to beyond the soft limits: exit status $rc, expected 1"
+[ "$reply" = "rejected: target outside the soft limits" ] || fail "move-to beyond the soft limits: '$reply'"
+
+# 5. SIGTERM: exit 0 within 2 s.
+kill -TERM $pid
+for _ in $(seq 1 20); do
+  kill -0 $pid 2>/dev/null || break
+  sleep 0.1
+done
+kill -0 $pid 2>/dev/null && fail "clm-servod still running 2 s after SIGTERM"
+set +e
+wait $pid
+rc=$?
+set -e
+trap - EXIT
+[ $rc = 0 ] || fail "clm-servod exit status $rc after SIGTERM, expected 0"
+grep -q "stopping on SIGTERM" "$work/servod.log" || fail "no 'stopping on SIGTERM' in its stderr"
+if grep -q "error" "$work/servod.log"; then fail "an error line in its stderr"; fi
+echo "clm-servod process test: status, enable, program, refusal, SIGTERM: all as expected"
