@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Process-level test of clm-servod and `clm ctl` over LCM (label unit): the
 # daemon on the real-time clock at 1 kHz without real-time rights (priority 0,
-# no mlockall), on an LCM port of its own; status, enable, a short program,
-# a refusal, then SIGTERM and a clean exit 0 within 2 s. About 5 s.
+# no mlockall), on an LCM port of its own: start-up refusals (exit 2), then
+# status, enable, a short program, a refused command, SIGTERM and a clean
+# exit 0 within 2 s. About 2 s.
 #
 #   servod_process_test.sh CLM_SERVOD CLM SOURCE_DIR WORK_DIR
 set -euo pipefail
@@ -44,6 +45,22 @@ steps:
   - {target_m: 0.01, velocity_m_per_s: 0.05, acceleration_m_per_s2: 1.0, jerk_m_per_s3: 1000.0, dwell_s: 0.1}
   - {target_m: 0.0, velocity_m_per_s: 0.05, acceleration_m_per_s2: 1.0, jerk_m_per_s3: 1000.0, dwell_s: 0.1}
 PROGRAM
+
+# 0. Start-up refusals: exit 2 with one line naming the cause.
+expect_refusal() {  # CONFIG EXPECTED-LINE
+  set +e
+  "$servod" --config "$1" --duration-s 1 2> "$work/refusal.log"
+  local rc=$?
+  set -e
+  [ $rc = 2 ] || fail "--config $1: exit status $rc, expected 2"
+  [ "$(wc -l < "$work/refusal.log")" = 1 ] || fail "--config $1: not one line on stderr: $(cat "$work/refusal.log")"
+  grep -qF -- "$2" "$work/refusal.log" || fail "--config $1: '$(cat "$work/refusal.log")' does not say '$2'"
+}
+expect_refusal "$work/no-such-config.yaml" "clm-servod: error: $work/no-such-config.yaml"
+sed -e 's|^\(  cpu:\) [-0-9]*|\1 1023|' -e 's|^\(  require_realtime:\) [a-z]*|\1 true|' \
+    "$work/servod.yaml" > "$work/servod-require-realtime.yaml"
+expect_refusal "$work/servod-require-realtime.yaml" \
+    "clm-servod: error: pinning the loop thread to CPU 1023 failed: Invalid argument (loop.require_realtime is true)"
 
 "$servod" --config "$work/servod.yaml" 2> "$work/servod.log" &
 pid=$!
