@@ -52,6 +52,12 @@ using Clock = std::chrono::steady_clock;
 void warn(const std::string& message) { std::fprintf(stderr, "clm-servod: warning: %s\n", message.c_str()); }
 void note(const std::string& message) { std::fprintf(stderr, "clm-servod: %s\n", message.c_str()); }
 
+std::string format_seconds(double seconds) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g s", seconds);
+  return text;
+}
+
 /// Cycles run with zero setpoints after the disable at shutdown, so the
 /// drives see the axis disabled before the bus goes quiet.
 constexpr std::int64_t kShutdownCycles = 10;
@@ -183,12 +189,12 @@ int run(const std::string& config_path, double duration_s) {
   }
   servod::ServiceMonitor monitor(notifier, watchdog_period_s, [&] { return daemon.cycles_done(); },
                                  [&] { return health.status_line(); });
-  monitor.start();
-  notifier.notify("READY=1\nSTATUS=" + health.status_line());
+  notifier.notify("READY=1");
+  monitor.start();  // sends the first STATUS= at once
   note(std::string("running: ") + std::to_string(static_cast<int>(config.loop.rate_hz)) + " Hz on the " +
        (realtime_clock ? "real-time" : "virtual") + " clock, CAN " + config.can.interface + ", telemetry " +
        (config.telemetry.enabled ? config.telemetry.lcm_url : std::string("off")) +
-       (watchdog_period_s > 0.0 ? ", systemd watchdog " + std::to_string(watchdog_period_s) + " s" : ""));
+       (watchdog_period_s > 0.0 ? ", systemd watchdog every " + format_seconds(0.5 * watchdog_period_s) : ""));
 
   std::optional<Clock::time_point> deadline;
   if (duration_s > 0.0) {

@@ -120,7 +120,8 @@ void ServiceMonitor::run() {
   const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       std::chrono::duration<double>(check_period_s_));
   std::int64_t last_cycles = cycles_();
-  std::string last_status;
+  std::string last_status = status_ ? status_() : std::string();
+  if (!last_status.empty()) notifier_.notify("STATUS=" + last_status);
   auto next = std::chrono::steady_clock::now() + period;
   std::unique_lock lock(mutex_);
   while (true) {

@@ -58,7 +58,7 @@ class ServiceMonitor {
  public:
   /// `cycles`: the loop's cycle counter (ServoDaemon::cycles_done), read
   /// from the monitor thread. `status`: one line for STATUS= (state and
-  /// fault), sent whenever it changes; may be empty.
+  /// fault), sent when the thread starts and whenever it changes; may be empty.
   using CycleCounter = std::function<std::int64_t()>;
   using StatusText = std::function<std::string()>;
 

@@ -3,7 +3,7 @@
 # daemon on the real-time clock at 1 kHz without real-time rights (priority 0,
 # no mlockall), on an LCM port of its own: start-up refusals (exit 2), then
 # status, enable, a short program, a refused command, SIGTERM and a clean
-# exit 0 within 2 s. About 2 s.
+# exit 0 within 2 s; the systemd notifications it sent meanwhile. About 2 s.
 #
 #   servod_process_test.sh CLM_SERVOD CLM SOURCE_DIR WORK_DIR
 set -euo pipefail
@@ -62,9 +62,31 @@ sed -e 's|^\(  cpu:\) [-0-9]*|\1 1023|' -e 's|^\(  require_realtime:\) [a-z]*|\1
 expect_refusal "$work/servod-require-realtime.yaml" \
     "clm-servod: error: pinning the loop thread to CPU 1023 failed: Invalid argument (loop.require_realtime is true)"
 
-"$servod" --config "$work/servod.yaml" 2> "$work/servod.log" &
+# Plays systemd: collects the notifications (READY, WATCHDOG, STATUS,
+# STOPPING) on a unix datagram socket until STOPPING=1 or 5 s of silence.
+notify_dir=$(mktemp -d)
+python3 - "$notify_dir/notify.sock" > "$work/notify.log" <<'LISTENER' &
+import socket, sys
+s = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+s.bind(sys.argv[1])
+s.settimeout(5.0)
+try:
+    while True:
+        message = s.recv(4096).decode()
+        print(message.replace("\n", "|"), flush=True)
+        if "STOPPING=1" in message:
+            break
+except socket.timeout:
+    pass
+LISTENER
+listener=$!
+for _ in $(seq 1 50); do [ -S "$notify_dir/notify.sock" ] && break; sleep 0.02; done
+[ -S "$notify_dir/notify.sock" ] || fail "the notify listener did not bind its socket"
+
+NOTIFY_SOCKET="$notify_dir/notify.sock" WATCHDOG_USEC=200000 \
+    "$servod" --config "$work/servod.yaml" 2> "$work/servod.log" &
 pid=$!
-trap 'kill -KILL $pid 2>/dev/null || true' EXIT
+trap 'kill -KILL $pid $listener 2>/dev/null || true; rm -rf "$notify_dir"' EXIT
 
 ctl() { "$clm" ctl --lcm-url "$url" "$@"; }  # waits 2 s for a status or an ack unless --timeout-s
 field() { sed -n "s/^$1: //p" <<< "$2"; }
@@ -124,5 +146,14 @@ set -e
 trap - EXIT
 [ $rc = 0 ] || fail "clm-servod exit status $rc after SIGTERM, expected 0"
 grep -q "stopping on SIGTERM" "$work/servod.log" || fail "no 'stopping on SIGTERM' in its stderr"
+
+# 6. systemd saw READY first, watchdog pings while it ran, STOPPING last.
+wait $listener || true
+rm -rf "$notify_dir"
+[ "$(head -n 1 "$work/notify.log")" = "READY=1" ] || fail "first notification: '$(head -n 1 "$work/notify.log")'"
+[ "$(tail -n 1 "$work/notify.log")" = "STOPPING=1" ] || fail "last notification: '$(tail -n 1 "$work/notify.log")'"
+pings=$(grep -cx "WATCHDOG=1" "$work/notify.log" || true)
+[ "$pings" -ge 5 ] || fail "$pings WATCHDOG=1 in a run of more than a second at WATCHDOG_USEC=200000"
+grep -qx "STATUS=state enabled, fault 0 (none)" "$work/notify.log" || fail "no STATUS= line for the enabled axis"
 if grep -q "error" "$work/servod.log"; then fail "an error line in its stderr"; fi
-echo "clm-servod process test: status, enable, program, refusal, SIGTERM: all as expected"
+echo "clm-servod process test: refusals, status, enable, program, refused move, SIGTERM, systemd notifications ($pings watchdog pings): all as expected"
