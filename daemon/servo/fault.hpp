@@ -9,11 +9,11 @@ namespace clm::servo {
 enum class Fault : std::uint16_t {
   kNone = 0,
   // 1xx communication
-  kEncoderFrameMissing = 101,   ///< no drive feedback for `missing_frame_limit` cycles
-  kForceFrameMissing = 102,     ///< no force-sensor frame for `missing_frame_limit` cycles
+  kEncoderFrameMissing = 101,   ///< no timely drive feedback for `missing_frame_limit` cycles (late = missing)
+  kForceFrameMissing = 102,     ///< no timely force-sensor frame for `missing_frame_limit` cycles
   kEncoderAliveJump = 103,      ///< drive alive counter skipped more than the frames missed
   kForceAliveJump = 104,        ///< force-sensor alive counter skipped more than the frames missed
-  kFrameRejected = 105,         ///< a feedback frame with a wrong length or undecodable content
+  kFrameRejected = 105,         ///< as 101/102, and frames of that stream came but were rejected (length, content)
   kBusOff = 106,                ///< the CAN controller went bus-off
   kBusErrorPassive = 107,       ///< the CAN controller went error-passive
   kSendFailed = 108,            ///< a setpoint frame could not be queued

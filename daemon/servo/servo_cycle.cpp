@@ -126,6 +126,8 @@ CommandStatus ServoCycle::clear_fault() noexcept {
   fault_cycle_ = -1;
   clear_drive_fault_ = true;  // one cycle with the clear bit to the drive
   drive_missed_ = force_missed_ = 0;
+  drive_unseen_ = force_unseen_ = 0;
+  drive_rejected_ = force_rejected_ = false;
   consecutive_overruns_ = 0;
   drive_alive_known_ = force_alive_known_ = false;
   return CommandStatus::kAccepted;
@@ -211,11 +213,17 @@ can::Frame ServoCycle::begin_cycle(std::int64_t sync_time_ns) noexcept {
   return sync;
 }
 
-void ServoCycle::track_alive(std::uint8_t counter, std::uint8_t& last, bool& known, int missed,
+void ServoCycle::track_alive(std::uint8_t counter, std::uint8_t& last, bool& known, int& unseen, bool late,
                              Fault jump_fault) noexcept {
+  // `unseen` frames of the stream are owed since `last`: a timely frame must
+  // be the one after them, a late one must be one of them.
   if (known) {
-    const auto expected = static_cast<std::uint8_t>(last + 1 + missed);
-    if (counter != expected) latch(jump_fault);
+    const int step = static_cast<std::uint8_t>(counter - last);
+    const bool in_sequence = late ? (step >= 1 && step <= unseen) : step == unseen + 1;
+    if (!in_sequence) latch(jump_fault);
+    unseen = in_sequence && late ? unseen - step : 0;
+  } else {
+    unseen = 0;
   }
   last = counter;
   known = true;
@@ -229,41 +237,38 @@ void ServoCycle::on_frame(const drivers::ReceivedFrame& received) noexcept {
     can::DriveFeedback feedback;
     if (can::decode_drive_feedback(settings_.protocol, frame, feedback) != can::CodecStatus::kOk) {
       ++counters_.frames_rejected;
+      drive_rejected_ = true;
       return;
     }
     if (drive_fresh_ && feedback.alive_counter == drive_alive_) {
       ++counters_.frames_duplicate;
       return;
     }
+    track_alive(feedback.alive_counter, drive_alive_, drive_alive_known_, drive_unseen_, late, Fault::kEncoderAliveJump);
     if (late) {
-      // Belongs to an earlier cycle: it was counted missing there.
+      // Belongs to an earlier cycle, which counted it missing; it does not
+      // end the run of cycles without a timely frame either.
       ++counters_.frames_late;
-      track_alive(feedback.alive_counter, drive_alive_, drive_alive_known_, drive_missed_ > 0 ? drive_missed_ - 1 : 0,
-                  Fault::kEncoderAliveJump);
-      if (drive_missed_ > 0) --drive_missed_;
       return;
     }
-    track_alive(feedback.alive_counter, drive_alive_, drive_alive_known_, drive_missed_, Fault::kEncoderAliveJump);
     drive_ = feedback;
     drive_fresh_ = true;
   } else if (frame.id == can::force_feedback_id(settings_.protocol)) {
     can::ForceFeedback feedback;
     if (can::decode_force_feedback(settings_.protocol, frame, feedback) != can::CodecStatus::kOk) {
       ++counters_.frames_rejected;
+      force_rejected_ = true;
       return;
     }
     if (force_fresh_ && feedback.alive_counter == force_alive_) {
       ++counters_.frames_duplicate;
       return;
     }
+    track_alive(feedback.alive_counter, force_alive_, force_alive_known_, force_unseen_, late, Fault::kForceAliveJump);
     if (late) {
       ++counters_.frames_late;
-      track_alive(feedback.alive_counter, force_alive_, force_alive_known_, force_missed_ > 0 ? force_missed_ - 1 : 0,
-                  Fault::kForceAliveJump);
-      if (force_missed_ > 0) --force_missed_;
       return;
     }
-    track_alive(feedback.alive_counter, force_alive_, force_alive_known_, force_missed_, Fault::kForceAliveJump);
     force_ = feedback;
     force_fresh_ = true;
   } else {
@@ -327,17 +332,27 @@ void ServoCycle::commutate(double position_m, double force_N) noexcept {
 
 std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
   // 1. Feedback bookkeeping: ride through missing frames up to the limit.
+  // A cycle whose frame came late or was rejected counts as one without it;
+  // when rejected frames were part of the run, that is the reason given.
   if (drive_fresh_) {
     drive_missed_ = 0;
+    drive_rejected_ = false;
   } else {
     ++counters_.frames_missing;
-    if (++drive_missed_ >= settings_.missing_frame_limit && have_position_) latch(Fault::kEncoderFrameMissing);
+    ++drive_unseen_;
+    if (++drive_missed_ >= settings_.missing_frame_limit && have_position_) {
+      latch(drive_rejected_ ? Fault::kFrameRejected : Fault::kEncoderFrameMissing);
+    }
   }
   if (force_fresh_) {
     force_missed_ = 0;
+    force_rejected_ = false;
   } else {
     ++counters_.frames_missing;
-    if (++force_missed_ >= settings_.missing_frame_limit && have_position_) latch(Fault::kForceFrameMissing);
+    ++force_unseen_;
+    if (++force_missed_ >= settings_.missing_frame_limit && have_position_) {
+      latch(force_rejected_ ? Fault::kFrameRejected : Fault::kForceFrameMissing);
+    }
   }
   if (drive_fresh_) {
     if (!std::isfinite(drive_.position_m)) latch(Fault::kMeasurementNotFinite);
@@ -347,7 +362,8 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
     const double raw_velocity = (position_m_ - previous_position_m_) / settings_.period_s;
     const double alpha = settings_.period_s / (kVelocityFilter_s + settings_.period_s);
     velocity_estimate_m_per_s_ += alpha * (raw_velocity - velocity_estimate_m_per_s_);
-    if (drive_.status_word & can::kStatusFault) latch(Fault::kDriveFault);
+    // The feedback of the cycle that carries the clear request predates it.
+    if ((drive_.status_word & can::kStatusFault) && !clear_drive_fault_) latch(Fault::kDriveFault);
   }
   if (force_fresh_ && !force_.wrench.allFinite()) latch(Fault::kMeasurementNotFinite);
   if (have_position_ && (position_m_ < settings_.soft_limit_min_m || position_m_ > settings_.soft_limit_max_m)) {

@@ -53,7 +53,7 @@ struct ServoSettings {
   double following_error_limit_m = 1e-3;
   double force_limit_N = 500.0;           ///< |F*| is limited to this (reported, never silent)
   double saturation_time_limit_s = 0.05;  ///< fault when limited longer than this
-  int missing_frame_limit = 3;            ///< consecutive cycles without a feedback frame → fault
+  int missing_frame_limit = 3;            ///< consecutive cycles without a timely, valid feedback frame → fault
   int overrun_limit = 5;                  ///< consecutive overruns → fault
   double standstill_velocity_m_per_s = 2e-3;
   /// Throws std::invalid_argument naming the setting.
@@ -172,7 +172,8 @@ class ServoCycle {
 
  private:
   void latch(Fault fault) noexcept;
-  void track_alive(std::uint8_t counter, std::uint8_t& last, bool& have_last, int missed, Fault jump_fault) noexcept;
+  void track_alive(std::uint8_t counter, std::uint8_t& last, bool& known, int& unseen, bool late,
+                   Fault jump_fault) noexcept;
   void adopt_offers() noexcept;
   void commutate(double position_m, double force_N) noexcept;
   void zero_setpoints() noexcept;
@@ -204,7 +205,9 @@ class ServoCycle {
   can::ForceFeedback force_{};
   std::uint8_t drive_alive_ = 0, force_alive_ = 0;
   bool drive_alive_known_ = false, force_alive_known_ = false;
-  int drive_missed_ = 0, force_missed_ = 0;  // consecutive cycles without the frame
+  int drive_missed_ = 0, force_missed_ = 0;  // consecutive cycles without a timely, valid frame
+  int drive_unseen_ = 0, force_unseen_ = 0;  // frames owed since the last one received (alive-counter gap)
+  bool drive_rejected_ = false, force_rejected_ = false;  // a frame was rejected since the last timely one
   bool have_position_ = false;
   double position_m_ = 0.0, previous_position_m_ = 0.0;
   double velocity_estimate_m_per_s_ = 0.0;

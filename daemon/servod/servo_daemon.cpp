@@ -273,6 +273,9 @@ void ServoDaemon::one_cycle(std::int64_t sync_time_ns, std::int64_t deadline_ns,
   bool send_failed = !bus_->send(sync);
   drivers::ReceivedFrame received;
   while (!cycle_->feedback_complete() && bus_->receive(received, deadline_ns)) cycle_->on_frame(received);
+  // A bus fault known before the setpoints are built already zeroes this
+  // cycle's setpoints; a failing setpoint send is reported after them.
+  cycle_->report_bus(bus_->state(), send_failed);
   const auto frames = cycle_->end_cycle(time_s);
   // Setpoints never outlive their cycle: past the next SYNC they are dropped.
   if (realtime && monotonic_ns() >= next_sync_ns) {

@@ -16,6 +16,12 @@ std::size_t SimulatedNodes::on_frame(const can::Frame& frame, std::span<can::Fra
       return 0;
     }
     ++counters_.syncs;
+    // Setpoints never outlive their cycle: an incomplete set (an RPDO lost)
+    // is dropped, never completed with the next cycle's frames.
+    if (received_mask_ != 0) {
+      ++counters_.setpoints_incomplete;
+      received_mask_ = 0;
+    }
     motor_->step(period_s_);
     const sim::SensorFrame sensed = motor_->sense();
     const sim::DriveStatus status = motor_->status();

@@ -2,7 +2,8 @@
 // The simulated motor as the drive and force-sensor nodes of the CAN
 // protocol (docs/can-protocol.md). On each SYNC the nodes step the motor by
 // one period, sample the encoder and the force sensor and reply; setpoint
-// frames are collected until all of a cycle's RPDOs are in, then applied.
+// frames are collected until all of a cycle's RPDOs are in, then applied
+// (a set still incomplete at the next SYNC is dropped).
 // Used in-process (the daemon's embedded default) and, in `clm sim --can`,
 // over SocketCAN. No allocation per frame.
 
@@ -17,6 +18,7 @@ namespace clm::simbus {
 struct NodeCounters {
   std::int64_t syncs = 0;
   std::int64_t setpoints_applied = 0;
+  std::int64_t setpoints_incomplete = 0;  ///< cycles whose RPDOs did not all arrive before the next SYNC: dropped
   std::int64_t frames_rejected = 0;       ///< undecodable frames addressed to the nodes
   std::int64_t feedback_not_encoded = 0;  ///< sensor values outside a signal's range: frame not sent
 };
