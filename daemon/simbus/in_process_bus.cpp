@@ -11,7 +11,9 @@ void InProcessBus::enqueue(const can::Frame& frame, std::int64_t stamp_ns) noexc
 }
 
 bool InProcessBus::send(const can::Frame& frame) noexcept {
+  if (frame.id == can::kSyncId) monitor_count_ = 0;  // a new cycle, even if its SYNC is refused
   if (injection_.fail_sends) return false;
+  if (frame.id != can::kSyncId && monitor_count_ < monitor_.size()) monitor_[monitor_count_++] = frame;
   if (frame.id != can::kSyncId && injection_.drop_setpoint_frames > 0) {
     --injection_.drop_setpoint_frames;
     return true;  // sent, but lost on the way

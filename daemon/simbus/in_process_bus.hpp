@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 
 #include "daemon/simbus/simulated_nodes.hpp"
 #include "drivers/can_bus.hpp"
@@ -40,6 +41,12 @@ class InProcessBus final : public drivers::CanBus {
   drivers::BusState state() const noexcept override { return injection_.bus_state; }
   std::uint64_t error_frames() const noexcept override { return 0; }
 
+  /// Bus monitor beside the daemon: the frames it transmitted since it last
+  /// sent (or tried to send) a SYNC, in order, SYNC itself excluded. A frame counts once send()
+  /// accepted it, even if the injection then lost it on the way to the
+  /// drive; frames refused by `fail_sends` are not on the bus. For tests.
+  std::span<const can::Frame> frames_since_sync() const noexcept { return {monitor_.data(), monitor_count_}; }
+
  private:
   void enqueue(const can::Frame& frame, std::int64_t stamp_ns) noexcept;
   SimulatedNodes* nodes_;
@@ -50,6 +57,8 @@ class InProcessBus final : public drivers::CanBus {
   std::size_t head_ = 0, tail_ = 0;
   std::array<drivers::ReceivedFrame, 8> delayed_{};
   std::size_t delayed_count_ = 0;
+  std::array<can::Frame, 8> monitor_{};
+  std::size_t monitor_count_ = 0;
 };
 
 }  // namespace clm::simbus

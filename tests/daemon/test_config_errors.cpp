@@ -1,0 +1,180 @@
+// Configurations with errors are refused before anything runs, with one line
+// naming the file, the line and the key path (style rules 4 and 8). Each case
+// changes one line of a small valid configuration written to a temporary
+// directory; the line numbers below are those of that text.
+#include <catch2/catch.hpp>
+#include <string>
+#include <vector>
+
+#include "daemon/servod/servo_daemon.hpp"
+#include "daemon/servod/servod_config.hpp"
+#include "tests/daemon/daemon_support.hpp"
+
+using namespace clm;
+
+namespace {
+
+/// A valid configuration, one key per line; `lines[k]` is line k + 1.
+std::vector<std::string> valid_lines() {
+  return {
+      "motor_file: " + test::source_path("config/motor-sim.yaml"),  // 1
+      "loop:",                                                       // 2
+      "  rate_hz: 1000",                                             // 3
+      "  clock: virtual",                                            // 4
+      "can:",                                                        // 5
+      "  interface: sim",                                            // 6
+      "  bitrate_bps: 1000000",                                      // 7
+      "control:",                                                    // 8
+      "  mass_kg: 15.0",                                             // 9
+      "  bandwidth_hz: 40.0",                                        // 10
+      "commutation:",                                                // 11
+      "  mode: original",                                            // 12
+      "faults:",                                                     // 13
+      "  missing_frame_limit: 3",                                    // 14
+      "telemetry:",                                                  // 15
+      "  enabled: false",                                            // 16
+  };
+}
+
+std::string join(const std::vector<std::string>& lines) {
+  std::string text;
+  for (const auto& line : lines) text += line + "\n";
+  return text;
+}
+
+/// Writes the lines as servod.yaml and returns the loader's message ("" if it loaded).
+std::string load_error(const test::TempDir& dir, const std::vector<std::string>& lines) {
+  const std::string path = dir.file("servod.yaml");
+  test::write_text(path, join(lines));
+  try {
+    (void)servod::load_servod_config(path);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST_CASE("the valid test configuration loads and runs", "[daemon][config]") {
+  test::TempDir dir("clm-servod-config");
+  REQUIRE(load_error(dir, valid_lines()).empty());
+  servod::ServoDaemon daemon(servod::load_servod_config(dir.file("servod.yaml")));
+  daemon.run_cycles(10);
+  CHECK(daemon.cycle().state() == servo::ServoState::kDisabled);
+}
+
+TEST_CASE("configuration errors are refused naming file, line and key path", "[daemon][config]") {
+  test::TempDir dir("clm-servod-config");
+  const std::string file = dir.file("servod.yaml");
+  auto lines = valid_lines();
+
+  SECTION("unknown key") {
+    lines.insert(lines.begin() + 10, "  gain_N_per_m: 5.0");  // becomes line 11
+    CHECK(load_error(dir, lines) == file + ":11: control.gain_N_per_m: unknown key 'gain_N_per_m'");
+  }
+  SECTION("unknown section") {
+    lines.push_back("logging: {level: debug}");
+    CHECK(load_error(dir, lines) == file + ":17: logging: unknown key 'logging'");
+  }
+  SECTION("wrong type") {
+    lines[2] = "  rate_hz: fast";
+    CHECK(load_error(dir, lines) == file + ":3: loop.rate_hz: expected a number, got 'fast'");
+  }
+  SECTION("wrong type of a section") {
+    lines[12] = "faults: 3";
+    lines.erase(lines.begin() + 13);
+    CHECK_THAT(load_error(dir, lines), Catch::StartsWith(file + ":13: faults: expected a map"));
+  }
+  SECTION("out-of-range value") {
+    lines[13] = "  missing_frame_limit: 0";
+    CHECK(load_error(dir, lines) == file + ":14: faults.missing_frame_limit: value 0 outside [1, 1000]");
+  }
+  SECTION("a word where a choice is expected") {
+    lines[11] = "  mode: fastest";
+    CHECK_THAT(load_error(dir, lines), Catch::StartsWith(file + ":12: commutation.mode: expected original, classical"));
+  }
+  SECTION("missing motor_file") {
+    lines.erase(lines.begin());
+    CHECK_THAT(load_error(dir, lines),
+               Catch::StartsWith(file) && Catch::Contains("(top level): missing key 'motor_file'"));
+  }
+  SECTION("motor_file that does not exist") {
+    lines[0] = "motor_file: no-such-motor.yaml";
+    CHECK_THAT(load_error(dir, lines),
+               Catch::StartsWith(file + ":1: motor_file: file '") && Catch::Contains("no-such-motor.yaml' does not exist"));
+  }
+  SECTION("missing control.mass_kg (no default: the PID is tuned for it)") {
+    lines.erase(lines.begin() + 8);
+    CHECK_THAT(load_error(dir, lines), Catch::StartsWith(file + ":") && Catch::Contains(": control: missing key 'mass_kg'"));
+  }
+  SECTION("missing control section") {
+    lines.erase(lines.begin() + 7, lines.begin() + 10);
+    CHECK_THAT(load_error(dir, lines), Catch::StartsWith(file) && Catch::Contains("missing key 'control'"));
+  }
+  SECTION("mode pgnn without pgnn_model_file") {
+    lines[11] = "  mode: pgnn";
+    CHECK(load_error(dir, lines) == file + ":12: commutation.mode: mode needs commutation.pgnn_model_file");
+  }
+  SECTION("a model file that does not exist") {
+    lines.insert(lines.begin() + 12, "  pgnn_model_file: models/pgnn.yaml");
+    CHECK_THAT(load_error(dir, lines), Catch::StartsWith(file + ":13: commutation.pgnn_model_file: file '") &&
+                                           Catch::Contains("models/pgnn.yaml' does not exist"));
+  }
+  SECTION("bus load above 70 %") {
+    lines[2] = "  rate_hz: 4000";
+    CHECK_THAT(load_error(dir, lines),
+               Catch::StartsWith(file + ":") && Catch::Contains(": can: can bus load: ") &&
+                   Catch::Contains("exceeds the 70.0 % limit"));
+  }
+  SECTION("soft limits the wrong way round") {
+    lines.insert(lines.begin() + 10, "  soft_limit_min_m: 0.05");
+    lines.insert(lines.begin() + 11, "  soft_limit_max_m: -0.05");
+    CHECK_THAT(load_error(dir, lines), Catch::StartsWith(file + ":12: control.soft_limit_max_m: must be above"));
+  }
+}
+
+TEST_CASE("commutation files for another motor or of the wrong kind are refused naming both files",
+          "[daemon][config]") {
+  test::TempDir dir("clm-servod-config");
+  // A model and a calibration made for the two-coil-set motor.
+  const auto other = sim::load_motor_parameters(test::source_path("config/motor-sim-2coil.yaml"));
+  const std::string other_model = dir.file("pgnn-2coil.yaml");
+  const std::string other_calibration = dir.file("calibration-2coil.yaml");
+  test::write_text(other_model, format_model_file(test::truth_pgnn(other)));
+  test::write_text(other_calibration, format_calibration_file(test::truth_calibration(other)));
+  const std::string motor_file = test::source_path("config/motor-sim.yaml");
+
+  const auto refused = [&](const std::string& commutation_lines) {
+    auto lines = valid_lines();
+    lines[11] = commutation_lines;
+    test::write_text(dir.file("servod.yaml"), join(lines));
+    const auto config = servod::load_servod_config(dir.file("servod.yaml"));  // the files exist: loads
+    try {
+      servod::ServoDaemon daemon(config);
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  SECTION("pgnn model of the two-coil motor") {
+    CHECK(refused("  mode: pgnn\n  pgnn_model_file: " + other_model) ==
+          other_model + ": motor.coil_sets: model has 2 coil sets, " + motor_file + " has 3");
+  }
+  SECTION("calibration of the two-coil motor, even when another mode is selected") {
+    CHECK(refused("  mode: original\n  calibration_file: " + other_calibration) ==
+          other_calibration + ": motor.coil_sets: calibration has 2 coil sets, " + motor_file + " has 3");
+  }
+  SECTION("a spline model where the pgnn model belongs") {
+    const std::string spline = dir.file("spline.yaml");
+    test::write_text(spline, format_model_file(test::truth_spline(sim::load_motor_parameters(motor_file))));
+    CHECK_THAT(refused("  mode: pgnn\n  pgnn_model_file: " + spline),
+               Catch::StartsWith(spline + ": kind: the file holds a spline model"));
+  }
+  SECTION("a corrupt model file") {
+    const std::string corrupt = dir.file("corrupt.yaml");
+    const std::string text = format_model_file(test::truth_pgnn(sim::load_motor_parameters(motor_file)));
+    test::write_text(corrupt, text.substr(0, text.size() / 2));
+    CHECK_THAT(refused("  mode: pgnn\n  pgnn_model_file: " + corrupt), Catch::StartsWith(corrupt + ":"));
+  }
+}

@@ -1,0 +1,397 @@
+// Every fault of the safety item, provoked on the in-process simulated motor
+// through the bus-side injection or the configuration. Each must latch with
+// the right reason and put zero magnitudes with enable cleared on the bus in
+// the cycle the fault was found (faults reported between cycles: the next
+// cycle's frames), and in every cycle after until clear_fault; then
+// clear_fault → disabled → enable drives again. The expectations are checked
+// on what the drive received (the frames decoded with the protocol's
+// decoder, the simulated drive's status and currents), never on the cycle's
+// own record alone.
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "daemon/servod/servo_daemon.hpp"
+#include "daemon/simbus/in_process_bus.hpp"
+#include "tests/daemon/daemon_support.hpp"
+#include "tools/sim/motor.hpp"
+
+using namespace clm;
+using Kind = servod::DaemonCommand::Kind;
+using servo::Fault;
+using servo::ServoState;
+
+namespace {
+
+/// The default daemon (or `config`) with the axis enabled, holding at the
+/// centre of the stroke.
+struct EnabledAxis {
+  explicit EnabledAxis(const servod::ServodConfig& config = test::virtual_config()) : daemon(config) {
+    daemon.run_cycles(10);
+    test::command(daemon, Kind::kEnable, 20);
+    REQUIRE(daemon.cycle().state() == ServoState::kEnabled);
+    test::require_driving_output(daemon);
+  }
+  simbus::Injection& injection() { return daemon.in_process_bus()->injection(); }
+  const servo::CycleCounters& counters() { return daemon.cycle().counters(); }
+  int limit() const { return daemon.config().servo.missing_frame_limit; }
+
+  void move_to(double target_m, control::MotionLimits limits) {
+    servod::DaemonCommand move;
+    move.kind = Kind::kMoveTo;
+    move.target_m = target_m;
+    move.limits = limits;
+    REQUIRE(daemon.submit(move).accepted);
+  }
+
+  /// The fault latched as `expected` and the last cycle's output is safe;
+  /// `more` further cycles keep it latched and safe.
+  void require_latched(Fault expected, bool frames_reached_drive = true, int more = 20) {
+    INFO("fault " << servo::describe(daemon.cycle().fault()));
+    REQUIRE(daemon.cycle().state() == ServoState::kFault);
+    REQUIRE(daemon.cycle().fault() == expected);
+    test::require_safe_output(daemon, frames_reached_drive);
+    for (int k = 0; k < more; ++k) {
+      daemon.run_cycles(1);
+      REQUIRE(daemon.cycle().state() == ServoState::kFault);
+      REQUIRE(daemon.cycle().fault() == expected);
+      test::require_safe_output(daemon);
+    }
+  }
+
+  /// clear_fault → disabled (one cycle asks the drive to clear too) → enable
+  /// drives the axis again, and it stays so.
+  void require_recovers() {
+    REQUIRE(test::command(daemon, Kind::kEnable).accepted);
+    CHECK(daemon.cycle().state() == ServoState::kFault);  // enable is refused while latched
+    test::command(daemon, Kind::kClearFault);
+    REQUIRE(daemon.cycle().state() == ServoState::kDisabled);
+    CHECK(daemon.cycle().fault() == Fault::kNone);
+    const auto clearing = test::sent_setpoints(daemon);
+    REQUIRE(clearing.complete);
+    CHECK(clearing.command.clear_fault);
+    CHECK_FALSE(clearing.command.enable);
+    CHECK(clearing.all_magnitudes_zero());
+    daemon.run_cycles(5);
+    REQUIRE(daemon.cycle().state() == ServoState::kDisabled);
+    CHECK_FALSE(test::sent_setpoints(daemon).command.clear_fault);
+    CHECK_FALSE(daemon.simulated_motor()->status().fault());
+    test::command(daemon, Kind::kEnable);
+    REQUIRE(daemon.cycle().state() == ServoState::kEnabled);
+    test::require_driving_output(daemon);
+    for (int k = 0; k < 200; ++k) {
+      daemon.run_cycles(1);
+      INFO("cycle " << k << " after enable: " << servo::describe(daemon.cycle().fault()));
+      REQUIRE(daemon.cycle().state() == ServoState::kEnabled);
+    }
+    test::require_driving_output(daemon);
+    CHECK_FALSE(daemon.simulated_motor()->status().fault());
+  }
+
+  servod::ServoDaemon daemon;
+};
+
+/// Limits of a brisk move: 0.3 m/s, 10 m/s² (150 N on the 15 kg translator).
+constexpr control::MotionLimits kBrisk{0.3, 10.0, 1000.0};
+
+}  // namespace
+
+TEST_CASE("encoder frames missing: one and limit-1 ride through, the limit latches kEncoderFrameMissing",
+          "[daemon][faults]") {
+  EnabledAxis axis;
+  const int limit = axis.limit();
+  REQUIRE(limit >= 2);
+  for (const int n : {1, limit - 1}) {
+    const auto missing = axis.counters().frames_missing;
+    axis.injection().drop_drive_frames = n;
+    for (int k = 0; k < n + 50; ++k) {
+      axis.daemon.run_cycles(1);
+      REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+      test::require_driving_output(axis.daemon);
+    }
+    CHECK(axis.counters().frames_missing - missing == n);
+  }
+  axis.injection().drop_drive_frames = limit;
+  CHECK(test::run_until_fault(axis.daemon, 50) == limit);
+  axis.require_latched(Fault::kEncoderFrameMissing);
+  axis.require_recovers();
+}
+
+TEST_CASE("force-sensor frames missing: limit-1 ride through, the limit latches kForceFrameMissing",
+          "[daemon][faults]") {
+  EnabledAxis axis;
+  const int limit = axis.limit();
+  for (const int n : {1, limit - 1}) {
+    const auto missing = axis.counters().frames_missing;
+    axis.injection().drop_force_frames = n;
+    for (int k = 0; k < n + 50; ++k) {
+      axis.daemon.run_cycles(1);
+      REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+    }
+    CHECK(axis.counters().frames_missing - missing == n);
+  }
+  axis.injection().drop_force_frames = limit;
+  CHECK(test::run_until_fault(axis.daemon, 50) == limit);
+  axis.require_latched(Fault::kForceFrameMissing);
+  axis.require_recovers();
+}
+
+TEST_CASE("late encoder frames are counted and ride through below the limit; late at the limit latches",
+          "[daemon][faults]") {
+  EnabledAxis axis;
+  const int limit = axis.limit();
+  for (const int n : {1, limit - 1}) {
+    const auto late = axis.counters().frames_late;
+    axis.injection().delay_drive_frames = n;
+    for (int k = 0; k < n + 50; ++k) {
+      axis.daemon.run_cycles(1);
+      REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+      test::require_driving_output(axis.daemon);
+    }
+    CHECK(axis.counters().frames_late - late == n);  // each arrived, a cycle late, and was not used
+  }
+  // A frame one cycle late in every cycle: the cycle never has a timely
+  // position, so this must end like missing frames.
+  axis.injection().delay_drive_frames = 1000;
+  CHECK(test::run_until_fault(axis.daemon, 50) == limit);
+  axis.require_latched(Fault::kEncoderFrameMissing);
+  axis.injection().delay_drive_frames = 0;
+  axis.daemon.run_cycles(2);  // the last held-back frame arrives late
+  axis.require_recovers();
+}
+
+TEST_CASE("duplicated encoder frames are counted and ride through", "[daemon][faults]") {
+  EnabledAxis axis;
+  axis.move_to(0.02, kBrisk);
+  axis.injection().duplicate_drive_frames = 25;
+  for (int k = 0; k < 100; ++k) {
+    axis.daemon.run_cycles(1);
+    REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+  }
+  CHECK(axis.counters().frames_duplicate == 25);
+  CHECK(axis.counters().frames_missing == 0);
+  axis.daemon.run_until_idle(5000);
+  axis.daemon.run_cycles(500);  // settle
+  REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+  CHECK(std::abs(axis.daemon.simulated_motor()->truth().position_m - 0.02) < 1e-5);
+}
+
+TEST_CASE("a drive alive-counter jump latches kEncoderAliveJump at once", "[daemon][faults]") {
+  EnabledAxis axis;
+  axis.injection().skip_drive_alive = 7;
+  CHECK(test::run_until_fault(axis.daemon, 5) == 1);
+  axis.require_latched(Fault::kEncoderAliveJump);
+  axis.require_recovers();
+}
+
+TEST_CASE("drive frames with a wrong DLC are rejected and ride through below the limit; at it kFrameRejected",
+          "[daemon][faults]") {
+  EnabledAxis axis;
+  const int limit = axis.limit();
+  for (const int n : {1, limit - 1}) {
+    const auto rejected = axis.counters().frames_rejected;
+    axis.injection().wrong_dlc_drive_frames = n;
+    for (int k = 0; k < n + 50; ++k) {
+      axis.daemon.run_cycles(1);
+      REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+      test::require_driving_output(axis.daemon);
+    }
+    CHECK(axis.counters().frames_rejected - rejected == n);
+  }
+  axis.injection().wrong_dlc_drive_frames = limit;
+  CHECK(test::run_until_fault(axis.daemon, 50) == limit);
+  axis.require_latched(Fault::kFrameRejected);
+  axis.require_recovers();
+}
+
+TEST_CASE("a corrupted position (0x7fffffff nm = 2.147 m) latches kPositionOutOfRange at once", "[daemon][faults]") {
+  EnabledAxis axis;
+  axis.injection().corrupt_position_frames = 1;
+  CHECK(test::run_until_fault(axis.daemon, 5) == 1);
+  CHECK(axis.daemon.cycle().record().position_m == Approx(2147483647e-9));
+  CHECK(std::abs(axis.daemon.simulated_motor()->truth().position_m) < 1e-3);  // the axis itself did not move
+  axis.require_latched(Fault::kPositionOutOfRange);
+  axis.require_recovers();
+}
+
+TEST_CASE("a following error above the configured limit latches kFollowingError at its first cycle",
+          "[daemon][faults]") {
+  // 150 N of acceleration force over k_p ≈ 0.557·m·ω_c² = 5.3e5 N/m: the
+  // brisk move lags by ~0.3 mm, six times this limit; holding lags by far less.
+  auto config = test::virtual_config();
+  config.servo.following_error_limit_m = 50e-6;
+  EnabledAxis axis(config);
+  axis.move_to(0.05, kBrisk);
+  double previous_error_m = 0.0;
+  std::int64_t cycles = 0;
+  while (axis.daemon.cycle().state() == ServoState::kEnabled) {
+    const auto& record = axis.daemon.cycle().record();
+    previous_error_m = record.reference.position_m - axis.daemon.simulated_motor()->truth().position_m;
+    axis.daemon.run_cycles(1);
+    REQUIRE(++cycles < 2000);
+  }
+  // Independent of the record: the encoder is the truth quantised to 0.1 µm.
+  const double error_m =
+      axis.daemon.cycle().record().reference.position_m - axis.daemon.simulated_motor()->truth().position_m;
+  INFO("error at the fault " << error_m << " m, one cycle before " << previous_error_m << " m");
+  CHECK(std::abs(error_m) > 50e-6 - 1e-7);
+  CHECK(std::abs(previous_error_m) <= 50e-6 + 1e-7);
+  axis.require_latched(Fault::kFollowingError);
+  axis.require_recovers();
+}
+
+TEST_CASE("a position outside the soft limits latches kPositionOutOfRange, enabled or not", "[daemon][faults]") {
+  EnabledAxis axis;
+  const double soft_max_m = axis.daemon.config().servo.soft_limit_max_m;
+  // The translator pushed past the soft limit (inside the end stops).
+  axis.daemon.simulated_motor()->reset(soft_max_m + 0.005);
+  CHECK(test::run_until_fault(axis.daemon, 5) == 1);
+  CHECK(axis.daemon.simulated_motor()->truth().position_m > soft_max_m);
+  axis.require_latched(Fault::kPositionOutOfRange);
+  // Still outside: clearing re-latches at once.
+  test::command(axis.daemon, Kind::kClearFault);
+  CHECK(axis.daemon.cycle().fault() == Fault::kPositionOutOfRange);
+  // Back inside, it recovers.
+  axis.daemon.simulated_motor()->reset(0.0);
+  axis.daemon.run_cycles(2);
+  axis.require_recovers();
+
+  // Disabled axis moved outside by hand: the fault latches all the same.
+  test::command(axis.daemon, Kind::kDisable);
+  REQUIRE(axis.daemon.cycle().state() == ServoState::kDisabled);
+  axis.daemon.simulated_motor()->reset(axis.daemon.config().servo.soft_limit_min_m - 0.005);
+  CHECK(test::run_until_fault(axis.daemon, 5) == 1);
+  axis.require_latched(Fault::kPositionOutOfRange);
+}
+
+TEST_CASE("a force demand saturated longer than the limit latches kForceSaturated; the limit holds meanwhile",
+          "[daemon][faults]") {
+  auto config = test::virtual_config();
+  config.servo.force_limit_N = 30.0;               // the brisk move needs 150 N
+  config.servo.following_error_limit_m = 0.5;      // only the saturation may trip
+  EnabledAxis axis(config);
+  REQUIRE(axis.daemon.cycle().mode() == servo::CommutationMode::kOriginal);
+  axis.move_to(0.05, kBrisk);
+  int saturated_cycles = 0;
+  int max_saturated_run = 0;
+  while (axis.daemon.cycle().state() == ServoState::kEnabled) {
+    axis.daemon.run_cycles(1);
+    if (axis.daemon.cycle().state() != ServoState::kEnabled) break;
+    // The drive's own law shares F* equally: the magnitudes on the bus sum to
+    // F*, so |Σ| shows the limit holding without trusting the record.
+    const double sum_N = test::sent_setpoints(axis.daemon).magnitude_sum_N();
+    CHECK(std::abs(sum_N) <= 30.0 + 3 * can::kMagnitudeLsb_N);
+    saturated_cycles = std::abs(sum_N) >= 30.0 - 3 * can::kMagnitudeLsb_N ? saturated_cycles + 1 : 0;
+    max_saturated_run = std::max(max_saturated_run, saturated_cycles);
+    REQUIRE(axis.daemon.cycle().counters().cycles < 5000);
+  }
+  // The fault cycle is the one whose saturation reaches the time limit (its
+  // own frames are already zero): the limit in cycles, give or take the
+  // rounding of the accumulated time.
+  const double limit_cycles = config.servo.saturation_time_limit_s / config.servo.period_s;
+  INFO("saturated for " << saturated_cycles << " cycles before the fault");
+  CHECK(saturated_cycles + 1 >= limit_cycles);
+  CHECK(saturated_cycles + 1 <= limit_cycles + 1);
+  axis.require_latched(Fault::kForceSaturated);
+  axis.require_recovers();
+}
+
+TEST_CASE("overruns: limit-1 in a row ride through, the limit latches kRepeatedOverruns", "[daemon][faults]") {
+  EnabledAxis axis;
+  const int limit = axis.daemon.config().servo.overrun_limit;
+  // The virtual loop never overruns: the loop's reports are made here, between cycles.
+  for (int k = 0; k < limit - 1; ++k) {
+    axis.daemon.cycle().report_overrun(true);
+    axis.daemon.run_cycles(1);
+  }
+  axis.daemon.cycle().report_overrun(false);
+  REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+  for (int k = 0; k < limit; ++k) {
+    REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+    axis.daemon.cycle().report_overrun(true);
+  }
+  CHECK(axis.daemon.cycle().fault() == Fault::kRepeatedOverruns);
+  CHECK(axis.counters().overruns == 2 * limit - 1);
+  axis.daemon.run_cycles(1);  // the next cycle's frames
+  axis.require_latched(Fault::kRepeatedOverruns);
+  axis.require_recovers();
+}
+
+TEST_CASE("a drive watchdog trip is reported by the drive and latches kDriveFault; clearing clears the drive",
+          "[daemon][faults]") {
+  EnabledAxis axis;
+  const auto& protocol = axis.daemon.config().servo.protocol;
+  const double watchdog_s = axis.daemon.simulated_motor()->parameters().drive.watchdog_timeout_s;
+  const auto cycles_lost = static_cast<int>(std::ceil(watchdog_s / axis.daemon.config().servo.period_s)) + 3;
+  axis.injection().drop_setpoint_frames = cycles_lost * static_cast<int>(can::setpoint_frame_count(protocol.coil_sets));
+  const auto cycles = test::run_until_fault(axis.daemon, 50);
+  INFO("fault after " << cycles << " cycles");
+  // The drive faults first, and the cycle latches in the cycle its status word says so.
+  CHECK(axis.daemon.simulated_motor()->status().watchdog());
+  CHECK(axis.daemon.simulated_motor()->status().fault());
+  CHECK(cycles == std::llround(watchdog_s / axis.daemon.config().servo.period_s));
+  axis.require_latched(Fault::kDriveFault, false);
+  REQUIRE(axis.injection().drop_setpoint_frames == 0);
+  axis.require_recovers();
+}
+
+TEST_CASE("CAN bus-off latches kBusOff in the cycle it is seen", "[daemon][faults]") {
+  EnabledAxis axis;
+  axis.injection().bus_state = drivers::BusState::kBusOff;
+  CHECK(test::run_until_fault(axis.daemon, 5) == 1);
+  axis.require_latched(Fault::kBusOff);
+  axis.injection().bus_state = drivers::BusState::kActive;
+  axis.daemon.run_cycles(3);
+  axis.require_latched(Fault::kBusOff, true, 3);  // latched until cleared, even with the bus back
+  axis.require_recovers();
+}
+
+TEST_CASE("CAN error-passive latches kBusErrorPassive in the cycle it is seen", "[daemon][faults]") {
+  EnabledAxis axis;
+  axis.injection().bus_state = drivers::BusState::kErrorPassive;
+  CHECK(test::run_until_fault(axis.daemon, 5) == 1);
+  axis.require_latched(Fault::kBusErrorPassive);
+  axis.injection().bus_state = drivers::BusState::kActive;
+  axis.require_recovers();
+}
+
+TEST_CASE("a failing send latches kSendFailed; zero setpoints go out as soon as the bus takes frames",
+          "[daemon][faults]") {
+  EnabledAxis axis;
+  const double drive_time_s = axis.daemon.simulated_motor()->truth().time_s;
+  axis.injection().fail_sends = true;
+  CHECK(test::run_until_fault(axis.daemon, 5) == 1);
+  CHECK(axis.daemon.cycle().fault() == Fault::kSendFailed);
+  // Nothing reached the nodes (not even the SYNC): the drive did not step.
+  CHECK(axis.daemon.simulated_motor()->truth().time_s == drive_time_s);
+  CHECK(test::sent_setpoints(axis.daemon).frames == 0);
+  axis.injection().fail_sends = false;
+  axis.daemon.run_cycles(1);
+  axis.require_latched(Fault::kSendFailed);
+  axis.require_recovers();
+}
+
+TEST_CASE("a lost setpoint frame never makes the drive apply a mix of two cycles", "[daemon][faults]") {
+  // Setpoints never outlive their cycle, on the drive's side either: a cycle
+  // whose RPDOs did not all arrive is dropped at the next SYNC.
+  EnabledAxis axis;
+  axis.move_to(0.05, {0.15, 1.0, 1000.0});
+  axis.daemon.run_cycles(200);  // moving: the setpoints change every cycle
+  axis.injection().drop_setpoint_frames = 1;  // RPDO1 of the next cycle
+  const auto& drive = axis.daemon.config().motor.drive;
+  const double pole_pitch_m = axis.daemon.config().motor.pole_pitch_m;
+  for (int k = 0; k < 20; ++k) {
+    axis.daemon.run_cycles(1);
+    REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+    if (k == 0) continue;  // the cycle whose set was incomplete: the drive keeps the last complete one
+    // The currents the drive applies are those of this cycle's frames.
+    const auto sent = test::sent_setpoints(axis.daemon);
+    const sim::TruthState truth = axis.daemon.simulated_motor()->truth();
+    for (int l = 0; l < sent.command.coil_sets; ++l) {
+      const Eigen::Vector2d expected =
+          drive_phase_currents(drive, sent.command.setpoints[static_cast<std::size_t>(l)], truth.position_m, pole_pitch_m);
+      INFO("cycle " << k << " coil set " << l + 1);
+      CHECK(truth.currents_A(2 * l) == Approx(expected.x()).margin(1e-9));
+      CHECK(truth.currents_A(2 * l + 1) == Approx(expected.y()).margin(1e-9));
+    }
+  }
+}

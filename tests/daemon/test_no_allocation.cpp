@@ -1,0 +1,102 @@
+// The cycle does not allocate (style rule 3): 10^5 cycles of the daemon's
+// loop on the virtual clock, the axis enabled and running a program, in every
+// commutation mode, with the allocations of this thread counted. Everything a
+// cycle does is in the count: commands drained, reference, PID, commutation,
+// codec, the in-process bus and the simulated drive and sensor nodes. Both
+// operator new and the C heap functions (Eigen's) are counted.
+#include <catch2/catch.hpp>
+
+#include <Eigen/Core>
+#include <memory>
+
+#include "daemon/servod/program_file.hpp"
+#include "daemon/servod/servo_daemon.hpp"
+#include "support/allocation_counter.hpp"
+#include "tests/daemon/daemon_support.hpp"
+#include "tests/daemon/malloc_counter.hpp"
+
+using namespace clm;
+using Kind = servod::DaemonCommand::Kind;
+using servo::CommutationMode;
+
+TEST_CASE("10^5 cycles with a program running allocate nothing, in every commutation mode", "[daemon][slow]") {
+  constexpr std::int64_t kCycles = 100'000;
+  test::TempDir dir("clm-daemon-allocations");
+  const auto files = test::write_truth_laws(dir, test::source_path("config/motor-sim.yaml"));
+  const auto mode = GENERATE(CommutationMode::kOriginal, CommutationMode::kClassical, CommutationMode::kPgnn,
+                             CommutationMode::kSpline, CommutationMode::kOracle, CommutationMode::kExperiment);
+  INFO("mode " << servo::name(mode));
+  servod::ServoDaemon daemon(test::config_with_laws(files, CommutationMode::kOriginal));
+  daemon.run_cycles(10);
+  if (mode == CommutationMode::kExperiment) {
+    // Algorithms 1 and 2: the whole demand through coil set 2 at Δ = π/4.
+    servod::DaemonCommand experiment;
+    experiment.kind = Kind::kSetExperiment;
+    experiment.coil_set = 2;
+    experiment.delta_rad = kPi / 4;
+    REQUIRE(daemon.submit(experiment).accepted);
+  } else {
+    servod::DaemonCommand set;
+    set.kind = Kind::kSetCommutation;
+    set.mode = mode;
+    REQUIRE(daemon.submit(set).accepted);
+  }
+  test::command(daemon, Kind::kEnable, 10);
+  REQUIRE(daemon.cycle().mode() == mode);
+  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+
+  // Fig. 8 four times over (≈ 124 s): a program runs through all 10^5 cycles.
+  servod::ProgramFile fig8 = servod::load_program_file(test::source_path("config/programs/fig8.yaml"));
+  servod::ProgramFile program = fig8;
+  for (int k = 0; k < 3; ++k) program.steps.insert(program.steps.end(), fig8.steps.begin(), fig8.steps.end());
+  servod::DaemonCommand run;
+  run.kind = Kind::kRunProgram;
+  run.program = program;
+  REQUIRE(daemon.submit(run).accepted);
+  daemon.run_cycles(1);
+  REQUIRE(daemon.cycle().record().program_running);
+  // A command waiting in the queue: draining it is part of the counted cycles.
+  servod::DaemonCommand feedforward;
+  feedforward.kind = Kind::kSetFeedforward;
+  feedforward.feedforward = daemon.config().servo.feedforward;
+  REQUIRE(daemon.submit(feedforward).accepted);
+
+  const auto before = daemon.cycle().counters();
+  std::size_t allocations = 0;
+  const std::size_t malloc_before = test::malloc_calls();
+  {
+    test::AllocationScope scope;
+    daemon.run_cycles(kCycles);
+    allocations = scope.allocations();
+  }
+  const std::size_t malloc_calls = test::malloc_calls() - malloc_before;
+  const auto& after = daemon.cycle().counters();
+  CHECK(allocations == 0);
+  CHECK(malloc_calls == 0);
+  CHECK(after.cycles - before.cycles == kCycles);
+  // It really drove the axis, with feedback in every cycle, all the way.
+  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  CHECK(daemon.cycle().record().program_running);
+  CHECK(after.frames_missing == before.frames_missing);
+  CHECK(test::sent_setpoints(daemon).command.enable);
+  CHECK(daemon.take_replies().size() == 3);
+}
+
+TEST_CASE("the heap counters see operator new and Eigen's malloc", "[daemon][slow]") {
+  volatile int size = 64;  // a size the compiler cannot see
+  const std::size_t malloc_before = test::malloc_calls();
+  double sum = 0.0;
+  {
+    test::AllocationScope scope;
+    auto numbers = std::make_unique<double[]>(static_cast<std::size_t>(size));
+    numbers[0] = 1.0;
+    sum += numbers[0];
+    CHECK(scope.allocations() == 1);
+  }
+  {
+    Eigen::MatrixXd matrix = Eigen::MatrixXd::Ones(size, size);
+    sum += matrix.sum();
+  }
+  CHECK(sum == 1.0 + 64.0 * 64.0);
+  CHECK(test::malloc_calls() - malloc_before >= 2);
+}
