@@ -61,9 +61,15 @@ bool InProcessBus::send(const can::Frame& frame) noexcept {
       }
       continue;
     }
-    if (reply.id == can::force_feedback_id(protocol) && injection_.drop_force_frames > 0) {
-      --injection_.drop_force_frames;
-      continue;
+    if (reply.id == can::force_feedback_id(protocol)) {
+      if (injection_.drop_force_frames > 0) {
+        --injection_.drop_force_frames;
+        continue;
+      }
+      if (injection_.skip_force_alive != 0) {
+        reply.data[7] = static_cast<std::uint8_t>(reply.data[7] + injection_.skip_force_alive);
+        injection_.skip_force_alive = 0;
+      }
     }
     enqueue(reply, time_ns_);
   }

@@ -21,6 +21,7 @@ struct Injection {
   int duplicate_drive_frames = 0;  ///< deliver the next n drive frames twice
   int wrong_dlc_drive_frames = 0;  ///< next n drive frames with DLC 5
   int skip_drive_alive = 0;        ///< add this to the next drive frame's alive counter
+  int skip_force_alive = 0;        ///< add this to the next force-sensor frame's alive counter
   int corrupt_position_frames = 0; ///< next n drive frames with the position bytes set to 0x7fffffff
   int drop_setpoint_frames = 0;    ///< drop the next n setpoint frames (the drive watchdog sees nothing)
   drivers::BusState bus_state = drivers::BusState::kActive;

@@ -61,8 +61,13 @@ struct EnabledAxis {
   /// clear_fault → disabled (one cycle asks the drive to clear too) → enable
   /// drives the axis again, and it stays so.
   void require_recovers() {
-    REQUIRE(test::command(daemon, Kind::kEnable).accepted);
-    CHECK(daemon.cycle().state() == ServoState::kFault);  // enable is refused while latched
+    (void)daemon.take_replies();
+    REQUIRE(test::command(daemon, Kind::kEnable).accepted);  // queued
+    CHECK(daemon.cycle().state() == ServoState::kFault);
+    const auto replies = daemon.take_replies();  // executed: refused while latched
+    REQUIRE(replies.size() == 1);
+    CHECK_FALSE(replies[0].accepted);
+    CHECK(replies[0].text == servo::describe(servo::CommandStatus::kRejectedFault));
     test::command(daemon, Kind::kClearFault);
     REQUIRE(daemon.cycle().state() == ServoState::kDisabled);
     CHECK(daemon.cycle().fault() == Fault::kNone);
@@ -135,7 +140,7 @@ TEST_CASE("force-sensor frames missing: limit-1 ride through, the limit latches 
   axis.require_recovers();
 }
 
-TEST_CASE("late encoder frames are counted and ride through below the limit; late at the limit latches",
+TEST_CASE("late encoder frames are counted and ride through below the limit, late at the limit latches",
           "[daemon][faults]") {
   EnabledAxis axis;
   const int limit = axis.limit();
@@ -183,7 +188,28 @@ TEST_CASE("a drive alive-counter jump latches kEncoderAliveJump at once", "[daem
   axis.require_recovers();
 }
 
-TEST_CASE("drive frames with a wrong DLC are rejected and ride through below the limit; at it kFrameRejected",
+TEST_CASE("a force-sensor alive-counter jump latches kForceAliveJump at once", "[daemon][faults]") {
+  EnabledAxis axis;
+  axis.injection().skip_force_alive = 3;
+  CHECK(test::run_until_fault(axis.daemon, 5) == 1);
+  axis.require_latched(Fault::kForceAliveJump);
+  axis.require_recovers();
+}
+
+TEST_CASE("alive counters that skip exactly the frames missed are no jump", "[daemon][faults]") {
+  EnabledAxis axis;
+  axis.injection().drop_drive_frames = axis.limit() - 1;
+  axis.injection().drop_force_frames = axis.limit() - 1;
+  axis.daemon.run_cycles(100);
+  CHECK(axis.daemon.cycle().state() == ServoState::kEnabled);
+  // A late frame followed by the timely one: both in sequence.
+  axis.injection().delay_drive_frames = 1;
+  axis.daemon.run_cycles(100);
+  CHECK(axis.daemon.cycle().state() == ServoState::kEnabled);
+  CHECK(axis.counters().frames_late == 1);
+}
+
+TEST_CASE("drive frames with a wrong DLC are rejected and ride through below the limit, at it kFrameRejected",
           "[daemon][faults]") {
   EnabledAxis axis;
   const int limit = axis.limit();
@@ -263,7 +289,7 @@ TEST_CASE("a position outside the soft limits latches kPositionOutOfRange, enabl
   axis.require_latched(Fault::kPositionOutOfRange);
 }
 
-TEST_CASE("a force demand saturated longer than the limit latches kForceSaturated; the limit holds meanwhile",
+TEST_CASE("a force demand saturated longer than the limit latches kForceSaturated and the limit holds meanwhile",
           "[daemon][faults]") {
   auto config = test::virtual_config();
   config.servo.force_limit_N = 30.0;               // the brisk move needs 150 N
@@ -316,7 +342,7 @@ TEST_CASE("overruns: limit-1 in a row ride through, the limit latches kRepeatedO
   axis.require_recovers();
 }
 
-TEST_CASE("a drive watchdog trip is reported by the drive and latches kDriveFault; clearing clears the drive",
+TEST_CASE("a drive watchdog trip is reported by the drive and latches kDriveFault, clearing clears the drive",
           "[daemon][faults]") {
   EnabledAxis axis;
   const auto& protocol = axis.daemon.config().servo.protocol;
@@ -354,7 +380,7 @@ TEST_CASE("CAN error-passive latches kBusErrorPassive in the cycle it is seen", 
   axis.require_recovers();
 }
 
-TEST_CASE("a failing send latches kSendFailed; zero setpoints go out as soon as the bus takes frames",
+TEST_CASE("a failing send latches kSendFailed and zero setpoints go out as soon as the bus takes frames",
           "[daemon][faults]") {
   EnabledAxis axis;
   const double drive_time_s = axis.daemon.simulated_motor()->truth().time_s;

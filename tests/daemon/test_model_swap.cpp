@@ -101,7 +101,7 @@ struct PgnnRig {
 
 }  // namespace
 
-TEST_CASE("a model loaded mid-program is swapped in only at standstill after the program", "[daemon][slow]") {
+TEST_CASE("a model loaded mid-program is swapped in only at standstill after the program", "[daemon][swap]") {
   PgnnRig rig;
   servod::ServoDaemon daemon(rig.config);
   LawPair laws(rig.config, rig.first_path, rig.second_path);
@@ -165,7 +165,7 @@ TEST_CASE("a model loaded mid-program is swapped in only at standstill after the
 }
 
 TEST_CASE("a model file that does not load leaves the running law untouched and the reply says why",
-          "[daemon][slow]") {
+          "[daemon][swap]") {
   PgnnRig rig;
   const std::string text = format_model_file(
       test::truth_pgnn(sim::load_motor_parameters(test::source_path("config/motor-sim.yaml")), 1.1));
@@ -213,7 +213,7 @@ TEST_CASE("a model file that does not load leaves the running law untouched and 
   CHECK(daemon.cycle().state() == servo::ServoState::kEnabled);
 }
 
-TEST_CASE("a commutation change requested mid-move is deferred to standstill", "[daemon][slow]") {
+TEST_CASE("a commutation change requested mid-move is deferred to standstill", "[daemon][swap]") {
   PgnnRig rig;
   servod::ServoDaemon daemon(rig.config);
   daemon.run_cycles(10);

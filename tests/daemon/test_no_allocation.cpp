@@ -19,7 +19,7 @@ using namespace clm;
 using Kind = servod::DaemonCommand::Kind;
 using servo::CommutationMode;
 
-TEST_CASE("10^5 cycles with a program running allocate nothing, in every commutation mode", "[daemon][slow]") {
+TEST_CASE("10^5 cycles with a program running allocate nothing, in every commutation mode", "[daemon][allocation]") {
   constexpr std::int64_t kCycles = 100'000;
   test::TempDir dir("clm-daemon-allocations");
   const auto files = test::write_truth_laws(dir, test::source_path("config/motor-sim.yaml"));
@@ -82,7 +82,7 @@ TEST_CASE("10^5 cycles with a program running allocate nothing, in every commuta
   CHECK(daemon.take_replies().size() == 3);
 }
 
-TEST_CASE("the heap counters see operator new and Eigen's malloc", "[daemon][slow]") {
+TEST_CASE("the heap counters see operator new and Eigen's malloc", "[daemon][allocation]") {
   volatile int size = 64;  // a size the compiler cannot see
   const std::size_t malloc_before = test::malloc_calls();
   double sum = 0.0;

@@ -11,7 +11,7 @@
 using namespace clm;
 using Kind = servod::DaemonCommand::Kind;
 
-TEST_CASE("the daemon runs the Fig. 8 program with the drive's own commutation and tracks it", "[daemon][slow]") {
+TEST_CASE("the daemon runs the Fig. 8 program with the drive's own commutation and tracks it", "[daemon][tracking]") {
   servod::ServoDaemon daemon(test::virtual_config());
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable);
