@@ -1,5 +1,6 @@
 #include "commutation/model_file.hpp"
 
+#include <charconv>
 #include <cmath>
 
 namespace clm {
@@ -85,6 +86,14 @@ std::array<double, 2> parse_pair(const yaml::Node& node) {
   const auto values = node.as_double_list();
   if (values.size() != 2) node.fail("expected two values, got " + std::to_string(values.size()));
   return {values[0], values[1]};
+}
+
+// Messages show the shortest text that reads back as the value (0.03, not
+// the 17 digits 0.029999999999999999 the files use).
+std::string shortest_text(double value) {
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  return std::string(buffer, result.ptr);
 }
 
 std::string optional_string(const yaml::Node& node, const char* key) {
@@ -362,8 +371,8 @@ void check_matches_motor(const ElectromagneticModel& model, const MotorDescripti
                       " coil sets, " + motor_origin + " has " + std::to_string(motor.coil_sets));
   }
   if (!relative_equal(model.pole_pitch_m, motor.pole_pitch_m)) {
-    throw yaml::Error(model_origin + ": motor.pole_pitch_m: model has " + yaml::format_double(model.pole_pitch_m) +
-                      " m, " + motor_origin + " has " + yaml::format_double(motor.pole_pitch_m) + " m");
+    throw yaml::Error(model_origin + ": motor.pole_pitch_m: model has " + shortest_text(model.pole_pitch_m) +
+                      " m, " + motor_origin + " has " + shortest_text(motor.pole_pitch_m) + " m");
   }
 }
 
@@ -376,8 +385,8 @@ void check_matches_motor(const CalibrationFile& calibration, const MotorDescript
   }
   if (!relative_equal(calibration.pole_pitch_m, motor.pole_pitch_m)) {
     throw yaml::Error(calibration_origin + ": motor.pole_pitch_m: calibration has " +
-                      yaml::format_double(calibration.pole_pitch_m) + " m, " + motor_origin + " has " +
-                      yaml::format_double(motor.pole_pitch_m) + " m");
+                      shortest_text(calibration.pole_pitch_m) + " m, " + motor_origin + " has " +
+                      shortest_text(motor.pole_pitch_m) + " m");
   }
 }
 

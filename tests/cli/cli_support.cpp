@@ -1,0 +1,204 @@
+#include "cli/cli_support.hpp"
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+
+#include "tools/data/csv_table.hpp"
+
+extern char** environ;
+
+namespace clm::cli_test {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string make_temporary_directory(const char* prefix) {
+  std::string pattern = (fs::temp_directory_path() / (std::string(prefix) + "XXXXXX")).string();
+  if (::mkdtemp(pattern.data()) == nullptr) {
+    throw std::runtime_error(pattern + ": cannot create directory: " + std::strerror(errno));
+  }
+  return pattern;
+}
+
+std::vector<std::string> split_cells(const std::string& line) {
+  std::vector<std::string> cells;
+  std::stringstream stream(line);
+  std::string cell;
+  while (std::getline(stream, cell, ',')) cells.push_back(cell);
+  if (!line.empty() && line.back() == ',') cells.emplace_back();
+  return cells;
+}
+
+std::string join_cells(const std::vector<std::string>& cells) {
+  std::string line;
+  for (std::size_t c = 0; c < cells.size(); ++c) line += (c > 0 ? "," : "") + cells[c];
+  return line;
+}
+
+}  // namespace
+
+std::vector<std::string> ProcessResult::err_lines() const {
+  std::vector<std::string> lines;
+  std::size_t start = 0;
+  while (start < err.size()) {
+    const std::size_t end = err.find('\n', start);
+    lines.push_back(err.substr(start, end == std::string::npos ? std::string::npos : end - start));
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  return lines;
+}
+
+ProcessResult run_clm(const std::vector<std::string>& args) {
+  // Captures live in a directory of their own so that listings of the
+  // directory under test see only what clm wrote.
+  static const TemporaryDirectory captures;
+  const std::string out_path = captures.file("stdout");
+  const std::string err_path = captures.file("stderr");
+
+  std::vector<std::string> argv_strings = {CLM_BINARY};
+  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& s : argv_strings) argv.push_back(s.data());
+  argv.push_back(nullptr);
+
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  pid_t pid = 0;
+  const int spawned = ::posix_spawn(&pid, CLM_BINARY, &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) throw std::runtime_error(std::string(CLM_BINARY) + ": cannot spawn: " + std::strerror(spawned));
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) throw std::runtime_error(std::string("waitpid: ") + std::strerror(errno));
+  }
+  ProcessResult result;
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  result.out = read_file(out_path);
+  result.err = read_file(err_path);
+  return result;
+}
+
+TemporaryDirectory::TemporaryDirectory() : path_(make_temporary_directory("clm_cli_tests_")) {}
+
+TemporaryDirectory::~TemporaryDirectory() {
+  std::error_code ignored;
+  fs::remove_all(path_, ignored);
+}
+
+std::set<std::string> listing(const std::string& directory) {
+  std::set<std::string> names;
+  for (const auto& entry : fs::directory_iterator(directory)) names.insert(entry.path().filename().string());
+  return names;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+void write_file(const std::string& path, const std::string& content) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << content;
+  if (!out.flush()) throw std::runtime_error(path + ": cannot write");
+}
+
+std::string source_path(const std::string& relative) { return std::string(CLM_SOURCE_DIR) + "/" + relative; }
+
+std::string join_lines(const CsvLines& lines) {
+  std::string text;
+  for (const auto& line : lines) text += line + "\n";
+  return text;
+}
+
+std::size_t column_index(const CsvLines& lines, const std::string& column) {
+  const auto header = split_cells(lines.at(0));
+  for (std::size_t c = 0; c < header.size(); ++c) {
+    if (header[c] == column) return c;
+  }
+  throw std::invalid_argument("no column " + column);
+}
+
+void set_cell(CsvLines& lines, std::size_t line_number, const std::string& column, const std::string& text) {
+  const std::size_t c = column_index(lines, column);
+  auto cells = split_cells(lines.at(line_number - 1));
+  cells.at(c) = text;
+  lines[line_number - 1] = join_cells(cells);
+}
+
+void drop_column(CsvLines& lines, const std::string& column) {
+  const std::size_t c = column_index(lines, column);
+  for (auto& line : lines) {
+    auto cells = split_cells(line);
+    cells.erase(cells.begin() + static_cast<std::ptrdiff_t>(c));
+    line = join_cells(cells);
+  }
+}
+
+CsvLines synthetic_experiment_lines(int coil_sets, int rows_per_offset) {
+  CsvLines lines = {"t_s,coil_set,delta_rad,magnitude_N,y_m,Fy_N,Fx_N,Tz_Nm"};
+  int k = 0;
+  for (int l = 1; l <= coil_sets; ++l) {
+    for (double delta : {-kPi / 4, kPi / 4}) {
+      for (int r = 0; r < rows_per_offset; ++r, ++k) {
+        const double y = -0.05 + 0.1 * r / rows_per_offset;
+        const double magnitude = 20.0 * std::sin(0.7 * r);
+        const double fy = 0.8 * magnitude * std::cos(delta);
+        lines.push_back(shortest_double(0.001 * k) + "," + std::to_string(l) + "," + shortest_double(delta) + "," +
+                        shortest_double(magnitude) + "," + shortest_double(y) + "," + shortest_double(fy) + ",0.1,0.01");
+      }
+    }
+  }
+  return lines;
+}
+
+CsvLines synthetic_feedforward_lines(int rows) {
+  CsvLines lines = {"t_s,r_m,F_star_N"};
+  for (int k = 0; k < rows; ++k) {
+    const double t = 0.001 * k;
+    const double r = 0.01 * std::sin(20.0 * t);
+    const double force = 15.0 * -4.0 * std::sin(20.0 * t) + 40.0 * 0.2 * std::cos(20.0 * t) + 5.0;
+    lines.push_back(shortest_double(t) + "," + shortest_double(r) + "," + shortest_double(force));
+  }
+  return lines;
+}
+
+void write_columns_csv(const std::string& path, const std::vector<std::string>& names,
+                       const std::vector<std::vector<double>>& values) {
+  write_csv_atomically(path, names, values);
+}
+
+const ExperimentFiles& experiment_files() {
+  struct Holder {
+    TemporaryDirectory directory;
+    ExperimentFiles files;
+  };
+  static const std::unique_ptr<Holder> holder = [] {
+    auto h = std::make_unique<Holder>();
+    h->files.csv = h->directory.file("experiments.csv");
+    h->files.lcm = h->directory.file("experiments.lcm");
+    h->files.experiments = test::run_daemon_experiments(source_path("config/servod.yaml"), h->files.lcm);
+    const auto columns = test::experiment_columns(h->files.experiments);
+    write_csv_atomically(h->files.csv, columns.names, columns.values);
+    return h;
+  }();
+  return holder->files;
+}
+
+}  // namespace clm::cli_test
