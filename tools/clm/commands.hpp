@@ -13,6 +13,7 @@ void add_ff_identify(CLI::App& app);
 void add_commutate(CLI::App& app);
 void add_commission(CLI::App& app);
 void add_ctl(CLI::App& app);
+void add_sim(CLI::App& app);
 
 /// "clm <version>" for provenance records.
 std::string generator_name(const std::string& subcommand);

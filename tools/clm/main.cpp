@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   clm::cli::add_commission(app);
   clm::cli::add_log2csv(app);
   clm::cli::add_ctl(app);
+  clm::cli::add_sim(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# hil_candump_check on hand-made candump -L logs (label unit): a log of good
+# frames of every message passes; in a log of bad lines each one is reported
+# with its line number and the reason, and the exit status is 1.
+#
+#   candump_check_test.sh HIL_CANDUMP_CHECK DBC TESTDATA_DIR
+set -uo pipefail
+checker=$1 dbc=$2 data=$3
+fail() { echo "FAIL: $*"; exit 1; }
+
+out=$("$checker" --dbc "$dbc" --log "$data/good.log" --coil-sets 3)
+rc=$?
+echo "$out"
+[ $rc = 0 ] || fail "good.log: exit status $rc"
+grep -q "all 6 frames" <<< "$out" || fail "good.log: not 'all 6 frames'"
+grep -q "DriveFeedback 1, DriveSetpoint1 1, DriveSetpoint2 1, ForceFeedback 1, Sync 2" <<< "$out" || fail "good.log: counts"
+
+out=$("$checker" --dbc "$dbc" --log "$data/bad.log" --coil-sets 3)
+rc=$?
+echo "$out"
+[ $rc = 1 ] || fail "bad.log: exit status $rc, expected 1"
+for expected in \
+  "bad.log:2: Sync.SyncCounter: raw 0 outside the DBC's \[1, 240\]" \
+  "bad.log:3: DriveFeedback.StatusReserved: raw 1 outside the DBC's \[0, 0\]" \
+  "bad.log:4: DriveSetpoint1: DLC 2, the DBC says 6" \
+  "bad.log:5: no message with identifier 0x123 in the DBC" \
+  "bad.log:6: error frame (CAN_ERR_FLAG)" \
+  "bad.log:7: DriveSetpoint3: the codec refuses it (wrong id)" \
+  "bad.log:8: not a candump -L frame line" \
+  "bad.log:9: candump lost frames: DROPCOUNT" \
+  "FAIL: 8 of 10 lines"; do
+  grep -q "$expected" <<< "$out" || fail "bad.log: no line matching '$expected'"
+done
+if "$checker" --dbc "$dbc" --log /nonexistent 2> /dev/null; then fail "a missing log passed"; fi
+echo "hil_candump_check: good and bad logs judged as expected"

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# The CTest entry of the HIL suite (label hil, docs/hil.md): natively where
+# this kernel has vcan and we may use it, else in a QEMU guest.
+#
+#   hil_test.sh CLM CLM_SERVOD HIL_CANDUMP_CHECK SOURCE_DIR WORK_DIR
+#
+# HIL_MODE=native|qemu forces one. Exit status as run_hil.sh / run_qemu.sh
+# (77: skipped, neither is possible here).
+set -uo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+work=$5
+
+native_possible() {
+  # vcan needs SocketCAN in the kernel; the test that settles it is making one.
+  [ -d /sys/class/net/vcan0 ] && return 0
+  [ "$(id -u)" = 0 ] || return 1
+  modprobe vcan 2> /dev/null
+  ip link add dev vcanprobe$$ type vcan 2> /dev/null || return 1
+  ip link del dev vcanprobe$$
+}
+
+mode=${HIL_MODE:-}
+if [ -z "$mode" ]; then
+  if native_possible; then mode=native; else mode=qemu; fi
+fi
+echo "HIL: mode $mode"
+case $mode in
+  native) exec bash "$here/run_hil.sh" "$1" "$2" "$3" "$4" "$work/native" ;;
+  qemu) exec bash "$here/qemu/run_qemu.sh" "$1" "$2" "$3" "$4" "$work/qemu" ;;
+  *) echo "HIL: HIL_MODE must be native or qemu, got '$mode'"; exit 2 ;;
+esac

@@ -1,0 +1,113 @@
+#!/usr/bin/env bash
+# Builds the initramfs of the HIL guest (docs/hil.md): busybox-static, bash,
+# the CAN kernel modules of the installed Debian kernel and their
+# dependencies, candump, lcm-logger, the clm-servo programs with every shared
+# library ldd names, the configuration the suite reads, the commissioning
+# artefacts and /init (tests/hil/qemu/init). Written under the build
+# directory at test time; nothing of it is committed.
+#
+#   make_initramfs.sh OUT.cpio.gz STAGING_DIR KERNEL_VERSION SOURCE_DIR ARTIFACTS_DIR GUEST_ENV CLM CLM_SERVOD HIL_CANDUMP_CHECK
+#
+# GUEST_ENV is a file of VAR=value lines the guest's /init exports before it
+# runs the suite (HIL_MODES, HIL_PROGRAM, ...). Exits non-zero with one line
+# naming what is missing.
+set -euo pipefail
+out=$1 staging=$2 kernel_version=$3 source_dir=$4 artifacts=$5 guest_env=$6
+shift 6
+programs=("$@")  # clm clm-servod hil_candump_check
+
+die() { echo "make_initramfs: $*" >&2; exit 1; }
+
+modules_dir=/lib/modules/$kernel_version
+[ -d "$modules_dir" ] || die "no $modules_dir (install the Debian package linux-image-amd64)"
+
+# A statically linked busybox (busybox-static): the guest has no libc of its own
+# before the libraries below are in place, and /init runs on it.
+busybox=""
+for candidate in /bin/busybox /usr/bin/busybox; do
+  if [ -x "$candidate" ] && ! ldd "$candidate" > /dev/null 2>&1; then busybox=$candidate; break; fi
+done
+[ -n "$busybox" ] || die "no statically linked busybox (install busybox-static)"
+for tool in bash candump lcm-logger; do
+  command -v "$tool" > /dev/null || die "no $tool on this host (packages: bash, can-utils, liblcm-bin)"
+done
+
+rm -rf "$staging"
+mkdir -p "$staging"/{bin,sbin,usr/bin,usr/sbin,lib,lib64,proc,sys,dev,tmp,run,etc,root,hil/bin,hil/modules,hil/artifacts}
+
+# busybox and its applets, as links; bash and the programs below take precedence.
+cp "$busybox" "$staging/bin/busybox"
+for applet in $("$busybox" --list); do
+  [ "$applet" = busybox ] && continue
+  ln -s /bin/busybox "$staging/bin/$applet"
+done
+ln -sf /bin/busybox "$staging/usr/bin/env"
+
+# A program and every shared library it loads, at the paths ldd reports (the
+# dynamic loader included), so the guest resolves them as the host does.
+copy_libraries() {
+  local binary=$1
+  ldd "$binary" | awk '/=> \// { print $3 } /^[[:space:]]*\// { print $1 }' | while read -r library; do
+    [ -e "$staging$library" ] && continue
+    mkdir -p "$staging$(dirname "$library")"
+    cp -L "$library" "$staging$library"
+  done
+}
+install_program() {
+  local binary=$1 destination=$2
+  rm -f "$staging$destination"
+  cp -L "$binary" "$staging$destination"
+  copy_libraries "$binary"
+}
+install_program "$(command -v bash)" /bin/bash
+install_program "$(command -v candump)" /usr/bin/candump
+install_program "$(command -v lcm-logger)" /usr/bin/lcm-logger
+for program in "${programs[@]}"; do
+  [ -x "$program" ] || die "no program $program (build it first)"
+  install_program "$program" "/hil/bin/$(basename "$program")"
+done
+
+# The CAN modules and what they depend on (modinfo's depends:), in load
+# order, decompressed if the kernel package ships them compressed.
+declare -A seen
+order=()
+add_module() {
+  local name=$1 file dependency
+  [ -n "${seen[$name]:-}" ] && return
+  seen[$name]=1
+  file=$(modinfo -k "$kernel_version" -n "$name" 2>/dev/null) || die "no module $name for kernel $kernel_version"
+  for dependency in $(modinfo -k "$kernel_version" -F depends "$name" | tr ',' ' '); do
+    add_module "$dependency"
+  done
+  case $file in
+    *.ko) cp "$file" "$staging/hil/modules/$name.ko" ;;
+    *.ko.xz) xz -dc "$file" > "$staging/hil/modules/$name.ko" ;;
+    *.ko.zst) zstd -qdc "$file" > "$staging/hil/modules/$name.ko" ;;
+    *.ko.gz) gzip -dc "$file" > "$staging/hil/modules/$name.ko" ;;
+    *) die "module $name: unknown file $file" ;;
+  esac
+  order+=("$name")
+}
+for module in can can-raw can-dev vcan; do add_module "$module"; done
+printf '%s\n' "${order[@]}" > "$staging/hil/modules/order"
+
+# What the suite reads from the source tree, at the same relative paths.
+for file in config/servod-vcan.yaml config/motor-sim.yaml drivers/clm-servo.dbc tests/hil/run_hil.sh; do
+  mkdir -p "$staging/hil/src/$(dirname "$file")"
+  cp "$source_dir/$file" "$staging/hil/src/$file"
+done
+mkdir -p "$staging/hil/src/config/programs"
+cp "$source_dir"/config/programs/*.yaml "$staging/hil/src/config/programs/"
+for file in calibration.yaml model-pgnn.yaml; do
+  [ -f "$artifacts/$file" ] || die "no $artifacts/$file (clm commission --out $artifacts)"
+  cp "$artifacts/$file" "$staging/hil/artifacts/"
+done
+cp "$guest_env" "$staging/hil/env"
+cp "$source_dir/tests/hil/qemu/init" "$staging/init"
+chmod 755 "$staging/init"
+echo "root:x:0:0:root:/root:/bin/sh" > "$staging/etc/passwd"
+
+# newc cpio, gzip -1: the guest decompresses it under TCG, where speed matters more than size.
+(cd "$staging" && find . -print | sort | "$busybox" cpio -o -H newc 2> /dev/null) | gzip -1 > "$out.tmp"
+mv "$out.tmp" "$out"
+echo "make_initramfs: $out ($(du -h "$out" | cut -f1)), kernel $kernel_version, modules ${order[*]}"

@@ -1,0 +1,94 @@
+#!/usr/bin/env bash
+# The HIL suite (tests/hil/run_hil.sh) in a QEMU guest, for hosts whose kernel
+# has no SocketCAN (docs/hil.md). Boots the installed Debian kernel
+# (linux-image-amd64) under TCG with an initramfs made here
+# (make_initramfs.sh), reads the serial console and exits with the suite's
+# result line "HIL: N passed, M failed".
+#
+#   run_qemu.sh CLM CLM_SERVOD HIL_CANDUMP_CHECK SOURCE_DIR WORK_DIR
+#
+# Environment (optional): HIL_QEMU_TIMEOUT_S (default 720), HIL_KERNEL_VERSION
+# (default: the newest /boot/vmlinuz-* whose modules include vcan), and the
+# HIL_* variables of run_hil.sh, which are handed to the guest.
+#
+# Exit status: 0 all passed; 1 a check failed, the guest did not finish or
+# gave no result; 77 no usable kernel or QEMU here (skipped).
+set -uo pipefail
+clm=$1 servod=$2 checker=$3 source_dir=$4 work=$5
+here=$(cd "$(dirname "$0")" && pwd)
+timeout_s=${HIL_QEMU_TIMEOUT_S:-720}
+start_s=$(date +%s)
+
+skip() { echo "HIL: skipped: $*"; exit 77; }
+qemu=$(command -v qemu-system-x86_64) || skip "no qemu-system-x86_64 (Debian package qemu-system-x86)"
+
+# A kernel with the vcan module on disk and a readable image.
+kernel_version=${HIL_KERNEL_VERSION:-}
+if [ -z "$kernel_version" ]; then
+  for image in $(ls -v /boot/vmlinuz-* 2>/dev/null); do
+    version=${image#/boot/vmlinuz-}
+    if [ -r "$image" ] && ls /lib/modules/"$version"/kernel/drivers/net/can/vcan.ko* > /dev/null 2>&1; then
+      kernel_version=$version
+    fi
+  done
+fi
+[ -n "$kernel_version" ] || skip "no /boot/vmlinuz-* with a vcan module (Debian package linux-image-amd64)"
+kernel=/boot/vmlinuz-$kernel_version
+
+mkdir -p "$work"
+
+# Commissioning artefacts, made on the host (fast) and reused while the clm
+# that made them is unchanged: clm commission on the embedded default is
+# deterministic.
+artifacts=${HIL_ARTIFACTS:-$work/commission}
+if [ ! -f "$artifacts/model-pgnn.yaml" ] || [ ! -f "$artifacts/calibration.yaml" ] || [ "$clm" -nt "$artifacts/model-pgnn.yaml" ]; then
+  echo "HIL: commissioning the embedded default on the host into $artifacts"
+  commission_start=$(date +%s)
+  if ! "$clm" commission --out "$artifacts" --no-plots > "$work/commission.log" 2>&1; then
+    tail -5 "$work/commission.log"
+    echo "HIL: 0 passed, 1 failed (clm commission on the host)"
+    exit 1
+  fi
+  echo "HIL: commissioning took $(( $(date +%s) - commission_start )) s"
+fi
+
+# What the guest's /init exports before it runs the suite.
+{
+  for variable in HIL_MODES HIL_PROGRAM HIL_MAX_E_M_classical HIL_MAX_E_M_pgnn HIL_PRIORITY; do
+    [ -n "${!variable:-}" ] && printf "%s='%s'\n" "$variable" "${!variable}"
+  done
+  true
+} > "$work/guest.env"
+
+initramfs=$work/initramfs.cpio.gz
+if ! bash "$here/make_initramfs.sh" "$initramfs" "$work/initramfs" "$kernel_version" "$source_dir" "$artifacts" \
+       "$work/guest.env" "$clm" "$servod" "$checker"; then
+  echo "HIL: 0 passed, 1 failed (initramfs)"
+  exit 1
+fi
+rm -rf "$work/initramfs"
+echo "HIL: booting $kernel under TCG (timeout $timeout_s s)"
+boot_s=$(date +%s)
+
+# TCG: this host may have no usable KVM. The guest powers off at the end; a
+# panic or a hang ends by panic=-1 with -no-reboot, or by the timeout.
+console=$work/console.log
+timeout -k 10 "$timeout_s" "$qemu" -accel tcg -m 2048 -smp 2 -kernel "$kernel" -initrd "$initramfs" \
+  -append "console=ttyS0 quiet panic=-1" -nographic -no-reboot < /dev/null 2>&1 | tr -d '\r' | tee "$console"
+qemu_rc=${PIPESTATUS[0]}
+end_s=$(date +%s)
+
+result=$(grep -a -E "^HIL: [0-9]+ passed, [0-9]+ failed" "$console" | tail -1)
+echo "HIL: host: initramfs $(( boot_s - start_s )) s, guest $(( end_s - boot_s )) s, total $(( end_s - start_s )) s"
+if [ -z "$result" ]; then
+  if [ "$qemu_rc" = 124 ] || [ "$qemu_rc" = 137 ]; then
+    echo "HIL: FAIL the guest did not finish within $timeout_s s"
+  else
+    echo "HIL: FAIL the guest gave no result line (qemu exit status $qemu_rc; console: $console)"
+  fi
+  exit 1
+fi
+failed=$(sed -n 's/^HIL: [0-9]* passed, \([0-9]*\) failed.*/\1/p' <<< "$result")
+passed=$(sed -n 's/^HIL: \([0-9]*\) passed.*/\1/p' <<< "$result")
+[ "$failed" = 0 ] && [ "$passed" -gt 0 ] && exit 0
+exit 1
