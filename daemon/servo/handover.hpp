@@ -41,6 +41,9 @@ class Handover {
 
   bool pending() const noexcept { return pending_.load(std::memory_order_acquire) != nullptr; }
 
+  /// Owner: true when `object` is the one the cycle uses now (not merely offered).
+  bool is_current(const T* object) const noexcept { return current_.load(std::memory_order_acquire) == object; }
+
  private:
   std::atomic<const T*> pending_{nullptr};
   std::atomic<const T*> current_{nullptr};

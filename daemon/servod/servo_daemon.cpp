@@ -117,14 +117,10 @@ sim::SimulatedMotor* ServoDaemon::simulated_motor() noexcept { return motor_.get
 simbus::InProcessBus* ServoDaemon::in_process_bus() noexcept { return in_process_; }
 
 std::string ServoDaemon::law_source(servo::CommutationMode mode) const {
-  const CommutationLaw* current = nullptr;
-  for (auto it = laws_.rbegin(); it != laws_.rend(); ++it) {
-    if ((*it)->mode == mode && cycle_->law_handover(mode).in_use((*it)->law.get())) {
-      current = (*it)->law.get();
-      return (*it)->source;
-    }
+  // The law the cycle uses now; one still waiting for standstill is not it.
+  for (const auto& law : laws_) {
+    if (law->mode == mode && cycle_->law_handover(mode).is_current(law->law.get())) return law->source;
   }
-  (void)current;
   return "";
 }
 
