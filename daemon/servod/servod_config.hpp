@@ -27,6 +27,7 @@ struct CanConfig {
   std::string interface = "sim";      ///< "sim" (embedded simulated motor) or a SocketCAN interface
   double bitrate_bps = 1e6;
   double bus_load_limit = 0.7;
+  double bus_load = 0.0;              ///< computed worst-case load of the cycle's schedule [-]
 };
 
 struct CommutationConfig {

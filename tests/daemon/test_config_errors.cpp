@@ -121,11 +121,15 @@ TEST_CASE("configuration errors are refused naming file, line and key path", "[d
     CHECK_THAT(load_error(dir, lines), Catch::StartsWith(file + ":13: commutation.pgnn_model_file: file '") &&
                                            Catch::Contains("models/pgnn.yaml' does not exist"));
   }
-  SECTION("bus load above 70 %") {
+  SECTION("bus load above 70 % on a CAN interface") {
     lines[2] = "  rate_hz: 4000";
+    lines[5] = "  interface: vcan0";
     CHECK_THAT(load_error(dir, lines),
-               Catch::StartsWith(file + ":") && Catch::Contains(": can: can bus load: ") &&
-                   Catch::Contains("exceeds the 70.0 % limit"));
+               Catch::StartsWith(file + ":3: loop.rate_hz: can bus load: ") && Catch::Contains("exceeds the 70.0 % limit"));
+  }
+  SECTION("the in-process simulated bus has no bitrate: 4 kHz is accepted there") {
+    lines[2] = "  rate_hz: 4000";
+    CHECK(load_error(dir, lines).empty());
   }
   SECTION("soft limits the wrong way round") {
     lines.insert(lines.begin() + 10, "  soft_limit_min_m: 0.05");
