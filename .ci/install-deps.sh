@@ -8,7 +8,7 @@ packages=(
   libeigen3-dev libyaml-cpp-dev
   liblcm-dev liblcm-bin liblcm-java default-jdk-headless
   catch2 libceres-dev libcli11-dev libbenchmark-dev
-  can-utils
+  can-utils systemd rt-tests
   python3 python3-numpy python3-matplotlib
 )
 

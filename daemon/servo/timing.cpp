@@ -7,7 +7,7 @@ namespace clm::servo {
 
 void LatencyHistogram::add(double value_s) noexcept {
   int bin = 0;
-  if (value_s > kMin_s) bin = static_cast<int>(std::ceil(20.0 * std::log10(value_s / kMin_s)));
+  if (value_s > kMin_s) bin = static_cast<int>(std::ceil(kBinsPerDecade * std::log10(value_s / kMin_s)));
   bins_[static_cast<std::size_t>(std::clamp(bin, 0, kBins - 1))] += 1;
   ++count_;
   max_s_ = std::max(max_s_, value_s);
@@ -19,7 +19,7 @@ void LatencyHistogram::reset() noexcept {
   max_s_ = 0.0;
 }
 
-double LatencyHistogram::bin_upper_s(int bin) noexcept { return kMin_s * std::pow(10.0, bin / 20.0); }
+double LatencyHistogram::bin_upper_s(int bin) noexcept { return kMin_s * std::pow(10.0, static_cast<double>(bin) / kBinsPerDecade); }
 
 double LatencyHistogram::quantile_s(double q) const noexcept {
   if (count_ == 0) return 0.0;

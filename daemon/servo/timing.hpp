@@ -1,6 +1,7 @@
 #pragma once
 // Fixed-bin latency histogram for the cycle: log-spaced bins from 100 ns to
-// 100 ms, no allocation, percentiles read from the bins.
+// 100 ms (50 per decade, so a percentile is read to within 5 %), no
+// allocation, percentiles read from the bins.
 
 #include <array>
 #include <cstdint>
@@ -9,7 +10,8 @@ namespace clm::servo {
 
 class LatencyHistogram {
  public:
-  static constexpr int kBins = 120;  // 20 per decade over 6 decades
+  static constexpr int kBinsPerDecade = 50;
+  static constexpr int kBins = 6 * kBinsPerDecade;
   static constexpr double kMin_s = 1e-7;
 
   void add(double value_s) noexcept;
