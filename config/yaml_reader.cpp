@@ -78,6 +78,13 @@ std::size_t Node::size() const {
 void Node::expect_keys(std::initializer_list<std::string_view> allowed) const {
   expect_map();
   for (const auto& entry : node_) {
+    // An empty key ("? : 1") or a list or map as a key ("? [a, b]: 1") has no
+    // text: refuse it here, with file and line, rather than let yaml-cpp's
+    // conversion throw a message without either.
+    if (!entry.first.IsScalar()) {
+      Node(file_, entry.first, path_.empty() ? std::string("(key)") : path_ + ".(key)")
+          .fail(entry.first.IsNull() ? "empty key" : "a list or map as a key; keys are plain names");
+    }
     const std::string key = entry.first.as<std::string>();
     bool known = false;
     for (auto name : allowed) known = known || name == key;
