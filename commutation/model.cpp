@@ -90,9 +90,15 @@ void ElectromagneticModel::validate() const {
     throw ModelError("normalisation: offset must be finite and scale positive");
   }
   if (kind == ModelKind::kSpline) {
+    // The spacing too: end − start can overflow to infinity (start −1e308,
+    // end 1e308) or the spacing underflow to zero (start and end a few ulp
+    // apart near the smallest normal number), and evaluate() would then turn
+    // a NaN into a knot index.
+    const double spacing_m = spline_basis.spacing_m();
     if (spline_basis.intervals < 1 || !(spline_basis.end_m > spline_basis.start_m) ||
-        !std::isfinite(spline_basis.start_m) || !std::isfinite(spline_basis.end_m)) {
-      throw ModelError("spline knots: need start_m < end_m and at least one interval");
+        !std::isfinite(spline_basis.start_m) || !std::isfinite(spline_basis.end_m) || !(spacing_m > 0.0) ||
+        !std::isfinite(spacing_m)) {
+      throw ModelError("spline knots: need start_m < end_m, at least one interval and a finite, non-zero knot spacing");
     }
   }
   for (int l = 0; l < count; ++l) {
