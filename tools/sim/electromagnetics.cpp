@@ -50,7 +50,15 @@ void SmoothRandomFunction::draw(std::span<const double> rms, double correlation_
   const double margin = correlation_length_m;
   basis_.start_m = track_start_m - margin;
   basis_.end_m = track_end_m + margin;
-  basis_.intervals = std::max(1, static_cast<int>(std::ceil((basis_.end_m - basis_.start_m) / correlation_length_m)));
+  const double intervals = std::ceil((basis_.end_m - basis_.start_m) / correlation_length_m);
+  // MotorParameters::validate refuses this for a motor; direct users get the same refusal.
+  if (!(intervals <= kMaxTrackKnots)) {
+    throw ParameterError("smooth variation: correlation length " + std::to_string(correlation_length_m) +
+                         " m gives " + std::to_string(intervals) + " knot intervals over [" +
+                         std::to_string(track_start_m) + ", " + std::to_string(track_end_m) + "] m; at most " +
+                         std::to_string(static_cast<long>(kMaxTrackKnots)));
+  }
+  basis_.intervals = std::max(1, static_cast<int>(intervals));
   inverse_spacing_per_m_ = 1.0 / basis_.spacing_m();
   components_ = static_cast<int>(rms.size());
   coefficients_.resize(static_cast<std::size_t>(basis_.size() * components_));

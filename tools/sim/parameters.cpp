@@ -1,5 +1,6 @@
 #include "tools/sim/parameters.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <string>
@@ -114,10 +115,37 @@ void MotorParameters::validate() const {
   if (stroke_max_m > mechanics.end_stop_max_m) {
     fail("stroke_max_m", stroke_max_m, "lies beyond the upper end stop");
   }
+  // The truth draws the magnet track over the end stops widened by the
+  // largest lever arm each side, the slow cogging over the end stops alone,
+  // each plus one correlation length of margin (ElectromagneticTruth). A
+  // correlation length tiny against that travel (or a travel that overflows)
+  // would need more knots than an int counts: refuse it here, by name.
+  const auto& em = electromagnetics;
+  double lever_reach_m = 0.0;
+  for (const auto& coil_set : em.coil_sets) lever_reach_m = std::max(lever_reach_m, std::abs(coil_set.lever_arm_m));
+  const double travel_m = mechanics.end_stop_max_m - mechanics.end_stop_min_m;
+  const auto check_knots = [](const std::string& field, double track_m, double correlation_length_m) {
+    const double knots = track_m / correlation_length_m + 2.0;
+    if (!(std::ceil(knots) + 1.0 <= kMaxTrackKnots)) {  // + 1: margin for the rounding of the truth's own count
+      fail(field, correlation_length_m,
+           "gives " + std::to_string(knots) + " spline knots over the simulated track of " + std::to_string(track_m) +
+               " m; at most " + std::to_string(static_cast<long>(kMaxTrackKnots)));
+    }
+  };
+  if (em.magnet_intensity.rms != 0.0) {
+    check_knots("magnet_intensity.correlation_length_m", travel_m + 2.0 * lever_reach_m,
+                em.magnet_intensity.correlation_length_m);
+  }
+  if (em.magnet_orientation_rad.rms != 0.0) {
+    check_knots("magnet_orientation_rad.correlation_length_m", travel_m + 2.0 * lever_reach_m,
+                em.magnet_orientation_rad.correlation_length_m);
+  }
+  if (!em.cogging_slow_rms_N_N_Nm.isZero(0.0)) {
+    check_knots("cogging_slow_correlation_length_m", travel_m, em.cogging_slow_correlation_length_m);
+  }
   // The friction and the direction-dependent force are integrated explicitly;
   // their slope at zero velocity sets the stiffness of the velocity equation.
   // h·(slope)/m ≤ 0.5 keeps the substep free of overshoot (stability needs < 2).
-  const auto& em = electromagnetics;
   const double slope_N_s_per_m = mechanics.viscous_friction_N_s_per_m +
                                  mechanics.coulomb_friction_N / mechanics.friction_smoothing_velocity_m_per_s +
                                  std::abs(em.direction_dependent_N_N_Nm.x()) / em.direction_smoothing_velocity_m_per_s;

@@ -135,6 +135,12 @@ struct SensorParameters {
   void validate() const;
 };
 
+/// Most knots a smooth variation of the truth may have (ElectromagneticTruth
+/// draws a B-spline with knots one correlation length apart over the track
+/// the coil sets reach): 10^6, 8 MB per component. A correlation length
+/// that tiny against the travel is refused, not allocated.
+inline constexpr double kMaxTrackKnots = 1e6;
+
 struct MotorParameters {
   double stroke_min_m = -0.1;  ///< lower end of the usable travel [m]
   double stroke_max_m = 0.1;   ///< upper end of the usable travel [m]
@@ -146,7 +152,8 @@ struct MotorParameters {
   int coil_set_count() const { return electromagnetics.coil_set_count(); }
   double pole_pitch_m() const { return electromagnetics.pole_pitch_m; }
   /// Validates every part and their consistency (stroke inside the end stops,
-  /// integration step small enough for the friction smoothing).
+  /// integration step small enough for the friction smoothing, at most
+  /// kMaxTrackKnots knots for every smooth variation over the travel).
   void validate() const;
 };
 
