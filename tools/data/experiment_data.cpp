@@ -30,6 +30,10 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
   data.coil_sets.resize(static_cast<std::size_t>(motor.coil_sets));
   std::vector<std::vector<std::size_t>> rows(static_cast<std::size_t>(motor.coil_sets));
   std::vector<int> offsets_seen(static_cast<std::size_t>(motor.coil_sets), 0);
+  // The offset group of every row, decided once: a delta_rad within 1e-9 rad
+  // of both offsets must land in the same group in the per-group columns and
+  // in the dataset (docs/fuzzing.md, fuzz_experiment_data).
+  std::vector<int> row_group(table.rows(), 0);
   for (std::size_t r = 0; r < table.rows(); ++r) {
     const double value = coil_set[r];
     if (value != std::floor(value) || value < 1 || value > motor.coil_sets) {
@@ -52,6 +56,7 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
       group = offsets_seen[l]++;
       experiment.delta_rad[static_cast<std::size_t>(group)] = delta[r];
     }
+    row_group[r] = group;
     const auto g = static_cast<std::size_t>(group);
     experiment.position_m[g].push_back(position[r]);
     experiment.magnitude_N[g].push_back(magnitude[r]);
@@ -78,7 +83,7 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
     set.group.resize(rows[l].size());
     for (Eigen::Index k = 0; k < n; ++k) {
       const std::size_t r = rows[l][static_cast<std::size_t>(k)];
-      const int group = std::abs(delta[r] - experiment.delta_rad[0]) <= 1e-9 ? 0 : 1;
+      const int group = row_group[r];
       set.position_m[k] = position[r];
       if (measured) {
         set.currents_A.col(k) << ia[r], ib[r];
