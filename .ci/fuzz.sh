@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer harnesses of tests/fuzz (docs/fuzzing.md) with
+# clang++-14 into build-fuzz/ and runs each for FUZZ_SECONDS (default 10)
+# seconds on its seed corpus: 7 harnesses, 70 s of fuzzing. Exits non-zero
+# if any harness finds a crash, a sanitizer report, a leak, a timeout or a
+# broken invariant; the input is kept in build-fuzz/artifacts/.
+#
+#   FUZZ_SECONDS=60 bash .ci/fuzz.sh   # longer runs of every harness
+#   FUZZ_SEED=0 bash .ci/fuzz.sh       # a fresh random seed (default: fixed, 1)
+#   FUZZ_ONLY=fuzz_model_file bash .ci/fuzz.sh   # one harness
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+# clang-14 and its runtimes (libFuzzer, ASan, UBSan) from Debian 12.
+packages=(clang-14 libclang-rt-14-dev)
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then missing+=("$p"); fi
+done
+if [ "${#missing[@]}" -gt 0 ]; then
+  echo "fuzz: installing ${missing[*]}"
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+cmake -S . -B build-fuzz -DCMAKE_CXX_COMPILER=clang++-14 -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCLM_FUZZ=ON \
+      -DCLM_BUILD_TESTS=OFF -DCLM_BUILD_BENCHMARKS=OFF >/dev/null
+cmake --build build-fuzz -j2 --target fuzzers
+
+seconds="${FUZZ_SECONDS:-10}"
+seed="${FUZZ_SEED:-1}"
+fuzz_dir=tests/fuzz
+out=build-fuzz/fuzz-run
+rm -rf "$out"
+mkdir -p "$out" build-fuzz/artifacts
+export ASAN_OPTIONS="detect_leaks=1:abort_on_error=0:symbolize=1"
+export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+
+failed=()
+ran=0
+# run NAME DICT MAX_LEN SEED_FILES...: a fresh working corpus of the seeds,
+# then NAME for $seconds.
+run() {
+  local name=$1 dict=$2 max_len=$3
+  shift 3
+  if [ -n "${FUZZ_ONLY:-}" ] && [ "$name" != "$FUZZ_ONLY" ]; then return; fi
+  local corpus="$out/corpus/$name"
+  mkdir -p "$corpus"
+  cp "$@" "$corpus/"
+  local options=(-max_total_time="$seconds" -seed="$seed" -timeout=10 -rss_limit_mb=2048 -max_len="$max_len"
+                 -print_final_stats=1 -artifact_prefix="build-fuzz/artifacts/$name-")
+  if [ -n "$dict" ]; then options+=(-dict="$fuzz_dir/$dict"); fi
+  ran=$((ran + 1))
+  echo "fuzz: $name for ${seconds} s"
+  if ./build-fuzz/tests/fuzz/"$name" "${options[@]}" "$corpus" >"$out/$name.log" 2>&1; then
+    grep -E "^stat::number_of_executed_units|^stat::new_units_added" "$out/$name.log" | tr '\n' ' ' | sed 's/^/fuzz:   /'
+    echo
+  else
+    echo "fuzz: $name FAILED; log $out/$name.log, input in build-fuzz/artifacts/$name-*"
+    grep -E -A25 "^==[0-9]+==ERROR|runtime error|fuzz invariant broken|terminate called|ERROR: libFuzzer" \
+      "$out/$name.log" | head -60 || true
+    failed+=("$name")
+  fi
+}
+
+run fuzz_can_frames "" 32 "$fuzz_dir"/corpus/can_frames/*
+run fuzz_servod_config yaml.dict 8192 config/servod*.yaml "$fuzz_dir"/corpus/servod_config/*
+run fuzz_model_file yaml.dict 8192 "$fuzz_dir"/corpus/model_file/*
+run fuzz_calibration_file yaml.dict 4096 "$fuzz_dir"/corpus/calibration_file/*
+run fuzz_motor_file yaml.dict 8192 config/motor-sim*.yaml
+run fuzz_csv_table csv.dict 4096 "$fuzz_dir"/corpus/experiment_data/*
+run fuzz_experiment_data csv.dict 4096 "$fuzz_dir"/corpus/experiment_data/*
+
+if [ "${#failed[@]}" -gt 0 ]; then
+  echo "fuzz: ${#failed[@]} harnesses failed: ${failed[*]}"
+  exit 1
+fi
+echo "fuzz: ${ran} harnesses, ${seconds} s each, no findings"
