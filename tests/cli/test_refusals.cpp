@@ -330,3 +330,26 @@ TEST_CASE("calibrate, identify, ff-identify and commutate answer --help with sta
     CHECK(result.err.empty());
   }
 }
+
+TEST_CASE("a bad command line (a missing option, a --data that does not exist) is refused in one line", "[cli]") {
+  TemporaryDirectory dir;
+  const std::string data = dir.file("data.csv");
+  write_file(data, join_lines(synthetic_experiment_lines(3)));
+  const std::string missing = dir.file("missing.csv");
+  const std::string output = dir.file("calibration.yaml");
+  check_refused({"calibrate", "--motor", kMotor, "--data", missing, "--output", output}, output,
+                "--data: File does not exist: " + missing);
+  const auto before = listing(dir.path());
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"calibrate", "--motor", kMotor, "--data", data},
+        std::vector<std::string>{"identify", "--data", data, "--output", output},
+        std::vector<std::string>{"ff-identify", "--output", output},
+        std::vector<std::string>{"commutate", "--motor", kMotor, "--input", data, "--output", output, "--power", "x"}}) {
+    const ProcessResult result = run_clm(args);
+    INFO(args[0] << ": " << result.err);
+    CHECK(result.exit_code != 0);
+    REQUIRE(result.err_lines().size() == 1);
+    CHECK(result.err_lines()[0].rfind("clm " + args[0] + ": error: ", 0) == 0);
+    CHECK(listing(dir.path()) == before);
+  }
+}

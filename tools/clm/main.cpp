@@ -25,7 +25,12 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);  // --help, --version
+    // A bad command line is bad input too: one line (CLI11 would add a second).
+    const auto subcommands = app.get_subcommands();
+    std::fprintf(stderr, "clm%s%s: error: %s\n", subcommands.empty() ? "" : " ",
+                 subcommands.empty() ? "" : subcommands.front()->get_name().c_str(), e.what());
+    return e.get_exit_code();
   } catch (const std::exception& e) {
     // One line naming what is wrong and where; nothing was written.
     const auto subcommands = app.get_subcommands();
