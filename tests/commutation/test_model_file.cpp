@@ -111,6 +111,20 @@ TEST_CASE("corrupted model files are refused with file, line and key", "[model_f
   CHECK_FALSE(error.empty());
 }
 
+TEST_CASE("spline knots whose spacing overflows or underflows are refused", "[model_file]") {
+  // docs/fuzzing.md: evaluating such a model turned a NaN into a knot index.
+  std::mt19937_64 rng(33);
+  const std::string text = format_model_file(random_model_file(ModelKind::kSpline, 1, rng));
+  const std::regex knots(R"(start_m: [^\n]+\n  end_m: [^\n]+\n)");
+  for (const char* bounds : {"start_m: -1e308\n  end_m: 1e308\n",
+                             "start_m: 2.2250738585072014e-308\n  end_m: 2.2250738585072019e-308\n"}) {
+    const std::string corrupted = std::regex_replace(text, knots, bounds, std::regex_constants::format_first_only);
+    REQUIRE(corrupted != text);
+    INFO(bounds);
+    CHECK_THAT(error_of(corrupted), Catch::Contains("model.yaml:") && Catch::Contains("finite, non-zero knot spacing"));
+  }
+}
+
 TEST_CASE("a model for another motor is refused naming both files", "[model_file]") {
   std::mt19937_64 rng(32);
   const ModelFile file = random_model_file(ModelKind::kSpline, 3, rng);

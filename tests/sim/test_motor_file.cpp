@@ -146,6 +146,15 @@ TEST_CASE("bad motor files are refused with file, line and key path", "[sim][mot
       {"negative seed", kMinimal + "  seed: -3\n", "motor.yaml:16: simulation.seed: value -3 outside"},
       {"stroke reversed", replaced(kMinimal, "  coil_sets: 2\n", "  coil_sets: 2\n  stroke_min_m: 0.2\n"),
        "motor: stroke_max_m must be above stroke_min_m"},
+      // docs/fuzzing.md: yaml-cpp's own conversion error
+      // escaped without file or line; the simulator's knot count overflowed int.
+      {"a list as a key", kMinimal + "? [a, b]\n: 1\n", "motor.yaml:16: (key): a list or map as a key"},
+      {"slow cogging correlation length tiny against the travel",
+       kMinimal + "  cogging:\n    slow: {rms_N_N_Nm: [1, 0, 0], correlation_length_m: 1.0e-12}\n",
+       "motor.yaml:15: simulation.mechanics: cogging_slow_correlation_length_m = 9.9999999999999998e-13: gives"},
+      {"end stops whose distance overflows",
+       kMinimal + "    end_stop_min_m: -1.0e308\n    end_stop_max_m: 1.0e308\n  magnet_track:\n    intensity: {rms: 0.01}\n",
+       "magnet_intensity.correlation_length_m = 0.02: gives inf spline knots"},
   };
   for (const auto& c : cases) {
     INFO(c.what);
