@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -24,6 +25,13 @@ Node Node::load_string(const std::string& text, const std::string& origin) {
 }
 
 Node Node::load_file(const std::string& path) {
+  // Read whole, so a device or a pipe named by mistake (motor_file: /dev/zero,
+  // docs/fuzzing.md) would exhaust memory or block: refuse it.
+  std::error_code error;
+  const auto status = std::filesystem::status(path, error);
+  if (!error && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) {
+    throw Error(path + ": not a regular file (a directory, device or pipe)");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": cannot open file");
   std::stringstream buffer;

@@ -167,3 +167,9 @@ TEST_CASE("bad motor files are refused with file, line and key path", "[sim][mot
 TEST_CASE("a file that cannot be opened names its path", "[sim][motor_file]") {
   REQUIRE_THROWS_WITH(load_motor_parameters("/nonexistent/motor.yaml"), Catch::Contains("/nonexistent/motor.yaml"));
 }
+
+TEST_CASE("a directory or device named as the motor file is refused, not read", "[sim][motor_file]") {
+  // /dev/zero used to be read until memory ran out (docs/fuzzing.md).
+  REQUIRE_THROWS_WITH(load_motor_parameters("/dev/zero"), Catch::Contains("/dev/zero: not a regular file"));
+  REQUIRE_THROWS_WITH(load_motor_parameters("/tmp"), Catch::Contains("/tmp: not a regular file"));
+}
