@@ -28,8 +28,8 @@ for candidate in /bin/busybox /usr/bin/busybox; do
   if [ -x "$candidate" ] && ! ldd "$candidate" > /dev/null 2>&1; then busybox=$candidate; break; fi
 done
 [ -n "$busybox" ] || die "no statically linked busybox (install busybox-static)"
-for tool in bash candump lcm-logger; do
-  command -v "$tool" > /dev/null || die "no $tool on this host (packages: bash, can-utils, liblcm-bin)"
+for tool in bash awk candump lcm-logger; do
+  command -v "$tool" > /dev/null || die "no $tool on this host (packages: bash, mawk, can-utils, liblcm-bin)"
 done
 
 rm -rf "$staging"
@@ -60,8 +60,12 @@ install_program() {
   copy_libraries "$binary"
 }
 install_program "$(command -v bash)" /bin/bash
+# The suite's awk needs sqrt, which Debian's busybox awk lacks: the host's awk (mawk or gawk).
+install_program "$(readlink -f "$(command -v awk)")" /bin/awk
 install_program "$(command -v candump)" /usr/bin/candump
 install_program "$(command -v lcm-logger)" /usr/bin/lcm-logger
+# util-linux's chrt: the simulated motor gets SCHED_FIFO like the daemon's loop.
+command -v chrt > /dev/null && install_program "$(command -v chrt)" /usr/bin/chrt
 for program in "${programs[@]}"; do
   [ -x "$program" ] || die "no program $program (build it first)"
   install_program "$program" "/hil/bin/$(basename "$program")"
@@ -98,10 +102,10 @@ for file in config/servod-vcan.yaml config/motor-sim.yaml drivers/clm-servo.dbc 
 done
 mkdir -p "$staging/hil/src/config/programs"
 cp "$source_dir"/config/programs/*.yaml "$staging/hil/src/config/programs/"
-for file in calibration.yaml model-pgnn.yaml; do
+for file in calibration.yaml model-pgnn.yaml feedforward-classical.yaml feedforward-pgnn.yaml; do
   [ -f "$artifacts/$file" ] || die "no $artifacts/$file (clm commission --out $artifacts)"
-  cp "$artifacts/$file" "$staging/hil/artifacts/"
 done
+cp "$artifacts"/calibration.yaml "$artifacts"/model-*.yaml "$artifacts"/feedforward-*.yaml "$staging/hil/artifacts/"
 cp "$guest_env" "$staging/hil/env"
 cp "$source_dir/tests/hil/qemu/init" "$staging/init"
 chmod 755 "$staging/init"

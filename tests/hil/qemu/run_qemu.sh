@@ -41,7 +41,7 @@ mkdir -p "$work"
 # that made them is unchanged: clm commission on the embedded default is
 # deterministic.
 artifacts=${HIL_ARTIFACTS:-$work/commission}
-if [ ! -f "$artifacts/model-pgnn.yaml" ] || [ ! -f "$artifacts/calibration.yaml" ] || [ "$clm" -nt "$artifacts/model-pgnn.yaml" ]; then
+if [ ! -f "$artifacts/report.json" ] || [ "$clm" -nt "$artifacts/report.json" ]; then
   echo "HIL: commissioning the embedded default on the host into $artifacts"
   commission_start=$(date +%s)
   if ! "$clm" commission --out "$artifacts" --no-plots > "$work/commission.log" 2>&1; then
@@ -70,11 +70,19 @@ rm -rf "$work/initramfs"
 echo "HIL: booting $kernel under TCG (timeout $timeout_s s)"
 boot_s=$(date +%s)
 
-# TCG: this host may have no usable KVM. The guest powers off at the end; a
-# panic or a hang ends by panic=-1 with -no-reboot, or by the timeout.
+# TCG (this host may have no usable KVM) with -icount shift=0,sleep=off: the
+# guest's clocks advance by 1 ns per executed instruction and jump over idle
+# time, so a loaded or slow host slows the run down in wall-clock time but
+# never makes the guest's 1 kHz loop late (docs/hil.md, "Guest time"). One
+# vCPU: with icount and sleep=off the kernel hangs bringing up a second one.
+# preempt=full (Debian's kernel is PREEMPT_DYNAMIC): on one vCPU, a process
+# starting up must not hold the kernel for a millisecond against the loop.
+# The guest powers off at the end; a panic or a hang ends by panic=-1 with
+# -no-reboot, or by the timeout.
 console=$work/console.log
-timeout -k 10 "$timeout_s" "$qemu" -accel tcg -m 2048 -smp 2 -kernel "$kernel" -initrd "$initramfs" \
-  -append "console=ttyS0 quiet panic=-1" -nographic -no-reboot < /dev/null 2>&1 | tr -d '\r' | tee "$console"
+timeout -k 10 "$timeout_s" "$qemu" -accel tcg -icount shift=0,sleep=off -m 2048 -smp 1 \
+  -kernel "$kernel" -initrd "$initramfs" -append "console=ttyS0 quiet panic=-1 preempt=full" \
+  -nographic -no-reboot -net none < /dev/null 2>&1 | tr -d '\r' | tee "$console"
 qemu_rc=${PIPESTATUS[0]}
 end_s=$(date +%s)
 
