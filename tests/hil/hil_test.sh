@@ -24,6 +24,13 @@ if [ -z "$mode" ]; then
   if native_possible; then mode=native; else mode=qemu; fi
 fi
 echo "HIL: mode $mode"
+# Commissioning artefacts are reused while the clm that made them is unchanged
+# (clm commission on the embedded default is deterministic); run_qemu.sh checks
+# the same for its own directory.
+if [ "$mode" = native ] && [ -z "${HIL_ARTIFACTS:-}" ] && [ -d "$work/native/commission" ] &&
+   { [ ! -f "$work/native/commission/report.json" ] || [ "$1" -nt "$work/native/commission/report.json" ]; }; then
+  rm -rf "$work/native/commission"
+fi
 case $mode in
   native) exec bash "$here/run_hil.sh" "$1" "$2" "$3" "$4" "$work/native" ;;
   qemu) exec bash "$here/qemu/run_qemu.sh" "$1" "$2" "$3" "$4" "$work/qemu" ;;

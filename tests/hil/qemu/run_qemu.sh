@@ -51,6 +51,7 @@ if [ ! -f "$artifacts/report.json" ] || [ "$clm" -nt "$artifacts/report.json" ];
   fi
   echo "HIL: commissioning took $(( $(date +%s) - commission_start )) s"
 fi
+initramfs_start=$(date +%s)
 
 # What the guest's /init exports before it runs the suite.
 {
@@ -87,7 +88,8 @@ qemu_rc=${PIPESTATUS[0]}
 end_s=$(date +%s)
 
 result=$(grep -a -E "^HIL: [0-9]+ passed, [0-9]+ failed" "$console" | tail -1)
-echo "HIL: host: initramfs $(( boot_s - start_s )) s, guest $(( end_s - boot_s )) s, total $(( end_s - start_s )) s"
+echo "HIL: host: commissioning $(( initramfs_start - start_s )) s, initramfs $(( boot_s - initramfs_start )) s," \
+     "guest $(( end_s - boot_s )) s, total $(( end_s - start_s )) s"
 if [ -z "$result" ]; then
   if [ "$qemu_rc" = 124 ] || [ "$qemu_rc" = 137 ]; then
     echo "HIL: FAIL the guest did not finish within $timeout_s s"
