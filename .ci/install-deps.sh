@@ -10,6 +10,10 @@ packages=(
   catch2 libceres-dev libcli11-dev libbenchmark-dev
   can-utils systemd rt-tests
   python3 python3-numpy python3-matplotlib
+  # HIL suite in a QEMU guest where this kernel has no SocketCAN (docs/hil.md)
+  linux-image-amd64 qemu-system-x86 busybox-static iproute2 kmod
+  # libFuzzer harnesses and their runtimes (docs/fuzzing.md)
+  clang-14 libclang-rt-14-dev
 )
 
 missing=()
