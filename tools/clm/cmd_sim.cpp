@@ -5,6 +5,14 @@
 // period, the encoder and force sensor are sampled and both TPDO1s go out;
 // the setpoint RPDOs of a cycle are applied once all of them are in.
 //
+// The drive keeps its own clock: when the SYNCs stop for 3 periods while it
+// is enabled, it steps the motor on CLOCK_MONOTONIC, so its setpoint watchdog
+// stops the current after a daemon died (docs/reliability.md). With
+// --inject PLAN, each SIGUSR1 fires the next step of a bus-side fault
+// injection (clm::simbus::BusInjector) at the next SYNC with the axis
+// enabled; --event-log FILE records each step fired and each watchdog expiry
+// with the SYNC count and the drive's own times.
+//
 // Runs until SIGINT/SIGTERM or --duration-s, then prints one summary line on
 // stdout. Exit status: 0 after a clean stop, 2 on bad input or when the bus
 // cannot be opened (e.g. a kernel without SocketCAN), with one line on stderr.
@@ -22,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "daemon/simbus/bus_injector.hpp"
 #include "daemon/simbus/simulated_nodes.hpp"
 #include "drivers/socket_can_bus.hpp"
 #include "tools/clm/commands.hpp"
@@ -32,8 +41,10 @@ namespace clm::cli {
 namespace {
 
 std::atomic<int> g_stop_signal{0};
+std::atomic<int> g_injection_requests{0};
 
 extern "C" void on_stop_signal(int signal) { g_stop_signal.store(signal, std::memory_order_relaxed); }
+extern "C" void on_injection_request(int) { g_injection_requests.fetch_add(1, std::memory_order_relaxed); }
 
 std::int64_t monotonic_ns() noexcept {
   timespec ts{};
@@ -48,7 +59,12 @@ struct SimOptions {
   double duration_s = 0.0;  ///< 0: until a signal
   int drive_node_id = 1;
   int force_sensor_node_id = 2;
+  std::string injection_plan;  ///< empty: no injection
+  std::string event_log;       ///< empty: none
 };
+
+/// SYNCs missing, while the drive is enabled, before it steps on its own clock.
+constexpr int kFreeRunAfterPeriods = 3;
 
 /// Longest a receive waits, so a signal or the end of the duration is seen
 /// within this time even on a silent bus [ns].
@@ -71,6 +87,14 @@ void run_sim(const SimOptions& options) {
   for (std::size_t k = 0; k < can::setpoint_frame_count(protocol.coil_sets); ++k) {
     receive_ids.push_back(can::setpoint_id(protocol, k));
   }
+  simbus::BusInjector injector(protocol, options.injection_plan.empty()
+                                             ? std::vector<simbus::InjectionStep>{}
+                                             : simbus::parse_injection_plan(options.injection_plan));
+  std::FILE* events = nullptr;
+  if (!options.event_log.empty()) {
+    events = std::fopen(options.event_log.c_str(), "w");
+    if (events == nullptr) throw std::runtime_error("cannot write the event log '" + options.event_log + "'");
+  }
   drivers::SocketCanBus bus(options.interface_name, receive_ids);
 
   // An asynchronous handler that only sets a flag; without SA_RESTART, so a
@@ -80,6 +104,10 @@ void run_sim(const SimOptions& options) {
   sigemptyset(&action.sa_mask);
   sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);
+  struct sigaction inject_action{};
+  inject_action.sa_handler = on_injection_request;
+  sigemptyset(&inject_action.sa_mask);
+  sigaction(SIGUSR1, &inject_action, nullptr);
 
   std::fprintf(stderr, "clm sim: %s: %d coil sets, drive node %d, force sensor node %d, %g Hz; waiting for SYNC\n",
                options.interface_name.c_str(), protocol.coil_sets, options.drive_node_id, options.force_sensor_node_id,
@@ -90,20 +118,100 @@ void run_sim(const SimOptions& options) {
       options.duration_s > 0.0 ? start_ns + static_cast<std::int64_t>(options.duration_s * 1e9) : INT64_MAX;
   std::int64_t replies_sent = 0, replies_failed = 0;
   std::array<can::Frame, 2> replies{};
+  simbus::BusInjector::Replies injected;
   drivers::ReceivedFrame received;
+  const auto period_ns = static_cast<std::int64_t>(period_s * 1e9);
+  std::int64_t last_step_ns = 0;            // the motor's last step, on SYNC or on its own clock
+  std::int64_t last_setpoints_ns = 0;       // the last complete setpoint set applied
+  std::int64_t late_send_ns = INT64_MAX;    // when the held-back frames go out
+  std::int64_t free_run_steps = 0;
+  bool watchdog_before = false;
+  int requests_seen = 0;
+  const auto send = [&](const can::Frame& frame) {
+    if (bus.send(frame)) {
+      ++replies_sent;
+    } else {
+      ++replies_failed;
+    }
+  };
+  // The drive's watchdog expiring is recorded once per expiry, with the times
+  // since the last setpoint set on CLOCK_MONOTONIC and on the motor's clock.
+  const auto note_watchdog = [&](std::int64_t now_ns) {
+    const bool watchdog = motor.status().watchdog();
+    if (watchdog && !watchdog_before && events != nullptr) {
+      const sim::TruthState truth = motor.truth();
+      std::fprintf(events,
+                   "event=watchdog sync=%lld after_last_setpoints_s=%.6f timeout_s=%.6f free_run_steps=%lld "
+                   "max_abs_current_A=%.6g enabled=%d\n",
+                   static_cast<long long>(nodes.counters().syncs),
+                   static_cast<double>(now_ns - last_setpoints_ns) * 1e-9, parameters.drive.watchdog_timeout_s,
+                   static_cast<long long>(free_run_steps), truth.currents_A.cwiseAbs().maxCoeff(),
+                   motor.status().enabled() ? 1 : 0);
+      std::fflush(events);
+    }
+    watchdog_before = watchdog;
+  };
   while (g_stop_signal.load(std::memory_order_relaxed) == 0) {
-    const std::int64_t now_ns = monotonic_ns();
+    std::int64_t now_ns = monotonic_ns();
     if (now_ns >= end_ns) break;
-    if (!bus.receive(received, std::min(end_ns, now_ns + kMaxWait_ns))) continue;
-    const std::size_t count = nodes.on_frame(received.frame, replies);
-    for (std::size_t k = 0; k < count; ++k) {
-      if (bus.send(replies[k])) {
-        ++replies_sent;
-      } else {
-        ++replies_failed;
+    for (const int requests = g_injection_requests.load(std::memory_order_relaxed); requests_seen < requests;
+         ++requests_seen) {
+      injector.request_next();
+    }
+    if (now_ns >= late_send_ns) {
+      for (std::size_t k = 0; k < injected.late_count; ++k) send(injected.late[k]);
+      injected.late_count = 0;
+      late_send_ns = INT64_MAX;
+    }
+    // The drive's own clock: no SYNC for a while and the power stage on.
+    const bool free_running = nodes.counters().syncs > 0 && motor.status().enabled() &&
+                              now_ns - last_step_ns >= kFreeRunAfterPeriods * period_ns;
+    if (free_running) {
+      while (now_ns - last_step_ns >= period_ns && motor.status().enabled()) {
+        motor.step(period_s);
+        last_step_ns += period_ns;
+        ++free_run_steps;
+        note_watchdog(last_step_ns);
       }
+      if (!motor.status().enabled()) last_step_ns = now_ns;
+    }
+    std::int64_t deadline_ns = std::min({end_ns, now_ns + kMaxWait_ns, late_send_ns});
+    if (nodes.counters().syncs > 0 && motor.status().enabled()) {
+      deadline_ns = std::min(deadline_ns, last_step_ns + (free_running ? 1 : kFreeRunAfterPeriods) * period_ns);
+    }
+    if (!bus.receive(received, deadline_ns)) continue;
+    now_ns = monotonic_ns();
+    injector.observe(received.frame);
+    const bool sync = received.frame.id == can::kSyncId;
+    const simbus::InjectionStep* fired = sync ? injector.on_sync() : nullptr;
+    if (fired != nullptr && fired->kind == simbus::InjectionKind::kDriveFault) motor.latch_internal_fault();
+    const std::int64_t applied_before = nodes.counters().setpoints_applied;
+    const std::size_t count = nodes.on_frame(received.frame, replies);
+    if (nodes.counters().setpoints_applied != applied_before) last_setpoints_ns = now_ns;
+    if (sync) {
+      last_step_ns = received.timestamp_ns;
+      if (injected.late_count > 0) {  // a late frame not yet out goes before this SYNC's replies
+        for (std::size_t k = 0; k < injected.late_count; ++k) send(injected.late[k]);
+        injected.late_count = 0;
+      }
+      injector.transform(std::span<const can::Frame>(replies.data(), count), injected);
+      for (std::size_t k = 0; k < injected.now_count; ++k) send(injected.now[k]);
+      late_send_ns = injected.late_count > 0
+                         ? received.timestamp_ns +
+                               static_cast<std::int64_t>(simbus::BusInjector::kLateFraction * static_cast<double>(period_ns))
+                         : INT64_MAX;
+      note_watchdog(now_ns);
+      if (fired != nullptr && events != nullptr) {
+        std::fprintf(events, "event=inject sync=%lld step=%d kind=%s frames=%d\n",
+                     static_cast<long long>(nodes.counters().syncs), injector.step_index() + 1, simbus::name(fired->kind),
+                     fired->frames);
+        std::fflush(events);
+      }
+    } else {
+      for (std::size_t k = 0; k < count; ++k) send(replies[k]);
     }
   }
+  if (events != nullptr) std::fclose(events);
   const double elapsed_s = static_cast<double>(monotonic_ns() - start_ns) * 1e-9;
 
   const int signal = g_stop_signal.load(std::memory_order_relaxed);
@@ -144,6 +252,12 @@ void add_sim(CLI::App& app) {
                   "CANopen node ID of the force sensor (the daemon's can.force_sensor_node_id)")
       ->check(CLI::Range(1, 127))
       ->capture_default_str();
+  sub->add_option("--inject", options->injection_plan,
+                  "bus-side fault injection: steps fired one per SIGUSR1 at the next SYNC with the axis enabled, "
+                  "e.g. drop-drive:3,late-drive:1,corrupt-reserved:1,corrupt-alive,corrupt-position,wrong-dlc:1,"
+                  "duplicate:1,drop-force:3,drive-fault (docs/reliability.md)");
+  sub->add_option("--event-log", options->event_log,
+                  "write one line per injection fired and per drive watchdog expiry to this file");
   sub->callback([options] {
     if (!std::isfinite(options->rate_hz)) throw std::runtime_error("--rate-hz must be finite");
     run_sim(*options);

@@ -202,6 +202,11 @@ DriveStatus SimulatedMotor::status() const noexcept {
   return DriveStatus{word};
 }
 
+void SimulatedMotor::latch_internal_fault() noexcept {
+  latch_fault(kStatusFault);
+  update_outputs();
+}
+
 void SimulatedMotor::clear_fault() noexcept {
   latched_ = 0;
   enable_requested_ = false;

@@ -21,7 +21,8 @@ enum DriveStatusBit : std::uint32_t {
   /// The drive applies current: the last accepted command asked for enable
   /// and no fault is latched.
   kStatusEnabled = 1u << 0,
-  /// Latched: a fault stopped the current (any of the bits 2, 4, 5 below).
+  /// Latched: a fault stopped the current (any of the bits 2, 4, 5 below, or
+  /// alone for a fault inside the drive: latch_internal_fault()).
   /// Setpoints are dropped; after clear_fault() a command with enable = true
   /// is needed to drive current again.
   kStatusFault = 1u << 1,
@@ -113,6 +114,9 @@ class SimulatedMotor {
   /// Clears the latched bits. The drive stays disabled with zero setpoints
   /// until the next command with enable = true.
   void clear_fault() noexcept;
+  /// A fault inside the drive (as overtemperature or a short would be), for
+  /// fault injection: kStatusFault latches alone and the current stops now.
+  void latch_internal_fault() noexcept;
 
   TruthState truth() const noexcept;
 

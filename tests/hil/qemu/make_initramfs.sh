@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the initramfs of the HIL guest (docs/hil.md): busybox-static, bash,
 # the CAN kernel modules of the installed Debian kernel and their
-# dependencies, candump, lcm-logger, the clm-servo programs with every shared
+# dependencies, candump, cangen, lcm-logger, the clm-servo programs with every shared
 # library ldd names, the configuration the suite reads, the commissioning
 # artefacts and /init (tests/hil/qemu/init). Written under the build
 # directory at test time; nothing of it is committed.
@@ -14,7 +14,7 @@
 set -euo pipefail
 out=$1 staging=$2 kernel_version=$3 source_dir=$4 artifacts=$5 guest_env=$6
 shift 6
-programs=("$@")  # clm clm-servod hil_candump_check
+programs=("$@")  # clm clm-servod hil_candump_check or hil_fault_check
 
 die() { echo "make_initramfs: $*" >&2; exit 1; }
 
@@ -28,7 +28,7 @@ for candidate in /bin/busybox /usr/bin/busybox; do
   if [ -x "$candidate" ] && ! ldd "$candidate" > /dev/null 2>&1; then busybox=$candidate; break; fi
 done
 [ -n "$busybox" ] || die "no statically linked busybox (install busybox-static)"
-for tool in bash awk candump lcm-logger; do
+for tool in bash awk candump cangen lcm-logger; do
   command -v "$tool" > /dev/null || die "no $tool on this host (packages: bash, mawk, can-utils, liblcm-bin)"
 done
 
@@ -63,6 +63,7 @@ install_program "$(command -v bash)" /bin/bash
 # The suite's awk needs sqrt, which Debian's busybox awk lacks: the host's awk (mawk or gawk).
 install_program "$(readlink -f "$(command -v awk)")" /bin/awk
 install_program "$(command -v candump)" /usr/bin/candump
+install_program "$(command -v cangen)" /usr/bin/cangen
 install_program "$(command -v lcm-logger)" /usr/bin/lcm-logger
 # util-linux's chrt: the simulated motor gets SCHED_FIFO like the daemon's loop.
 command -v chrt > /dev/null && install_program "$(command -v chrt)" /usr/bin/chrt
@@ -96,16 +97,23 @@ for module in can can-raw can-dev vcan; do add_module "$module"; done
 printf '%s\n' "${order[@]}" > "$staging/hil/modules/order"
 
 # What the suite reads from the source tree, at the same relative paths.
-for file in config/servod-vcan.yaml config/motor-sim.yaml drivers/clm-servo.dbc tests/hil/run_hil.sh; do
+for file in config/servod-vcan.yaml config/motor-sim.yaml drivers/clm-servo.dbc tests/hil/run_hil.sh \
+            tests/hil/run_faults.sh; do
   mkdir -p "$staging/hil/src/$(dirname "$file")"
   cp "$source_dir/$file" "$staging/hil/src/$file"
 done
 mkdir -p "$staging/hil/src/config/programs"
 cp "$source_dir"/config/programs/*.yaml "$staging/hil/src/config/programs/"
-for file in calibration.yaml model-pgnn.yaml feedforward-classical.yaml feedforward-pgnn.yaml; do
-  [ -f "$artifacts/$file" ] || die "no $artifacts/$file (clm commission --out $artifacts)"
-done
-cp "$artifacts"/calibration.yaml "$artifacts"/model-*.yaml "$artifacts"/feedforward-*.yaml "$staging/hil/artifacts/"
+# The commissioning artefacts, for the Fig. 8 suite (the fault suite runs the
+# drive's original commutation and needs none).
+if grep -q "^HIL_SUITE='faults'" "$guest_env"; then
+  :
+else
+  for file in calibration.yaml model-pgnn.yaml feedforward-classical.yaml feedforward-pgnn.yaml; do
+    [ -f "$artifacts/$file" ] || die "no $artifacts/$file (clm commission --out $artifacts)"
+  done
+  cp "$artifacts"/calibration.yaml "$artifacts"/model-*.yaml "$artifacts"/feedforward-*.yaml "$staging/hil/artifacts/"
+fi
 cp "$guest_env" "$staging/hil/env"
 cp "$source_dir/tests/hil/qemu/init" "$staging/init"
 chmod 755 "$staging/init"

@@ -7,7 +7,8 @@
 #
 #   run_qemu.sh CLM CLM_SERVOD HIL_CANDUMP_CHECK SOURCE_DIR WORK_DIR
 #
-# Environment (optional): HIL_QEMU_TIMEOUT_S (default 720), HIL_KERNEL_VERSION
+# Environment (optional): HIL_SUITE (fig8, default, or faults: run_faults.sh,
+# which needs no commissioning), HIL_QEMU_TIMEOUT_S (default 720), HIL_KERNEL_VERSION
 # (default: the newest /boot/vmlinuz-* whose modules include vcan), and the
 # HIL_* variables of run_hil.sh, which are handed to the guest.
 #
@@ -15,6 +16,10 @@
 # gave no result; 77 no usable kernel or QEMU here (skipped).
 set -uo pipefail
 clm=$1 servod=$2 checker=$3 source_dir=$4 work=$5
+suite=${HIL_SUITE:-fig8}
+# The fig8 suite's files keep their names; the fault suite's carry its name.
+suffix=""
+[ "$suite" = fig8 ] || suffix=-$suite
 here=$(cd "$(dirname "$0")" && pwd)
 timeout_s=${HIL_QEMU_TIMEOUT_S:-720}
 start_s=$(date +%s)
@@ -41,7 +46,7 @@ mkdir -p "$work"
 # that made them is unchanged: clm commission on the embedded default is
 # deterministic.
 artifacts=${HIL_ARTIFACTS:-$work/commission}
-if [ ! -f "$artifacts/report.json" ] || [ "$clm" -nt "$artifacts/report.json" ]; then
+if [ "$suite" = fig8 ] && { [ ! -f "$artifacts/report.json" ] || [ "$clm" -nt "$artifacts/report.json" ]; }; then
   echo "HIL: commissioning the embedded default on the host into $artifacts"
   commission_start=$(date +%s)
   if ! "$clm" commission --out "$artifacts" --no-plots > "$work/commission.log" 2>&1; then
@@ -55,19 +60,20 @@ initramfs_start=$(date +%s)
 
 # What the guest's /init exports before it runs the suite.
 {
+  printf "HIL_SUITE='%s'\n" "$suite"
   for variable in HIL_MODES HIL_PROGRAM HIL_MAX_E_M_classical HIL_MAX_E_M_pgnn HIL_PRIORITY; do
     [ -n "${!variable:-}" ] && printf "%s='%s'\n" "$variable" "${!variable}"
   done
   true
-} > "$work/guest.env"
+} > "$work/guest$suffix.env"
 
-initramfs=$work/initramfs.cpio.gz
-if ! bash "$here/make_initramfs.sh" "$initramfs" "$work/initramfs" "$kernel_version" "$source_dir" "$artifacts" \
-       "$work/guest.env" "$clm" "$servod" "$checker"; then
+initramfs=$work/initramfs$suffix.cpio.gz
+if ! bash "$here/make_initramfs.sh" "$initramfs" "$work/initramfs$suffix" "$kernel_version" "$source_dir" "$artifacts" \
+       "$work/guest$suffix.env" "$clm" "$servod" "$checker"; then
   echo "HIL: 0 passed, 1 failed (initramfs)"
   exit 1
 fi
-rm -rf "$work/initramfs"
+rm -rf "$work/initramfs$suffix"
 echo "HIL: booting $kernel under TCG (timeout $timeout_s s)"
 boot_s=$(date +%s)
 
@@ -80,7 +86,7 @@ boot_s=$(date +%s)
 # starting up must not hold the kernel for a millisecond against the loop.
 # The guest powers off at the end; a panic or a hang ends by panic=-1 with
 # -no-reboot, or by the timeout.
-console=$work/console.log
+console=$work/console$suffix.log
 timeout -k 10 "$timeout_s" "$qemu" -accel tcg -icount shift=0,sleep=off -m 2048 -smp 1 \
   -kernel "$kernel" -initrd "$initramfs" -append "console=ttyS0 quiet panic=-1 preempt=full" \
   -nographic -no-reboot -net none < /dev/null 2>&1 | tr -d '\r' | tee "$console"

@@ -1,0 +1,375 @@
+#!/usr/bin/env bash
+# Fault injection over a virtual CAN bus (docs/reliability.md): clm-servod and
+# the simulated motor (`clm sim --can --inject PLAN`) as separate processes on
+# a vcan interface, candump recording the bus. Each step of the plan is fired
+# bus-side by the simulator (SIGUSR1) while the axis is enabled and moving;
+# then a flood of unrelated frames (cangen), the daemon killed (SIGKILL) and
+# the simulator killed (SIGKILL). Every case is judged from evidence that does
+# not come from the daemon's own account of it: the bus record
+# (hil_fault_check: the defect is on the bus, the cycles to zero setpoints
+# with enable cleared) and the simulator's drive (its watchdog), beside the
+# daemon's latched fault code and reason in CLM_SERVO_STATUS and the cycle
+# numbers of its CLM_SERVO_STATE log.
+#
+#   run_faults.sh CLM CLM_SERVOD HIL_FAULT_CHECK SOURCE_DIR WORK_DIR
+#
+# Environment (optional): HIL_CAN (interface, as run_hil.sh), HIL_PRIORITY,
+# CANDUMP, CANGEN, LCM_LOGGER (the programs, default from PATH).
+# Prints "HIL: PASS ..." / "HIL: FAIL ..." per check, one "HIL: case ..." line
+# per case for docs/reliability.md, and "HIL: N passed, M failed" last.
+# Exit status: 0 all passed, 1 a check failed, 77 no vcan here (skipped).
+set -uo pipefail
+absolute() { echo "$(cd "$(dirname "$1")" && pwd)/$(basename "$1")"; }
+clm=$(absolute "$1") servod=$(absolute "$2") checker=$(absolute "$3") source_dir=$(cd "$4" && pwd)
+mkdir -p "$5"
+work=$(cd "$5" && pwd)
+candump=${CANDUMP:-candump}
+cangen=${CANGEN:-cangen}
+lcm_logger=${LCM_LOGGER:-lcm-logger}
+priority=${HIL_PRIORITY:-$(sed -n 's/^  priority: \([0-9]*\).*/\1/p' "$source_dir/config/servod-vcan.yaml")}
+
+# The plan and what docs/servod.md (Faults, faults.missing_frame_limit = 3 in
+# servod-vcan.yaml) says of each step: "ride" rides through (a missing, late
+# or rejected frame counts as a cycle without a frame, up to the limit), else
+# the latched fault code and the most cycles from the first affected cycle to
+# zero setpoints on the bus, that cycle counted.
+steps=(drop-drive:1 drop-drive:3 drop-drive:10 drop-force:3 late-drive:1 late-drive:3 corrupt-reserved:1
+       corrupt-reserved:3 wrong-dlc:1 wrong-dlc:3 duplicate:1 corrupt-alive:1 corrupt-position:1 drive-fault:1)
+declare -A expected_fault=(
+  [drop-drive:1]=ride [drop-drive:3]=101 [drop-drive:10]=101 [drop-force:3]=102 [late-drive:1]=ride
+  [late-drive:3]=101 [corrupt-reserved:1]=ride [corrupt-reserved:3]=105 [wrong-dlc:1]=ride [wrong-dlc:3]=105
+  [duplicate:1]=ride [corrupt-alive:1]=103 [corrupt-position:1]=202 [drive-fault:1]=206)
+declare -A expected_cycles=(
+  [drop-drive:3]=3 [drop-drive:10]=3 [drop-force:3]=3 [late-drive:3]=3 [corrupt-reserved:3]=3 [wrong-dlc:3]=3
+  [corrupt-alive:1]=1 [corrupt-position:1]=1 [drive-fault:1]=1)
+# The reasons as docs/servod.md names them (CLM_SERVO_STATUS fault_reason).
+declare -A reason=(
+  [101]="encoder frame missing" [102]="force-sensor frame missing" [103]="drive alive counter jumped"
+  [105]="feedback frame rejected (length or content)" [202]="position outside soft limits"
+  [206]="drive reported a fault")
+# A ride-through must keep the axis enabled at least this many cycles from
+# the injection on (the next step comes later than that).
+ride_cycles=200
+flood_id=6A0
+
+passed=0 failed=0
+pass() { echo "HIL: PASS $*"; passed=$((passed + 1)); }
+fail() { echo "HIL: FAIL $*"; failed=$((failed + 1)); }
+elapsed() { echo $(( $(date +%s) - start_s )); }
+finish() {
+  echo "HIL: faults total $(elapsed) s"
+  echo "HIL: $passed passed, $failed failed"
+  [ "$failed" -eq 0 ] && [ "$passed" -gt 0 ] && exit 0
+  exit 1
+}
+start_s=$(date +%s)
+run=$work/faults
+rm -rf "$run"
+mkdir -p "$run"
+pids=()
+created_iface=""
+cleanup() {
+  for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null; done
+  [ -n "$created_iface" ] && ip link del dev "$created_iface" 2>/dev/null
+}
+trap cleanup EXIT
+stop_process() {
+  local pid=$1 tenths=$2 signal=${3:-TERM}
+  kill "-$signal" "$pid" 2>/dev/null
+  for _ in $(seq 1 "$tenths"); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
+  kill -0 "$pid" 2>/dev/null && return 255
+  wait "$pid"
+}
+fifo() {
+  if command -v chrt > /dev/null && chrt -f "$1" true 2> /dev/null; then echo "chrt -f $1"; fi
+}
+field() { sed -n "s/^$1: //p" <<< "$2"; }
+counter() { field frames "$1" | sed -n "s/.*$2 \([0-9]*\).*/\1/p"; }
+value() { sed -n "s/.*\b$1=\([^ ]*\).*/\1/p" <<< "$2"; }
+
+# ---- the bus --------------------------------------------------------------------------------
+iface=${HIL_CAN:-}
+if [ -z "$iface" ]; then
+  candidate="vcanflt$(( $$ % 100000 ))"
+  if ip link add dev "$candidate" type vcan 2>/dev/null; then
+    iface=$candidate created_iface=$candidate
+  elif [ -d /sys/class/net/vcan0 ]; then
+    iface=vcan0
+  else
+    echo "HIL: skipped: cannot create a vcan interface (needs root and the vcan module) and there is no vcan0"
+    exit 77
+  fi
+fi
+ip link set up "$iface" 2>/dev/null
+if [ ! -d "/sys/class/net/$iface" ] || [ "$(cat "/sys/class/net/$iface/operstate")" = down ]; then
+  fail "bus: $iface is not up"
+  finish
+fi
+command -v "$cangen" > /dev/null || { fail "no $cangen (Debian package can-utils)"; finish; }
+
+port=$((9930 + $$ % 30))
+url="udpm://239.255.76.67:${port}?ttl=0"
+ctl() { "$clm" ctl --lcm-url "$url" "$@"; }
+config=$run/servod-faults.yaml
+sed -e "s|^motor_file: [^ ]*|motor_file: $source_dir/config/motor-sim.yaml|" \
+    -e "s|^\(  interface:\) [^ ]*|\1 $iface|" \
+    -e "s|^\(  priority:\) [0-9]*|\1 $priority|" \
+    -e "s|^\(  lcm_url:\) .*|\1 \"$url\"|" \
+    "$source_dir/config/servod-vcan.yaml" > "$config"
+for expected in "  interface: $iface" "  lcm_url: \"$url\"" "  missing_frame_limit: 3" "  receive_window_fraction: 0.5" \
+                "  rate_hz: 1000"; do
+  grep -qxF -- "$expected" <(sed 's/ *#.*//' "$config") || { fail "config: no line '$expected' in $config"; finish; }
+done
+plan=$(IFS=,; echo "${steps[*]}")
+
+$(fifo 60) "$candump" -L -d "$iface" > "$run/candump.log" 2> "$run/candump.err" &
+candump_pid=$!
+pids+=("$candump_pid")
+start_sim() {
+  $(fifo 70) "$clm" sim --can "$iface" --motor "$source_dir/config/motor-sim.yaml" --inject "$plan" \
+    --event-log "$run/sim-events.log" > "$run/sim.out" 2> "$run/sim.err" &
+  sim_pid=$!
+  pids+=("$sim_pid")
+  for _ in $(seq 1 100); do
+    grep -q "waiting for SYNC" "$run/sim.err" 2>/dev/null && return 0
+    kill -0 $sim_pid 2>/dev/null || break
+    sleep 0.1
+  done
+  return 1
+}
+start_sim || { fail "clm sim: not up: $(head -1 "$run/sim.err")"; finish; }
+
+start_daemon() {  # $1: name; sets servod_pid and status
+  "$servod" --config "$config" 2> "$run/servod-$1.err" &
+  servod_pid=$!
+  pids+=("$servod_pid")
+  status=""
+  for _ in $(seq 1 20); do
+    status=$(ctl status --timeout-s 1 2>/dev/null) && return 0
+    kill -0 $servod_pid 2>/dev/null || break
+  done
+  return 1
+}
+# Enabled (clearing a latched fault first) and moving: a jerk-limited move of
+# 0.03 m, so the setpoints on the bus are not zero when the fault comes.
+target=0.03
+enable_and_move() {
+  local s
+  s=$(ctl status) || return 1
+  if [ "$(field fault "$s")" != 0 ]; then ctl clear-fault > /dev/null || return 1; fi
+  if [ "$(field state "$s")" != enabled ]; then ctl enable > /dev/null || return 1; fi
+  for _ in $(seq 1 30); do  # a ride-through case's move may still run
+    s=$(ctl status) || return 1
+    [ "$(field program_running "$s")" != true ] && break
+    sleep 0.1
+  done
+  target=$(awk -v t="$target" 'BEGIN { print -t }')
+  ctl move-to --target-m "$target" --velocity-m-per-s 0.1 --acceleration-m-per-s2 1 > /dev/null
+}
+
+start_daemon 1 || { fail "clm-servod gave no status within 20 s: $(tail -2 "$run/servod-1.err" | tr '\n' ' ')"; finish; }
+pass "clm-servod and clm sim --inject up on $iface ($(elapsed) s)"
+$(fifo 50) "$lcm_logger" --quiet --force --channel=CLM_SERVO_STATE --lcm-url="$url" "$run/states.lcm" \
+  2> "$run/logger.err" &
+logger_pid=$!
+pids+=("$logger_pid")
+sleep 0.5
+
+# ---- the injected steps ----------------------------------------------------------------------
+declare -A daemon_fault daemon_reason daemon_missing daemon_late daemon_rejected
+index=0
+for step in "${steps[@]}"; do
+  index=$((index + 1))
+  if ! enable_and_move; then
+    fail "$step: could not enable and move the axis"
+    continue
+  fi
+  before=$(ctl status)
+  kill -USR1 "$sim_pid"
+  fired=""
+  for _ in $(seq 1 100); do
+    fired=$(grep "^event=inject .* step=$index " "$run/sim-events.log") && break
+    sleep 0.05
+  done
+  if [ -z "$fired" ]; then
+    fail "$step: clm sim did not fire step $index"
+    continue
+  fi
+  sleep 0.3
+  after=$(ctl status)
+  daemon_fault[$step]=$(field fault "$after")
+  daemon_reason[$step]=$(field fault_reason "$after")
+  daemon_missing[$step]=$(( $(counter "$after" missing) - $(counter "$before" missing) ))
+  daemon_late[$step]=$(( $(counter "$after" late) - $(counter "$before" late) ))
+  daemon_rejected[$step]=$(( $(counter "$after" rejected) - $(counter "$before" rejected) ))
+  want=${expected_fault[$step]}
+  got="state $(field state "$after"), fault ${daemon_fault[$step]} (${daemon_reason[$step]});"
+  got+=" frames missing +${daemon_missing[$step]}, late +${daemon_late[$step]}, rejected +${daemon_rejected[$step]}"
+  if [ "$want" = ride ]; then
+    if [ "${daemon_fault[$step]}" = 0 ] && [ "$(field state "$after")" = enabled ]; then
+      pass "$step: daemon rode through: $got"
+    else
+      fail "$step: expected a ride-through, daemon: $got"
+    fi
+  elif [ "${daemon_fault[$step]}" = "$want" ] && [ "${daemon_reason[$step]}" = "${reason[$want]}" ]; then
+    pass "$step: daemon latched $want (${reason[$want]}): $got"
+  else
+    fail "$step: expected fault $want (${reason[$want]}), daemon: $got"
+  fi
+done
+
+# ---- a flood of unrelated frames ---------------------------------------------------------------
+enable_and_move || fail "flood: could not enable and move the axis"
+before=$(ctl status)
+# 2000 frames of an identifier no node uses, 0.2 ms apart: about 5000 frames/s,
+# 67 % of a 1 Mbit/s bus on top of the cyclic 57.5 % (L = 3).
+if "$cangen" "$iface" -g 0.2 -I "$flood_id" -L 8 -D i -n 2000 -p 10 2> "$run/cangen.err"; then
+  sleep 0.2
+  after=$(ctl status)
+  flood_daemon="state $(field state "$after"), fault $(field fault "$after") ($(field fault_reason "$after"));"
+  flood_daemon+=" frames missing +$(( $(counter "$after" missing) - $(counter "$before" missing) )),"
+  flood_daemon+=" late +$(( $(counter "$after" late) - $(counter "$before" late) ))"
+  if [ "$(field fault "$after")" = 0 ] && [ "$(field state "$after")" = enabled ]; then
+    pass "flood: daemon rode through: $flood_daemon"
+  else
+    fail "flood: expected a ride-through, daemon: $flood_daemon"
+  fi
+else
+  fail "flood: cangen failed: $(head -1 "$run/cangen.err")"
+fi
+
+# ---- telemetry: every gap in the state log is a reported drop -----------------------------------
+sleep 0.2
+stop_process $logger_pid 10 INT || stop_process $logger_pid 20 INT
+status=$(ctl status)
+dropped=$(field telemetry_dropped "$status")
+if "$clm" log2csv --log "$run/states.lcm" --output "$run/states.csv" --format full > /dev/null 2> "$run/log2csv.err"; then
+  read -r rows first last gaps missing_states < <(awk -F, '
+    NR == 1 { for (k = 1; k <= NF; ++k) col[$k] = k; next }
+    { c = $col["cycle"] + 0; if (n && c != last + 1) { ++gaps; lost += c - last - 1 } if (!n) first = c; last = c; ++n }
+    END { printf "%d %d %d %d %d\n", n, first, last, gaps, lost }' "$run/states.csv")
+  telemetry="$rows states of cycles $first..$last logged, $gaps gaps ($missing_states states missing);"
+  telemetry+=" the daemon reports $dropped telemetry samples dropped"
+  if [ "${rows:-0}" -gt 1000 ] && [ "$missing_states" -le "$dropped" ]; then
+    pass "telemetry: every gap reported: $telemetry"
+  else
+    fail "telemetry: gaps not reported: $telemetry"
+  fi
+else
+  fail "telemetry: clm log2csv: $(head -1 "$run/log2csv.err")"
+  telemetry="not read"
+fi
+
+# ---- the daemon killed: the drive's watchdog ------------------------------------------------------
+enable_and_move || fail "daemon kill: could not enable and move the axis"
+sleep 0.1
+kill -KILL "$servod_pid"
+wait "$servod_pid" 2>/dev/null
+sleep 0.3
+watchdog=$(grep "^event=watchdog" "$run/sim-events.log" | tail -1)
+if [ -n "$watchdog" ]; then
+  pass "daemon killed: clm sim's drive watchdog expired: $watchdog"
+else
+  fail "daemon killed: no watchdog expiry in $run/sim-events.log"
+fi
+
+# ---- a second daemon, then the simulator killed ------------------------------------------------------
+if start_daemon 2; then
+  # The drive still reports its watchdog fault: the new daemon must latch it.
+  if [ "$(field fault "$status")" = 206 ]; then
+    pass "restart: the new daemon latched 206 ($(field fault_reason "$status")) from the drive's watchdog fault"
+  else
+    fail "restart: expected fault 206 from the drive's latched watchdog, daemon: fault $(field fault "$status") ($(field fault_reason "$status"))"
+  fi
+  if enable_and_move; then
+    sleep 0.1
+    kill -KILL "$sim_pid"
+    wait "$sim_pid" 2>/dev/null
+    sleep 0.3
+    after=$(ctl status)
+    sim_kill_daemon="fault $(field fault "$after") ($(field fault_reason "$after")), state $(field state "$after")"
+    if [ "$(field fault "$after")" = 101 ] && [ "$(field fault_reason "$after")" = "${reason[101]}" ]; then
+      pass "sim killed: daemon latched 101: $sim_kill_daemon"
+    else
+      fail "sim killed: expected fault 101 (${reason[101]}), daemon: $sim_kill_daemon"
+    fi
+  else
+    fail "sim killed: could not enable and move the axis"
+  fi
+  stop_process $servod_pid 30
+  rc=$?
+  [ $rc = 0 ] && pass "clm-servod exit 0 on SIGTERM" || fail "clm-servod exit status $rc on SIGTERM"
+else
+  fail "restart: clm-servod gave no status: $(tail -2 "$run/servod-2.err" | tr '\n' ' ')"
+fi
+sleep 0.2
+stop_process $candump_pid 30
+
+# ---- the bus record -----------------------------------------------------------------------------------
+coil_sets=$(sed -n 's/^  coil_sets: \([0-9]*\).*/\1/p' "$source_dir/config/motor-sim.yaml" | head -1)
+"$checker" --log "$run/candump.log" --events "$run/sim-events.log" --coil-sets "$coil_sets" \
+  --flood-id "$flood_id" --sim-killed > "$run/bus.txt" 2> "$run/bus.err"
+sed 's/^/HIL:   /' "$run/bus.txt"
+grep -q "^cycles=" "$run/bus.txt" || fail "hil_fault_check: $(head -1 "$run/bus.err")"
+for step in "${steps[@]}"; do
+  kind=${step%%:*} frames=${step##*:}
+  line=$(grep "^step=[0-9]* kind=$kind frames=$frames " "$run/bus.txt" | head -1)
+  if [ -z "$line" ]; then
+    fail "$step: not on the bus record (not fired)"
+    continue
+  fi
+  seen=$(value seen_on_bus "$line") enabled=$(value enabled_before "$line") zero=$(value zero_after_cycles "$line")
+  run_cycles=$(value enabled_after_cycles "$line") before_N=$(value max_setpoint_before_N "$line")
+  want=${expected_fault[$step]}
+  measured="zero setpoints after $zero cycles, enabled for $run_cycles cycles from the injection, |F*| up to $before_N N before"
+  if [ "$seen" != 1 ] || [ "$enabled" != 1 ]; then
+    fail "$step: bus: defect on the bus $seen, axis enabled before $enabled ($line)"
+  elif [ "$want" = ride ]; then
+    if [ "$run_cycles" -ge "$ride_cycles" ]; then
+      pass "$step: bus: rode through, $measured"
+    else
+      fail "$step: bus: expected the axis enabled >= $ride_cycles cycles, $measured"
+    fi
+  elif [ "$zero" -ge 1 ] && [ "$zero" -le "${expected_cycles[$step]}" ]; then
+    pass "$step: bus: $measured (<= ${expected_cycles[$step]})"
+  else
+    fail "$step: bus: expected zero setpoints within ${expected_cycles[$step]} cycles, $measured"
+  fi
+  echo "HIL: case $step | expected ${want} ${expected_cycles[$step]:-} | daemon ${daemon_fault[$step]:-?} (${daemon_reason[$step]:-?}) missing +${daemon_missing[$step]:-?} late +${daemon_late[$step]:-?} rejected +${daemon_rejected[$step]:-?} | bus zero_after_cycles=$zero enabled_after_cycles=$run_cycles max_setpoint_before_N=$before_N"
+done
+
+line=$(grep "^flood " "$run/bus.txt")
+if [ -n "$line" ] && [ "$(value frames "$line")" -ge 2000 ] && [ "$(value cycles_not_enabled "$line")" = 0 ]; then
+  pass "flood: bus: $line"
+else
+  fail "flood: bus: expected 2000 flood frames and the axis enabled throughout: $line"
+fi
+echo "HIL: case flood | expected ride | daemon ${flood_daemon:-?} | bus $line"
+
+period_s=0.001
+line=$(grep "^watchdog " "$run/bus.txt" | tail -1)
+if [ -n "$line" ]; then
+  after_s=$(value after_last_setpoints_s "$line") timeout_s=$(value timeout_s "$line")
+  # The drive checks its watchdog on its own 1 ms clock: within the timeout plus one period.
+  if [ "$(value last_enable "$line")" = 1 ] && [ "$(value next_feedback_reports_watchdog "$line")" = 1 ] &&
+     [ "$(value max_abs_current_A "$line")" = 0 ] &&
+     awk -v a="$after_s" -v t="$timeout_s" -v p="$period_s" 'BEGIN { exit !(a > 0 && a <= t + p) }'; then
+    pass "daemon killed: bus and drive: current zero $after_s s after the last setpoints (timeout $timeout_s s): $line"
+  else
+    fail "daemon killed: expected enable on the last RPDO1, the watchdog in the next feedback, zero current within $timeout_s + $period_s s: $line"
+  fi
+else
+  fail "daemon killed: no watchdog line from hil_fault_check"
+fi
+echo "HIL: case daemon-killed | expected watchdog <= timeout | bus $line"
+
+line=$(grep "^sim-killed " "$run/bus.txt")
+zero=$(value zero_after_cycles "$line")
+if [ -n "$line" ] && [ "$(value enabled_before "$line")" = 1 ] && [ "${zero:-0}" -ge 1 ] && [ "$zero" -le 3 ]; then
+  pass "sim killed: bus: zero setpoints $zero cycles after the feedback stopped (<= 3): $line"
+else
+  fail "sim killed: bus: expected zero setpoints within 3 cycles of the feedback's end: $line"
+fi
+echo "HIL: case sim-killed | expected 101 3 | daemon ${sim_kill_daemon:-?} | bus $line"
+echo "HIL: case telemetry | $telemetry"
+finish
