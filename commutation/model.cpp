@@ -144,23 +144,24 @@ FusedPgnnEvaluator::FusedPgnnEvaluator(const ElectromagneticModel& model) : mode
       total += static_cast<int>(network->layers[0].biases.size());
     }
   }
-  input_weight_.resize(total);
-  input_bias_.resize(total);
-  hidden_.resize(total);
-  output_weights_.resize(3 * static_cast<std::size_t>(total));
+  const auto padded = static_cast<std::size_t>((total + 3) / 4 * 4);
+  input_weight_.assign(padded, 0.0);
+  input_bias_.assign(padded, 0.0);
+  hidden_.assign(padded, 0.0);
+  output_weights_.assign(4 * padded, 0.0);
   int first = 0;
   for (const auto& part : model.coil_sets) {
     for (const Network* network : {&part.column_a, &part.column_b, &part.cogging}) {
       const auto& hidden = network->layers[0];
       const auto width = static_cast<int>(hidden.biases.size());
-      input_weight_.segment(first, width) = hidden.weights.col(0).array();
-      input_bias_.segment(first, width) = hidden.biases.array();
       const auto& last = network->layers[1];
-      Output out{first, width, {last.biases[0], last.biases[1], last.biases[2]}};
       for (int n = 0; n < width; ++n) {
-        for (int r = 0; r < 3; ++r) output_weights_[3 * static_cast<std::size_t>(first + n) + r] = last.weights(r, n);
+        const auto neuron = static_cast<std::size_t>(first + n);
+        input_weight_[neuron] = hidden.weights(n, 0);
+        input_bias_[neuron] = hidden.biases[n];
+        for (int r = 0; r < 3; ++r) output_weights_[4 * neuron + static_cast<std::size_t>(r)] = last.weights(r, n);
       }
-      outputs_.push_back(out);
+      outputs_.push_back({first, width, {last.biases[0], last.biases[1], last.biases[2]}});
       first += width;
     }
   }
@@ -173,7 +174,11 @@ void FusedPgnnEvaluator::evaluate(double position_m, StackedGain& gain, Wrench& 
   const double c = std::cos(theta);
   const double s = std::sin(theta);
   const double input = model.normalisation.apply(position_m);
-  hidden_ = tanh_activation(input_weight_ * input + input_bias_);
+  double* hidden = hidden_.data();
+  const auto padded = static_cast<int>(hidden_.size());
+  for (int k = 0; k < padded; ++k) hidden[k] = input_weight_[static_cast<std::size_t>(k)] * input +
+                                               input_bias_[static_cast<std::size_t>(k)];
+  tanh_array(hidden, hidden, padded);
   gain.resize(3, 2 * count);
   cogging.setZero();
   for (int l = 0; l < count; ++l) {
@@ -181,20 +186,20 @@ void FusedPgnnEvaluator::evaluate(double position_m, StackedGain& gain, Wrench& 
     gain.middleCols<2>(2 * l) = part.a_N_per_A * c + part.b_N_per_A * s;
     for (int n = 0; n < 3; ++n) {
       const Output& out = outputs_[static_cast<std::size_t>(3 * l + n)];
-      double v0 = out.bias[0], v1 = out.bias[1], v2 = out.bias[2];
-      const double* h = hidden_.data() + out.first;
-      const double* w = output_weights_.data() + 3 * static_cast<std::size_t>(out.first);
+      // Four independent lanes (the fourth weight is zero): the compiler keeps
+      // them in two vector registers.
+      double v[4] = {out.bias[0], out.bias[1], out.bias[2], 0.0};
+      const double* h = hidden + out.first;
+      const double* w = output_weights_.data() + 4 * static_cast<std::size_t>(out.first);
       for (int k = 0; k < out.width; ++k) {
-        v0 += w[3 * k] * h[k];
-        v1 += w[3 * k + 1] * h[k];
-        v2 += w[3 * k + 2] * h[k];
+        for (int r = 0; r < 4; ++r) v[r] += w[4 * k + r] * h[k];
       }
       if (n < 2) {
-        gain(0, 2 * l + n) += v0;
-        gain(1, 2 * l + n) += v1;
-        gain(2, 2 * l + n) += v2;
+        gain(0, 2 * l + n) += v[0];
+        gain(1, 2 * l + n) += v[1];
+        gain(2, 2 * l + n) += v[2];
       } else {
-        cogging += Wrench(v0, v1, v2);
+        cogging += Wrench(v[0], v[1], v[2]);
       }
     }
   }

@@ -90,13 +90,16 @@ class FusedPgnnEvaluator {
     double bias[3] = {0.0, 0.0, 0.0};
   };
   const ElectromagneticModel* model_;
-  Eigen::ArrayXd input_weight_;
-  Eigen::ArrayXd input_bias_;
-  mutable Eigen::ArrayXd hidden_;  // scratch, sized at construction
-  // Output weights of every network, neuron by neuron: 3 values per hidden
-  // neuron at 3·(neuron index in the hidden vector).
+  // Hidden layers of all networks, one neuron after the other, padded with
+  // zero neurons to a multiple of 4 (the lanes of tanh_array).
+  std::vector<double> input_weight_;
+  std::vector<double> input_bias_;
+  mutable std::vector<double> hidden_;  // scratch, sized at construction
+  // Output weights neuron by neuron: 4 values per hidden neuron (the 3 outputs
+  // and a zero) at 4·(neuron index), so that each neuron's contribution is two
+  // 2-lane multiply-adds.
   std::vector<double> output_weights_;
-  std::vector<Output> outputs_;   // 3 per coil set: column_a, column_b, cogging
+  std::vector<Output> outputs_;  // 3 per coil set: column_a, column_b, cogging
 };
 
 /// The classical model (7) as a PGNN with zero networks of the given hidden sizes
