@@ -4,6 +4,13 @@
 #include <cstdint>
 #include <cstring>
 
+// No fused multiply-add anywhere in this file (GCC: -std=c++20 implies
+// -ffp-contract=off; Clang contracts by default): the tanh paths must stay
+// bit-identical whatever the compiler may use.
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#endif
+
 namespace clm {
 namespace {
 

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "config/yaml_reader.hpp"
+#include "tools/data/feedforward_file.hpp"
 
 namespace clm::servod {
 namespace {
@@ -84,6 +85,23 @@ std::string to_daemon_command(const telemetry::ServoCommand& command, DaemonComm
         result.mode = servo::CommutationMode::kSpline;
       } else {
         return "load_model: " + result.path + ": kind: expected pgnn or spline, got '" + kind + "'";
+      }
+      break;
+    }
+    case CommandKind::kLoadFeedforward: {
+      // Read and checked here, off the cycle; the cycle only receives the
+      // three parameters through its command queue.
+      result.kind = Kind::kSetFeedforward;
+      result.path = std::string(command.path.view());
+      try {
+        result.feedforward = load_feedforward_file(result.path).parameters;
+      } catch (const std::exception& e) {
+        return std::string("load_feedforward: ") + e.what();
+      }
+      const auto& ff = result.feedforward;
+      for (const auto& [key, value] : {std::pair{"mass_kg", ff.mass_kg}, std::pair{"viscous_N_s_per_m", ff.viscous_N_s_per_m},
+                                       std::pair{"coulomb_N", ff.coulomb_N}}) {
+        if (!std::isfinite(value)) return "load_feedforward: " + result.path + ": " + key + " is not a finite number";
       }
       break;
     }

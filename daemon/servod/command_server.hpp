@@ -7,8 +7,10 @@
 //   - commands the daemon answers at once (move_to, run_program,
 //     load_calibration, load_model; and any refusal) are acked with that reply;
 //   - commands queued for the cycle (enable, disable, clear_fault, stop,
-//     set_commutation, set_experiment) are acked with the cycle's decision,
-//     which take_replies() delivers a cycle later.
+//     set_commutation, set_experiment, and load_feedforward, whose file is
+//     read here and whose three parameters go through the cycle's queue) are
+//     acked with the cycle's decision, which take_replies() delivers a cycle
+//     later.
 //
 // It is the only thread that calls poll_command (single consumer),
 // ServoDaemon::submit (single producer of the cycle's command queue) and
@@ -27,8 +29,9 @@ namespace clm::servod {
 /// Translates a checked LCM command. Returns "" and fills `out`, or the
 /// one-line reason it cannot be carried out (set_commutation to experiment;
 /// load_model whose file cannot be read or whose `kind:` is neither pgnn nor
-/// spline: the file's kind chooses the law it loads into). Non-real-time:
-/// load_model reads the file.
+/// spline: the file's kind chooses the law it loads into; load_feedforward
+/// whose file cannot be read or holds a non-finite parameter). Non-real-time:
+/// load_model and load_feedforward read the file.
 std::string to_daemon_command(const telemetry::ServoCommand& command, DaemonCommand& out);
 
 /// True for the commands ServoDaemon::submit queues for the cycle: their

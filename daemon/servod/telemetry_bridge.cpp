@@ -48,6 +48,10 @@ void TelemetryBridge::fill_state(const servo::ServoCycle& cycle, telemetry::Serv
   }
   out.damping_engaged = r.damping_engaged;
   out.current_square_sum_A2 = r.current_square_sum_A2;
+  out.force_limited = r.force_limited;
+  out.state = static_cast<std::int8_t>(r.state);
+  out.program_running = r.program_running;
+  out.program_time_s = r.program_time_s;
 }
 
 void TelemetryBridge::fill_status(const servo::ServoCycle& cycle, const LoopTiming& timing,

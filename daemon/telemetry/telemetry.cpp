@@ -28,6 +28,7 @@ static_assert(static_cast<int>(CommandKind::kSetExperiment) == servo_command_t::
 static_assert(static_cast<int>(CommandKind::kLoadCalibration) == servo_command_t::LOAD_CALIBRATION);
 static_assert(static_cast<int>(CommandKind::kLoadModel) == servo_command_t::LOAD_MODEL);
 static_assert(static_cast<int>(CommandKind::kStop) == servo_command_t::STOP);
+static_assert(static_cast<int>(CommandKind::kLoadFeedforward) == servo_command_t::LOAD_FEEDFORWARD);
 
 std::int64_t wall_clock_utime() noexcept {
   return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -77,6 +78,10 @@ clm_lcm::servo_state_t to_message(const ServoStateSample& sample) {
   m.ib_A.assign(sample.ib_A.begin(), sample.ib_A.begin() + count);
   m.damping_engaged = sample.damping_engaged;
   m.current_square_sum_A2 = sample.current_square_sum_A2;
+  m.force_limited = sample.force_limited;
+  m.state = sample.state;
+  m.program_running = sample.program_running;
+  m.program_time_s = sample.program_time_s;
   return m;
 }
 
@@ -153,8 +158,8 @@ std::string to_command(const clm_lcm::servo_command_t& message, ServoCommand& ou
   ServoCommand command;
   command.utime = message.utime;
   command.sequence = message.sequence;
-  if (message.command < servo_command_t::ENABLE || message.command > servo_command_t::STOP) {
-    return "unknown command " + std::to_string(message.command) + " (1..10)";
+  if (message.command < servo_command_t::ENABLE || message.command > servo_command_t::LOAD_FEEDFORWARD) {
+    return "unknown command " + std::to_string(message.command) + " (1..11)";
   }
   command.command = static_cast<CommandKind>(message.command);
   std::string reason;
@@ -198,6 +203,7 @@ std::string to_command(const clm_lcm::servo_command_t& message, ServoCommand& ou
       break;
     case CommandKind::kLoadCalibration:
     case CommandKind::kLoadModel:
+    case CommandKind::kLoadFeedforward:
       reason = copy_path("path", message.path, command.path);
       break;
   }

@@ -113,6 +113,10 @@ struct ServoStateSample {
   std::array<double, kMaxCoilSets> ib_A{};
   bool damping_engaged = false;
   double current_square_sum_A2 = 0.0;
+  bool force_limited = false;
+  std::int8_t state = 0;        ///< clm_lcm::servo_status_t::STATE_*
+  bool program_running = false;
+  double program_time_s = 0.0;  ///< [s]
 };
 
 /// Daemon health, as servo_status_t, without telemetry_dropped (the
@@ -166,6 +170,7 @@ enum class CommandKind : std::int8_t {
   kLoadCalibration = 8,
   kLoadModel = 9,
   kStop = 10,
+  kLoadFeedforward = 11,
 };
 
 /// A checked command for the cycle: only the fields of `command` are meaningful.
@@ -181,7 +186,7 @@ struct ServoCommand {
   std::int8_t commutation = 0;         ///< kSetCommutation: servo_state_t::COMMUTATION_*
   std::int8_t coil_set = 0;            ///< kSetExperiment: 1..kMaxCoilSets (the cycle checks against L)
   double delta_rad = 0.0;              ///< kSetExperiment [rad]
-  PathText path;                       ///< kLoadCalibration, kLoadModel
+  PathText path;                       ///< kLoadCalibration, kLoadModel, kLoadFeedforward
 };
 
 /// The cycle's answer to a command, as servo_command_ack_t.

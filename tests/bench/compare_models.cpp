@@ -179,7 +179,7 @@ std::vector<CoilSetCost> costs_on_data(const ElectromagneticModel& model, const 
 
 std::string num(double v) {
   char buffer[40];
-  std::snprintf(buffer, sizeof(buffer), "%.10g", v);
+  std::snprintf(buffer, sizeof(buffer), "%.17g", v);
   return buffer;
 }
 

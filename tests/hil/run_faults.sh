@@ -85,7 +85,8 @@ fifo() {
 }
 field() { sed -n "s/^$1: //p" <<< "$2"; }
 counter() { field frames "$1" | sed -n "s/.*$2 \([0-9]*\).*/\1/p"; }
-value() { sed -n "s/.*\b$1=\([^ ]*\).*/\1/p" <<< "$2"; }
+# The value of key=value item $1 in line $2.
+value() { awk -v key="$1" '{ for (k = 1; k <= NF; ++k) if (index($k, key "=") == 1) { print substr($k, length(key) + 2); exit } }' <<< "$2"; }
 
 # ---- the bus --------------------------------------------------------------------------------
 iface=${HIL_CAN:-}
@@ -276,6 +277,11 @@ fi
 # ---- a second daemon, then the simulator killed ------------------------------------------------------
 if start_daemon 2; then
   # The drive still reports its watchdog fault: the new daemon must latch it.
+  for _ in $(seq 1 10); do
+    [ "$(field fault "$status")" != 0 ] && break
+    sleep 0.1
+    status=$(ctl status)
+  done
   if [ "$(field fault "$status")" = 206 ]; then
     pass "restart: the new daemon latched 206 ($(field fault_reason "$status")) from the drive's watchdog fault"
   else

@@ -219,3 +219,72 @@ TEST_CASE("Each command gets exactly one ack: queued ones with the cycle's decis
   CHECK_THAT(all.find(5)->second.text, Catch::StartsWith("rejected: set_commutation"));
   CHECK(server.commands_served() == 5);
 }
+
+TEST_CASE("load_feedforward reads the file off the cycle, the cycle applies its parameters, and acks once",
+          "[servod][commands]") {
+  const TemporaryFile file("ff.yaml",
+                           "format: clm-servo-feedforward\nformat_version: 1\nmass_kg: 2.0\n"
+                           "viscous_N_s_per_m: 10.0\ncoulomb_N: 3.0\n");
+  const TemporaryFile wrong("ff-wrong.yaml", "format: clm-servo-model\nformat_version: 1\n");
+
+  // Translation: the file is read here, the parameters travel in the command.
+  DaemonCommand out;
+  auto load = received(CommandKind::kLoadFeedforward, 21);
+  load.path.assign(file.path());
+  REQUIRE(to_daemon_command(load, out).empty());
+  CHECK(out.kind == Kind::kSetFeedforward);
+  CHECK(out.sequence == 21);
+  CHECK(out.feedforward.mass_kg == 2.0);
+  CHECK(out.feedforward.viscous_N_s_per_m == 10.0);
+  CHECK(out.feedforward.coulomb_N == 3.0);
+  CHECK(answered_by_cycle(out.kind));
+  load.path.assign("/nonexistent/ff.yaml");
+  CHECK_THAT(to_daemon_command(load, out), Catch::StartsWith("load_feedforward: /nonexistent/ff.yaml"));
+  load.path.assign(wrong.path());
+  CHECK_THAT(to_daemon_command(load, out), Catch::Contains(wrong.path()));
+
+  // End to end: over the publisher's command path into the running cycle.
+  ServoDaemon daemon(virtual_config());
+  telemetry::MemorySink sink;
+  telemetry::TelemetryPublisher publisher(telemetry::TelemetryConfig{}, sink);
+  CommandServer server(publisher, daemon);
+  REQUIRE(publisher.submit_command(message(clm_lcm::servo_command_t::ENABLE, 1)));
+  server.serve_once();
+  daemon.run_cycles(1);
+  server.serve_once();
+  auto ff = message(clm_lcm::servo_command_t::LOAD_FEEDFORWARD, 2);
+  ff.path = file.path();
+  REQUIRE(publisher.submit_command(ff));
+  server.serve_once();
+  CHECK(acks(sink).count(2) == 0);  // queued: acked with the cycle's decision
+  daemon.run_cycles(1);
+  server.serve_once();
+  REQUIRE(acks(sink).count(2) == 1);
+  CHECK(acks(sink).find(2)->second.accepted);
+
+  // At the cruise velocity of a move, eq. (40) gives viscous·v + coulomb = 10·0.1 + 3 = 4 N.
+  auto move = message(clm_lcm::servo_command_t::MOVE_TO, 3);
+  move.target_m = 0.08;
+  move.velocity_m_per_s = 0.1;
+  move.acceleration_m_per_s2 = 1.0;
+  move.jerk_m_per_s3 = 1000.0;
+  REQUIRE(publisher.submit_command(move));
+  server.serve_once();
+  REQUIRE(acks(sink).find(3)->second.accepted);
+  daemon.run_cycles(400);
+  const auto& record = daemon.cycle().record();
+  REQUIRE(record.reference.velocity_m_per_s == Approx(0.1).margin(1e-9));
+  REQUIRE(record.reference.acceleration_m_per_s2 == Approx(0.0).margin(1e-9));
+  CHECK(record.feedforward_N == Approx(4.0).margin(1e-6));
+
+  // A missing file is refused at once, and the running feedforward stays.
+  ff.sequence = 4;
+  ff.path = "/nonexistent/ff.yaml";
+  REQUIRE(publisher.submit_command(ff));
+  server.serve_once();
+  REQUIRE(acks(sink).count(4) == 1);
+  CHECK_FALSE(acks(sink).find(4)->second.accepted);
+  CHECK_THAT(acks(sink).find(4)->second.text, Catch::StartsWith("rejected: load_feedforward: /nonexistent/ff.yaml"));
+  daemon.run_cycles(1);
+  CHECK(daemon.cycle().record().feedforward_N == Approx(4.0).margin(1e-6));
+}

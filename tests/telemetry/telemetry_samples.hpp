@@ -42,6 +42,10 @@ inline telemetry::ServoStateSample make_state(std::int64_t cycle, int coil_sets 
   }
   s.damping_engaged = cycle % 3 == 0;
   s.current_square_sum_A2 = 2.5 + k;
+  s.force_limited = cycle % 5 == 1;
+  s.state = static_cast<std::int8_t>(cycle % 3);
+  s.program_running = cycle % 2 == 1;
+  s.program_time_s = 0.75 + 1e-3 * k;
   return s;
 }
 
@@ -79,6 +83,10 @@ inline void check_state(const telemetry::ServoStateSample& s, const clm_lcm::ser
   }
   CHECK(static_cast<bool>(m.damping_engaged) == s.damping_engaged);
   CHECK(m.current_square_sum_A2 == s.current_square_sum_A2);
+  CHECK(static_cast<bool>(m.force_limited) == s.force_limited);
+  CHECK(m.state == s.state);
+  CHECK(static_cast<bool>(m.program_running) == s.program_running);
+  CHECK(m.program_time_s == s.program_time_s);
 }
 
 inline telemetry::ServoStatusSample make_status() {

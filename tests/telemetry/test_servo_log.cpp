@@ -178,7 +178,8 @@ TEST_CASE("log2csv --format full writes every field, coil-set columns per coil s
                            "F_star_N", "u_fb_N", "u_ff_N", "Fy_star_N", "Fx_star_N", "Tz_star_Nm", "Fy_N", "Fx_N",
                            "Tz_Nm", "commutation", "coil_set", "delta_rad", "coil_sets", "magnitude_N_1",
                            "setpoint_delta_rad_1", "ia_A_1", "ib_A_1", "magnitude_N_2", "setpoint_delta_rad_2",
-                           "ia_A_2", "ib_A_2", "damping_engaged", "current_square_sum_A2"}) {
+                           "ia_A_2", "ib_A_2", "damping_engaged", "current_square_sum_A2", "force_limited", "state",
+                           "program_running", "program_time_s"}) {
     INFO(name);
     CHECK(table.has(name));
   }
@@ -186,7 +187,9 @@ TEST_CASE("log2csv --format full writes every field, coil-set columns per coil s
   const auto utime = table.numbers("utime"), e = table.numbers("e_m"), u_ff = table.numbers("u_ff_N"),
              tz_star = table.numbers("Tz_star_Nm"), setpoint2 = table.numbers("setpoint_delta_rad_2"),
              ib2 = table.numbers("ib_A_2"), damping = table.numbers("damping_engaged"),
-             current = table.numbers("current_square_sum_A2"), mode = table.numbers("commutation");
+             current = table.numbers("current_square_sum_A2"), mode = table.numbers("commutation"),
+             limited = table.numbers("force_limited"), state = table.numbers("state"),
+             running = table.numbers("program_running"), program_time = table.numbers("program_time_s");
   for (std::size_t i = 0; i < 12; ++i) {
     const auto& s = written.states[i];
     CHECK(static_cast<std::int64_t>(utime[i]) == s.utime);
@@ -198,6 +201,10 @@ TEST_CASE("log2csv --format full writes every field, coil-set columns per coil s
     CHECK(damping[i] == (s.damping_engaged ? 1.0 : 0.0));
     CHECK(current[i] == s.current_square_sum_A2);
     CHECK(mode[i] == s.commutation);
+    CHECK(limited[i] == (s.force_limited ? 1.0 : 0.0));
+    CHECK(state[i] == s.state);
+    CHECK(running[i] == (s.program_running ? 1.0 : 0.0));
+    CHECK(program_time[i] == s.program_time_s);
   }
 }
 

@@ -1,8 +1,10 @@
 // clm commission: calibrate, identify and evaluate every commutation on the
-// embedded simulated motor, and write the report.
+// embedded simulated motor (or, with --live, on a running clm-servod over
+// LCM), and write the report.
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <stdexcept>
 
 #include "tools/clm/commands.hpp"
 #include "tools/commission/commission.hpp"
@@ -30,7 +32,8 @@ std::string cell(double value) {
 
 void add_commission(CLI::App& app) {
   auto* sub = app.add_subcommand("commission",
-                                 "calibrate, identify and evaluate all commutations on the embedded simulated motor");
+                                 "calibrate, identify and evaluate all commutations on the embedded simulated motor, "
+                                 "or with --live on a running clm-servod over LCM");
   struct Options {
     commission::Options run;
     bool plots = true;
@@ -41,10 +44,29 @@ void add_commission(CLI::App& app) {
   sub->add_option("--out", options->run.out_dir, "output directory")->required();
   sub->add_option("--program", options->run.program_path, "reference program (default: programs/fig8.yaml beside the config)")
       ->check(CLI::ExistingFile);
+  sub->add_option("--validation-program", options->run.validation_program_path,
+                  "held-out program (default: programs/validation.yaml beside the config; none: skip)");
+  sub->add_flag("--live", options->run.live,
+                "run every experiment on a running clm-servod over LCM (it must read this config and share this "
+                "file system: files are sent as absolute paths)");
+  sub->add_option("--lcm-url", options->run.live_options.lcm_url, "--live: LCM URL of the daemon (its telemetry.lcm_url)")
+      ->capture_default_str();
+  sub->add_option("--ack-timeout-s", options->run.live_options.ack_timeout_s,
+                  "--live: how long each command waits for its CLM_SERVO_COMMAND_ACK [s]")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  sub->add_option("--attempts-per-run", options->run.live_options.attempts_per_run,
+                  "--live: a run with missing CLM_SERVO_STATE messages is repeated up to this many attempts in all")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
   sub->add_option("--restarts", options->run.identify.pgnn.restarts, "PGNN restarts")->check(CLI::Range(1, 1000))->capture_default_str();
   sub->add_option("--seed", options->run.identify.pgnn.seed, "seed of the PGNN restarts")->capture_default_str();
   sub->add_flag("!--no-plots", options->plots, "skip the PNG plots");
   sub->callback([options] {
+    if (options->run.validation_program_path != "none" && !options->run.validation_program_path.empty() &&
+        !std::filesystem::is_regular_file(options->run.validation_program_path)) {
+      throw std::runtime_error("--validation-program: " + options->run.validation_program_path + ": no such file");
+    }
     ProgressBar bar("commission");
     std::string current;
     const auto report = commission::run(options->run, [&](const commission::Progress& p) {
@@ -76,6 +98,12 @@ void add_commission(CLI::App& app) {
       std::printf("\nPGNN vs calibrated classical: commutation MSE y %.1fx lower, tracking MSE %.1fx lower "
                   "(paper: 11.2x and 4.6x)\n",
                   classical->mse.filtered[0] / pgnn->mse.filtered[0], classical->tracking_mse_m2 / pgnn->tracking_mse_m2);
+    }
+    if (report.live.live) {
+      std::printf("live: %d runs over %s, %lld program cycles recorded, %lld CLM_SERVO_STATE missing in the runs kept, "
+                  "%d runs repeated after missing states\n",
+                  report.live.runs, report.live.lcm_url.c_str(), static_cast<long long>(report.live.states_recorded),
+                  static_cast<long long>(report.live.states_missing_kept), report.live.runs_repeated);
     }
     std::printf("report: %s/report.md, %s/report.json%s; total %.1f s\n", options->run.out_dir.c_str(),
                 options->run.out_dir.c_str(), plotted ? ", plots" : " (no plots)", report.total_wall_s);

@@ -236,6 +236,8 @@ void add_ctl(CLI::App& app) {
             "calibration file (clm calibrate)");
   with_file("load-model", Command::LOAD_MODEL, "load a model file into the pgnn or spline law (the file's kind:)",
             "model file (clm identify)");
+  with_file("load-feedforward", Command::LOAD_FEEDFORWARD, "load a feedforward file: eq. (40)'s parameters, at once",
+            "feedforward file (clm ff-identify)");
 
   auto mode = std::make_shared<std::string>();
   auto* commutation = ctl->add_subcommand("commutation", "switch the commutation law (at the next standstill)");

@@ -171,7 +171,7 @@ void run_sim(const SimOptions& options) {
         motor.step(period_s);
         last_step_ns += period_ns;
         ++free_run_steps;
-        note_watchdog(last_step_ns);
+        note_watchdog(now_ns);
       }
       if (!motor.status().enabled()) last_step_ns = now_ns;
     }

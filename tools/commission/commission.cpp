@@ -11,24 +11,16 @@
 #include "tools/data/csv_table.hpp"
 #include "tools/data/feedforward_file.hpp"
 #include "tools/data/sha256.hpp"
-#include "daemon/servod/telemetry_bridge.hpp"
-#include "daemon/telemetry/telemetry.hpp"
+#include "tools/commission/live_runner.hpp"
 #include "tools/sim/motor.hpp"
 
 namespace clm::commission {
 namespace {
 
-using Kind = servod::DaemonCommand::Kind;
 using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-servod::DaemonCommand make(Kind kind) {
-  servod::DaemonCommand command;
-  command.kind = kind;
-  return command;
 }
 
 // Experiment rows of the recordings, in the tools' CSV format.
@@ -148,82 +140,88 @@ void write_truth_comparison(const std::string& directory, const sim::SimulatedMo
 }  // namespace
 
 Report run(const Options& options, const std::function<void(const Progress&)>& progress) {
+  const servod::ServodConfig config = servod::load_servod_config(options.config_path);
+  if (options.live) {
+    LiveOptions live = options.live_options;
+    LcmRunner runner(config, live);
+    Report report = run(options, runner, progress);
+    return report;
+  }
+  if (config.can.interface != "sim") {
+    throw std::runtime_error(options.config_path + ": can.interface: commissioning runs against the embedded "
+                             "simulated motor (interface sim); use --live for a running daemon");
+  }
+  InProcessRunner runner(config);
+  return run(options, runner, progress);
+}
+
+Report run(const Options& options, ExperimentRunner& runner, const std::function<void(const Progress&)>& progress) {
   const auto start = Clock::now();
   const auto tell = [&](const std::string& step, double fraction, const std::string& detail) {
     if (progress) progress({step, fraction, detail});
   };
   Report report;
   report.config_path = options.config_path;
-  std::filesystem::create_directories(options.out_dir);
-  const std::string dir = options.out_dir;
+  // The daemon opens the files it is sent itself: absolute paths.
+  const std::string dir = std::filesystem::absolute(options.out_dir).lexically_normal().string();
   const auto written = [&](const std::string& name) { report.files.push_back(name); return dir + "/" + name; };
 
-  servod::ServodConfig config = servod::load_servod_config(options.config_path);
-  if (config.can.interface != "sim") {
-    throw std::runtime_error(options.config_path + ": can.interface: commissioning runs against the embedded "
-                             "simulated motor (interface sim); use --live for a running daemon");
-  }
-  config.loop.clock = servod::ClockMode::kVirtual;
-  config.telemetry.enabled = false;
-  config.commutation.mode = servo::CommutationMode::kOriginal;
-  config.servo.feedforward = {};
+  const servod::ServodConfig config = servod::load_servod_config(options.config_path);
   const MotorDescription motor = config.motor;
   report.coil_sets = motor.coil_sets;
   // The reference must fit this motor's soft limits; a program made for a
   // longer stroke is scaled about the stroke centre (and the report says so).
+  // A running daemon reads the program file itself, so live it must fit as it is.
   const auto fit = [&](const std::string& path, const char* what) {
     bool scaled = false;
     auto fitted = servod::fit_program(servod::load_program_file(path), config.servo.soft_limit_min_m,
                                       config.servo.soft_limit_max_m, scaled);
+    if (scaled && options.live) {
+      throw std::runtime_error(path + ": the " + std::string(what) + " leaves the soft limits of " +
+                               options.config_path + "; live commissioning runs program files as they are");
+    }
     if (scaled) report.notes.push_back(std::string(what) + " '" + path + "' scaled to the soft limits of this motor");
     return fitted;
   };
-  const servod::ProgramFile program =
-      fit(options.program_path.empty() ? std::filesystem::path(options.config_path).parent_path().string() + "/programs/fig8.yaml"
-                                       : options.program_path, "experiment program");
-  const control::MoveProgram timeline(program.start_m, program.steps);
   const std::string config_dir = std::filesystem::path(options.config_path).parent_path().string();
+  const std::string program_path = std::filesystem::absolute(
+      options.program_path.empty() ? config_dir + "/programs/fig8.yaml" : options.program_path).lexically_normal().string();
+  const servod::ProgramFile program = fit(program_path, "experiment program");
+  const control::MoveProgram timeline(program.start_m, program.steps);
   std::optional<servod::ProgramFile> validation_program;
+  std::string validation_path;
   if (options.validation_program_path != "none") {
     report.validation_program = options.validation_program_path.empty() ? config_dir + "/programs/validation.yaml"
                                                                         : options.validation_program_path;
+    validation_path = std::filesystem::absolute(report.validation_program).lexically_normal().string();
     validation_program = fit(report.validation_program, "validation program");
   }
 
-  servod::ServoDaemon daemon(config);
-  daemon.run_cycles(20);
-  execute(daemon, make(Kind::kEnable));
+  // The first command: live, it proves the daemon answers before anything is written.
+  runner.enable();
+  std::filesystem::create_directories(dir);
 
   // 1. Experiments of Algorithms 1 and 2.
   auto step_start = Clock::now();
   std::filesystem::create_directories(dir + "/logs");
   // Every run is also an LCM log (the daemon's own telemetry types), from
   // which `clm log2csv`, `clm calibrate` and `clm identify` re-run the steps.
-  struct RunLog {
-    telemetry::LcmLogWriter writer;
-    servod::TelemetryBridge bridge;
-    RunLog(const std::string& path, const servod::ServoDaemon& d) : writer(path), bridge(writer, d, 1) {}
-  };
   const auto open_log = [&](const std::string& name) {
     report.files.push_back("logs/" + name);
-    return std::make_unique<RunLog>(dir + "/logs/" + name, daemon);
+    runner.open_log(dir + "/logs/" + name);
   };
-  auto experiment_log = open_log("experiments.lcm");
+  open_log("experiments.lcm");
   std::vector<Recording> experiments;
   const int runs = 2 * motor.coil_sets;
   for (int l = 1; l <= motor.coil_sets; ++l) {
     for (double delta : {-kPi / 4, kPi / 4}) {
       tell("experiments", static_cast<double>(experiments.size()) / runs,
            "coil set " + std::to_string(l) + ", delta " + (delta < 0 ? "-pi/4" : "+pi/4"));
-      auto command = make(Kind::kSetExperiment);
-      command.coil_set = l;
-      command.delta_rad = delta;
-      execute(daemon, command);
-      experiments.push_back(
-          run_program(daemon, program, "experiment coil set " + std::to_string(l), &experiment_log->bridge));
+      runner.set_experiment(l, delta);
+      experiments.push_back(runner.run_program(program, program_path, "experiment coil set " + std::to_string(l)));
     }
   }
-  experiment_log->writer.close();
+  runner.close_log();
   tell("experiments", 1.0, "done");
   const std::string experiment_csv = written("experiments.csv");
   write_experiment_csv(experiment_csv, experiments);
@@ -259,22 +257,20 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
     write_file_atomically(written(k == 0 ? "model-pgnn.yaml" : "model-spline.yaml"), format_model_file(models[k]));
     report.steps.push_back({label, seconds_since(step_start)});
   }
-  if (const sim::SimulatedMotor* simulated = daemon.simulated_motor()) {
+  if (const sim::SimulatedMotor* simulated = runner.simulated_motor()) {
     write_truth_comparison(dir, *simulated, models[0], models[1], motor);
     report.files.push_back("truth-comparison.csv");
   }
 
   // 3. Load the results into the daemon.
-  auto load = make(Kind::kLoadCalibration);
-  load.path = dir + "/calibration.yaml";
-  execute(daemon, load);
-  for (auto [mode, file] : {std::pair{servo::CommutationMode::kPgnn, "model-pgnn.yaml"},
-                            std::pair{servo::CommutationMode::kSpline, "model-spline.yaml"}}) {
-    auto command = make(Kind::kLoadModel);
-    command.mode = mode;
-    command.path = dir + "/" + file;
-    execute(daemon, command);
-  }
+  runner.load_calibration(dir + "/calibration.yaml");
+  runner.load_model(servo::CommutationMode::kPgnn, dir + "/model-pgnn.yaml");
+  runner.load_model(servo::CommutationMode::kSpline, dir + "/model-spline.yaml");
+  // The feedforward runs' zero feedforward, as a file a running daemon can load.
+  FeedforwardFile no_feedforward;
+  no_feedforward.generator = "clm commission";
+  const std::string no_feedforward_path = written("feedforward-none.yaml");
+  write_file_atomically(no_feedforward_path, format_feedforward_file(no_feedforward));
 
   // 4. Per commutation: feedforward identification, then evaluation.
   const std::pair<const char*, servo::CommutationMode> commutations[] = {
@@ -286,32 +282,27 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
     step_start = Clock::now();
     tell("evaluation", index / 5.0, name);
     ++index;
-    if (mode == servo::CommutationMode::kOracle && daemon.simulated_motor() == nullptr) {
-      report.results.push_back({name, false, "no simulator", {}, {}, 0, 0, 0, 0});
-      if (validation_program) report.validation.push_back({name, false, "no simulator", {}, {}, 0, 0, 0, 0});
+    if (mode == servo::CommutationMode::kOracle && !runner.oracle_unavailable_reason().empty()) {
+      const std::string reason = runner.oracle_unavailable_reason();
+      report.results.push_back({name, false, reason, {}, {}, 0, 0, 0, 0});
+      if (validation_program) report.validation.push_back({name, false, reason, {}, {}, 0, 0, 0, 0});
       continue;
     }
-    auto set = make(Kind::kSetCommutation);
-    set.mode = mode;
-    execute(daemon, set);
-    daemon.run_cycles(5);
-    auto ff = make(Kind::kSetFeedforward);
-    ff.feedforward = {};
-    execute(daemon, ff);
-    auto ff_log = open_log(std::string("feedforward-data-") + name + ".lcm");
-    const Recording identification_run =
-        run_program(daemon, program, std::string(name) + " feedforward data", &ff_log->bridge);
-    ff_log->writer.close();
+    runner.set_commutation(mode);
+    runner.load_feedforward(no_feedforward.parameters, no_feedforward_path);
+    open_log(std::string("feedforward-data-") + name + ".lcm");
+    const Recording identification_run = runner.run_program(program, program_path, std::string(name) + " feedforward data");
+    runner.close_log();
     write_feedforward_csv(written(std::string("feedforward-data-") + name + ".csv"), identification_run);
     FeedforwardFile ff_file;
     ff_file.parameters = identify_ff(identification_run);
     ff_file.generator = "clm commission";
-    write_file_atomically(written(std::string("feedforward-") + name + ".yaml"), format_feedforward_file(ff_file));
-    ff.feedforward = ff_file.parameters;
-    execute(daemon, ff);
-    auto evaluation_log = open_log(std::string("evaluation-") + name + ".lcm");
-    const Recording evaluation = run_program(daemon, program, std::string(name) + " evaluation", &evaluation_log->bridge);
-    evaluation_log->writer.close();
+    const std::string ff_path = written(std::string("feedforward-") + name + ".yaml");
+    write_file_atomically(ff_path, format_feedforward_file(ff_file));
+    runner.load_feedforward(ff_file.parameters, ff_path);
+    open_log(std::string("evaluation-") + name + ".lcm");
+    const Recording evaluation = runner.run_program(program, program_path, std::string(name) + " evaluation");
+    runner.close_log();
     write_evaluation_csv(written(std::string("evaluation-") + name + ".csv"), evaluation, timeline);
     CommutationResult result = evaluate(evaluation, config.servo.period_s);
     result.name = name;
@@ -319,10 +310,10 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
     report.results.push_back(result);
     if (validation_program) {
       // Held out: neither the models nor the feedforward saw this trajectory.
-      auto validation_log = open_log(std::string("validation-") + name + ".lcm");
+      open_log(std::string("validation-") + name + ".lcm");
       const Recording held_out =
-          run_program(daemon, *validation_program, std::string(name) + " validation", &validation_log->bridge);
-      validation_log->writer.close();
+          runner.run_program(*validation_program, validation_path, std::string(name) + " validation");
+      runner.close_log();
       const control::MoveProgram validation_timeline(validation_program->start_m, validation_program->steps);
       write_evaluation_csv(written(std::string("validation-") + name + ".csv"), held_out, validation_timeline);
       CommutationResult validation = evaluate(held_out, config.servo.period_s);
@@ -333,6 +324,8 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
     report.steps.push_back({std::string("evaluation ") + name, seconds_since(step_start)});
   }
   tell("evaluation", 1.0, "done");
+  report.live = runner.live_summary();
+  for (const auto& note : runner.notes()) report.notes.push_back(note);
   report.total_wall_s = seconds_since(start);
   write_file_atomically(written("report.json"), report_json(report));
   write_file_atomically(written("report.md"), report_markdown(report));

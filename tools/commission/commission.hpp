@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "daemon/control/metrics.hpp"
+#include "tools/commission/runner.hpp"
 #include "tools/commission/runs.hpp"
 #include "tools/data/commissioning_steps.hpp"
 
@@ -26,6 +27,10 @@ struct Options {
   /// Held-out trajectory on which every commutation is evaluated as well
   /// (programs/validation.yaml beside the config unless replaced; "none" skips).
   std::string validation_program_path;
+  /// Run every experiment on a separately running clm-servod over LCM
+  /// (LcmRunner) instead of the in-process simulated motor.
+  bool live = false;
+  LiveOptions live_options;
 };
 
 struct CommutationResult {
@@ -59,6 +64,7 @@ struct Report {
   double total_wall_s = 0.0;
   std::vector<std::string> files;          ///< written, relative to the output directory
   std::vector<std::string> notes;          ///< adaptations made for this motor
+  LiveSummary live;                        ///< live commissioning only (live.live)
 };
 
 struct Progress {
@@ -68,9 +74,14 @@ struct Progress {
 };
 
 /// Runs the whole commissioning against the configuration's embedded
-/// simulated motor on the virtual clock. Writes into options.out_dir
-/// (created if needed) with atomic writes. Throws with a precise message.
+/// simulated motor on the virtual clock, or with options.live against a
+/// running clm-servod over LCM. Writes into options.out_dir (created after
+/// the daemon accepted the first command) with atomic writes. Throws with a
+/// precise message.
 Report run(const Options& options, const std::function<void(const Progress&)>& progress = {});
+
+/// The same pipeline on a given runner.
+Report run(const Options& options, ExperimentRunner& runner, const std::function<void(const Progress&)>& progress = {});
 
 /// The report as JSON (docs/report-format.md) and as Markdown with the
 /// paper's Table 2 beside ours.

@@ -161,18 +161,37 @@ std::string report_json(const Report& report) {
   for (std::size_t k = 0; k < report.steps.size(); ++k) {
     out << (k ? ", " : "") << quoted(report.steps[k].step) << ": " << number(report.steps[k].wall_s);
   }
-  out << "},\n  \"total_wall_time_s\": " << number(report.total_wall_s) << "\n}\n";
+  out << "},\n";
+  if (report.live.live) {
+    const LiveSummary& live = report.live;
+    out << "  \"live\": {\"lcm_url\": " << quoted(live.lcm_url) << ", \"runs\": " << live.runs
+        << ", \"runs_repeated\": " << live.runs_repeated << ", \"states_received\": " << live.states_received
+        << ", \"states_recorded\": " << live.states_recorded << ", \"states_missing\": " << live.states_missing_kept
+        << ", \"states_missing_in_repeated_runs\": " << live.states_missing_discarded
+        << ", \"daemon_telemetry_dropped\": " << live.daemon_telemetry_dropped << "},\n";
+  }
+  out << "  \"total_wall_time_s\": " << number(report.total_wall_s) << "\n}\n";
   return out.str();
 }
 
 std::string report_markdown(const Report& report) {
   std::ostringstream out;
   out << "# Commissioning report\n\n";
-  out << "Configuration `" << report.config_path << "`, " << report.coil_sets
-      << " coil sets, simulated motor, virtual clock. Every run is the paper's Fig. 8 reference "
+  out << "Configuration `" << report.config_path << "`, " << report.coil_sets << " coil sets, "
+      << (report.live.live ? "a running clm-servod over LCM (" + report.live.lcm_url + "), its real-time clock"
+                           : std::string("simulated motor, virtual clock"))
+      << ". Every run is the paper's Fig. 8 reference "
          "(third-order moves between -0.1 and 0.1 m at 0.025, 0.075 and 0.15 m/s, 1 m/s², 1000 m/s³); each "
          "commutation is evaluated with its own identified feedforward (40).\n\n";
   for (const auto& note : report.notes) out << "Note: " << note << ".\n\n";
+  if (report.live.live) {
+    const LiveSummary& live = report.live;
+    out << "Live: " << live.runs << " runs, " << live.states_recorded << " program cycles recorded of "
+        << live.states_received << " CLM_SERVO_STATE messages received; " << live.states_missing_kept
+        << " missing in the runs kept, " << live.runs_repeated << " runs repeated after missing states ("
+        << live.states_missing_discarded << " missing there); the daemon counted " << live.daemon_telemetry_dropped
+        << " telemetry drops.\n\n";
+  }
   out << "## Commutation error (paper Table 2 layout)\n\n";
   out << "MSE of F − F*, low-pass filtered at 50 Hz (unfiltered in brackets). Paper values beside ours.\n\n";
   out << "| commutation | y [N²] | y paper | x [N²] | x paper | z [N²m²] | z paper | tracking [m²] | tracking paper |\n";

@@ -4,6 +4,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "daemon/servod/telemetry_bridge.hpp"
+#include "daemon/telemetry/telemetry.hpp"
 #include "tools/sim/motor.hpp"
 
 namespace clm::commission {
@@ -79,6 +81,93 @@ Recording run_program(servod::ServoDaemon& daemon, const servod::ProgramFile& pr
     throw std::runtime_error("run '" + name + "' ended in fault: " + servo::describe(daemon.cycle().fault()));
   }
   return std::move(recorder.recording());
+}
+
+// ---- InProcessRunner -----------------------------------------------------------
+
+struct InProcessRunner::RunLog {
+  telemetry::LcmLogWriter writer;
+  servod::TelemetryBridge bridge;
+  RunLog(const std::string& path, const servod::ServoDaemon& daemon) : writer(path), bridge(writer, daemon, 1) {}
+};
+
+namespace {
+
+servod::ServodConfig offline(servod::ServodConfig config) {
+  config.loop.clock = servod::ClockMode::kVirtual;
+  config.telemetry.enabled = false;
+  config.commutation.mode = servo::CommutationMode::kOriginal;
+  config.servo.feedforward = {};
+  return config;
+}
+
+servod::DaemonCommand make(servod::DaemonCommand::Kind kind) {
+  servod::DaemonCommand command;
+  command.kind = kind;
+  return command;
+}
+
+}  // namespace
+
+InProcessRunner::InProcessRunner(const servod::ServodConfig& config)
+    : daemon_(std::make_unique<servod::ServoDaemon>(offline(config))) {
+  daemon_->run_cycles(20);
+}
+
+InProcessRunner::~InProcessRunner() = default;
+
+void InProcessRunner::enable() { execute(*daemon_, make(servod::DaemonCommand::Kind::kEnable)); }
+
+void InProcessRunner::set_experiment(int coil_set, double delta_rad) {
+  auto command = make(servod::DaemonCommand::Kind::kSetExperiment);
+  command.coil_set = coil_set;
+  command.delta_rad = delta_rad;
+  execute(*daemon_, command);
+}
+
+void InProcessRunner::set_commutation(servo::CommutationMode mode) {
+  auto command = make(servod::DaemonCommand::Kind::kSetCommutation);
+  command.mode = mode;
+  execute(*daemon_, command);
+  daemon_->run_cycles(5);
+}
+
+void InProcessRunner::load_calibration(const std::string& path) {
+  auto command = make(servod::DaemonCommand::Kind::kLoadCalibration);
+  command.path = path;
+  execute(*daemon_, command);
+}
+
+void InProcessRunner::load_model(servo::CommutationMode mode, const std::string& path) {
+  auto command = make(servod::DaemonCommand::Kind::kLoadModel);
+  command.mode = mode;
+  command.path = path;
+  execute(*daemon_, command);
+}
+
+void InProcessRunner::load_feedforward(const control::FeedforwardParameters& parameters, const std::string&) {
+  auto command = make(servod::DaemonCommand::Kind::kSetFeedforward);
+  command.feedforward = parameters;
+  execute(*daemon_, command);
+}
+
+void InProcessRunner::open_log(const std::string& path) { log_ = std::make_unique<RunLog>(path, *daemon_); }
+
+void InProcessRunner::close_log() {
+  if (log_) log_->writer.close();
+  log_.reset();
+}
+
+Recording InProcessRunner::run_program(const servod::ProgramFile& program, const std::string&, const std::string& name) {
+  return commission::run_program(*daemon_, program, name, log_ ? &log_->bridge : nullptr);
+}
+
+const sim::SimulatedMotor* InProcessRunner::simulated_motor() const {
+  return daemon_->simulated_motor();
+}
+
+std::string InProcessRunner::oracle_unavailable_reason() const {
+  return daemon_->simulated_motor() != nullptr ? "" : "no simulator";
 }
 
 }  // namespace clm::commission

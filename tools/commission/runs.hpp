@@ -1,13 +1,15 @@
 #pragma once
 // Experiments on the servo daemon (virtual clock): the Algorithm 1/2 data
 // runs and the evaluation runs of the commissioning, recorded cycle by cycle.
-// No file I/O: callers write what they need.
+// No file I/O except the optional LCM log: callers write what they need.
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "daemon/servod/servo_daemon.hpp"
+#include "tools/commission/runner.hpp"
 
 namespace clm::commission {
 
@@ -64,5 +66,34 @@ void execute(servod::ServoDaemon& daemon, servod::DaemonCommand command);
 /// CLM_SERVO_STATE per cycle, status and events) as an LCM log.
 Recording run_program(servod::ServoDaemon& daemon, const servod::ProgramFile& program, const std::string& name,
                       servod::CycleObserver* log = nullptr);
+
+/// The commissioning's runs on a daemon core in this process (the
+/// configuration's bus, normally the embedded simulated motor) on the virtual
+/// clock: every cycle is recorded, nothing can be dropped. Logs are written
+/// with a TelemetryBridge into an LcmLogWriter.
+class InProcessRunner final : public ExperimentRunner {
+ public:
+  /// `config` as given, except: virtual clock, no LCM, original commutation, no feedforward.
+  explicit InProcessRunner(const servod::ServodConfig& config);
+  ~InProcessRunner() override;
+
+  void enable() override;
+  void set_experiment(int coil_set, double delta_rad) override;
+  void set_commutation(servo::CommutationMode mode) override;
+  void load_calibration(const std::string& path) override;
+  void load_model(servo::CommutationMode mode, const std::string& path) override;
+  void load_feedforward(const control::FeedforwardParameters& parameters, const std::string& path) override;
+  void open_log(const std::string& path) override;
+  void close_log() override;
+  Recording run_program(const servod::ProgramFile& program, const std::string& program_path,
+                        const std::string& name) override;
+  const sim::SimulatedMotor* simulated_motor() const override;
+  std::string oracle_unavailable_reason() const override;
+
+ private:
+  struct RunLog;
+  std::unique_ptr<servod::ServoDaemon> daemon_;
+  std::unique_ptr<RunLog> log_;
+};
 
 }  // namespace clm::commission
