@@ -235,9 +235,10 @@ void report_watchdog(const Bus& bus, const std::map<std::string, std::string>& e
                        (next_status & clm::can::kStatusFault) != 0 && (next_status & clm::can::kStatusEnabled) == 0;
   const double gap_s = n + 1 <= bus.cycles() && n >= 1 ? bus.cycle(n + 1).sync_time_s - bus.cycle(n).sync_time_s : -1.0;
   std::printf("watchdog sync=%d last_enable=%d last_setpoint_N=%.3f sync_gap_s=%.3f next_feedback_reports_watchdog=%d "
-              "after_last_setpoints_s=%s timeout_s=%s max_abs_current_A=%s\n",
+              "after_last_setpoints_s=%s computed_after_last_setpoints_s=%s timeout_s=%s max_abs_current_A=%s\n",
               n, bus.enabled(n) == 1 ? 1 : 0, bus.max_magnitude_N(n), gap_s, reports ? 1 : 0,
-              event.at("after_last_setpoints_s").c_str(), event.at("timeout_s").c_str(),
+              event.at("after_last_setpoints_s").c_str(), event.at("computed_after_last_setpoints_s").c_str(),
+              event.at("timeout_s").c_str(),
               event.at("max_abs_current_A").c_str());
 }
 

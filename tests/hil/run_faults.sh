@@ -222,8 +222,9 @@ done
 # ---- a flood of unrelated frames ---------------------------------------------------------------
 enable_and_move || fail "flood: could not enable and move the axis"
 before=$(ctl status)
-# 2000 frames of an identifier no node uses, 0.2 ms apart: about 5000 frames/s,
-# 67 % of a 1 Mbit/s bus on top of the cyclic 57.5 % (L = 3).
+# 2000 frames of an identifier no node uses, asked 0.2 ms apart (5000/s; the
+# guest manages about 3000/s, 40 % of a 1 Mbit/s bus on top of the cyclic
+# 57.5 % at L = 3: hil_fault_check measures the rate from the record).
 if "$cangen" "$iface" -g 0.2 -I "$flood_id" -L 8 -D i -n 2000 -p 10 2> "$run/cangen.err"; then
   sleep 0.2
   after=$(ctl status)
@@ -356,13 +357,17 @@ period_s=0.001
 line=$(grep "^watchdog " "$run/bus.txt" | tail -1)
 if [ -n "$line" ]; then
   after_s=$(value after_last_setpoints_s "$line") timeout_s=$(value timeout_s "$line")
-  # The drive checks its watchdog on its own 1 ms clock: within the timeout plus one period.
+  computed_s=$(value computed_after_last_setpoints_s "$line")
+  # On the drive's clock (the time its 1 ms step stands for) the current stops
+  # within the timeout; the simulator, scheduled like any process, must have
+  # computed that step within 5 periods of it.
   if [ "$(value last_enable "$line")" = 1 ] && [ "$(value next_feedback_reports_watchdog "$line")" = 1 ] &&
      [ "$(value max_abs_current_A "$line")" = 0 ] &&
-     awk -v a="$after_s" -v t="$timeout_s" -v p="$period_s" 'BEGIN { exit !(a > 0 && a <= t + p) }'; then
-    pass "daemon killed: bus and drive: current zero $after_s s after the last setpoints (timeout $timeout_s s): $line"
+     awk -v a="$after_s" -v c="$computed_s" -v t="$timeout_s" -v p="$period_s" \
+       'BEGIN { exit !(a > 0 && a <= t && c >= a && c <= a + 5 * p) }'; then
+    pass "daemon killed: bus and drive: current zero $after_s s after the last setpoints on the drive's clock (timeout $timeout_s s), computed at $computed_s s: $line"
   else
-    fail "daemon killed: expected enable on the last RPDO1, the watchdog in the next feedback, zero current within $timeout_s + $period_s s: $line"
+    fail "daemon killed: expected enable on the last RPDO1, the watchdog in the next feedback, zero current within $timeout_s s, computed within 5 periods: $line"
   fi
 else
   fail "daemon killed: no watchdog line from hil_fault_check"

@@ -134,16 +134,19 @@ void run_sim(const SimOptions& options) {
       ++replies_failed;
     }
   };
-  // The drive's watchdog expiring is recorded once per expiry, with the times
-  // since the last setpoint set on CLOCK_MONOTONIC and on the motor's clock.
-  const auto note_watchdog = [&](std::int64_t now_ns) {
+  // The drive's watchdog expiring is recorded once per expiry, with the time
+  // since the last setpoint set was applied (CLOCK_MONOTONIC) to the drive's
+  // time of the step in which it expired (`drive_ns`, the end of the period
+  // the step stands for) and to when this process computed that step (`now_ns`).
+  const auto note_watchdog = [&](std::int64_t drive_ns, std::int64_t now_ns) {
     const bool watchdog = motor.status().watchdog();
     if (watchdog && !watchdog_before && events != nullptr) {
       const sim::TruthState truth = motor.truth();
       std::fprintf(events,
-                   "event=watchdog sync=%lld after_last_setpoints_s=%.6f timeout_s=%.6f free_run_steps=%lld "
-                   "max_abs_current_A=%.6g enabled=%d\n",
+                   "event=watchdog sync=%lld after_last_setpoints_s=%.6f computed_after_last_setpoints_s=%.6f "
+                   "timeout_s=%.6f free_run_steps=%lld max_abs_current_A=%.6g enabled=%d\n",
                    static_cast<long long>(nodes.counters().syncs),
+                   static_cast<double>(drive_ns - last_setpoints_ns) * 1e-9,
                    static_cast<double>(now_ns - last_setpoints_ns) * 1e-9, parameters.drive.watchdog_timeout_s,
                    static_cast<long long>(free_run_steps), truth.currents_A.cwiseAbs().maxCoeff(),
                    motor.status().enabled() ? 1 : 0);
@@ -171,7 +174,7 @@ void run_sim(const SimOptions& options) {
         motor.step(period_s);
         last_step_ns += period_ns;
         ++free_run_steps;
-        note_watchdog(now_ns);
+        note_watchdog(last_step_ns, now_ns);
       }
       if (!motor.status().enabled()) last_step_ns = now_ns;
     }
@@ -200,7 +203,7 @@ void run_sim(const SimOptions& options) {
                          ? received.timestamp_ns +
                                static_cast<std::int64_t>(simbus::BusInjector::kLateFraction * static_cast<double>(period_ns))
                          : INT64_MAX;
-      note_watchdog(now_ns);
+      note_watchdog(last_step_ns, now_ns);
       if (fired != nullptr && events != nullptr) {
         std::fprintf(events, "event=inject sync=%lld step=%d kind=%s frames=%d\n",
                      static_cast<long long>(nodes.counters().syncs), injector.step_index() + 1, simbus::name(fired->kind),
