@@ -30,6 +30,11 @@ static_assert(static_cast<int>(CommandKind::kLoadModel) == servo_command_t::LOAD
 static_assert(static_cast<int>(CommandKind::kStop) == servo_command_t::STOP);
 static_assert(static_cast<int>(CommandKind::kLoadFeedforward) == servo_command_t::LOAD_FEEDFORWARD);
 
+std::string with_receive_buffer(const std::string& url) {
+  if (url.rfind("udpm://", 0) != 0 || url.find("recv_buf_size=") != std::string::npos) return url;
+  return url + (url.find('?') == std::string::npos ? "?" : "&") + "recv_buf_size=4194304";
+}
+
 std::int64_t wall_clock_utime() noexcept {
   return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
@@ -352,7 +357,7 @@ TelemetryPublisher::TelemetryPublisher(const TelemetryConfig& config)
       events_(config_.event_queue_capacity),
       acks_(config_.ack_queue_capacity),
       commands_(config_.command_queue_capacity) {
-  lcm_ = std::make_unique<lcm::LCM>(config_.lcm_url);
+  lcm_ = std::make_unique<lcm::LCM>(with_receive_buffer(config_.lcm_url));
   if (!lcm_->good()) {
     throw std::runtime_error("telemetry: cannot open LCM at '" + config_.lcm_url +
                              "' (udpm needs a multicast route, see docs/telemetry.md)");
@@ -530,8 +535,13 @@ void TelemetryPublisher::run() {
   while (!stop_requested_.load(std::memory_order_acquire)) {
     const std::size_t published = drain();
     if (lcm_) {
-      // Waits for a command at most idle_ms; returns at once when one is there.
-      lcm_->handleTimeout(published > 0 ? 0 : idle_ms);
+      // Waits for a message at most idle_ms; returns at once when one is
+      // there. Then takes whatever else is waiting (bounded, so publishing
+      // goes on): the daemon's own states come back on the multicast socket,
+      // and a receiver that takes one message per pass falls behind them
+      // after a stall and loses commands in the overflow.
+      int handled = lcm_->handleTimeout(published > 0 ? 0 : idle_ms);
+      for (int k = 0; handled > 0 && k < 256; ++k) handled = lcm_->handleTimeout(0);
     } else if (published == 0) {
       std::this_thread::sleep_for(idle);
     }

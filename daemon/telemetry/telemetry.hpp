@@ -57,6 +57,14 @@ inline constexpr const char* kCommandAckChannel = "CLM_SERVO_COMMAND_ACK";
 /// Multicast on the local host only (ttl=0): LCM's default group and port.
 inline constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
 
+/// `url` with a 4 MiB kernel receive buffer asked for (LCM's udpm option
+/// recv_buf_size, capped by net.core.rmem_max) when it is udpm and does not
+/// set one. Every udpm receiver on the port also receives the daemon's
+/// states (about 1 KiB of socket buffer each, datagram overhead included);
+/// the default 208 KiB then holds some 200 ms of them, and a receiver
+/// descheduled longer on a loaded host lost states, and commands with them.
+std::string with_receive_buffer(const std::string& url);
+
 /// Text in a fixed char array, always NUL-terminated: what the cycle can
 /// fill without allocating.
 template <std::size_t N>

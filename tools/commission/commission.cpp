@@ -183,7 +183,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     if (scaled) report.notes.push_back(std::string(what) + " '" + path + "' scaled to the soft limits of this motor");
     return fitted;
   };
-  const std::string config_dir = std::filesystem::path(options.config_path).parent_path().string();
+  const std::string config_dir = std::filesystem::absolute(options.config_path).parent_path().string();
   const std::string program_path = std::filesystem::absolute(
       options.program_path.empty() ? config_dir + "/programs/fig8.yaml" : options.program_path).lexically_normal().string();
   const servod::ProgramFile program = fit(program_path, "experiment program");

@@ -42,16 +42,6 @@ std::string seconds(double value_s) {
   return text;
 }
 
-// A state every millisecond costs the kernel about 1 KiB of socket buffer
-// each (datagram overhead included); the default 208 KiB then holds some
-// 200 ms, and a burst from the daemon's publisher after a stall of either
-// process overflowed it on a loaded host (80 states lost at once). Ask for
-// 4 MiB (capped by net.core.rmem_max) unless the URL says otherwise.
-std::string receiving_url(const std::string& url) {
-  if (url.rfind("udpm://", 0) != 0 || url.find("recv_buf_size=") != std::string::npos) return url;
-  return url + (url.find('?') == std::string::npos ? "?" : "&") + "recv_buf_size=4194304";
-}
-
 template <typename Message>
 bool decode(const std::vector<std::uint8_t>& data, Message& out) {
   const int size = static_cast<int>(data.size());
@@ -108,7 +98,8 @@ LcmRunner::LcmRunner(const servod::ServodConfig& config, LiveOptions options)
     : config_(config), options_(std::move(options)) {
   if (!(options_.ack_timeout_s > 0.0)) throw std::invalid_argument("live commissioning: the ack timeout must be positive");
   if (options_.attempts_per_run < 1) throw std::invalid_argument("live commissioning: attempts per run must be at least 1");
-  lcm_ = std::make_unique<lcm::LCM>(receiving_url(options_.lcm_url));
+  // A large receive buffer: a burst of states after a stall must not overflow it.
+  lcm_ = std::make_unique<lcm::LCM>(telemetry::with_receive_buffer(options_.lcm_url));
   if (!lcm_->good()) {
     throw std::runtime_error("cannot open LCM at '" + options_.lcm_url +
                              "' (for udpm a multicast route is needed: docs/telemetry.md)");
