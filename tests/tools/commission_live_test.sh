@@ -55,15 +55,18 @@ fi
 url="udpm://239.255.76.67:$((9920 + $$ % 30))?ttl=0"
 
 # config/servod.yaml as it is (SCHED_FIFO 80 and mlockall where allowed, else
-# a warning and without), with an absolute motor file and our port. The
-# simulated drive's 5 ms setpoint watchdog needs the loop's real-time
-# priority on a loaded host: with priority 0 a stall of the loop thread on
-# this shared 2-core machine latched fault 206 within a minute.
-sed -e "s|^motor_file: [^ ]*|motor_file: $source_dir/config/motor-sim.yaml|" \
+# a warning and without), with our port and a copy of the simulated motor
+# whose drive watchdog is 100 ms instead of 5 ms: on the shared 2-core
+# development machine (load average 8-10) the loop thread stalled for up to
+# 99 ms even at SCHED_FIFO 80, and the 5 ms watchdog latched fault 206 in
+# some runs. This test is about the LCM path, not about real-time timing.
+sed -e 's|^\(  watchdog_timeout_s:\) [0-9.e-]*|\1 0.1|' "$source_dir/config/motor-sim.yaml" > "$work/motor-sim.yaml"
+grep -qx "  watchdog_timeout_s: 0.1" <(sed 's/ *#.*//' "$work/motor-sim.yaml") || fail "motor copy: watchdog not relaxed"
+sed -e "s|^motor_file: [^ ]*|motor_file: $work/motor-sim.yaml|" \
     -e 's|^\(  clock:\) [a-z]*|\1 realtime|' \
     -e "s|^\(  lcm_url:\) .*|\1 \"$url\"|" \
     "$source_dir/config/servod.yaml" > "$work/servod.yaml"
-for expected in "motor_file: $source_dir/config/motor-sim.yaml" "  clock: realtime" "  rate_hz: 1000" \
+for expected in "motor_file: $work/motor-sim.yaml" "  clock: realtime" "  rate_hz: 1000" \
                 "  state_decimation: 1" "  lcm_url: \"$url\""; do
   grep -qxF -- "$expected" <(sed 's/ *#.*//' "$work/servod.yaml") || fail "config: no line '$expected' after editing"
 done
