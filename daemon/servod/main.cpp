@@ -238,7 +238,15 @@ int run(const std::string& config_path, double duration_s) {
                  static_cast<long long>(timing.missed_deadlines), static_cast<long long>(timing.late_setpoints));
   }
   daemon.set_observer(nullptr);
-  if (publisher) publisher->stop();
+  if (publisher) {
+    publisher->stop();
+    // Where telemetry went: a receiver that misses states can tell a drop in
+    // the daemon's queues from a send LCM refused from a loss after sending.
+    const telemetry::TelemetryCounters counters = publisher->counters();
+    std::fprintf(stderr, "clm-servod: telemetry: published %lld, publish failures %lld, dropped in queues %lld\n",
+                 static_cast<long long>(counters.published), static_cast<long long>(counters.publish_failures),
+                 static_cast<long long>(counters.telemetry_dropped()));
+  }
   if (loop_error) {
     try {
       std::rethrow_exception(loop_error);

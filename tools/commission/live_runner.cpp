@@ -106,7 +106,12 @@ LcmRunner::LcmRunner(const servod::ServodConfig& config, LiveOptions options)
   }
   // Every channel: the daemon's states, status, events and acks, and the
   // commands themselves (multicast loops them back), all go into the logs.
-  lcm_->subscribe(".*", &LcmRunner::on_message, this);
+  lcm::Subscription* subscription = lcm_->subscribe(".*", &LcmRunner::on_message, this);
+  // LCM drops what a subscription has queued beyond its capacity, 30
+  // messages by default: 30 ms of states. A receiving thread descheduled
+  // longer on a loaded host lost bursts of 14 to 300 states that the daemon
+  // had published and the kernel had delivered. A minute of states at 1 kHz.
+  subscription->setQueueCapacity(60000);
   summary_.live = true;
   summary_.lcm_url = options_.lcm_url;
   receiver_ = std::thread([this] { receive_loop(); });
