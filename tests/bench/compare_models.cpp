@@ -1,6 +1,6 @@
 // compare_models: evaluates PGNN model files side by side, for the benchmark
 // "Identification against PyTorch" (docs/benchmarks.md,
-// tools/reference/compare_identification.sh). A plain executable, not a CTest
+// tools/reference/compare_identification.py). A plain executable, not a CTest
 // test.
 //
 // For every model file (name=path):
