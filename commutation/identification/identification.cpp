@@ -314,6 +314,141 @@ double levenberg_marquardt(const CoilSetDataset& data, const Features& f, const 
   return summary.final_cost;
 }
 
+// Variable projection (Golub–Pereyra, Kaufman's Jacobian): the PGNN is
+// linear in θ_L (eq. 29), so for given hidden layers θ_NL the best θ_L of
+// eq. (26) is the ridge solution of eq. (31), and only θ_NL is left to the
+// Levenberg–Marquardt solver. The residuals are those of eq. (26) at
+// θ_L(θ_NL), direction-major, then the 4 prior residuals of each direction:
+//   r = [sqrt(2/N)·(F_q − M θ_L,q) ; sqrt(2)·λ·(θ_phy,q − θ*_phy,q)],
+// so Ceres' cost ½‖r‖² is eq. (26) exactly. With A = ∂r/∂θ_L (the same
+// M for all three directions) and V_q = ∂r_q/∂θ_NL at fixed θ_L, Kaufman's
+// Jacobian is J_q = (I − A (AᵀA)⁻¹ Aᵀ) V_q: the change of θ_L with θ_NL
+// projected out, without the second-order term in the residual.
+class ProjectedCost final : public ceres::CostFunction {
+ public:
+  ProjectedCost(const CoilSetDataset& data, const Features& features, const Layout& layout,
+                const CoilGain& physics_a, const CoilGain& physics_b, double regularisation)
+      : data_(data), features_(features), layout_(layout), physics_a_(physics_a), physics_b_(physics_b),
+        regularisation_(regularisation) {
+    set_num_residuals(static_cast<int>(3 * data.size() + 12));
+    mutable_parameter_block_sizes()->push_back(layout.nonlinear_size());
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const double* nonlinear = parameters[0];
+    const Eigen::Index n = data_.size();
+    const int p = layout_.linear_size();
+    const int q = layout_.nonlinear_size();
+    const int na = layout_.column_hidden;
+    const int nc = layout_.cogging_hidden;
+    const bool want_jacobian = jacobians != nullptr && jacobians[0] != nullptr;
+    Eigen::MatrixXd regressors(n, p);
+    Eigen::MatrixXd derivatives;  // ∂(hidden output)/∂θ_NL times the multiplier, per column of θ_NL
+    if (want_jacobian) derivatives.resize(n, q);
+    double m[kMaxRegressor];
+    double ha[Network::kMaxWidth], hb[Network::kMaxWidth], hc[Network::kMaxWidth];
+    for (Eigen::Index t = 0; t < n; ++t) {
+      const double x = features_.input[t];
+      const double ia = data_.currents_A(0, t);
+      const double ib = data_.currents_A(1, t);
+      regressor(layout_, nonlinear, features_.cos_theta[t], features_.sin_theta[t], x, ia, ib, m, ha, hb, hc);
+      for (int k = 0; k < p; ++k) regressors(t, k) = m[k];
+      if (!want_jacobian) continue;
+      const auto fill = [&](int first, const double* h, int width, double multiplier) {
+        for (int j = 0; j < width; ++j) {
+          const double g = (1.0 - h[j] * h[j]) * multiplier;
+          derivatives(t, first + j) = g * x;
+          derivatives(t, first + width + j) = g;
+        }
+      };
+      fill(0, ha, na, ia);
+      fill(2 * na, hb, na, ib);
+      fill(4 * na, hc, nc, 1.0);
+    }
+    // θ_L by eq. (31) (the normal equations of r over θ_L, halved).
+    const double inv_n = 1.0 / static_cast<double>(n);
+    Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(p, p);
+    gram.selfadjointView<Eigen::Lower>().rankUpdate(regressors.transpose(), inv_n);
+    gram = gram.selfadjointView<Eigen::Lower>();
+    Eigen::MatrixXd rhs = regressors.transpose() * data_.wrench.transpose() * inv_n;
+    const double lambda2 = regularisation_ * regularisation_;
+    Eigen::Matrix<double, 4, 3> target;
+    for (int d = 0; d < 3; ++d) target.col(d) = physics_target(physics_a_, physics_b_, d);
+    for (int k = 0; k < 4; ++k) gram(k, k) += lambda2;
+    rhs.topRows<4>() += lambda2 * target;
+    for (int k = 4; k < p; ++k) gram(k, k) += 1e-10 * (1.0 + gram(k, k));
+    const Eigen::LDLT<Eigen::MatrixXd> solver(gram);
+    const Eigen::MatrixXd linear = solver.solve(rhs);  // p × 3
+
+    const double scale = std::sqrt(2.0 * inv_n);
+    const double prior_weight = std::sqrt(2.0) * regularisation_;
+    Eigen::Map<Eigen::MatrixXd> data_residuals(residuals, n, 3);
+    data_residuals = scale * (data_.wrench.transpose() - regressors * linear);
+    for (int d = 0; d < 3; ++d) {
+      residuals[3 * n + 4 * d + 0] = prior_weight * (linear(0, d) - target(0, d));
+      residuals[3 * n + 4 * d + 1] = prior_weight * (linear(1, d) - target(1, d));
+      residuals[3 * n + 4 * d + 2] = prior_weight * (linear(2, d) - target(2, d));
+      residuals[3 * n + 4 * d + 3] = prior_weight * (linear(3, d) - target(3, d));
+    }
+    if (!want_jacobian) return true;
+
+    // V_q = −scale·P·diag(w_q), w_q the output weight of each hidden neuron in
+    // direction q; AᵀA = 2·gram; Aᵀ V_q = scale²·(MᵀP)·diag(w_q).
+    // K_q = (AᵀA)⁻¹ Aᵀ V_q; J_q = scale·(M K_q − P diag(w_q)) on the data rows,
+    // −sqrt(2)·λ·K_q[0:4] on the prior rows.
+    const Eigen::MatrixXd cross = regressors.transpose() * derivatives;  // p × q
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    Eigen::Map<RowMajor> jacobian(jacobians[0], 3 * n + 12, q);
+    Eigen::VectorXd weights(q);
+    for (int d = 0; d < 3; ++d) {
+      for (int j = 0; j < na; ++j) {
+        weights[j] = weights[na + j] = linear(layout_.column_a_offset() + j, d);
+        weights[2 * na + j] = weights[3 * na + j] = linear(layout_.column_b_offset() + j, d);
+      }
+      for (int j = 0; j < nc; ++j) weights[4 * na + j] = weights[4 * na + nc + j] = linear(layout_.cogging_offset() + j, d);
+      // (AᵀA)⁻¹ Aᵀ V_q = (2·gram)⁻¹ · scale² · cross·diag(w) = gram⁻¹ · cross·diag(w) / n.
+      const Eigen::MatrixXd k = solver.solve(cross * weights.asDiagonal()) * inv_n;
+      jacobian.middleRows(d * n, n) = scale * (regressors * k - derivatives * weights.asDiagonal());
+      jacobian.middleRows(3 * n + 4 * d, 4) = -prior_weight * k.topRows<4>();
+    }
+    return true;
+  }
+
+ private:
+  const CoilSetDataset& data_;
+  const Features& features_;
+  Layout layout_;
+  CoilGain physics_a_, physics_b_;
+  double regularisation_;
+};
+
+// Levenberg–Marquardt on θ_NL of the variable-projection problem; θ_L by
+// eq. (31) afterwards. Returns the final cost (eq. 26) and adds the iterations.
+double variable_projection(const CoilSetDataset& data, const Features& f, const Layout& layout,
+                           const CoilGain& physics_a, const CoilGain& physics_b, double regularisation,
+                           int max_iterations, int threads, std::vector<double>& nonlinear,
+                           Eigen::Matrix<double, Eigen::Dynamic, 3>& linear, int& iterations) {
+  ceres::Problem problem;
+  problem.AddResidualBlock(new ProjectedCost(data, f, layout, physics_a, physics_b, regularisation), nullptr,
+                           nonlinear.data());
+  ceres::Solver::Options options;
+  options.minimizer_type = ceres::TRUST_REGION;
+  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  options.max_num_iterations = max_iterations;
+  options.num_threads = threads;
+  options.function_tolerance = 1e-10;
+  options.gradient_tolerance = 1e-12;
+  options.parameter_tolerance = 1e-10;
+  options.logging_type = ceres::SILENT;
+  options.minimizer_progress_to_stdout = false;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  iterations += static_cast<int>(summary.iterations.size());
+  ridge_linear(data, f, layout, nonlinear.data(), physics_a, physics_b, regularisation, linear);
+  return summary.final_cost;
+}
+
 CoilSetDataset decimate(const CoilSetDataset& data, int every) {
   std::vector<Eigen::Index> indices;
   for (Eigen::Index i = 0; i < data.size(); i += std::max(1, every)) indices.push_back(i);
@@ -419,6 +554,7 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
   CoilGain physics_a, physics_b;
   fit_physics_only(training, pole_pitch_m, physics_a, physics_b);
   const Layout layout{options.column_hidden, options.cogging_hidden};
+  const auto solve = options.solver == PgnnSolver::kVariableProjection ? variable_projection : levenberg_marquardt;
 
   const CoilSetDataset coarse = decimate(training, options.restart_decimation);
   const Features coarse_features = features_of(coarse, pole_pitch_m, normalisation);
@@ -451,9 +587,8 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
     Eigen::Matrix<double, Eigen::Dynamic, 3> linear;
     ridge_linear(coarse, coarse_features, layout, nonlinear.data(), physics_a, physics_b, options.regularisation,
                  linear);
-    const double cost = levenberg_marquardt(coarse, coarse_features, layout, physics_a, physics_b,
-                                            options.regularisation, options.restart_iterations, options.threads,
-                                            nonlinear, linear, report.iterations);
+    const double cost = solve(coarse, coarse_features, layout, physics_a, physics_b, options.regularisation,
+                              options.restart_iterations, options.threads, nonlinear, linear, report.iterations);
     if (cost < best_cost) {
       best_cost = cost;
       best_nonlinear = nonlinear;
@@ -463,9 +598,9 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
     if (progress) progress({restart, options.restarts, cost});
   }
 
-  const double final_cost = levenberg_marquardt(polish, polish_features, layout, physics_a, physics_b,
-                                                options.regularisation, options.final_iterations, options.threads,
-                                                best_nonlinear, best_linear, report.iterations);
+  const double final_cost = solve(polish, polish_features, layout, physics_a, physics_b, options.regularisation,
+                                  options.final_iterations, options.threads, best_nonlinear, best_linear,
+                                  report.iterations);
   // Eq. (31) last: the model can then never fit worse than the physics-only one.
   ridge_linear(training, full_features, layout, best_nonlinear.data(), physics_a, physics_b, options.regularisation,
                best_linear);

@@ -26,6 +26,13 @@ void fit_physics_only(const CoilSetDataset& data, double pole_pitch_m, CoilGain&
 /// Input normalisation mapping the positions in `data` to [−1, 1].
 PositionNormalisation normalisation_for(const Eigen::VectorXd& position_m);
 
+/// How Levenberg–Marquardt treats the parameters in which the PGNN is linear
+/// (θ_L of eq. 29; docs/commutation.md, "Identification").
+enum class PgnnSolver {
+  kVariableProjection,  ///< θ_L by eq. (31) at every θ_NL, LM on θ_NL alone (Kaufman's Jacobian)
+  kJointSchur,          ///< LM on θ_L and θ_NL together, θ_L eliminated by the Schur complement
+};
+
 struct PgnnOptions {
   int column_hidden = 2;        ///< neurons of each column network of K̂ (paper: 2)
   int cogging_hidden = 16;      ///< neurons of the cogging network (paper: 16)
@@ -40,6 +47,7 @@ struct PgnnOptions {
   // than anything the networks resolve; the decimated sets keep every
   // position region. Eq. (31) at the end always uses all training samples.
   int threads = 2;
+  PgnnSolver solver = PgnnSolver::kVariableProjection;
 };
 
 struct PgnnProgress {
