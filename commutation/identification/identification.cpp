@@ -264,6 +264,31 @@ void pack(const Layout& layout, const CoilSetModel& coil_set, std::vector<double
   }
 }
 
+// Levenberg–Marquardt with the tolerances both PGNN solvers use; the caller
+// chooses the linear solver.
+ceres::Solver::Options levenberg_marquardt_options(int max_iterations, int threads) {
+  ceres::Solver::Options options;
+  options.minimizer_type = ceres::TRUST_REGION;
+  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  options.max_num_iterations = max_iterations;
+  options.num_threads = threads;
+  options.function_tolerance = 1e-10;
+  options.gradient_tolerance = 1e-12;
+  options.parameter_tolerance = 1e-10;
+  options.logging_type = ceres::SILENT;
+  options.minimizer_progress_to_stdout = false;
+  return options;
+}
+
+// Solves and adds the iterations taken to `iterations`.
+ceres::Solver::Summary solve_counting(const ceres::Solver::Options& options, ceres::Problem& problem,
+                                      int& iterations) {
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  iterations += static_cast<int>(summary.iterations.size());
+  return summary;
+}
+
 // Levenberg–Marquardt on all parameters of eq. (26); returns the final cost
 // (eq. 26) and adds the iterations taken.
 double levenberg_marquardt(const CoilSetDataset& data, const Features& f, const Layout& layout,
@@ -293,21 +318,10 @@ double levenberg_marquardt(const CoilSetDataset& data, const Features& f, const 
   }
   ordering->AddElementToGroup(nonlinear.data(), 1);
 
-  ceres::Solver::Options options;
-  options.minimizer_type = ceres::TRUST_REGION;
-  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  ceres::Solver::Options options = levenberg_marquardt_options(max_iterations, threads);
   options.linear_solver_type = ceres::DENSE_SCHUR;
   options.linear_solver_ordering.reset(ordering);
-  options.max_num_iterations = max_iterations;
-  options.num_threads = threads;
-  options.function_tolerance = 1e-10;
-  options.gradient_tolerance = 1e-12;
-  options.parameter_tolerance = 1e-10;
-  options.logging_type = ceres::SILENT;
-  options.minimizer_progress_to_stdout = false;
-  ceres::Solver::Summary summary;
-  ceres::Solve(options, &problem, &summary);
-  iterations += static_cast<int>(summary.iterations.size());
+  const ceres::Solver::Summary summary = solve_counting(options, problem, iterations);
   for (int q = 0; q < 3; ++q) {
     linear.col(q) = Eigen::Map<const Eigen::VectorXd>(direction_parameters[static_cast<std::size_t>(q)].data(), linear.rows());
   }
@@ -431,20 +445,9 @@ double variable_projection(const CoilSetDataset& data, const Features& f, const 
   ceres::Problem problem;
   problem.AddResidualBlock(new ProjectedCost(data, f, layout, physics_a, physics_b, regularisation), nullptr,
                            nonlinear.data());
-  ceres::Solver::Options options;
-  options.minimizer_type = ceres::TRUST_REGION;
-  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  ceres::Solver::Options options = levenberg_marquardt_options(max_iterations, threads);
   options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-  options.max_num_iterations = max_iterations;
-  options.num_threads = threads;
-  options.function_tolerance = 1e-10;
-  options.gradient_tolerance = 1e-12;
-  options.parameter_tolerance = 1e-10;
-  options.logging_type = ceres::SILENT;
-  options.minimizer_progress_to_stdout = false;
-  ceres::Solver::Summary summary;
-  ceres::Solve(options, &problem, &summary);
-  iterations += static_cast<int>(summary.iterations.size());
+  const ceres::Solver::Summary summary = solve_counting(options, problem, iterations);
   ridge_linear(data, f, layout, nonlinear.data(), physics_a, physics_b, regularisation, linear);
   return summary.final_cost;
 }
