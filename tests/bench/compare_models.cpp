@@ -78,39 +78,8 @@ servod::DaemonCommand make(Kind kind) {
   return command;
 }
 
-// The two helpers below are file-local in tools/commission/commission.cpp
-// (identify_ff, evaluate); they are restated here over the same public
-// functions (control::identify_feedforward, control::commutation_error_mse).
-control::FeedforwardParameters identify_ff(const commission::Recording& run) {
-  std::vector<control::ReferenceSample> reference;
-  std::vector<double> force;
-  reference.reserve(run.samples.size());
-  for (const auto& s : run.samples) {
-    reference.push_back({s.r_m, s.r_dot_m_per_s, s.r_ddot_m_per_s2, 0.0});
-    force.push_back(s.F_star_N);
-  }
-  return control::identify_feedforward(reference, force);
-}
-
-commission::CommutationResult evaluate(const commission::Recording& run, double period_s) {
-  commission::CommutationResult result;
-  std::vector<Eigen::Vector3d> measured, desired;
-  double tracking = 0.0, current = 0.0;
-  for (const auto& s : run.samples) {
-    measured.push_back(s.measured);
-    desired.push_back(s.desired);
-    tracking += (s.r_m - s.y_m) * (s.r_m - s.y_m);
-    current += s.current_square_sum_A2;
-  }
-  const double n = static_cast<double>(run.samples.size());
-  result.mse = control::commutation_error_mse(measured, desired, period_s);
-  result.tracking_mse_m2 = tracking / n;
-  result.mean_current_square_A2 = current / n;
-  result.damping_cycles = run.damping_cycles;
-  result.force_limited_cycles = run.force_limited_cycles;
-  result.evaluated = true;
-  return result;
-}
+using commission::evaluate;
+using commission::identify_ff;
 
 // The daemon configuration as `clm commission` prepares it.
 servod::ServodConfig commissioning_config(const std::string& path) {

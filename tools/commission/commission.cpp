@@ -65,37 +65,6 @@ void write_evaluation_csv(const std::string& path, const Recording& run, const c
   write_csv_atomically(path, names, columns);
 }
 
-control::FeedforwardParameters identify_ff(const Recording& run) {
-  std::vector<control::ReferenceSample> reference;
-  std::vector<double> force;
-  reference.reserve(run.samples.size());
-  for (const auto& s : run.samples) {
-    reference.push_back({s.r_m, s.r_dot_m_per_s, s.r_ddot_m_per_s2, 0.0});
-    force.push_back(s.F_star_N);
-  }
-  return control::identify_feedforward(reference, force);
-}
-
-CommutationResult evaluate(const Recording& run, double period_s) {
-  CommutationResult result;
-  std::vector<Eigen::Vector3d> measured, desired;
-  double tracking = 0.0, current = 0.0;
-  for (const auto& s : run.samples) {
-    measured.push_back(s.measured);
-    desired.push_back(s.desired);
-    tracking += (s.r_m - s.y_m) * (s.r_m - s.y_m);
-    current += s.current_square_sum_A2;
-  }
-  const double n = static_cast<double>(run.samples.size());
-  result.mse = control::commutation_error_mse(measured, desired, period_s);
-  result.tracking_mse_m2 = tracking / n;
-  result.mean_current_square_A2 = current / n;
-  result.damping_cycles = run.damping_cycles;
-  result.force_limited_cycles = run.force_limited_cycles;
-  result.evaluated = true;
-  return result;
-}
-
 // Identified against true cogging and gains on a position grid (Fig. 9).
 void write_truth_comparison(const std::string& directory, const sim::SimulatedMotor& motor, const ModelFile& pgnn,
                             const ModelFile& spline, const MotorDescription& description) {
@@ -138,6 +107,37 @@ void write_truth_comparison(const std::string& directory, const sim::SimulatedMo
 }
 
 }  // namespace
+
+control::FeedforwardParameters identify_ff(const Recording& run) {
+  std::vector<control::ReferenceSample> reference;
+  std::vector<double> force;
+  reference.reserve(run.samples.size());
+  for (const auto& s : run.samples) {
+    reference.push_back({s.r_m, s.r_dot_m_per_s, s.r_ddot_m_per_s2, 0.0});
+    force.push_back(s.F_star_N);
+  }
+  return control::identify_feedforward(reference, force);
+}
+
+CommutationResult evaluate(const Recording& run, double period_s) {
+  CommutationResult result;
+  std::vector<Eigen::Vector3d> measured, desired;
+  double tracking = 0.0, current = 0.0;
+  for (const auto& s : run.samples) {
+    measured.push_back(s.measured);
+    desired.push_back(s.desired);
+    tracking += (s.r_m - s.y_m) * (s.r_m - s.y_m);
+    current += s.current_square_sum_A2;
+  }
+  const double n = static_cast<double>(run.samples.size());
+  result.mse = control::commutation_error_mse(measured, desired, period_s);
+  result.tracking_mse_m2 = tracking / n;
+  result.mean_current_square_A2 = current / n;
+  result.damping_cycles = run.damping_cycles;
+  result.force_limited_cycles = run.force_limited_cycles;
+  result.evaluated = true;
+  return result;
+}
 
 Report run(const Options& options, const std::function<void(const Progress&)>& progress) {
   const servod::ServodConfig config = servod::load_servod_config(options.config_path);

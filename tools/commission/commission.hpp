@@ -88,4 +88,12 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
 std::string report_json(const Report& report);
 std::string report_markdown(const Report& report);
 
+/// Feedforward (40) identified from a run without feedforward: the reference
+/// and the force command F* of every sample (control::identify_feedforward).
+control::FeedforwardParameters identify_ff(const Recording& run);
+
+/// Commutation MSE (filtered and unfiltered, y/x/z), tracking MSE and mean
+/// current square of an evaluation run.
+CommutationResult evaluate(const Recording& run, double period_s);
+
 }  // namespace clm::commission
