@@ -1,6 +1,6 @@
 #pragma once
 // Data-based calibration of a coil set's motor constant and commutation phase
-// offset: Algorithm 1 with the corrected update (notes item 2) for any two
+// offset: Algorithm 1 with the corrected update (docs/commutation.md §2) for any two
 // distinct phase offsets, and a variant that is not biased by cogging
 // (notes, "An observation to handle").
 

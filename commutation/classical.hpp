@@ -1,6 +1,6 @@
 #pragma once
 // The classical (idealised sinusoidal) model of a coil set, eq. (6)-(8), and the
-// classical commutation law (11)/(12) with the corrected force share (notes item 1).
+// classical commutation law (11)/(12) with the corrected force share (docs/commutation.md §1).
 
 #include <span>
 

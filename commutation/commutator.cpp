@@ -51,7 +51,7 @@ void commutate_with_gain(const StackedGain& gain, const Wrench& cogging, const W
   const Wrench demand = desired - cogging;  // eq. (37)
 
   // Weighted gain K̂·W⁻¹ with W = blockdiag([[2,1],[1,2]]) for true power
-  // (notes item 6), W = I for the paper's current norm.
+  // (docs/commutation.md §6), W = I for the paper's current norm.
   StackedGain weighted = gain;
   if (options.power_metric == PowerMetric::kTruePower) {
     for (int l = 0; l < count; ++l) {
@@ -103,7 +103,7 @@ void commutate_with_gain(const StackedGain& gain, const Wrench& cogging, const W
   out.model_wrench.noalias() = gain * out.currents_A;
   out.model_wrench += cogging;
   out.current_square_sum_A2 = current_square_sum(out.currents_A);
-  // Eq. (39); Γ uses the drive's angle, common to all coil sets (notes item 5).
+  // Eq. (39); Γ uses the drive's angle, common to all coil sets (docs/commutation.md §5).
   const Eigen::Matrix2d gamma_inv = gamma_inverse(drive, position_m, pole_pitch_m);
   for (int l = 0; l < count; ++l) {
     out.setpoints[static_cast<std::size_t>(l)] =

@@ -14,7 +14,7 @@
 
 namespace clm {
 
-/// What the minimum-power commutation minimises (notes item 6).
+/// What the minimum-power commutation minimises (docs/commutation.md §6).
 enum class PowerMetric {
   /// ‖[i_a^l, i_b^l]‖² summed over coil sets, as printed in eq. (10)/(36).
   kCurrentNorm,

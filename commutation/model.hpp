@@ -20,7 +20,7 @@ namespace clm {
 
 enum class ModelKind { kPgnn, kSpline };
 
-/// Network input y_n = (y − offset_m)/scale_m (notes item 7).
+/// Network input y_n = (y − offset_m)/scale_m (docs/commutation.md §7).
 struct PositionNormalisation {
   double offset_m = 0.0;
   double scale_m = 1.0;

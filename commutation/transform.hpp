@@ -6,7 +6,7 @@
 
 namespace clm {
 
-/// How T⁻¹ (eq. 21) resolves the sign of the force (notes item 4).
+/// How T⁻¹ (eq. 21) resolves the sign of the force (docs/commutation.md §4).
 enum class PhaseConvention {
   /// Magnitude carries the sign, Δ ∈ (−π/2, π/2]: Δ stays continuous when the
   /// force changes sign. Default; preferred by drives that rate-limit the phase.
@@ -15,7 +15,7 @@ enum class PhaseConvention {
   kNonNegativeMagnitude,
 };
 
-/// Γ(y) of eq. (20) for the drive's fixed k̂_d and ζ̂_d (notes item 5), [A/N].
+/// Γ(y) of eq. (20) for the drive's fixed k̂_d and ζ̂_d (docs/commutation.md §5), [A/N].
 Eigen::Matrix2d gamma_matrix(const DriveCommutation& drive, double position_m, double pole_pitch_m);
 
 /// Γ(y)⁻¹ in closed form (det Γ = −sin(2π/3)/k̂_d² never vanishes), [N/A].

@@ -1,7 +1,7 @@
 #pragma once
 // Figures of merit of the paper's Table 2: the mean-square commutation error
 // F − F* per direction [y, x, z], unfiltered and after the 50 Hz low-pass of
-// notes item 11, and the mean square of any signal (e.g. the tracking error).
+// docs/commutation.md §11, and the mean square of any signal (e.g. the tracking error).
 
 #include <Eigen/Core>
 #include <array>
@@ -9,7 +9,7 @@
 
 namespace clm::control {
 
-/// ZOH discretisation of 1/(s/(2π·f_c) + 1) (notes item 11):
+/// ZOH discretisation of 1/(s/(2π·f_c) + 1) (docs/commutation.md §11):
 ///   y[k] = a·y[k−1] + (1−a)·u[k−1],  a = exp(−2π·f_c·T_s).
 /// The output lags the input by one sample; the state (y and the previous
 /// input) starts at zero, so the step response is y[k] = 1 − a^k.

@@ -2,7 +2,7 @@
 // The position loop of the translator: a PID feedback controller with a
 // first-order low-pass, the feedforward of eq. (40) with a one-sample preview
 // of the reference, its least-squares identification from closed-loop data
-// (notes item 10), and the two combined.
+// (docs/commutation.md §10), and the two combined.
 //
 // The update()/feedforward functions run in the cycle: noexcept, no
 // allocation. Construction, tuning and identification are offline and throw
@@ -117,7 +117,7 @@ struct FeedforwardParameters {
 double feedforward_force_N(const FeedforwardParameters& parameters, const ReferenceSample& now,
                            const ReferenceSample& next) noexcept;
 
-/// Least-squares fit of m, f_v, f_c (notes item 10): the N−1 equations
+/// Least-squares fit of m, f_v, f_c (docs/commutation.md §10): the N−1 equations
 ///   F*_k = m·(a_k + a_{k+1})/2 + f_v·(v_k + v_{k+1})/2 + f_c·(sgn v_k + sgn v_{k+1})/2,
 /// k = 0..N−2, from the reference and the force demand F*_k [N] recorded in
 /// closed loop (the last force sample is unused). Solved by a column-pivoted

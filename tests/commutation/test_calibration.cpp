@@ -1,4 +1,4 @@
-// Algorithm 1 with the corrected update (notes item 2) and the offset-robust
+// Algorithm 1 with the corrected update (docs/commutation.md §2) and the offset-robust
 // variant, on synthetic data generated from eq. (16).
 #include <catch2/catch.hpp>
 #include <cmath>

@@ -1,4 +1,4 @@
-// Γ, T, T⁻¹ of eq. (19)-(21) and (39), with the sign conventions of notes item 4.
+// Γ, T, T⁻¹ of eq. (19)-(21) and (39), with the sign conventions of docs/commutation.md §4.
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <random>

@@ -1,4 +1,4 @@
-// The Table 2 filter (notes item 11) and the mean-square metrics, against
+// The Table 2 filter (docs/commutation.md §11) and the mean-square metrics, against
 // closed-form expectations.
 #include <catch2/catch.hpp>
 #include <cmath>

@@ -8,7 +8,7 @@ Levenberg-Marquardt on decimated data), so that our C++ identification can be
 benchmarked against a mainstream implementation (docs/benchmarks.md,
 "Identification against PyTorch").
 
-Per coil set l (eq. 23-26 of the paper, paper-notes items 7 and 8):
+Per coil set l (eq. 23-26 of the paper, docs/commutation.md §7 and §8):
 
     F̂ = K̂(y)·[i_a, i_b] + F̂_cog(y)
     K̂(y) = A cos(2πy/d_m) + B sin(2πy/d_m) + [f_a(y_n), f_b(y_n)]
