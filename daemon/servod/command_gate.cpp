@@ -1,0 +1,138 @@
+#include "daemon/servod/command_gate.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+namespace clm::servod {
+namespace {
+
+std::int64_t to_us(double seconds) { return static_cast<std::int64_t>(std::llround(seconds * 1e6)); }
+
+std::string seconds_text(double seconds) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.3g s", seconds);
+  return buffer;
+}
+
+}  // namespace
+
+const char* name(GateRefusal refusal) noexcept {
+  switch (refusal) {
+    case GateRefusal::kAdmitted: return "admitted";
+    case GateRefusal::kOtherAxis: return "other_axis";
+    case GateRefusal::kOtherSession: return "other_session";
+    case GateRefusal::kNoClient: return "no_client";
+    case GateRefusal::kReplayed: return "replayed";
+    case GateRefusal::kStale: return "stale";
+    case GateRefusal::kNotInControl: return "not_in_control";
+  }
+  return "unknown";
+}
+
+void CommandGateSettings::validate() const {
+  if (axis.empty()) throw std::invalid_argument("axis name is empty");
+  if (session == 0) throw std::invalid_argument("session id is 0");
+  if (!(max_age_s > 0.0 && max_age_s <= 3600.0)) {
+    throw std::invalid_argument("max_age_s must be in (0, 3600], got " + std::to_string(max_age_s));
+  }
+  if (!(control_lease_s > 0.0 && control_lease_s <= 86400.0)) {
+    throw std::invalid_argument("control_lease_s must be in (0, 86400], got " + std::to_string(control_lease_s));
+  }
+}
+
+CommandGate::CommandGate(CommandGateSettings settings) : settings_(std::move(settings)) { settings_.validate(); }
+
+GateDecision CommandGate::refuse(GateRefusal refusal, std::string reason) {
+  counts_[static_cast<std::size_t>(refusal)].fetch_add(1, std::memory_order_relaxed);
+  return {refusal, std::move(reason)};
+}
+
+CommandGate::Client* CommandGate::client_slot(std::int64_t id, std::int64_t now_us) {
+  Client* oldest = &clients_[0];
+  for (Client& c : clients_) {
+    if (c.id == id) return &c;
+    if (c.last_seen_us < oldest->last_seen_us) oldest = &c;
+  }
+  if (oldest->id != 0 && now_us - oldest->last_seen_us <= to_us(settings_.max_age_s)) return nullptr;
+  *oldest = Client{id, 0, now_us};
+  return oldest;
+}
+
+GateDecision CommandGate::admit(const CommandOrigin& origin, CommandClass command_class, std::int64_t now_us) {
+  if (origin.axis != settings_.axis) {
+    return refuse(GateRefusal::kOtherAxis,
+                  "for axis '" + std::string(origin.axis) + "', this daemon drives axis '" + settings_.axis + "'");
+  }
+  if (origin.session != settings_.session) {
+    return refuse(GateRefusal::kOtherSession, "for session " + std::to_string(origin.session) +
+                                                  ", this daemon's session is " + std::to_string(settings_.session) +
+                                                  " (read it from the status)");
+  }
+  if (origin.client == 0) return refuse(GateRefusal::kNoClient, "client id 0 is not a client");
+  const double age_s = static_cast<double>(now_us - origin.utime_us) * 1e-6;
+  if (std::fabs(age_s) > settings_.max_age_s) {
+    return refuse(GateRefusal::kStale, (age_s > 0 ? "sent " + seconds_text(age_s) + " ago"
+                                                  : "sent " + seconds_text(-age_s) + " in the future") +
+                                           ", the limit is " + seconds_text(settings_.max_age_s));
+  }
+  Client* client = client_slot(origin.client, now_us);
+  if (client == nullptr) {
+    return refuse(GateRefusal::kNoClient, "too many clients within " + seconds_text(settings_.max_age_s));
+  }
+  if (origin.sequence <= client->last_sequence) {
+    return refuse(GateRefusal::kReplayed, "sequence " + std::to_string(origin.sequence) + " is not above " +
+                                              std::to_string(client->last_sequence) +
+                                              ", the last one of client " + std::to_string(origin.client));
+  }
+  const std::int64_t holder_now = holder(now_us);
+  const bool holds = holder_now == origin.client;
+  switch (command_class) {
+    case CommandClass::kSafety: break;
+    case CommandClass::kTakeControl:
+      if (holder_now != 0 && !holds) {
+        return refuse(GateRefusal::kNotInControl,
+                      "client " + std::to_string(holder_now) + " holds control for another " +
+                          seconds_text(lease_remaining_s(now_us)) + " unless it releases it");
+      }
+      // The lease first, so a reader never sees the new holder with an old lease.
+      lease_end_us_.store(now_us + to_us(settings_.control_lease_s), std::memory_order_release);
+      holder_.store(origin.client, std::memory_order_release);
+      break;
+    case CommandClass::kReleaseControl:
+      if (!holds) return refuse(GateRefusal::kNotInControl, "this client does not hold control");
+      holder_.store(0, std::memory_order_release);
+      lease_end_us_.store(0, std::memory_order_release);
+      break;
+    case CommandClass::kControlled:
+      if (!holds) {
+        return refuse(GateRefusal::kNotInControl,
+                      holder_now == 0 ? std::string("take control first")
+                                      : "client " + std::to_string(holder_now) + " holds control");
+      }
+      break;
+  }
+  if (holds && command_class != CommandClass::kReleaseControl) {
+    lease_end_us_.store(now_us + to_us(settings_.control_lease_s), std::memory_order_release);
+  }
+  client->last_sequence = origin.sequence;
+  client->last_seen_us = now_us;
+  counts_[static_cast<std::size_t>(GateRefusal::kAdmitted)].fetch_add(1, std::memory_order_relaxed);
+  return {};
+}
+
+std::int64_t CommandGate::holder(std::int64_t now_us) const noexcept {
+  const std::int64_t id = holder_.load(std::memory_order_acquire);
+  return id != 0 && now_us < lease_end_us_.load(std::memory_order_acquire) ? id : 0;
+}
+
+double CommandGate::lease_remaining_s(std::int64_t now_us) const noexcept {
+  if (holder(now_us) == 0) return 0.0;
+  return static_cast<double>(lease_end_us_.load(std::memory_order_acquire) - now_us) * 1e-6;
+}
+
+std::int64_t CommandGate::count(GateRefusal refusal) const noexcept {
+  return counts_[static_cast<std::size_t>(refusal)].load(std::memory_order_relaxed);
+}
+
+}  // namespace clm::servod
