@@ -1,7 +1,9 @@
 #include "daemon/servod/servod_config.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <optional>
+#include <stdexcept>
 
 #include "daemon/control/position_controller.hpp"
 #include "drivers/can_protocol.hpp"
@@ -45,12 +47,38 @@ void require_file(const yaml::Node& section, const char* key, const std::string&
   if (!path.empty()) require_existing(section[key], path);
 }
 
+bool valid_axis_name(const std::string& name) {
+  if (name.empty() || name.size() > 32) return false;
+  for (const char c : name) {
+    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' ||
+                    c == '.' || c == '-';
+    if (!ok) return false;
+  }
+  return true;
+}
+
+/// The canonical absolute path of an existing directory; fails at `node`.
+std::string canonical_directory(const yaml::Node& node, const std::string& path) {
+  std::error_code error;
+  const auto canonical = std::filesystem::canonical(path, error);
+  if (error) node.fail("directory '" + path + "': " + error.message());
+  if (!std::filesystem::is_directory(canonical, error)) node.fail("'" + path + "' is not a directory");
+  return canonical.string();
+}
+
 }  // namespace
 
 ServodConfig parse_servod_config(const yaml::Node& root, const std::string& directory) {
-  root.expect_keys({"motor_file", "loop", "can", "control", "commutation", "faults", "telemetry"});
+  root.expect_keys({"motor_file", "axis", "loop", "can", "control", "commutation", "faults", "telemetry", "commands"});
   ServodConfig config;
   config.origin = root.file();
+  if (const auto axis = root.optional("axis")) {
+    axis->expect_keys({"name"});
+    if (const auto v = axis->optional("name")) {
+      config.axis_name = v->as_string();
+      if (!valid_axis_name(config.axis_name)) v->fail("axis name must have 1..32 characters of A-Z a-z 0-9 _ . -");
+    }
+  }
   config.motor_file = resolve(directory, root["motor_file"].as_string());
   require_existing(root["motor_file"], config.motor_file);
   config.motor = load_motor_description(config.motor_file);
@@ -196,18 +224,75 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     if (const auto v = faults->optional("overrun_limit")) config.servo.overrun_limit = static_cast<int>(v->as_integer_in(1, 1000));
   }
   if (const auto telemetry = root.optional("telemetry")) {
-    telemetry->expect_keys({"enabled", "lcm_url", "state_decimation", "status_rate_hz"});
+    telemetry->expect_keys({"enabled", "lcm_url", "allow_network", "state_decimation", "status_rate_hz"});
+    if (const auto v = telemetry->optional("allow_network")) config.telemetry.allow_network = v->as_bool();
     if (const auto v = telemetry->optional("enabled")) config.telemetry.enabled = v->as_bool();
     if (const auto v = telemetry->optional("lcm_url")) config.telemetry.lcm_url = v->as_string();
     if (const auto v = telemetry->optional("state_decimation")) config.telemetry.state_decimation = static_cast<int>(v->as_integer_in(1, 100000));
     if (const auto v = telemetry->optional("status_rate_hz")) config.telemetry.status_rate_hz = v->as_double_in(0.1, 100.0);
   }
+  if (config.telemetry.enabled) {
+    const std::optional<yaml::Node> telemetry_node = root.optional("telemetry");
+    const std::optional<yaml::Node> url_key = telemetry_node ? telemetry_node->optional("lcm_url") : std::nullopt;
+    const yaml::Node* url_node = url_key ? &*url_key : nullptr;
+    int ttl = 0;
+    try {
+      ttl = lcm_url_ttl(config.telemetry.lcm_url);
+    } catch (const std::invalid_argument& e) {
+      (url_node ? *url_node : root).fail(e.what());
+    }
+    if (ttl > 0 && !config.telemetry.allow_network) {
+      (url_node ? *url_node : root)
+          .fail("ttl=" + std::to_string(ttl) +
+                " sends states and takes commands beyond this host; set telemetry.allow_network: true to accept that "
+                "(docs/telemetry.md)");
+    }
+  }
+
+  config.commands.file_directories = {canonical_directory(root, directory)};
+  if (const auto commands = root.optional("commands")) {
+    commands->expect_keys({"max_age_s", "control_lease_s", "file_directories", "max_file_bytes"});
+    if (const auto v = commands->optional("max_age_s")) config.commands.max_age_s = v->as_double_in(0.01, 3600.0);
+    if (const auto v = commands->optional("control_lease_s")) config.commands.control_lease_s = v->as_double_in(0.1, 86400.0);
+    if (const auto v = commands->optional("max_file_bytes")) config.commands.max_file_bytes = v->as_integer_in(1024, 1L << 30);
+    if (const auto v = commands->optional("file_directories")) {
+      config.commands.file_directories.clear();
+      if (!v->is_sequence()) v->fail("expected a list of directories");
+      for (std::size_t i = 0; i < v->size(); ++i) {
+        const yaml::Node entry = v->at(i);
+        config.commands.file_directories.push_back(canonical_directory(entry, resolve(directory, entry.as_string())));
+      }
+      if (config.commands.file_directories.empty()) v->fail("list at least one directory");
+    }
+  }
+
   try {
     config.servo.validate();
   } catch (const std::invalid_argument& e) {
     root.fail(e.what());
   }
   return config;
+}
+
+int lcm_url_ttl(const std::string& url) {
+  if (url.rfind("udpm://", 0) != 0) return -1;
+  const auto query = url.find('?');
+  if (query == std::string::npos) return 0;
+  std::size_t pos = query + 1;
+  while (pos <= url.size()) {
+    const std::size_t end = std::min(url.find('&', pos), url.size());
+    const std::string option = url.substr(pos, end - pos);
+    if (option.rfind("ttl=", 0) == 0) {
+      const std::string value = option.substr(4);
+      if (value.empty() || value.size() > 3 || value.find_first_not_of("0123456789") != std::string::npos ||
+          std::stoi(value) > 255) {
+        throw std::invalid_argument("ttl must be a whole number 0..255, got '" + value + "'");
+      }
+      return std::stoi(value);
+    }
+    pos = end + 1;
+  }
+  return 0;
 }
 
 ServodConfig load_servod_config(const std::string& path) {

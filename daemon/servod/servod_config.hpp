@@ -3,7 +3,9 @@
 // file, SI units in every key, every key with a default or a clear error,
 // unknown keys refused. Errors name file, line and key path.
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "commutation/commutator.hpp"
 #include "commutation/model_file.hpp"
@@ -41,18 +43,34 @@ struct CommutationConfig {
 struct TelemetryConfig {
   bool enabled = true;
   std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
+  /// A udpm URL with ttl above 0 sends telemetry and takes commands beyond
+  /// this host; refused unless this is set (docs/telemetry.md).
+  bool allow_network = false;
   int state_decimation = 1;
   double status_rate_hz = 10.0;
 };
 
+/// Who may command the axis and what it may load (docs/servod.md, "Command
+/// authority" and "Files").
+struct CommandsConfig {
+  double max_age_s = 2.0;             ///< older commands are refused [s]
+  double control_lease_s = 30.0;      ///< control lapses this long after the holder's last command [s]
+  /// Directories (canonical, absolute) that model, calibration, feedforward
+  /// and program files are loaded from; default: the config file's directory.
+  std::vector<std::string> file_directories;
+  std::int64_t max_file_bytes = 16 << 20;  ///< larger files are refused before they are read [B]
+};
+
 struct ServodConfig {
   std::string origin;                 ///< the config file
+  std::string axis_name = "axis0";    ///< names the axis in commands and status
   std::string motor_file;             ///< absolute path
   MotorDescription motor;
   LoopConfig loop;
   CanConfig can;
   CommutationConfig commutation;
   TelemetryConfig telemetry;
+  CommandsConfig commands;
   servo::ServoSettings servo;         ///< period, protocol, gains, limits
   double control_bandwidth_hz = 40.0;
   double control_mass_kg = 0.0;
@@ -63,5 +81,10 @@ struct ServodConfig {
 /// directory. Throws yaml::Error with file, line and key path.
 ServodConfig load_servod_config(const std::string& path);
 ServodConfig parse_servod_config(const yaml::Node& root, const std::string& directory);
+
+/// The ttl of a udpm:// LCM URL (LCM's default, 0, when it names none);
+/// −1 for a URL of another provider. Throws std::invalid_argument for a ttl
+/// that is not a whole number in 0..255.
+int lcm_url_ttl(const std::string& url);
 
 }  // namespace clm::servod

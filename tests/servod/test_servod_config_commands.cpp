@@ -1,0 +1,63 @@
+// The configuration keys of command authority and file loading: axis name,
+// commands.*, telemetry.allow_network for a ttl above 0.
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+
+#include "config/yaml_reader.hpp"
+#include "daemon/servod/servod_config.hpp"
+
+using namespace clm;
+
+namespace {
+
+const std::string kSource = CLM_SOURCE_DIR;
+
+servod::ServodConfig parse(const std::string& extra) {
+  const std::string text = "motor_file: " + kSource + "/config/motor-sim.yaml\n" +
+                           "control:\n  mass_kg: 15.0\n" + extra;
+  return servod::parse_servod_config(yaml::Node::load_string(text, "test.yaml"), kSource + "/config");
+}
+
+}  // namespace
+
+TEST_CASE("axis name, command age, lease and file directories have defaults and are read", "[config][commands]") {
+  const auto defaults = parse("");
+  CHECK(defaults.axis_name == "axis0");
+  CHECK(defaults.commands.max_age_s == 2.0);
+  CHECK(defaults.commands.control_lease_s == 30.0);
+  REQUIRE(defaults.commands.file_directories.size() == 1);
+  CHECK(defaults.commands.file_directories[0] == std::filesystem::canonical(kSource + "/config").string());
+
+  const auto set = parse("axis:\n  name: stage-x.1\ncommands:\n  max_age_s: 0.5\n  control_lease_s: 5\n"
+                         "  max_file_bytes: 4096\n  file_directories: [programs, /tmp]\n");
+  CHECK(set.axis_name == "stage-x.1");
+  CHECK(set.commands.max_age_s == 0.5);
+  CHECK(set.commands.control_lease_s == 5.0);
+  CHECK(set.commands.max_file_bytes == 4096);
+  REQUIRE(set.commands.file_directories.size() == 2);
+  CHECK(set.commands.file_directories[0] == std::filesystem::canonical(kSource + "/config/programs").string());
+  CHECK(set.commands.file_directories[1] == std::filesystem::canonical("/tmp").string());
+}
+
+TEST_CASE("bad axis names, directories and limits are refused naming line and key", "[config][commands]") {
+  CHECK_THROWS_WITH(parse("axis:\n  name: \"x y\"\n"), Catch::Contains("test.yaml:5") && Catch::Contains("axis.name"));
+  CHECK_THROWS_WITH(parse("axis:\n  name: \"\"\n"), Catch::Contains("axis.name"));
+  CHECK_THROWS_WITH(parse("commands:\n  file_directories: [/nonexistent-clm-dir]\n"),
+                    Catch::Contains("file_directories") && Catch::Contains("/nonexistent-clm-dir"));
+  CHECK_THROWS_WITH(parse("commands:\n  file_directories: [motor-sim.yaml]\n"), Catch::Contains("not a directory"));
+  CHECK_THROWS_WITH(parse("commands:\n  file_directories: []\n"), Catch::Contains("at least one"));
+  CHECK_THROWS_WITH(parse("commands:\n  max_age_s: 0\n"), Catch::Contains("commands.max_age_s"));
+  CHECK_THROWS_WITH(parse("commands:\n  owner: me\n"), Catch::Contains("owner"));
+}
+
+TEST_CASE("a ttl above 0 needs telemetry.allow_network", "[config][commands]") {
+  CHECK_THROWS_WITH(parse("telemetry:\n  lcm_url: \"udpm://239.255.76.67:7667?ttl=255\"\n"),
+                    Catch::Contains("test.yaml:5") && Catch::Contains("ttl=255") && Catch::Contains("allow_network"));
+  CHECK_NOTHROW(parse("telemetry:\n  lcm_url: \"udpm://239.255.76.67:7667?ttl=1\"\n  allow_network: true\n"));
+  CHECK_NOTHROW(parse("telemetry:\n  lcm_url: \"udpm://239.255.76.67:7667?ttl=0\"\n"));
+  CHECK_THROWS_WITH(parse("telemetry:\n  lcm_url: \"udpm://239.255.76.67:7667?ttl=999\"\n"), Catch::Contains("0..255"));
+  CHECK(servod::lcm_url_ttl("udpm://239.255.76.67:7667") == 0);
+  CHECK(servod::lcm_url_ttl("udpm://239.255.76.67:7667?recv_buf_size=4194304&ttl=3") == 3);
+  CHECK(servod::lcm_url_ttl("file:///tmp/x.lcm") == -1);
+}
