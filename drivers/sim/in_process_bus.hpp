@@ -15,7 +15,7 @@
 
 namespace clm::sim {
 
-/// Bus-side fault injection on the in-process bus (issue: fault injection).
+/// Bus-side fault injection on the in-process bus (docs/reliability.md).
 struct Injection {
   int drop_drive_frames = 0;       ///< drop the next n drive feedback frames
   int drop_force_frames = 0;       ///< drop the next n force-sensor frames

@@ -1,4 +1,4 @@
-// Speed of the simulated motor (issue item 8): 60 s of motor time at a 1 kHz
+// Speed of the simulated motor (docs/simulator.md): 60 s of motor time at a 1 kHz
 // control rate must take at most 1 s of CPU.
 //   ./build/bin/bench_sim --benchmark_filter=SixtySeconds
 #include <benchmark/benchmark.h>

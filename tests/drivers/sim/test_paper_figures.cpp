@@ -1,5 +1,5 @@
-// The default motor reproduces the situation of the paper's Table 2 (issue
-// item 6): Algorithm 1 on experiment-mode Fig. 8 data (each coil set alone,
+// The default motor reproduces the situation of the paper's Table 2
+// (docs/simulator.md): Algorithm 1 on experiment-mode Fig. 8 data (each coil set alone,
 // Δ = ∓π/4, closed loop without feedforward), then the Fig. 8 reference in
 // closed loop with the original (uncalibrated) and the calibrated classical
 // commutation, each with its own identified feedforward as in the paper.
@@ -47,7 +47,7 @@ struct PaperFigures {
 };
 
 // Closed loop as in the paper's comparison: a first run without feedforward
-// identifies m, f_v, f_c for this commutation (notes item 10), the second run
+// identifies m, f_v, f_c for this commutation (docs/commutation.md §10), the second run
 // with that feedforward is measured.
 CommutationFigures measure(SimulatedMotor& motor, const control::MoveProgram& program, const CommutationLaw& law) {
   const auto gains = control::tune_pid(motor.parameters().mechanics.translator_mass_kg, kBandwidth_Hz);
