@@ -35,6 +35,7 @@
 #include <thread>
 
 #include "clm_version.hpp"
+#include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/command_server.hpp"
 #include "daemon/servod/loop_health.hpp"
 #include "daemon/servod/realtime.hpp"
@@ -102,7 +103,10 @@ int run(const std::string& config_path, double duration_s) {
   const servod::SystemdNotifier notifier = servod::SystemdNotifier::from_environment();
   const double watchdog_period_s = servod::watchdog_period_from_environment();
 
-  servod::ServoDaemon daemon(config);
+  // The bus can.interface names (SocketCAN, or the embedded simulated motor)
+  // and the daemon on it.
+  servod::WiredAxis axis(config);
+  servod::ServoDaemon& daemon = axis.daemon;
 
   std::unique_ptr<telemetry::TelemetryPublisher> publisher;
   std::unique_ptr<servod::TelemetryBridge> bridge;

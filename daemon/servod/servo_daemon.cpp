@@ -5,12 +5,6 @@
 #include <stdexcept>
 
 #include "daemon/servod/wakeup_schedule.hpp"
-#include "daemon/simbus/in_process_bus.hpp"
-#include "daemon/simbus/simulated_nodes.hpp"
-#include "drivers/socket_can_bus.hpp"
-#include "tools/sim/motor.hpp"
-#include "tools/sim/motor_file.hpp"
-#include "tools/sim/oracle.hpp"
 
 namespace clm::servod {
 namespace {
@@ -55,22 +49,9 @@ struct ServoDaemon::OwnedLaw {
   std::unique_ptr<CommutationLaw> law;
 };
 
-ServoDaemon::ServoDaemon(const ServodConfig& config) : config_(config) {
-  const auto& protocol = config_.servo.protocol;
-  if (config_.can.interface == "sim") {
-    motor_ = std::make_unique<sim::SimulatedMotor>(sim::load_motor_parameters(config_.motor_file));
-    if (motor_->coil_sets() != config_.motor.coil_sets) {
-      throw std::runtime_error(config_.motor_file + ": simulated motor has " + std::to_string(motor_->coil_sets()) +
-                               " coil sets, motor.coil_sets says " + std::to_string(config_.motor.coil_sets));
-    }
-    nodes_ = std::make_unique<simbus::SimulatedNodes>(*motor_, protocol, config_.servo.period_s);
-    auto bus = std::make_unique<simbus::InProcessBus>(*nodes_);
-    in_process_ = bus.get();
-    bus_ = std::move(bus);
-  } else {
-    const auto ids = can::daemon_receive_ids(protocol);
-    bus_ = std::make_unique<drivers::SocketCanBus>(config_.can.interface, std::vector<std::uint32_t>(ids.begin(), ids.end()));
-  }
+ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drivers::BusClock& clock,
+                         std::vector<ExtraLaw> extra_laws)
+    : config_(config), bus_(&bus), clock_(&clock), extra_laws_(std::move(extra_laws)) {
   cycle_ = std::make_unique<servo::ServoCycle>(config_.servo);
 
   // The drive's own law, always available.
@@ -94,15 +75,7 @@ ServoDaemon::ServoDaemon(const ServodConfig& config) : config_(config) {
     cycle_->install_law(mode, law->law.get());
     laws_.push_back(std::move(law));
   }
-  if (motor_) {
-    auto oracle = std::make_unique<OwnedLaw>();
-    oracle->mode = servo::CommutationMode::kOracle;
-    oracle->source = "simulator truth";
-    oracle->law = std::make_unique<sim::OracleCommutator>(motor_->electromagnetics(), config_.motor.drive,
-                                                          config_.commutation.options);
-    cycle_->install_law(servo::CommutationMode::kOracle, oracle->law.get());
-    laws_.push_back(std::move(oracle));
-  }
+  for (const ExtraLaw& extra : extra_laws_) cycle_->install_law(extra.mode, extra.law);
   const auto status = cycle_->request_mode(config_.commutation.mode);
   if (status != servo::CommandStatus::kAccepted) {
     throw std::runtime_error(config_.origin + ": commutation.mode: " + servo::describe(status));
@@ -113,13 +86,13 @@ ServoDaemon::ServoDaemon(const ServodConfig& config) : config_(config) {
 
 ServoDaemon::~ServoDaemon() = default;
 
-sim::SimulatedMotor* ServoDaemon::simulated_motor() noexcept { return motor_.get(); }
-simbus::InProcessBus* ServoDaemon::in_process_bus() noexcept { return in_process_; }
-
 std::string ServoDaemon::law_source(servo::CommutationMode mode) const {
   // The law the cycle uses now; one still waiting for standstill is not it.
   for (const auto& law : laws_) {
     if (law->mode == mode && cycle_->law_handover(mode).is_current(law->law.get())) return law->source;
+  }
+  for (const ExtraLaw& extra : extra_laws_) {
+    if (extra.mode == mode && cycle_->law_handover(mode).is_current(extra.law)) return extra.source;
   }
   return "";
 }
@@ -264,7 +237,7 @@ void ServoDaemon::drain_commands() noexcept {
 void ServoDaemon::one_cycle(std::int64_t sync_time_ns, std::int64_t deadline_ns, double time_s,
                             std::int64_t next_sync_ns, bool realtime) noexcept {
   drain_commands();
-  if (in_process_ != nullptr) in_process_->set_time_ns(sync_time_ns);
+  clock_->advance_to(sync_time_ns);
   const can::Frame sync = cycle_->begin_cycle(sync_time_ns);
   bool send_failed = !bus_->send(sync);
   drivers::ReceivedFrame received;

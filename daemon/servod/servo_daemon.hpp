@@ -1,6 +1,6 @@
 #pragma once
-// clm-servod's core: the configuration made concrete (bus, simulated motor,
-// commutation laws, servo cycle), the loop on a real-time or virtual clock,
+// clm-servod's core: the configuration made concrete (commutation laws, servo
+// cycle) on the bus it is given, the loop on a real-time or virtual clock,
 // and the command path. Commands arrive on any non-real-time thread through
 // submit(); whatever needs files or planning happens there, and the cycle
 // only receives ready objects (Handover) and small commands (SPSC queue).
@@ -17,15 +17,8 @@
 #include "daemon/servod/program_file.hpp"
 #include "daemon/servod/servod_config.hpp"
 #include "daemon/telemetry/spsc_queue.hpp"
+#include "drivers/bus_clock.hpp"
 #include "drivers/can_bus.hpp"
-
-namespace clm::sim {
-class SimulatedMotor;
-}
-namespace clm::simbus {
-class SimulatedNodes;
-class InProcessBus;
-}
 
 namespace clm::servod {
 
@@ -67,11 +60,25 @@ class CycleObserver {
   virtual void on_cycle(const servo::ServoCycle& cycle, const LoopTiming& timing) noexcept = 0;
 };
 
+/// A commutation law the daemon's builder owns and offers beside the laws of
+/// the configuration's files (e.g. the simulator's oracle for
+/// CommutationMode::kOracle). `law` must outlive the daemon.
+struct ExtraLaw {
+  servo::CommutationMode mode = servo::CommutationMode::kOracle;
+  const CommutationLaw* law = nullptr;
+  std::string source;  ///< what law_source() reports, e.g. "simulator truth"
+};
+
 class ServoDaemon {
  public:
-  /// Builds everything the configuration names; throws with a precise message
-  /// (file, key, value) on any problem.
-  explicit ServoDaemon(const ServodConfig& config);
+  /// Builds the cycle and the laws the configuration names on `bus`, with
+  /// `clock` the bus's time base (drivers::no_bus_clock() for real hardware)
+  /// and `extra_laws` installed beside them; bus, clock and extra laws must
+  /// outlive the daemon (daemon/servod/axis_wiring.hpp builds them from the
+  /// configuration). Throws with a precise message (file, key, value) on any
+  /// problem.
+  ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drivers::BusClock& clock = drivers::no_bus_clock(),
+              std::vector<ExtraLaw> extra_laws = {});
   ~ServoDaemon();
   ServoDaemon(const ServoDaemon&) = delete;
   ServoDaemon& operator=(const ServoDaemon&) = delete;
@@ -99,9 +106,6 @@ class ServoDaemon {
   const ServodConfig& config() const noexcept { return config_; }
   /// Cycles completed; the watchdog thread checks it advances.
   std::int64_t cycles_done() const noexcept { return cycles_done_.load(std::memory_order_acquire); }
-  /// The simulated motor when can.interface is sim, else nullptr.
-  sim::SimulatedMotor* simulated_motor() noexcept;
-  simbus::InProcessBus* in_process_bus() noexcept;
   std::string law_source(servo::CommutationMode mode) const;
   drivers::BusState bus_state() const noexcept { return bus_->state(); }
 
@@ -116,10 +120,9 @@ class ServoDaemon {
   CommandReply queue(const DaemonCommand& command);
 
   ServodConfig config_;
-  std::unique_ptr<sim::SimulatedMotor> motor_;
-  std::unique_ptr<simbus::SimulatedNodes> nodes_;
-  std::unique_ptr<drivers::CanBus> bus_;
-  simbus::InProcessBus* in_process_ = nullptr;
+  drivers::CanBus* bus_;
+  drivers::BusClock* clock_;
+  std::vector<ExtraLaw> extra_laws_;
   std::unique_ptr<servo::ServoCycle> cycle_;
   std::vector<std::unique_ptr<OwnedLaw>> laws_;
   std::vector<std::unique_ptr<control::MoveProgram>> programs_;

@@ -94,7 +94,8 @@ servod::ServodConfig commissioning_config(const std::string& path) {
 
 ClosedLoop closed_loop(const servod::ServodConfig& config, const NamedModel& model, const servod::ProgramFile& program,
                        const std::optional<servod::ProgramFile>& validation_program) {
-  servod::ServoDaemon daemon(config);
+  servod::WiredAxis axis(config);
+  servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(20);
   commission::execute(daemon, make(Kind::kEnable));
   auto load = make(Kind::kLoadModel);
@@ -108,15 +109,15 @@ ClosedLoop closed_loop(const servod::ServodConfig& config, const NamedModel& mod
   auto ff = make(Kind::kSetFeedforward);
   ff.feedforward = {};
   commission::execute(daemon, ff);
-  const auto identification_run = commission::run_program(daemon, program, model.name + " feedforward data");
+  const auto identification_run = commission::run_program(axis, program, model.name + " feedforward data");
   ff.feedforward = identify_ff(identification_run);
   commission::execute(daemon, ff);
   ClosedLoop result;
-  result.program = evaluate(commission::run_program(daemon, program, model.name + " evaluation"), config.servo.period_s);
+  result.program = evaluate(commission::run_program(axis, program, model.name + " evaluation"), config.servo.period_s);
   result.program.name = model.name;
   result.program.feedforward = ff.feedforward;
   if (validation_program) {
-    result.validation = evaluate(commission::run_program(daemon, *validation_program, model.name + " validation"),
+    result.validation = evaluate(commission::run_program(axis, *validation_program, model.name + " validation"),
                                  config.servo.period_s);
     result.validation->name = model.name;
     result.validation->feedforward = ff.feedforward;

@@ -1,6 +1,7 @@
 #pragma once
 // Helpers for daemon tests: the default configuration on the virtual clock,
-// commands, what went on the bus to the drive, temporary files and
+// commands, what went on the bus to the drive (seen on the in-process bus of
+// the servod::WiredAxis that built the daemon), temporary files and
 // commutation files made from the simulator's truth.
 
 #include <catch2/catch.hpp>
@@ -14,11 +15,12 @@
 
 #include "commutation/classical.hpp"
 #include "commutation/model_file.hpp"
+#include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/servo_daemon.hpp"
-#include "daemon/simbus/in_process_bus.hpp"
 #include "drivers/can_protocol.hpp"
-#include "tools/sim/motor.hpp"
-#include "tools/sim/motor_file.hpp"
+#include "drivers/sim/in_process_bus.hpp"
+#include "drivers/sim/motor.hpp"
+#include "drivers/sim/motor_file.hpp"
 
 namespace clm::test {
 
@@ -91,11 +93,11 @@ struct SentSetpoints {
   }
 };
 
-inline SentSetpoints sent_setpoints(servod::ServoDaemon& daemon) {
-  const can::ProtocolConfig& protocol = daemon.config().servo.protocol;
+inline SentSetpoints sent_setpoints(servod::WiredAxis& axis) {
+  const can::ProtocolConfig& protocol = axis.daemon.config().servo.protocol;
   SentSetpoints sent;
   unsigned mask = 0;
-  for (const can::Frame& frame : daemon.in_process_bus()->frames_since_sync()) {
+  for (const can::Frame& frame : axis.in_process_bus()->frames_since_sync()) {
     ++sent.frames;
     for (std::size_t index = 0; index < can::setpoint_frame_count(protocol.coil_sets); ++index) {
       if (frame.id != can::setpoint_id(protocol, index)) continue;
@@ -111,24 +113,24 @@ inline SentSetpoints sent_setpoints(servod::ServoDaemon& daemon) {
 /// every setpoint frame on the bus has zero magnitudes and enable cleared,
 /// and (when the frames reached it) the simulated drive is disabled and
 /// drives no current.
-inline void require_safe_output(servod::ServoDaemon& daemon, bool frames_reached_drive = true) {
-  const SentSetpoints sent = sent_setpoints(daemon);
+inline void require_safe_output(servod::WiredAxis& axis, bool frames_reached_drive = true) {
+  const SentSetpoints sent = sent_setpoints(axis);
   REQUIRE(sent.complete);
   CHECK_FALSE(sent.command.enable);
   CHECK(sent.all_magnitudes_zero());
   if (frames_reached_drive) {
-    const sim::SimulatedMotor& motor = *daemon.simulated_motor();
+    const sim::SimulatedMotor& motor = *axis.simulated_motor();
     CHECK_FALSE(motor.status().enabled());
     CHECK(motor.truth().currents_A.cwiseAbs().maxCoeff() == 0.0);
   }
 }
 
 /// The last cycle drove the axis: enable set on the bus and the drive enabled.
-inline void require_driving_output(servod::ServoDaemon& daemon) {
-  const SentSetpoints sent = sent_setpoints(daemon);
+inline void require_driving_output(servod::WiredAxis& axis) {
+  const SentSetpoints sent = sent_setpoints(axis);
   REQUIRE(sent.complete);
   CHECK(sent.command.enable);
-  CHECK(daemon.simulated_motor()->status().enabled());
+  CHECK(axis.simulated_motor()->status().enabled());
 }
 
 /// Runs single cycles until the cycle latches a fault; returns how many ran

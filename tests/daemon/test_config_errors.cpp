@@ -59,7 +59,8 @@ std::string load_error(const test::TempDir& dir, const std::vector<std::string>&
 TEST_CASE("the valid test configuration loads and runs", "[daemon][config]") {
   test::TempDir dir("clm-servod-config");
   REQUIRE(load_error(dir, valid_lines()).empty());
-  servod::ServoDaemon daemon(servod::load_servod_config(dir.file("servod.yaml")));
+  servod::WiredAxis axis(servod::load_servod_config(dir.file("servod.yaml")));
+  servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
   CHECK(daemon.cycle().state() == servo::ServoState::kDisabled);
 }
@@ -155,7 +156,7 @@ TEST_CASE("commutation files for another motor or of the wrong kind are refused 
     test::write_text(dir.file("servod.yaml"), join(lines));
     const auto config = servod::load_servod_config(dir.file("servod.yaml"));  // the files exist: loads
     try {
-      servod::ServoDaemon daemon(config);
+      servod::WiredAxis axis(config);
     } catch (const std::exception& e) {
       return std::string(e.what());
     }

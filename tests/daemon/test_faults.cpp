@@ -11,9 +11,9 @@
 #include <cmath>
 
 #include "daemon/servod/servo_daemon.hpp"
-#include "daemon/simbus/in_process_bus.hpp"
+#include "drivers/sim/in_process_bus.hpp"
+#include "drivers/sim/motor.hpp"
 #include "tests/daemon/daemon_support.hpp"
-#include "tools/sim/motor.hpp"
 
 using namespace clm;
 using Kind = servod::DaemonCommand::Kind;
@@ -25,13 +25,14 @@ namespace {
 /// The default daemon (or `config`) with the axis enabled, holding at the
 /// centre of the stroke.
 struct EnabledAxis {
-  explicit EnabledAxis(const servod::ServodConfig& config = test::virtual_config()) : daemon(config) {
+  explicit EnabledAxis(const servod::ServodConfig& config = test::virtual_config()) : wired(config), daemon(wired.daemon) {
     daemon.run_cycles(10);
     test::command(daemon, Kind::kEnable, 20);
     REQUIRE(daemon.cycle().state() == ServoState::kEnabled);
-    test::require_driving_output(daemon);
+    test::require_driving_output(wired);
   }
-  simbus::Injection& injection() { return daemon.in_process_bus()->injection(); }
+  sim::Injection& injection() { return wired.in_process_bus()->injection(); }
+  sim::SimulatedMotor& motor() { return *wired.simulated_motor(); }
   const servo::CycleCounters& counters() { return daemon.cycle().counters(); }
   int limit() const { return daemon.config().servo.missing_frame_limit; }
 
@@ -49,12 +50,12 @@ struct EnabledAxis {
     INFO("fault " << servo::describe(daemon.cycle().fault()));
     REQUIRE(daemon.cycle().state() == ServoState::kFault);
     REQUIRE(daemon.cycle().fault() == expected);
-    test::require_safe_output(daemon, frames_reached_drive);
+    test::require_safe_output(wired, frames_reached_drive);
     for (int k = 0; k < more; ++k) {
       daemon.run_cycles(1);
       REQUIRE(daemon.cycle().state() == ServoState::kFault);
       REQUIRE(daemon.cycle().fault() == expected);
-      test::require_safe_output(daemon);
+      test::require_safe_output(wired);
     }
   }
 
@@ -71,28 +72,29 @@ struct EnabledAxis {
     test::command(daemon, Kind::kClearFault);
     REQUIRE(daemon.cycle().state() == ServoState::kDisabled);
     CHECK(daemon.cycle().fault() == Fault::kNone);
-    const auto clearing = test::sent_setpoints(daemon);
+    const auto clearing = test::sent_setpoints(wired);
     REQUIRE(clearing.complete);
     CHECK(clearing.command.clear_fault);
     CHECK_FALSE(clearing.command.enable);
     CHECK(clearing.all_magnitudes_zero());
     daemon.run_cycles(5);
     REQUIRE(daemon.cycle().state() == ServoState::kDisabled);
-    CHECK_FALSE(test::sent_setpoints(daemon).command.clear_fault);
-    CHECK_FALSE(daemon.simulated_motor()->status().fault());
+    CHECK_FALSE(test::sent_setpoints(wired).command.clear_fault);
+    CHECK_FALSE(wired.simulated_motor()->status().fault());
     test::command(daemon, Kind::kEnable);
     REQUIRE(daemon.cycle().state() == ServoState::kEnabled);
-    test::require_driving_output(daemon);
+    test::require_driving_output(wired);
     for (int k = 0; k < 200; ++k) {
       daemon.run_cycles(1);
       INFO("cycle " << k << " after enable: " << servo::describe(daemon.cycle().fault()));
       REQUIRE(daemon.cycle().state() == ServoState::kEnabled);
     }
-    test::require_driving_output(daemon);
-    CHECK_FALSE(daemon.simulated_motor()->status().fault());
+    test::require_driving_output(wired);
+    CHECK_FALSE(wired.simulated_motor()->status().fault());
   }
 
-  servod::ServoDaemon daemon;
+  servod::WiredAxis wired;  ///< the daemon and the simulated motor and bus it runs on
+  servod::ServoDaemon& daemon;
 };
 
 /// Limits of a brisk move: 0.3 m/s, 10 m/s² (150 N on the 15 kg translator).
@@ -111,7 +113,7 @@ TEST_CASE("encoder frames missing: one and limit-1 ride through, the limit latch
     for (int k = 0; k < n + 50; ++k) {
       axis.daemon.run_cycles(1);
       REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
-      test::require_driving_output(axis.daemon);
+      test::require_driving_output(axis.wired);
     }
     CHECK(axis.counters().frames_missing - missing == n);
   }
@@ -150,7 +152,7 @@ TEST_CASE("late encoder frames are counted and ride through below the limit, lat
     for (int k = 0; k < n + 50; ++k) {
       axis.daemon.run_cycles(1);
       REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
-      test::require_driving_output(axis.daemon);
+      test::require_driving_output(axis.wired);
     }
     CHECK(axis.counters().frames_late - late == n);  // each arrived, a cycle late, and was not used
   }
@@ -177,7 +179,7 @@ TEST_CASE("duplicated encoder frames are counted and ride through", "[daemon][fa
   axis.daemon.run_until_idle(5000);
   axis.daemon.run_cycles(500);  // settle
   REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
-  CHECK(std::abs(axis.daemon.simulated_motor()->truth().position_m - 0.02) < 1e-5);
+  CHECK(std::abs(axis.motor().truth().position_m - 0.02) < 1e-5);
 }
 
 TEST_CASE("a drive alive-counter jump latches kEncoderAliveJump at once", "[daemon][faults]") {
@@ -219,7 +221,7 @@ TEST_CASE("drive frames with a wrong DLC are rejected and ride through below the
     for (int k = 0; k < n + 50; ++k) {
       axis.daemon.run_cycles(1);
       REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
-      test::require_driving_output(axis.daemon);
+      test::require_driving_output(axis.wired);
     }
     CHECK(axis.counters().frames_rejected - rejected == n);
   }
@@ -234,7 +236,7 @@ TEST_CASE("a corrupted position (0x7fffffff nm = 2.147 m) latches kPositionOutOf
   axis.injection().corrupt_position_frames = 1;
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
   CHECK(axis.daemon.cycle().record().position_m == Approx(2147483647e-9));
-  CHECK(std::abs(axis.daemon.simulated_motor()->truth().position_m) < 1e-3);  // the axis itself did not move
+  CHECK(std::abs(axis.motor().truth().position_m) < 1e-3);  // the axis itself did not move
   axis.require_latched(Fault::kPositionOutOfRange);
   axis.require_recovers();
 }
@@ -251,13 +253,13 @@ TEST_CASE("a following error above the configured limit latches kFollowingError 
   std::int64_t cycles = 0;
   while (axis.daemon.cycle().state() == ServoState::kEnabled) {
     const auto& record = axis.daemon.cycle().record();
-    previous_error_m = record.reference.position_m - axis.daemon.simulated_motor()->truth().position_m;
+    previous_error_m = record.reference.position_m - axis.motor().truth().position_m;
     axis.daemon.run_cycles(1);
     REQUIRE(++cycles < 2000);
   }
   // Independent of the record: the encoder is the truth quantised to 0.1 µm.
   const double error_m =
-      axis.daemon.cycle().record().reference.position_m - axis.daemon.simulated_motor()->truth().position_m;
+      axis.daemon.cycle().record().reference.position_m - axis.motor().truth().position_m;
   INFO("error at the fault " << error_m << " m, one cycle before " << previous_error_m << " m");
   CHECK(std::abs(error_m) > 50e-6 - 1e-7);
   CHECK(std::abs(previous_error_m) <= 50e-6 + 1e-7);
@@ -269,22 +271,22 @@ TEST_CASE("a position outside the soft limits latches kPositionOutOfRange, enabl
   EnabledAxis axis;
   const double soft_max_m = axis.daemon.config().servo.soft_limit_max_m;
   // The translator pushed past the soft limit (inside the end stops).
-  axis.daemon.simulated_motor()->reset(soft_max_m + 0.005);
+  axis.motor().reset(soft_max_m + 0.005);
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
-  CHECK(axis.daemon.simulated_motor()->truth().position_m > soft_max_m);
+  CHECK(axis.motor().truth().position_m > soft_max_m);
   axis.require_latched(Fault::kPositionOutOfRange);
   // Still outside: clearing re-latches at once.
   test::command(axis.daemon, Kind::kClearFault);
   CHECK(axis.daemon.cycle().fault() == Fault::kPositionOutOfRange);
   // Back inside, it recovers.
-  axis.daemon.simulated_motor()->reset(0.0);
+  axis.motor().reset(0.0);
   axis.daemon.run_cycles(2);
   axis.require_recovers();
 
   // Disabled axis moved outside by hand: the fault latches all the same.
   test::command(axis.daemon, Kind::kDisable);
   REQUIRE(axis.daemon.cycle().state() == ServoState::kDisabled);
-  axis.daemon.simulated_motor()->reset(axis.daemon.config().servo.soft_limit_min_m - 0.005);
+  axis.motor().reset(axis.daemon.config().servo.soft_limit_min_m - 0.005);
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
   axis.require_latched(Fault::kPositionOutOfRange);
 }
@@ -304,7 +306,7 @@ TEST_CASE("a force demand saturated longer than the limit latches kForceSaturate
     if (axis.daemon.cycle().state() != ServoState::kEnabled) break;
     // The drive's own law shares F* equally: the magnitudes on the bus sum to
     // F*, so |Σ| shows the limit holding without trusting the record.
-    const double sum_N = test::sent_setpoints(axis.daemon).magnitude_sum_N();
+    const double sum_N = test::sent_setpoints(axis.wired).magnitude_sum_N();
     CHECK(std::abs(sum_N) <= 30.0 + 3 * can::kMagnitudeLsb_N);
     saturated_cycles = std::abs(sum_N) >= 30.0 - 3 * can::kMagnitudeLsb_N ? saturated_cycles + 1 : 0;
     max_saturated_run = std::max(max_saturated_run, saturated_cycles);
@@ -346,14 +348,14 @@ TEST_CASE("a drive watchdog trip is reported by the drive and latches kDriveFaul
           "[daemon][faults]") {
   EnabledAxis axis;
   const auto& protocol = axis.daemon.config().servo.protocol;
-  const double watchdog_s = axis.daemon.simulated_motor()->parameters().drive.watchdog_timeout_s;
+  const double watchdog_s = axis.motor().parameters().drive.watchdog_timeout_s;
   const auto cycles_lost = static_cast<int>(std::ceil(watchdog_s / axis.daemon.config().servo.period_s)) + 3;
   axis.injection().drop_setpoint_frames = cycles_lost * static_cast<int>(can::setpoint_frame_count(protocol.coil_sets));
   const auto cycles = test::run_until_fault(axis.daemon, 50);
   INFO("fault after " << cycles << " cycles");
   // The drive faults first, and the cycle latches in the cycle its status word says so.
-  CHECK(axis.daemon.simulated_motor()->status().watchdog());
-  CHECK(axis.daemon.simulated_motor()->status().fault());
+  CHECK(axis.motor().status().watchdog());
+  CHECK(axis.motor().status().fault());
   CHECK(cycles == std::llround(watchdog_s / axis.daemon.config().servo.period_s));
   axis.require_latched(Fault::kDriveFault, false);
   REQUIRE(axis.injection().drop_setpoint_frames == 0);
@@ -383,13 +385,13 @@ TEST_CASE("CAN error-passive latches kBusErrorPassive in the cycle it is seen", 
 TEST_CASE("a failing send latches kSendFailed and zero setpoints go out as soon as the bus takes frames",
           "[daemon][faults]") {
   EnabledAxis axis;
-  const double drive_time_s = axis.daemon.simulated_motor()->truth().time_s;
+  const double drive_time_s = axis.motor().truth().time_s;
   axis.injection().fail_sends = true;
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
   CHECK(axis.daemon.cycle().fault() == Fault::kSendFailed);
   // Nothing reached the nodes (not even the SYNC): the drive did not step.
-  CHECK(axis.daemon.simulated_motor()->truth().time_s == drive_time_s);
-  CHECK(test::sent_setpoints(axis.daemon).frames == 0);
+  CHECK(axis.motor().truth().time_s == drive_time_s);
+  CHECK(test::sent_setpoints(axis.wired).frames == 0);
   axis.injection().fail_sends = false;
   axis.daemon.run_cycles(1);
   axis.require_latched(Fault::kSendFailed);
@@ -410,8 +412,8 @@ TEST_CASE("a lost setpoint frame never makes the drive apply a mix of two cycles
     REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
     if (k == 0) continue;  // the cycle whose set was incomplete: the drive keeps the last complete one
     // The currents the drive applies are those of this cycle's frames.
-    const auto sent = test::sent_setpoints(axis.daemon);
-    const sim::TruthState truth = axis.daemon.simulated_motor()->truth();
+    const auto sent = test::sent_setpoints(axis.wired);
+    const sim::TruthState truth = axis.motor().truth();
     for (int l = 0; l < sent.command.coil_sets; ++l) {
       const Eigen::Vector2d expected =
           drive_phase_currents(drive, sent.command.setpoints[static_cast<std::size_t>(l)], truth.position_m, pole_pitch_m);

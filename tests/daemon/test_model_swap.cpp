@@ -10,8 +10,8 @@
 
 #include "commutation/commutator.hpp"
 #include "daemon/servod/servo_daemon.hpp"
+#include "drivers/sim/motor.hpp"
 #include "tests/daemon/daemon_support.hpp"
-#include "tools/sim/motor.hpp"
 
 using namespace clm;
 using Kind = servod::DaemonCommand::Kind;
@@ -36,8 +36,9 @@ class LawPair {
   /// Which law produced the setpoints the daemon sent in its last cycle.
   /// Fails the test if neither does, or if the two laws cannot be told apart
   /// while current flows.
-  Used used(servod::ServoDaemon& daemon) {
-    const auto sent = test::sent_setpoints(daemon);
+  Used used(servod::WiredAxis& axis) {
+    servod::ServoDaemon& daemon = axis.daemon;
+    const auto sent = test::sent_setpoints(axis);
     REQUIRE(sent.complete);
     if (!sent.command.enable) return Used::kNoSetpoints;
     const auto& record = daemon.cycle().record();
@@ -103,7 +104,8 @@ struct PgnnRig {
 
 TEST_CASE("a model loaded mid-program is swapped in only at standstill after the program", "[daemon][swap]") {
   PgnnRig rig;
-  servod::ServoDaemon daemon(rig.config);
+  servod::WiredAxis axis(rig.config);
+  servod::ServoDaemon& daemon = axis.daemon;
   LawPair laws(rig.config, rig.first_path, rig.second_path);
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 10);
@@ -113,9 +115,9 @@ TEST_CASE("a model loaded mid-program is swapped in only at standstill after the
   REQUIRE(daemon.cycle().record().program_running);
   for (int k = 0; k < 3000; ++k) {  // into the first move of Fig. 8
     daemon.run_cycles(1);
-    REQUIRE(laws.used(daemon) == Used::kFirst);
+    REQUIRE(laws.used(axis) == Used::kFirst);
   }
-  REQUIRE(std::abs(daemon.simulated_motor()->truth().velocity_m_per_s) > 0.02);
+  REQUIRE(std::abs(axis.simulated_motor()->truth().velocity_m_per_s) > 0.02);
 
   const auto reply = daemon.submit(load_model(rig.second_path));
   INFO(reply.text);
@@ -133,15 +135,15 @@ TEST_CASE("a model loaded mid-program is swapped in only at standstill after the
     const bool running_before = daemon.cycle().record().program_running;
     daemon.run_cycles(1);
     REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
-    const Used used = laws.used(daemon);
+    const Used used = laws.used(axis);
     if (!running_before && program_end_cycle < 0) program_end_cycle = daemon.cycle().record().cycle;
     if (used == Used::kSecond) {
       swap_cycle = daemon.cycle().record().cycle;
       // Adopted at the start of this cycle: the program was over before it,
       // and the translator is at rest (the simulator's truth).
       CHECK_FALSE(running_before);
-      CHECK(std::abs(daemon.simulated_motor()->truth().velocity_m_per_s) < standstill_m_per_s);
-      CHECK(std::abs(daemon.simulated_motor()->truth().position_m - (-0.1)) < 20e-6);
+      CHECK(std::abs(axis.simulated_motor()->truth().velocity_m_per_s) < standstill_m_per_s);
+      CHECK(std::abs(axis.simulated_motor()->truth().position_m - (-0.1)) < 20e-6);
     }
   }
   INFO("program over at cycle " << program_end_cycle << ", swap at " << swap_cycle);
@@ -150,7 +152,7 @@ TEST_CASE("a model loaded mid-program is swapped in only at standstill after the
   CHECK(swap_cycle - program_end_cycle < 500);  // the next standstill, not some later one
   for (int k = 0; k < 500; ++k) {
     daemon.run_cycles(1);
-    REQUIRE(laws.used(daemon) == Used::kSecond);
+    REQUIRE(laws.used(axis) == Used::kSecond);
   }
   CHECK(daemon.law_source(CommutationMode::kPgnn) == rig.second_path);
   // And it drives the next program.
@@ -160,7 +162,7 @@ TEST_CASE("a model loaded mid-program is swapped in only at standstill after the
   REQUIRE(daemon.submit(back).accepted);
   for (int k = 0; k < 1000; ++k) {
     daemon.run_cycles(1);
-    REQUIRE(laws.used(daemon) == Used::kSecond);
+    REQUIRE(laws.used(axis) == Used::kSecond);
   }
 }
 
@@ -179,7 +181,9 @@ TEST_CASE("a model file that does not load leaves the running law untouched and 
                                sim::load_motor_parameters(test::source_path("config/motor-sim.yaml")))));
   const std::string missing = rig.dir.file("no-such-model.yaml");
 
-  servod::ServoDaemon daemon(rig.config);
+  servod::WiredAxis axis(rig.config);
+
+  servod::ServoDaemon& daemon = axis.daemon;
   LawPair laws(rig.config, rig.first_path, rig.second_path);
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 10);
@@ -207,7 +211,7 @@ TEST_CASE("a model file that does not load leaves the running law untouched and 
   daemon.run_cycles(1000);
   for (int k = 0; k < 100; ++k) {
     daemon.run_cycles(1);
-    REQUIRE(laws.used(daemon) == Used::kFirst);
+    REQUIRE(laws.used(axis) == Used::kFirst);
   }
   CHECK(daemon.law_source(CommutationMode::kPgnn) == rig.first_path);
   CHECK(daemon.cycle().state() == servo::ServoState::kEnabled);
@@ -215,7 +219,8 @@ TEST_CASE("a model file that does not load leaves the running law untouched and 
 
 TEST_CASE("a commutation change requested mid-move is deferred to standstill", "[daemon][swap]") {
   PgnnRig rig;
-  servod::ServoDaemon daemon(rig.config);
+  servod::WiredAxis axis(rig.config);
+  servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 10);
   servod::DaemonCommand move;
@@ -242,6 +247,6 @@ TEST_CASE("a commutation change requested mid-move is deferred to standstill", "
     REQUIRE(daemon.cycle().counters().cycles < 10000);
   }
   CHECK_FALSE(was_running);
-  CHECK(std::abs(daemon.simulated_motor()->truth().velocity_m_per_s) < rig.config.servo.standstill_velocity_m_per_s);
-  CHECK(std::abs(daemon.simulated_motor()->truth().position_m - 0.05) < 20e-6);
+  CHECK(std::abs(axis.simulated_motor()->truth().velocity_m_per_s) < rig.config.servo.standstill_velocity_m_per_s);
+  CHECK(std::abs(axis.simulated_motor()->truth().position_m - 0.05) < 20e-6);
 }

@@ -26,7 +26,8 @@ TEST_CASE("10^5 cycles with a program running allocate nothing, in every commuta
   const auto mode = GENERATE(CommutationMode::kOriginal, CommutationMode::kClassical, CommutationMode::kPgnn,
                              CommutationMode::kSpline, CommutationMode::kOracle, CommutationMode::kExperiment);
   INFO("mode " << servo::name(mode));
-  servod::ServoDaemon daemon(test::config_with_laws(files, CommutationMode::kOriginal));
+  servod::WiredAxis axis(test::config_with_laws(files, CommutationMode::kOriginal));
+  servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
   if (mode == CommutationMode::kExperiment) {
     // Algorithms 1 and 2: the whole demand through coil set 2 at Δ = π/4.
@@ -78,7 +79,7 @@ TEST_CASE("10^5 cycles with a program running allocate nothing, in every commuta
   REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
   CHECK(daemon.cycle().record().program_running);
   CHECK(after.frames_missing == before.frames_missing);
-  CHECK(test::sent_setpoints(daemon).command.enable);
+  CHECK(test::sent_setpoints(axis).command.enable);
   CHECK(daemon.take_replies().size() == 3);
 }
 

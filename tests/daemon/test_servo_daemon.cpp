@@ -4,15 +4,16 @@
 
 #include "daemon/control/metrics.hpp"
 #include "daemon/servod/servo_daemon.hpp"
-#include "daemon/simbus/in_process_bus.hpp"
+#include "drivers/sim/in_process_bus.hpp"
+#include "drivers/sim/motor.hpp"
 #include "tests/daemon/daemon_support.hpp"
-#include "tools/sim/motor.hpp"
 
 using namespace clm;
 using Kind = servod::DaemonCommand::Kind;
 
 TEST_CASE("the daemon runs the Fig. 8 program with the drive's own commutation and tracks it", "[daemon][tracking]") {
-  servod::ServoDaemon daemon(test::virtual_config());
+  servod::WiredAxis axis(test::virtual_config());
+  servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable);
   REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
@@ -29,7 +30,7 @@ TEST_CASE("the daemon runs the Fig. 8 program with the drive's own commutation a
     REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
     if (!record.program_running && n > 10) break;
     // Independent of the daemon's own record: the simulator's true position.
-    const double error = record.reference.position_m - daemon.simulated_motor()->truth().position_m;
+    const double error = record.reference.position_m - axis.simulated_motor()->truth().position_m;
     max_error = std::max(max_error, std::abs(error));
     sum_sq += error * error;
     ++n;
@@ -38,5 +39,5 @@ TEST_CASE("the daemon runs the Fig. 8 program with the drive's own commutation a
   INFO("cycles " << n << " max error " << max_error << " mse " << sum_sq / n);
   CHECK(n > 25000);
   CHECK(max_error < 1e-3);
-  CHECK(std::abs(daemon.simulated_motor()->truth().position_m - (-0.1)) < 1e-4);
+  CHECK(std::abs(axis.simulated_motor()->truth().position_m - (-0.1)) < 1e-4);
 }

@@ -7,9 +7,9 @@
 #include "daemon/control/trajectory.hpp"
 #include "daemon/servod/program_file.hpp"
 #include "daemon/servod/servo_daemon.hpp"
+#include "drivers/sim/motor.hpp"
+#include "drivers/sim/motor_file.hpp"
 #include "tests/daemon/daemon_support.hpp"
-#include "tools/sim/motor.hpp"
-#include "tools/sim/motor_file.hpp"
 
 using namespace clm;
 using Kind = servod::DaemonCommand::Kind;
@@ -26,7 +26,8 @@ struct Tracking {
 
 /// Runs Fig. 8 from the hold position; `r` is sampled from an independent
 /// MoveProgram planned from the same file and hold position.
-Tracking run_fig8(servod::ServoDaemon& daemon) {
+Tracking run_fig8(servod::WiredAxis& axis) {
+  servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 10);
   REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
@@ -46,7 +47,7 @@ Tracking run_fig8(servod::ServoDaemon& daemon) {
     if (t_s > expected.duration_s()) break;
     const double r_m = expected.sample(t_s).position_m;
     REQUIRE(daemon.cycle().record().reference.position_m == Approx(r_m).margin(1e-12));
-    const double error_m = r_m - daemon.simulated_motor()->truth().position_m;
+    const double error_m = r_m - axis.simulated_motor()->truth().position_m;
     result.max_error_m = std::max(result.max_error_m, std::abs(error_m));
     sum_sq += error_m * error_m;
     ++result.cycles;
@@ -54,7 +55,7 @@ Tracking run_fig8(servod::ServoDaemon& daemon) {
   CHECK_FALSE(daemon.cycle().record().program_running);
   daemon.run_cycles(500);  // settle at the end
   result.rms_error_m = std::sqrt(sum_sq / static_cast<double>(result.cycles));
-  result.final_position_m = daemon.simulated_motor()->truth().position_m;
+  result.final_position_m = axis.simulated_motor()->truth().position_m;
   return result;
 }
 
@@ -77,9 +78,10 @@ TEST_CASE("the daemon runs the Fig. 8 program in every commutation mode and trac
                                 motor.mechanics.coulomb_friction_N +
                                 motor.mechanics.viscous_friction_N_s_per_m * v_max_m_per_s;
   const double max_error_m = 1.5 * motion_force_N / config.servo.pid.proportional_N_per_m;  // ≈ 0.1 mm
-  servod::ServoDaemon daemon(config);
+  servod::WiredAxis axis(config);
+  servod::ServoDaemon& daemon = axis.daemon;
   REQUIRE(daemon.cycle().mode() == mode);
-  const Tracking tracking = run_fig8(daemon);
+  const Tracking tracking = run_fig8(axis);
   INFO(servo::name(mode) << ": " << tracking.cycles << " cycles, max |r - y| " << tracking.max_error_m << " m, rms "
                          << tracking.rms_error_m << " m, end at " << tracking.final_position_m << " m; bound " << max_error_m << " m");
   CHECK(tracking.cycles > 25000);  // the whole program: six moves of 0.2 m and the approach

@@ -1,4 +1,4 @@
-// libFuzzer harness: the simulated motor's file reader, tools/sim/motor_file.hpp
+// libFuzzer harness: the simulated motor's file reader, drivers/sim/motor_file.hpp
 // read_motor_parameters on yaml::Node::load_string, strict and with other
 // top-level sections allowed (a daemon configuration embedding the motor).
 //
@@ -6,9 +6,9 @@
 // motor builds from it (the reader has checked everything the simulator
 // needs) and its truth evaluates over and beyond the stroke.
 
+#include "drivers/sim/motor.hpp"
+#include "drivers/sim/motor_file.hpp"
 #include "fuzz_support.hpp"
-#include "tools/sim/motor.hpp"
-#include "tools/sim/motor_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text = clm::fuzz::as_text(data, size);

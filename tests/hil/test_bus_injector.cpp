@@ -1,18 +1,18 @@
-// The bus-side injector of `clm sim --inject` (daemon/simbus/bus_injector.hpp)
+// The bus-side injector of `clm sim --inject` (drivers/sim/bus_injector.hpp)
 // on frames made by the codec, checked with the codec's decoders.
 #include <catch2/catch.hpp>
 
 #include <array>
 #include <stdexcept>
 
-#include "daemon/simbus/bus_injector.hpp"
+#include "drivers/sim/bus_injector.hpp"
 
 namespace {
 
 using clm::can::CodecStatus;
 using clm::can::Frame;
-using clm::simbus::BusInjector;
-using clm::simbus::InjectionKind;
+using clm::sim::BusInjector;
+using clm::sim::InjectionKind;
 
 clm::can::ProtocolConfig protocol() {
   clm::can::ProtocolConfig config;
@@ -39,8 +39,8 @@ Frame rpdo1(bool enable) {
 }
 
 /// One SYNC through the injector: the frames sent at once and late.
-BusInjector::Replies sync(BusInjector& injector, int k, const clm::simbus::InjectionStep** fired = nullptr) {
-  const clm::simbus::InjectionStep* step = injector.on_sync();
+BusInjector::Replies sync(BusInjector& injector, int k, const clm::sim::InjectionStep** fired = nullptr) {
+  const clm::sim::InjectionStep* step = injector.on_sync();
   if (fired != nullptr) *fired = step;
   BusInjector::Replies out;
   const auto frames = replies(k);
@@ -57,24 +57,24 @@ int drive_frames(const BusInjector::Replies& out) {
 }  // namespace
 
 TEST_CASE("injection plans parse by name and count, and refuse anything else", "[injector]") {
-  const auto plan = clm::simbus::parse_injection_plan("drop-drive:3,late-drive,drive-fault:1");
+  const auto plan = clm::sim::parse_injection_plan("drop-drive:3,late-drive,drive-fault:1");
   REQUIRE(plan.size() == 3);
   CHECK(plan[0].kind == InjectionKind::kDropDrive);
   CHECK(plan[0].frames == 3);
   CHECK(plan[1].kind == InjectionKind::kLateDrive);
   CHECK(plan[1].frames == 1);
   CHECK(plan[2].kind == InjectionKind::kDriveFault);
-  CHECK_THROWS_WITH(clm::simbus::parse_injection_plan("drop-drive:3,drop-everything"),
+  CHECK_THROWS_WITH(clm::sim::parse_injection_plan("drop-drive:3,drop-everything"),
                     Catch::Contains("unknown step 'drop-everything'"));
-  CHECK_THROWS_WITH(clm::simbus::parse_injection_plan("drop-drive:0"), Catch::Contains("1 … 1000"));
-  CHECK_THROWS_WITH(clm::simbus::parse_injection_plan("drop-drive:3x"), Catch::Contains("1 … 1000"));
-  CHECK_THROWS(clm::simbus::parse_injection_plan(""));
+  CHECK_THROWS_WITH(clm::sim::parse_injection_plan("drop-drive:0"), Catch::Contains("1 … 1000"));
+  CHECK_THROWS_WITH(clm::sim::parse_injection_plan("drop-drive:3x"), Catch::Contains("1 … 1000"));
+  CHECK_THROWS(clm::sim::parse_injection_plan(""));
 }
 
 TEST_CASE("a requested step fires only at a SYNC with the axis enabled and acts on exactly its frames", "[injector]") {
-  BusInjector injector(protocol(), clm::simbus::parse_injection_plan("drop-drive:3,duplicate"));
+  BusInjector injector(protocol(), clm::sim::parse_injection_plan("drop-drive:3,duplicate"));
   injector.request_next();
-  const clm::simbus::InjectionStep* fired = nullptr;
+  const clm::sim::InjectionStep* fired = nullptr;
   CHECK(drive_frames(sync(injector, 1, &fired)) == 1);  // disabled: waits
   CHECK(fired == nullptr);
   injector.observe(rpdo1(true));
@@ -100,7 +100,7 @@ TEST_CASE("a requested step fires only at a SYNC with the axis enabled and acts 
 
 TEST_CASE("corrupted, short and late drive frames are what the daemon's decoder refuses or gets late", "[injector]") {
   BusInjector injector(protocol(),
-                       clm::simbus::parse_injection_plan("corrupt-reserved,wrong-dlc,corrupt-alive:2,corrupt-position,late-drive,drop-force"));
+                       clm::sim::parse_injection_plan("corrupt-reserved,wrong-dlc,corrupt-alive:2,corrupt-position,late-drive,drop-force"));
   injector.observe(rpdo1(true));
   clm::can::DriveFeedback decoded;
 

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <map>
 
+#include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/command_server.hpp"
 
 using namespace clm;
@@ -162,7 +163,8 @@ TEST_CASE("load_model loads into the law the model file's kind names", "[servod]
 
 TEST_CASE("Each command gets exactly one ack: queued ones with the cycle's decision, others at once",
           "[servod][commands]") {
-  ServoDaemon daemon(virtual_config());
+  WiredAxis axis(virtual_config());
+  ServoDaemon& daemon = axis.daemon;
   telemetry::MemorySink sink;
   telemetry::TelemetryPublisher publisher(telemetry::TelemetryConfig{}, sink);
   CommandServer server(publisher, daemon);
@@ -244,7 +246,8 @@ TEST_CASE("load_feedforward reads the file off the cycle, the cycle applies its 
   CHECK_THAT(to_daemon_command(load, out), Catch::Contains(wrong.path()));
 
   // End to end: over the publisher's command path into the running cycle.
-  ServoDaemon daemon(virtual_config());
+  WiredAxis axis(virtual_config());
+  ServoDaemon& daemon = axis.daemon;
   telemetry::MemorySink sink;
   telemetry::TelemetryPublisher publisher(telemetry::TelemetryConfig{}, sink);
   CommandServer server(publisher, daemon);

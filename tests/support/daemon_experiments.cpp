@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 
+#include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/program_file.hpp"
 #include "daemon/servod/servod_config.hpp"
 #include "daemon/servod/telemetry_bridge.hpp"
@@ -27,7 +28,8 @@ DaemonExperiments run_daemon_experiments(const std::string& servod_config_path, 
 
   DaemonExperiments experiments;
   experiments.motor = config.motor;
-  servod::ServoDaemon daemon(config);
+  servod::WiredAxis axis(config);
+  servod::ServoDaemon& daemon = axis.daemon;
   std::unique_ptr<telemetry::LcmLogWriter> log;
   std::optional<servod::TelemetryBridge> bridge;
   if (!lcm_log_path.empty()) {
@@ -45,7 +47,7 @@ DaemonExperiments run_daemon_experiments(const std::string& servod_config_path, 
       experiment.coil_set = l;
       experiment.delta_rad = delta;
       commission::execute(daemon, experiment);
-      experiments.runs.push_back(commission::run_program(daemon, program, "experiment coil set " + std::to_string(l),
+      experiments.runs.push_back(commission::run_program(axis, program, "experiment coil set " + std::to_string(l),
                                                          bridge ? &*bridge : nullptr));
     }
   }

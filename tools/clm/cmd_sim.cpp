@@ -1,6 +1,6 @@
 // clm sim --can IFACE: the simulated motor as the drive and force-sensor
 // nodes on a SocketCAN bus, for hardware-in-the-loop runs of clm-servod over
-// vcan (docs/hil.md). The nodes' logic is clm::simbus::SimulatedNodes, the
+// vcan (docs/hil.md). The nodes' logic is clm::sim::SimulatedNodes, the
 // same the daemon's in-process bus uses: on each SYNC the motor steps one
 // period, the encoder and force sensor are sampled and both TPDO1s go out;
 // the setpoint RPDOs of a cycle are applied once all of them are in.
@@ -9,7 +9,7 @@
 // is enabled, it steps the motor on CLOCK_MONOTONIC, so its setpoint watchdog
 // stops the current after a daemon died (docs/reliability.md). With
 // --inject PLAN, each SIGUSR1 fires the next step of a bus-side fault
-// injection (clm::simbus::BusInjector) at the next SYNC with the axis
+// injection (clm::sim::BusInjector) at the next SYNC with the axis
 // enabled; --event-log FILE records each step fired and each watchdog expiry
 // with the SYNC count and the drive's own times.
 //
@@ -30,12 +30,12 @@
 #include <string>
 #include <vector>
 
-#include "daemon/simbus/bus_injector.hpp"
-#include "daemon/simbus/simulated_nodes.hpp"
+#include "drivers/sim/bus_injector.hpp"
+#include "drivers/sim/motor.hpp"
+#include "drivers/sim/motor_file.hpp"
+#include "drivers/sim/simulated_nodes.hpp"
 #include "drivers/socket_can_bus.hpp"
 #include "tools/clm/commands.hpp"
-#include "tools/sim/motor.hpp"
-#include "tools/sim/motor_file.hpp"
 
 namespace clm::cli {
 namespace {
@@ -80,16 +80,16 @@ void run_sim(const SimOptions& options) {
   protocol.coil_sets = motor.coil_sets();
   protocol.validate();
   const double period_s = 1.0 / options.rate_hz;
-  simbus::SimulatedNodes nodes(motor, protocol, period_s);
+  sim::SimulatedNodes nodes(motor, protocol, period_s);
 
   // The nodes hear SYNC and the drive's RPDOs for this L, nothing else.
   std::vector<std::uint32_t> receive_ids{can::kSyncId};
   for (std::size_t k = 0; k < can::setpoint_frame_count(protocol.coil_sets); ++k) {
     receive_ids.push_back(can::setpoint_id(protocol, k));
   }
-  simbus::BusInjector injector(protocol, options.injection_plan.empty()
-                                             ? std::vector<simbus::InjectionStep>{}
-                                             : simbus::parse_injection_plan(options.injection_plan));
+  sim::BusInjector injector(protocol, options.injection_plan.empty()
+                                          ? std::vector<sim::InjectionStep>{}
+                                          : sim::parse_injection_plan(options.injection_plan));
   std::FILE* events = nullptr;
   if (!options.event_log.empty()) {
     events = std::fopen(options.event_log.c_str(), "w");
@@ -118,7 +118,7 @@ void run_sim(const SimOptions& options) {
       options.duration_s > 0.0 ? start_ns + static_cast<std::int64_t>(options.duration_s * 1e9) : INT64_MAX;
   std::int64_t replies_sent = 0, replies_failed = 0;
   std::array<can::Frame, 2> replies{};
-  simbus::BusInjector::Replies injected;
+  sim::BusInjector::Replies injected;
   drivers::ReceivedFrame received;
   const auto period_ns = static_cast<std::int64_t>(period_s * 1e9);
   std::int64_t last_step_ns = 0;            // the motor's last step, on SYNC or on its own clock
@@ -186,8 +186,8 @@ void run_sim(const SimOptions& options) {
     now_ns = monotonic_ns();
     injector.observe(received.frame);
     const bool sync = received.frame.id == can::kSyncId;
-    const simbus::InjectionStep* fired = sync ? injector.on_sync() : nullptr;
-    if (fired != nullptr && fired->kind == simbus::InjectionKind::kDriveFault) motor.latch_internal_fault();
+    const sim::InjectionStep* fired = sync ? injector.on_sync() : nullptr;
+    if (fired != nullptr && fired->kind == sim::InjectionKind::kDriveFault) motor.latch_internal_fault();
     const std::int64_t applied_before = nodes.counters().setpoints_applied;
     const std::size_t count = nodes.on_frame(received.frame, replies);
     if (nodes.counters().setpoints_applied != applied_before) last_setpoints_ns = now_ns;
@@ -201,12 +201,12 @@ void run_sim(const SimOptions& options) {
       for (std::size_t k = 0; k < injected.now_count; ++k) send(injected.now[k]);
       late_send_ns = injected.late_count > 0
                          ? received.timestamp_ns +
-                               static_cast<std::int64_t>(simbus::BusInjector::kLateFraction * static_cast<double>(period_ns))
+                               static_cast<std::int64_t>(sim::BusInjector::kLateFraction * static_cast<double>(period_ns))
                          : INT64_MAX;
       note_watchdog(last_step_ns, now_ns);
       if (fired != nullptr && events != nullptr) {
         std::fprintf(events, "event=inject sync=%lld step=%d kind=%s frames=%d\n",
-                     static_cast<long long>(nodes.counters().syncs), injector.step_index() + 1, simbus::name(fired->kind),
+                     static_cast<long long>(nodes.counters().syncs), injector.step_index() + 1, sim::name(fired->kind),
                      fired->frames);
         std::fflush(events);
       }
@@ -219,7 +219,7 @@ void run_sim(const SimOptions& options) {
 
   const int signal = g_stop_signal.load(std::memory_order_relaxed);
   const std::string why = signal == SIGINT ? "SIGINT" : signal == SIGTERM ? "SIGTERM" : "end of --duration-s";
-  const simbus::NodeCounters& c = nodes.counters();
+  const sim::NodeCounters& c = nodes.counters();
   const sim::TruthState truth = motor.truth();
   std::printf("clm sim: stopped on %s after %.1f s on %s: %lld SYNCs, %lld setpoint sets applied, %lld frames rejected, "
               "%lld feedback values not encodable, %lld replies sent, %lld not sent, %llu error frames, %llu dropped; "

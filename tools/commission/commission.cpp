@@ -8,11 +8,11 @@
 #include <stdexcept>
 
 #include "config/atomic_file.hpp"
+#include "drivers/sim/motor.hpp"
+#include "tools/commission/live_runner.hpp"
 #include "tools/data/csv_table.hpp"
 #include "tools/data/feedforward_file.hpp"
 #include "tools/data/sha256.hpp"
-#include "tools/commission/live_runner.hpp"
-#include "tools/sim/motor.hpp"
 
 namespace clm::commission {
 namespace {

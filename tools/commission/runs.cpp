@@ -6,7 +6,7 @@
 
 #include "daemon/servod/telemetry_bridge.hpp"
 #include "daemon/telemetry/telemetry.hpp"
-#include "tools/sim/motor.hpp"
+#include "drivers/sim/motor.hpp"
 
 namespace clm::commission {
 
@@ -25,8 +25,7 @@ void Recorder::on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming
   s.r_dot_m_per_s = record.reference.velocity_m_per_s;
   s.r_ddot_m_per_s2 = record.reference.acceleration_m_per_s2;
   s.y_m = record.position_m;
-  const sim::SimulatedMotor* motor = daemon_->simulated_motor();
-  s.y_true_m = motor != nullptr ? motor->truth().position_m : std::numeric_limits<double>::quiet_NaN();
+  s.y_true_m = truth_ != nullptr ? truth_->truth().position_m : std::numeric_limits<double>::quiet_NaN();
   s.F_star_N = record.force_demand_N;
   s.u_ff_N = record.feedforward_N;
   s.desired = record.desired_wrench;
@@ -50,8 +49,8 @@ void execute(servod::ServoDaemon& daemon, servod::DaemonCommand command) {
   }
 }
 
-Recording run_program(servod::ServoDaemon& daemon, const servod::ProgramFile& program, const std::string& name,
-                      servod::CycleObserver* log) {
+Recording run_program(servod::ServoDaemon& daemon, const sim::SimulatedMotor* truth, const servod::ProgramFile& program,
+                      const std::string& name, servod::CycleObserver* log) {
   using Kind = servod::DaemonCommand::Kind;
   // Approach: move to the start and settle.
   servod::DaemonCommand approach;
@@ -62,7 +61,7 @@ Recording run_program(servod::ServoDaemon& daemon, const servod::ProgramFile& pr
   daemon.run_until_idle(1'000'000);
   daemon.run_cycles(200);
 
-  Recorder recorder(daemon);
+  Recorder recorder(truth);
   recorder.forward_to(log);
   daemon.set_observer(&recorder);
   recorder.start(name);
@@ -81,6 +80,11 @@ Recording run_program(servod::ServoDaemon& daemon, const servod::ProgramFile& pr
     throw std::runtime_error("run '" + name + "' ended in fault: " + servo::describe(daemon.cycle().fault()));
   }
   return std::move(recorder.recording());
+}
+
+Recording run_program(servod::WiredAxis& axis, const servod::ProgramFile& program, const std::string& name,
+                      servod::CycleObserver* log) {
+  return run_program(axis.daemon, axis.simulated_motor(), program, name, log);
 }
 
 // ---- InProcessRunner -----------------------------------------------------------
@@ -110,7 +114,7 @@ servod::DaemonCommand make(servod::DaemonCommand::Kind kind) {
 }  // namespace
 
 InProcessRunner::InProcessRunner(const servod::ServodConfig& config)
-    : daemon_(std::make_unique<servod::ServoDaemon>(offline(config))) {
+    : axis_(std::make_unique<servod::WiredAxis>(offline(config))), daemon_(&axis_->daemon) {
   daemon_->run_cycles(20);
 }
 
@@ -159,15 +163,13 @@ void InProcessRunner::close_log() {
 }
 
 Recording InProcessRunner::run_program(const servod::ProgramFile& program, const std::string&, const std::string& name) {
-  return commission::run_program(*daemon_, program, name, log_ ? &log_->bridge : nullptr);
+  return commission::run_program(*axis_, program, name, log_ ? &log_->bridge : nullptr);
 }
 
-const sim::SimulatedMotor* InProcessRunner::simulated_motor() const {
-  return daemon_->simulated_motor();
-}
+const sim::SimulatedMotor* InProcessRunner::simulated_motor() const { return axis_->wiring.motor.get(); }
 
 std::string InProcessRunner::oracle_unavailable_reason() const {
-  return daemon_->simulated_motor() != nullptr ? "" : "no simulator";
+  return axis_->wiring.oracle != nullptr ? "" : "no simulator";
 }
 
 }  // namespace clm::commission

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/servo_daemon.hpp"
 #include "tools/commission/runner.hpp"
 
@@ -39,10 +40,12 @@ struct Recording {
   std::int64_t force_limited_cycles = 0;
 };
 
-/// Observer that appends every enabled cycle of a running program.
+/// Observer that appends every enabled cycle of a running program, with the
+/// true position of `truth` (the simulated motor the daemon drives; nullptr
+/// without one), which must outlive the recorder.
 class Recorder final : public servod::CycleObserver {
  public:
-  explicit Recorder(servod::ServoDaemon& daemon) : daemon_(&daemon) {}
+  explicit Recorder(const sim::SimulatedMotor* truth) : truth_(truth) {}
   void on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming& timing) noexcept override;
   Recording& recording() noexcept { return recording_; }
   void start(const std::string& name);
@@ -51,7 +54,7 @@ class Recorder final : public servod::CycleObserver {
   void forward_to(servod::CycleObserver* observer) noexcept { forward_ = observer; }
 
  private:
-  servod::ServoDaemon* daemon_;
+  const sim::SimulatedMotor* truth_;
   servod::CycleObserver* forward_ = nullptr;
   Recording recording_;
   bool active_ = false;
@@ -61,10 +64,14 @@ class Recorder final : public servod::CycleObserver {
 void execute(servod::ServoDaemon& daemon, servod::DaemonCommand command);
 
 /// Runs `program` from the program's start (an approach move first, not
-/// recorded) and returns the recording of the program proper.
+/// recorded) and returns the recording of the program proper; `truth` is the
+/// simulated motor the daemon drives, for Sample::y_true_m (nullptr: NaN).
 /// With `log` set, the cycles of the program are also written there (one
 /// CLM_SERVO_STATE per cycle, status and events) as an LCM log.
-Recording run_program(servod::ServoDaemon& daemon, const servod::ProgramFile& program, const std::string& name,
+Recording run_program(servod::ServoDaemon& daemon, const sim::SimulatedMotor* truth, const servod::ProgramFile& program,
+                      const std::string& name, servod::CycleObserver* log = nullptr);
+/// The same on a daemon with its wiring (truth: its simulated motor).
+Recording run_program(servod::WiredAxis& axis, const servod::ProgramFile& program, const std::string& name,
                       servod::CycleObserver* log = nullptr);
 
 /// The commissioning's runs on a daemon core in this process (the
@@ -92,7 +99,8 @@ class InProcessRunner final : public ExperimentRunner {
 
  private:
   struct RunLog;
-  std::unique_ptr<servod::ServoDaemon> daemon_;
+  std::unique_ptr<servod::WiredAxis> axis_;
+  servod::ServoDaemon* daemon_;  ///< axis_->daemon
   std::unique_ptr<RunLog> log_;
 };
 

@@ -1,0 +1,156 @@
+#include "drivers/sim/bus_injector.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace clm::sim {
+namespace {
+
+constexpr std::array<InjectionKind, 9> kKinds{
+    InjectionKind::kDropDrive,   InjectionKind::kDropForce,       InjectionKind::kLateDrive,
+    InjectionKind::kCorruptReserved, InjectionKind::kCorruptAlive, InjectionKind::kCorruptPosition,
+    InjectionKind::kWrongDlc,    InjectionKind::kDuplicate,       InjectionKind::kDriveFault};
+
+// Byte offsets in the drive's TPDO1 (docs/can-protocol.md).
+constexpr std::size_t kPositionTopByte = 3;
+constexpr std::size_t kStatusLowByte = 4;   // status bits 0..7
+constexpr std::size_t kAliveByte = 6;
+
+}  // namespace
+
+const char* name(InjectionKind kind) noexcept {
+  switch (kind) {
+    case InjectionKind::kDropDrive: return "drop-drive";
+    case InjectionKind::kDropForce: return "drop-force";
+    case InjectionKind::kLateDrive: return "late-drive";
+    case InjectionKind::kCorruptReserved: return "corrupt-reserved";
+    case InjectionKind::kCorruptAlive: return "corrupt-alive";
+    case InjectionKind::kCorruptPosition: return "corrupt-position";
+    case InjectionKind::kWrongDlc: return "wrong-dlc";
+    case InjectionKind::kDuplicate: return "duplicate";
+    case InjectionKind::kDriveFault: return "drive-fault";
+  }
+  return "unknown";
+}
+
+std::vector<InjectionStep> parse_injection_plan(const std::string& plan) {
+  std::vector<InjectionStep> steps;
+  std::size_t begin = 0;
+  while (begin <= plan.size()) {
+    const std::size_t end = std::min(plan.find(',', begin), plan.size());
+    const std::string item = plan.substr(begin, end - begin);
+    const std::size_t colon = item.find(':');
+    const std::string kind_text = item.substr(0, colon);
+    InjectionStep step;
+    bool known = false;
+    for (InjectionKind kind : kKinds) {
+      if (kind_text == name(kind)) {
+        step.kind = kind;
+        known = true;
+      }
+    }
+    if (!known) throw std::invalid_argument("injection plan: unknown step '" + item + "'");
+    if (colon != std::string::npos) {
+      const std::string count = item.substr(colon + 1);
+      std::size_t used = 0;
+      int frames = 0;
+      try {
+        frames = std::stoi(count, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used != count.size() || count.empty() || frames < 1 || frames > 1000) {
+        throw std::invalid_argument("injection plan: step '" + item + "': the count must be 1 … 1000");
+      }
+      step.frames = frames;
+    }
+    steps.push_back(step);
+    begin = end + 1;
+  }
+  return steps;
+}
+
+BusInjector::BusInjector(const can::ProtocolConfig& protocol, std::vector<InjectionStep> plan)
+    : protocol_(protocol), plan_(std::move(plan)) {}
+
+void BusInjector::request_next() noexcept {
+  if (fired_ + pending_requests_ >= static_cast<int>(plan_.size())) {
+    ++requests_ignored_;
+    return;
+  }
+  ++pending_requests_;
+}
+
+void BusInjector::observe(const can::Frame& frame) noexcept {
+  if (frame.id == can::setpoint_id(protocol_, 0) && frame.dlc >= 1) {
+    axis_enabled_ = (frame.data[0] & can::kControlEnable) != 0;
+  }
+}
+
+const InjectionStep* BusInjector::on_sync() noexcept {
+  acting_ = false;
+  if (remaining_ > 0) {
+    --remaining_;
+    acting_ = true;
+    return nullptr;  // the active step goes on
+  }
+  if (pending_requests_ == 0 || !axis_enabled_) return nullptr;
+  --pending_requests_;
+  const InjectionStep& step = plan_[static_cast<std::size_t>(fired_)];
+  ++fired_;
+  remaining_ = step.frames - 1;
+  acting_ = true;
+  return &step;
+}
+
+void BusInjector::transform(std::span<const can::Frame> replies, Replies& out) const noexcept {
+  out.now_count = out.late_count = 0;
+  const bool active = acting_ && fired_ > 0;
+  const InjectionKind kind = active ? plan_[static_cast<std::size_t>(fired_ - 1)].kind : InjectionKind::kDropDrive;
+  const bool first = active && remaining_ == plan_[static_cast<std::size_t>(fired_ - 1)].frames - 1;
+  const auto push_now = [&out](const can::Frame& frame) {
+    if (out.now_count < out.now.size()) out.now[out.now_count++] = frame;
+  };
+  for (const can::Frame& reply : replies) {
+    const bool drive = reply.id == can::drive_feedback_id(protocol_);
+    const bool force = reply.id == can::force_feedback_id(protocol_);
+    if (!active || !(drive || force)) {
+      push_now(reply);
+      continue;
+    }
+    if (force) {
+      if (kind != InjectionKind::kDropForce) push_now(reply);
+      continue;
+    }
+    can::Frame frame = reply;
+    switch (kind) {
+      case InjectionKind::kDropDrive:
+        continue;
+      case InjectionKind::kLateDrive:
+        if (out.late_count < out.late.size()) out.late[out.late_count++] = frame;
+        continue;
+      case InjectionKind::kCorruptReserved:
+        frame.data[kStatusLowByte] = static_cast<std::uint8_t>(frame.data[kStatusLowByte] | 0x20);
+        break;
+      case InjectionKind::kCorruptAlive:
+        if (first) frame.data[kAliveByte] = static_cast<std::uint8_t>(frame.data[kAliveByte] + 7);
+        break;
+      case InjectionKind::kCorruptPosition:
+        frame.data[kPositionTopByte] = static_cast<std::uint8_t>(frame.data[kPositionTopByte] ^ 0x20);
+        break;
+      case InjectionKind::kWrongDlc:
+        frame.dlc = 6;
+        frame.data[kAliveByte] = 0;  // bytes past the DLC are 0
+        break;
+      case InjectionKind::kDuplicate:
+        push_now(frame);
+        break;
+      case InjectionKind::kDropForce:
+      case InjectionKind::kDriveFault:
+        break;  // the drive's frame as the nodes made it (a drive fault is in its status word)
+    }
+    push_now(frame);
+  }
+}
+
+}  // namespace clm::sim

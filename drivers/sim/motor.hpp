@@ -1,0 +1,178 @@
+#pragma once
+// SimulatedMotor: the plant (true electromagnetics + rigid translator on a
+// bearing), the drive with its fixed classical commutation, current limit and
+// setpoint watchdog, and the encoder and force/torque sensor. No I/O.
+//
+// One control period is: command(setpoints, enable) → step(period_s) →
+// sense(). command(), step() and sense() do not allocate, lock or throw.
+
+#include <cstdint>
+#include <span>
+
+#include "commutation/types.hpp"
+#include "drivers/sim/electromagnetics.hpp"
+#include "drivers/sim/parameters.hpp"
+#include "drivers/sim/random.hpp"
+
+namespace clm::sim {
+
+/// Bits of DriveStatus::word. "Latched" bits stay set until clear_fault().
+enum DriveStatusBit : std::uint32_t {
+  /// The drive applies current: the last accepted command asked for enable
+  /// and no fault is latched.
+  kStatusEnabled = 1u << 0,
+  /// Latched: a fault stopped the current (any of the bits 2, 4, 5 below, or
+  /// alone for a fault inside the drive: latch_internal_fault()).
+  /// Setpoints are dropped; after clear_fault() a command with enable = true
+  /// is needed to drive current again.
+  kStatusFault = 1u << 1,
+  /// Latched: no accepted command for watchdog_timeout_s while enabled.
+  kStatusWatchdog = 1u << 2,
+  /// Not latched: during the last step() at least one substep limited the
+  /// current of at least one coil set (see DriveParameters::phase_current_limit_A).
+  kStatusCurrentLimited = 1u << 3,
+  /// Latched: the translator hit an end stop (moved into it); the limit
+  /// switch faults the drive.
+  kStatusEndStop = 1u << 4,
+  /// Latched: a command had the wrong number of setpoints or a non-finite value.
+  kStatusInvalidSetpoint = 1u << 5,
+};
+
+struct DriveStatus {
+  std::uint32_t word = 0;
+  bool has(DriveStatusBit bit) const noexcept { return (word & bit) != 0; }
+  bool enabled() const noexcept { return has(kStatusEnabled); }
+  bool fault() const noexcept { return has(kStatusFault); }
+  bool watchdog() const noexcept { return has(kStatusWatchdog); }
+  bool current_limited() const noexcept { return has(kStatusCurrentLimited); }
+  bool end_stop() const noexcept { return has(kStatusEndStop); }
+  bool invalid_setpoint() const noexcept { return has(kStatusInvalidSetpoint); }
+};
+
+enum class CommandResult {
+  kAccepted,
+  kWrongCoilSetCount,  ///< setpoints.size() != L: rejected, fault latched
+  kNotFinite,          ///< a magnitude or offset is NaN/inf: rejected, fault latched
+};
+
+enum class StepResult {
+  kOk,
+  kInvalidPeriod,  ///< period_s not finite, ≤ 0, or over 10^7 substeps: nothing happened
+};
+
+/// One sample of the sensors, taken by sense().
+struct SensorFrame {
+  double time_s = 0.0;      ///< simulation time of the sample [s]
+  double position_m = 0.0;  ///< encoder: true position + noise, quantised [m]
+  /// Force/torque sensor in the translator: the electromagnetic wrench
+  /// (Σ K^l i^l + F_cog + direction-dependent term) + bias + noise. Bearing
+  /// friction is not seen. [N, N, N·m]
+  Wrench wrench = Wrench::Zero();
+};
+
+/// The exact state, for tests and reports.
+struct TruthState {
+  double time_s = 0.0;
+  double position_m = 0.0;
+  double velocity_m_per_s = 0.0;
+  /// Phase currents [i_a^1, i_b^1, ...] applied now (after the current
+  /// limit); i_c = −i_a − i_b [A].
+  CurrentVector currents_A;
+  /// Electromagnetic wrench produced now, without sensor bias and noise [N, N, N·m].
+  Wrench wrench = Wrench::Zero();
+  /// Bearing friction acting now (not seen by the force sensor) [N].
+  double friction_N = 0.0;
+  /// Number of impacts on an end stop since reset(), and the speed of the last [m/s].
+  int end_stop_collisions = 0;
+  double last_impact_speed_m_per_s = 0.0;
+  /// Substeps in which the current limit acted, since reset().
+  long current_limited_substeps = 0;
+};
+
+class SimulatedMotor {
+ public:
+  /// Validates `parameters` (throws ParameterError), draws the truth and
+  /// starts at rest at the centre of the stroke with the drive disabled.
+  explicit SimulatedMotor(const MotorParameters& parameters);
+
+  /// A fresh setpoint per coil set (feeds the watchdog); the drive applies it
+  /// at once. enable = false stops the current. Rejected commands latch
+  /// kStatusInvalidSetpoint and a fault. While a fault is latched, accepted
+  /// commands drive no current (see clear_fault()).
+  CommandResult command(std::span<const DriveSetpoint> setpoints, bool enable) noexcept;
+
+  /// Advances the simulation by `period_s` in n = max(10, ⌈period_s/h⌉) equal
+  /// substeps. In every substep the drive computes the phase currents from
+  /// the true position (eq. 18/19), applies the current limit and the
+  /// watchdog, and the translator is integrated with semi-implicit Euler.
+  StepResult step(double period_s) noexcept;
+
+  /// Samples the encoder and the force/torque sensor at the current time.
+  SensorFrame sense() noexcept;
+
+  DriveStatus status() const noexcept;
+  /// Clears the latched bits. The drive stays disabled with zero setpoints
+  /// until the next command with enable = true.
+  void clear_fault() noexcept;
+  /// A fault inside the drive (as overtemperature or a short would be), for
+  /// fault injection: kStatusFault latches alone and the current stops now.
+  void latch_internal_fault() noexcept;
+
+  TruthState truth() const noexcept;
+
+  /// Restarts at time 0 at `position_m` with `velocity_m_per_s`, drive
+  /// disabled, faults and counters cleared. The measurement noise stream is
+  /// not rewound (a new SimulatedMotor reproduces a run bit for bit). Throws
+  /// ParameterError for a position outside the end stops.
+  void reset(double position_m, double velocity_m_per_s = 0.0);
+
+  /// The static truth K^l(y) [N/A, N/A, N·m/A] and F_cog(y) [N, N, N·m], and
+  /// the direction-dependent term at a velocity [N, N, N·m].
+  CoilGain true_gain(int coil_set, double position_m) const noexcept { return truth_.gain(coil_set, position_m); }
+  Wrench true_cogging(double position_m) const noexcept { return truth_.cogging(position_m); }
+  Wrench direction_dependent(double velocity_m_per_s) const noexcept {
+    return truth_.direction_dependent(velocity_m_per_s);
+  }
+  const ElectromagneticTruth& electromagnetics() const noexcept { return truth_; }
+  const MotorParameters& parameters() const noexcept { return parameters_; }
+  int coil_sets() const noexcept { return truth_.coil_sets(); }
+
+  /// Number of substeps step(period_s) uses, −1 if it would exceed 10^7.
+  int substeps(double period_s) const noexcept;
+
+ private:
+  bool drive_active() const noexcept;
+  void latch_fault(std::uint32_t bits) noexcept;
+  /// Phase currents the drive applies at `position_m`; true if limited.
+  bool drive_currents(double position_m, CurrentVector& currents_A) const noexcept;
+  double friction_N(double velocity_m_per_s) const noexcept;
+  /// Updates currents_, wrench_ for the present state.
+  void update_outputs() noexcept;
+
+  MotorParameters parameters_;
+  ElectromagneticTruth truth_;
+  RandomStream noise_;
+
+  // Mechanical state.
+  double time_s_ = 0.0;
+  double position_m_ = 0.0;
+  double velocity_m_per_s_ = 0.0;
+  bool in_contact_ = false;
+
+  // Drive state.
+  std::array<DriveSetpoint, kMaxCoilSets> setpoints_{};
+  bool enable_requested_ = false;
+  double last_command_time_s_ = 0.0;
+  std::uint32_t latched_ = 0;
+  bool limited_in_last_step_ = false;
+
+  // Outputs of the present state.
+  CurrentVector currents_A_;
+  Wrench wrench_ = Wrench::Zero();
+
+  int end_stop_collisions_ = 0;
+  double last_impact_speed_m_per_s_ = 0.0;
+  long current_limited_substeps_ = 0;
+};
+
+}  // namespace clm::sim

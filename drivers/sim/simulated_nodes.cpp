@@ -1,0 +1,70 @@
+#include "drivers/sim/simulated_nodes.hpp"
+
+namespace clm::sim {
+
+SimulatedNodes::SimulatedNodes(sim::SimulatedMotor& motor, const can::ProtocolConfig& protocol, double period_s)
+    : motor_(&motor), protocol_(protocol), period_s_(period_s) {
+  protocol_.validate();
+  pending_.coil_sets = protocol.coil_sets;
+}
+
+std::size_t SimulatedNodes::on_frame(const can::Frame& frame, std::span<can::Frame> replies) noexcept {
+  if (frame.id == can::kSyncId) {
+    std::uint8_t counter = 0;
+    if (can::decode_sync(frame, counter) != can::CodecStatus::kOk) {
+      ++counters_.frames_rejected;
+      return 0;
+    }
+    ++counters_.syncs;
+    // Setpoints never outlive their cycle: an incomplete set (an RPDO lost)
+    // is dropped, never completed with the next cycle's frames.
+    if (received_mask_ != 0) {
+      ++counters_.setpoints_incomplete;
+      received_mask_ = 0;
+    }
+    motor_->step(period_s_);
+    const sim::SensorFrame sensed = motor_->sense();
+    const sim::DriveStatus status = motor_->status();
+    std::uint16_t word = 0;
+    if (status.enabled()) word |= can::kStatusEnabled;
+    if (status.fault()) word |= can::kStatusFault;
+    if (status.watchdog()) word |= can::kStatusWatchdogExpired;
+    if (status.current_limited()) word |= can::kStatusCurrentLimited;
+    if (status.end_stop()) word |= can::kStatusEndStop;
+    std::size_t count = 0;
+    const can::DriveFeedback drive{sensed.position_m, word, drive_alive_++};
+    if (can::encode_drive_feedback(protocol_, drive, replies[count]) == can::CodecStatus::kOk) {
+      ++count;
+    } else {
+      ++counters_.feedback_not_encoded;
+    }
+    const can::ForceFeedback force{sensed.wrench, force_alive_++};
+    if (can::encode_force_feedback(protocol_, force, replies[count]) == can::CodecStatus::kOk) {
+      ++count;
+    } else {
+      ++counters_.feedback_not_encoded;
+    }
+    return count;
+  }
+  for (std::size_t index = 0; index < can::setpoint_frame_count(protocol_.coil_sets); ++index) {
+    if (frame.id != can::setpoint_id(protocol_, index)) continue;
+    if (can::decode_setpoint_frame(protocol_, frame, pending_) != can::CodecStatus::kOk) {
+      ++counters_.frames_rejected;
+      return 0;
+    }
+    received_mask_ |= 1u << index;
+    const unsigned complete = (1u << can::setpoint_frame_count(protocol_.coil_sets)) - 1;
+    if (received_mask_ == complete) {
+      if (pending_.clear_fault) motor_->clear_fault();
+      motor_->command(std::span<const DriveSetpoint>(pending_.setpoints.data(),
+                                                     static_cast<std::size_t>(protocol_.coil_sets)),
+                      pending_.enable);
+      ++counters_.setpoints_applied;
+      received_mask_ = 0;
+    }
+    return 0;
+  }
+  return 0;  // not addressed to the nodes
+}
+
+}  // namespace clm::sim
