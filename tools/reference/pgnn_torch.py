@@ -2,13 +2,13 @@
 """PyTorch reference implementation of the PGNN identification (Algorithm 2).
 
 The same model, data, split, normalisation, physics-only target and cost as
-commutation/identification/identification.cpp, trained with a different
+commutation/identification/ (pgnn_training.cpp), trained with a different
 optimiser (full-batch L-BFGS with strong-Wolfe line search instead of
 Levenberg-Marquardt on decimated data), so that our C++ identification can be
 benchmarked against a mainstream implementation (docs/benchmarks.md,
 "Identification against PyTorch").
 
-Per coil set l (eq. 23-26 of the paper, paper-notes items 7 and 8):
+Per coil set l (eq. 23-26 of the paper, docs/commutation.md §7 and §8):
 
     F̂ = K̂(y)·[i_a, i_b] + F̂_cog(y)
     K̂(y) = A cos(2πy/d_m) + B sin(2πy/d_m) + [f_a(y_n), f_b(y_n)]
