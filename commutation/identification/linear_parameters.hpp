@@ -30,6 +30,8 @@ struct PgnnFeatures {
   Eigen::ArrayXd cos_theta, sin_theta, input;
 };
 
+/// The features of every sample of `data` (θ from position_m and pole_pitch_m,
+/// input = (y − offset_m) / scale_m). No checks: `data` is validated by the caller.
 PgnnFeatures features_of(const CoilSetDataset& data, double pole_pitch_m, const PositionNormalisation& normalisation);
 
 /// Layout of the parameters of one direction in which the PGNN is linear

@@ -4,8 +4,8 @@
 #include <optional>
 
 #include "daemon/control/position_controller.hpp"
-#include "daemon/servod/feedforward_file.hpp"
 #include "drivers/can_protocol.hpp"
+#include "daemon/servod/feedforward_file.hpp"
 
 namespace clm::servod {
 namespace {
