@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The layer rule of the source tree, checked (README.md, "What is here").
+"""The layer rule of the source tree, checked.
 
 Each layer uses only the layers below it:
 
