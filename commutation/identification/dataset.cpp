@@ -2,8 +2,17 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
-namespace clm {
+namespace clm::identification {
+
+void check_dataset(const CoilSetDataset& data, const char* what) {
+  if (data.size() < 10) throw std::invalid_argument(std::string(what) + " data has fewer than 10 samples");
+  if (data.currents_A.cols() != data.size() || data.wrench.cols() != data.size() ||
+      static_cast<Eigen::Index>(data.group.size()) != data.size()) {
+    throw std::invalid_argument(std::string(what) + " data columns have different lengths");
+  }
+}
 
 CoilSetDataset CoilSetDataset::subset(const std::vector<Eigen::Index>& indices) const {
   CoilSetDataset out;
@@ -48,4 +57,4 @@ DataSplit split_contiguous_blocks(const CoilSetDataset& data, double validation_
   return split;
 }
 
-}  // namespace clm
+}  // namespace clm::identification

@@ -6,7 +6,7 @@
 #include <Eigen/Core>
 #include <vector>
 
-namespace clm {
+namespace clm::identification {
 
 struct CoilSetDataset {
   Eigen::VectorXd position_m;              ///< y(t), N samples
@@ -18,6 +18,10 @@ struct CoilSetDataset {
   /// The samples whose index is listed, in that order.
   CoilSetDataset subset(const std::vector<Eigen::Index>& indices) const;
 };
+
+/// Throws std::invalid_argument "<what> data has fewer than 10 samples" or
+/// "<what> data columns have different lengths"; the check every fit makes first.
+void check_dataset(const CoilSetDataset& data, const char* what);
 
 /// Training and validation indices: each group is cut into `blocks_per_group`
 /// contiguous blocks and round(fraction·blocks) of them, spread evenly, are
@@ -32,4 +36,4 @@ DataSplit split_contiguous_blocks(const CoilSetDataset& data, double validation_
 /// (the data term of eq. 26, direction by direction).
 using DirectionCost = Eigen::Vector3d;
 
-}  // namespace clm
+}  // namespace clm::identification

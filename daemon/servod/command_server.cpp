@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "config/yaml_reader.hpp"
-#include "tools/data/feedforward_file.hpp"
+#include "daemon/servod/feedforward_file.hpp"
 
 namespace clm::servod {
 namespace {

@@ -7,7 +7,7 @@
 
 #include "daemon/control/position_controller.hpp"
 #include "drivers/can_protocol.hpp"
-#include "tools/data/feedforward_file.hpp"
+#include "daemon/servod/feedforward_file.hpp"
 
 namespace clm::servod {
 namespace {

@@ -34,19 +34,19 @@ const Experiments& experiments() {
 }
 
 /// The tools' path: the experiment table, validated and grouped by read_experiment_data.
-clm::ExperimentData experiment_data(std::size_t samples_per_run) {
+clm::data::ExperimentData experiment_data(std::size_t samples_per_run) {
   const auto columns = clm::test::experiment_columns(experiments().runs, samples_per_run);
-  const auto table = clm::CsvTable::from_columns("experiments", columns.names, columns.values);
-  return clm::read_experiment_data(table, experiments().motor);
+  const auto table = clm::data::CsvTable::from_columns("experiments", columns.names, columns.values);
+  return clm::data::read_experiment_data(table, experiments().motor);
 }
 
 void identify(benchmark::State& state, clm::ModelKind kind, std::size_t samples_per_run) {
-  const clm::ExperimentData data = experiment_data(samples_per_run);
-  clm::IdentifyOptions options;  // the defaults of clm identify and clm commission
+  const clm::data::ExperimentData data = experiment_data(samples_per_run);
+  clm::data::IdentifyOptions options;  // the defaults of clm identify and clm commission
   options.kind = kind;
-  std::vector<clm::CoilSetIdentification> reports;
+  std::vector<clm::data::CoilSetIdentification> reports;
   for (auto _ : state) {
-    auto model = clm::identify_motor(data, experiments().motor, options, reports);
+    auto model = clm::data::identify_motor(data, experiments().motor, options, reports);
     benchmark::DoNotOptimize(model);
   }
   std::size_t samples = 0;

@@ -40,7 +40,9 @@
 #include <string>
 #include <vector>
 
-#include "commutation/identification/identification.hpp"
+#include "commutation/identification/dataset.hpp"
+#include "commutation/identification/physics_fit.hpp"
+#include "commutation/identification/report.hpp"
 #include "commutation/model_file.hpp"
 #include "daemon/control/metrics.hpp"
 #include "daemon/control/position_controller.hpp"
@@ -53,6 +55,8 @@
 namespace {
 
 using namespace clm;
+using namespace clm::data;
+using namespace clm::identification;
 using Kind = servod::DaemonCommand::Kind;
 
 struct NamedModel {

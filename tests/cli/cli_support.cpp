@@ -20,6 +20,8 @@ extern char** environ;
 
 namespace clm::cli_test {
 namespace fs = std::filesystem;
+using data::shortest_double;
+using data::write_csv_atomically;
 
 namespace {
 

@@ -9,13 +9,15 @@
 
 #include "cli/cli_support.hpp"
 #include "commutation/model_file.hpp"
+#include "config/sha256.hpp"
+#include "daemon/servod/feedforward_file.hpp"
 #include "daemon/telemetry/telemetry.hpp"
-#include "tools/data/feedforward_file.hpp"
-#include "tools/data/sha256.hpp"
 #include "tools/lcmlog/servo_log.hpp"
 
 using namespace clm;
 using namespace clm::cli_test;
+using clm::servod::FeedforwardFile;
+using clm::servod::load_feedforward_file;
 namespace fs = std::filesystem;
 
 namespace {

@@ -10,12 +10,16 @@
 #include "cli/cli_support.hpp"
 #include "commutation/classical.hpp"
 #include "commutation/model_file.hpp"
+#include "config/sha256.hpp"
+#include "daemon/servod/feedforward_file.hpp"
 #include "tools/data/csv_table.hpp"
-#include "tools/data/feedforward_file.hpp"
-#include "tools/data/sha256.hpp"
 
 using namespace clm;
 using namespace clm::cli_test;
+using namespace clm::data;
+using clm::servod::FeedforwardFile;
+using clm::servod::format_feedforward_file;
+using clm::servod::load_feedforward_file;
 namespace fs = std::filesystem;
 
 namespace {

@@ -15,6 +15,7 @@
 
 using namespace clm;
 using namespace clm::cli_test;
+using clm::data::shortest_double;
 namespace fs = std::filesystem;
 
 namespace {

@@ -3,10 +3,16 @@
 #include <catch2/catch.hpp>
 #include <random>
 
-#include "commutation/identification/identification.hpp"
+#include "commutation/identification/dataset.hpp"
+#include "commutation/identification/linear_parameters.hpp"
+#include "commutation/identification/pgnn_training.hpp"
+#include "commutation/identification/physics_fit.hpp"
+#include "commutation/identification/report.hpp"
+#include "commutation/identification/spline_fit.hpp"
 #include "support/random_model.hpp"
 
 using namespace clm;
+using namespace clm::identification;
 
 namespace {
 

@@ -28,9 +28,9 @@ std::string trim(std::string text) {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text = clm::fuzz::as_text(data, size);
-  std::optional<clm::CsvTable> table;
+  std::optional<clm::data::CsvTable> table;
   try {
-    table.emplace(clm::CsvTable::parse(text, "fuzz.csv"));
+    table.emplace(clm::data::CsvTable::parse(text, "fuzz.csv"));
   } catch (const std::runtime_error&) {
     return 0;
   }

@@ -19,7 +19,8 @@ using clm::fuzz::require;
 
 namespace {
 
-void check(const clm::ExperimentData& data, const clm::CsvTable& table, const clm::MotorDescription& motor) {
+void check(const clm::data::ExperimentData& data, const clm::data::CsvTable& table,
+           const clm::MotorDescription& motor) {
   require(static_cast<int>(data.coil_sets.size()) == motor.coil_sets, "coil sets lost");
   std::size_t samples = 0;
   for (std::size_t l = 0; l < data.coil_sets.size(); ++l) {
@@ -61,15 +62,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       clm::load_motor_description(clm::fuzz::source_path("config/motor-sim.yaml")),
       clm::load_motor_description(clm::fuzz::source_path("config/motor-sim-2coil.yaml")),
   };
-  std::optional<clm::CsvTable> table;
+  std::optional<clm::data::CsvTable> table;
   try {
-    table.emplace(clm::CsvTable::parse(clm::fuzz::as_text(data, size), "fuzz.csv"));
+    table.emplace(clm::data::CsvTable::parse(clm::fuzz::as_text(data, size), "fuzz.csv"));
   } catch (const std::runtime_error&) {
     return 0;
   }
   for (const auto& motor : motors) {
     try {
-      check(clm::read_experiment_data(*table, motor), *table, motor);
+      check(clm::data::read_experiment_data(*table, motor), *table, motor);
     } catch (const std::runtime_error&) {
     }
   }

@@ -121,7 +121,7 @@ TEST_CASE("log2csv --format experiment writes the experiment-mode states in the 
   const auto written = write_log(log, 40);
   log2csv("--log " + log + " --output " + csv + " --format experiment");
 
-  const auto table = clm::CsvTable::load(csv);
+  const auto table = clm::data::CsvTable::load(csv);
   std::vector<ServoStateSample> expected;
   for (const auto& s : written.states) {
     if (s.commutation == clm_lcm::servo_state_t::COMMUTATION_EXPERIMENT) expected.push_back(s);
@@ -155,7 +155,7 @@ TEST_CASE("log2csv --format feedforward writes t_s, r_m, F_star_N of every state
   const std::string csv = directory.file("ff.csv");
   const auto written = write_log(log, 25);
   log2csv("--log " + log + " --output " + csv + " --format feedforward");
-  const auto table = clm::CsvTable::load(csv);
+  const auto table = clm::data::CsvTable::load(csv);
   REQUIRE(table.rows() == 25);
   const auto t = table.numbers("t_s"), r = table.numbers("r_m"), f = table.numbers("F_star_N");
   for (std::size_t i = 0; i < 25; ++i) {
@@ -172,7 +172,7 @@ TEST_CASE("log2csv --format full writes every field, coil-set columns per coil s
   const std::string csv = directory.file("full.csv");
   const auto written = write_log(log, 12, 2);
   log2csv("--log " + log + " --output " + csv + " --format full");
-  const auto table = clm::CsvTable::load(csv);
+  const auto table = clm::data::CsvTable::load(csv);
   REQUIRE(table.rows() == 12);
   for (const char* name : {"utime", "cycle", "t_s", "r_m", "r_dot_m_per_s", "r_ddot_m_per_s2", "y_m", "e_m",
                            "F_star_N", "u_fb_N", "u_ff_N", "Fy_star_N", "Fx_star_N", "Tz_star_Nm", "Fy_N", "Fx_N",

@@ -4,9 +4,9 @@
 
 #include "commutation/model_file.hpp"
 #include "config/atomic_file.hpp"
+#include "config/sha256.hpp"
 #include "tools/clm/commands.hpp"
 #include "tools/data/commissioning_steps.hpp"
-#include "tools/data/sha256.hpp"
 #include "tools/lcmlog/data_input.hpp"
 
 namespace clm::cli {
@@ -27,9 +27,9 @@ void add_calibrate(CLI::App& app) {
   sub->callback([options] {
     const auto motor = load_motor_description(options->motor);
     const auto table = lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment);
-    const auto data = read_experiment_data(table, motor);
-    const auto paper = calibrate_motor(data, motor, CalibrationMethod::kAlgorithm1);
-    const auto robust = calibrate_motor(data, motor, CalibrationMethod::kOffsetRobust);
+    const auto data = data::read_experiment_data(table, motor);
+    const auto paper = data::calibrate_motor(data, motor, data::CalibrationMethod::kAlgorithm1);
+    const auto robust = data::calibrate_motor(data, motor, data::CalibrationMethod::kOffsetRobust);
     CalibrationFile chosen = options->robust ? robust : paper;
     chosen.data_sha256 = sha256_file(options->data);
     chosen.generator = generator_name("calibrate");

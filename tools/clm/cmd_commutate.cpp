@@ -46,7 +46,7 @@ void add_commutate(CLI::App& app) {
       commutator_options.power_metric = options->power == "true" ? PowerMetric::kTruePower : PowerMetric::kCurrentNorm;
       law = std::make_unique<ModelCommutator>(model_file.model, motor.drive, commutator_options);
     }
-    const auto table = CsvTable::load(options->input);
+    const auto table = data::CsvTable::load(options->input);
     const auto y = table.numbers("y_m");
     const auto fy = table.numbers("Fy_N");
     const auto fx = table.numbers("Fx_N");
@@ -71,7 +71,7 @@ void add_commutate(CLI::App& app) {
         columns[base + 3][r] = out.currents_A[2 * l + 1];
       }
     }
-    write_csv_atomically(options->output, names, columns);
+    data::write_csv_atomically(options->output, names, columns);
     std::printf("commutated %zu rows with %s; damped inverse engaged on %zu rows\nwrote %s\n", table.rows(),
                 options->calibration.empty() ? "the model inverse (37)" : "calibrated classical commutation (12)",
                 damped, options->output.c_str());

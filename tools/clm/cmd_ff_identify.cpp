@@ -2,11 +2,11 @@
 #include <cstdio>
 
 #include "config/atomic_file.hpp"
+#include "config/sha256.hpp"
 #include "daemon/control/position_controller.hpp"
+#include "daemon/servod/feedforward_file.hpp"
 #include "tools/clm/commands.hpp"
 #include "tools/data/commissioning_steps.hpp"
-#include "tools/data/feedforward_file.hpp"
-#include "tools/data/sha256.hpp"
 #include "tools/lcmlog/data_input.hpp"
 
 namespace clm::cli {
@@ -31,16 +31,16 @@ void add_ff_identify(CLI::App& app) {
       }
     }
     const auto samples = control::reference_from_positions(time, reference);
-    FeedforwardFile file;
+    servod::FeedforwardFile file;
     try {
       file.parameters = control::identify_feedforward(samples, force);
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(options->data + ": " + e.what());
     }
     file.data_sha256 = sha256_file(options->data);
-    file.created_utc = utc_timestamp();
+    file.created_utc = data::utc_timestamp();
     file.generator = generator_name("ff-identify");
-    write_file_atomically(options->output, format_feedforward_file(file));
+    write_file_atomically(options->output, servod::format_feedforward_file(file));
     std::printf("mass_kg %.6g  viscous_N_s_per_m %.6g  coulomb_N %.6g\nwrote %s\n", file.parameters.mass_kg,
                 file.parameters.viscous_N_s_per_m, file.parameters.coulomb_N, options->output.c_str());
   });

@@ -4,9 +4,9 @@
 
 #include "commutation/model_file.hpp"
 #include "config/atomic_file.hpp"
+#include "config/sha256.hpp"
 #include "tools/clm/commands.hpp"
 #include "tools/data/commissioning_steps.hpp"
-#include "tools/data/sha256.hpp"
 #include "tools/lcmlog/data_input.hpp"
 
 namespace clm::cli {
@@ -15,7 +15,7 @@ void add_identify(CLI::App& app) {
   auto* sub = app.add_subcommand("identify", "Algorithm 2: identify a PGNN (or spline) model of the electromagnetics");
   struct Options {
     std::string motor, data, output, model = "pgnn";
-    IdentifyOptions identify;
+    data::IdentifyOptions identify;
   };
   auto options = std::make_shared<Options>();
   auto& o = options->identify;
@@ -50,14 +50,15 @@ void add_identify(CLI::App& app) {
     options->identify.spline.regularisation = options->identify.pgnn.regularisation;
     const auto motor = load_motor_description(options->motor);
     const auto table = lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment);
-    const auto data = read_experiment_data(table, motor);
-    std::vector<CoilSetIdentification> reports;
+    const auto data = data::read_experiment_data(table, motor);
+    std::vector<data::CoilSetIdentification> reports;
     ProgressBar bar("identify " + options->model);
-    ModelFile file = identify_motor(data, motor, options->identify, reports, [&](const IdentifyProgress& p) {
+    const auto on_progress = [&](const data::IdentifyProgress& p) {
       const double fraction = (p.coil_set - 1 + static_cast<double>(p.step) / p.steps) / p.coil_sets;
       bar.update(fraction, "coil set " + std::to_string(p.coil_set) + "/" + std::to_string(p.coil_sets) + " step " +
                                std::to_string(p.step) + "/" + std::to_string(p.steps));
-    });
+    };
+    ModelFile file = data::identify_motor(data, motor, options->identify, reports, on_progress);
     bar.finish();
     file.provenance.data_sha256 = sha256_file(options->data);
     file.provenance.generator = generator_name("identify");

@@ -8,11 +8,11 @@
 #include <stdexcept>
 
 #include "config/atomic_file.hpp"
+#include "config/sha256.hpp"
+#include "daemon/servod/feedforward_file.hpp"
 #include "drivers/sim/motor.hpp"
 #include "tools/commission/live_runner.hpp"
 #include "tools/data/csv_table.hpp"
-#include "tools/data/feedforward_file.hpp"
-#include "tools/data/sha256.hpp"
 
 namespace clm::commission {
 namespace {
@@ -37,7 +37,7 @@ void write_experiment_csv(const std::string& path, const std::vector<Recording>&
     }
     if (!run.samples.empty()) offset_s += run.samples.back().t_s + 1.0;
   }
-  write_csv_atomically(path, names, columns);
+  data::write_csv_atomically(path, names, columns);
 }
 
 void write_feedforward_csv(const std::string& path, const Recording& run) {
@@ -48,7 +48,7 @@ void write_feedforward_csv(const std::string& path, const Recording& run) {
     columns[1].push_back(s.r_m);
     columns[2].push_back(s.F_star_N);
   }
-  write_csv_atomically(path, names, columns);
+  data::write_csv_atomically(path, names, columns);
 }
 
 void write_evaluation_csv(const std::string& path, const Recording& run, const control::MoveProgram& program) {
@@ -62,7 +62,7 @@ void write_evaluation_csv(const std::string& path, const Recording& run, const c
                           s.desired.x(), s.measured.x(), s.measured.y(), s.measured.z(), s.current_square_sum_A2};
     for (std::size_t c = 0; c < names.size(); ++c) columns[c].push_back(row[c]);
   }
-  write_csv_atomically(path, names, columns);
+  data::write_csv_atomically(path, names, columns);
 }
 
 // Identified against true cogging and gains on a position grid (Fig. 9).
@@ -103,7 +103,7 @@ void write_truth_comparison(const std::string& directory, const sim::SimulatedMo
       }
     }
   }
-  write_csv_atomically(directory + "/truth-comparison.csv", names, columns);
+  data::write_csv_atomically(directory + "/truth-comparison.csv", names, columns);
 }
 
 }  // namespace
@@ -229,10 +229,10 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
 
   // 2. Calibration and identification, through the same code as the offline tools.
   step_start = Clock::now();
-  const ExperimentData data = read_experiment_data(CsvTable::load(experiment_csv), motor);
+  const data::ExperimentData data = data::read_experiment_data(data::CsvTable::load(experiment_csv), motor);
   const std::string data_hash = sha256_file(experiment_csv);
-  report.calibration_paper = calibrate_motor(data, motor, CalibrationMethod::kAlgorithm1);
-  report.calibration_robust = calibrate_motor(data, motor, CalibrationMethod::kOffsetRobust);
+  report.calibration_paper = data::calibrate_motor(data, motor, data::CalibrationMethod::kAlgorithm1);
+  report.calibration_robust = data::calibrate_motor(data, motor, data::CalibrationMethod::kOffsetRobust);
   for (CalibrationFile* file : {&report.calibration_paper, &report.calibration_robust}) {
     file->data_sha256 = data_hash;
     file->generator = "clm commission";
@@ -244,11 +244,11 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   ModelFile models[2];
   for (int k = 0; k < 2; ++k) {
     step_start = Clock::now();
-    IdentifyOptions identify = options.identify;
+    data::IdentifyOptions identify = options.identify;
     identify.kind = k == 0 ? ModelKind::kPgnn : ModelKind::kSpline;
     const std::string label = k == 0 ? "identify pgnn" : "identify spline";
     auto& reports = k == 0 ? report.pgnn : report.spline;
-    models[k] = identify_motor(data, motor, identify, reports, [&](const IdentifyProgress& p) {
+    models[k] = data::identify_motor(data, motor, identify, reports, [&](const data::IdentifyProgress& p) {
       tell(label, (p.coil_set - 1 + static_cast<double>(p.step) / p.steps) / p.coil_sets,
            "coil set " + std::to_string(p.coil_set));
     });
@@ -267,10 +267,10 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   runner.load_model(servo::CommutationMode::kPgnn, dir + "/model-pgnn.yaml");
   runner.load_model(servo::CommutationMode::kSpline, dir + "/model-spline.yaml");
   // The feedforward runs' zero feedforward, as a file a running daemon can load.
-  FeedforwardFile no_feedforward;
+  servod::FeedforwardFile no_feedforward;
   no_feedforward.generator = "clm commission";
   const std::string no_feedforward_path = written("feedforward-none.yaml");
-  write_file_atomically(no_feedforward_path, format_feedforward_file(no_feedforward));
+  write_file_atomically(no_feedforward_path, servod::format_feedforward_file(no_feedforward));
 
   // 4. Per commutation: feedforward identification, then evaluation.
   const std::pair<const char*, servo::CommutationMode> commutations[] = {
@@ -294,11 +294,11 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     const Recording identification_run = runner.run_program(program, program_path, std::string(name) + " feedforward data");
     runner.close_log();
     write_feedforward_csv(written(std::string("feedforward-data-") + name + ".csv"), identification_run);
-    FeedforwardFile ff_file;
+    servod::FeedforwardFile ff_file;
     ff_file.parameters = identify_ff(identification_run);
     ff_file.generator = "clm commission";
     const std::string ff_path = written(std::string("feedforward-") + name + ".yaml");
-    write_file_atomically(ff_path, format_feedforward_file(ff_file));
+    write_file_atomically(ff_path, servod::format_feedforward_file(ff_file));
     runner.load_feedforward(ff_file.parameters, ff_path);
     open_log(std::string("evaluation-") + name + ".lcm");
     const Recording evaluation = runner.run_program(program, program_path, std::string(name) + " evaluation");

@@ -21,7 +21,7 @@ namespace clm::commission {
 struct Options {
   std::string config_path;
   std::string out_dir;
-  IdentifyOptions identify;
+  data::IdentifyOptions identify;
   /// Experiment reference (the paper's Fig. 8 unless replaced).
   std::string program_path;
   /// Held-out trajectory on which every commutation is evaluated as well
@@ -55,8 +55,8 @@ struct Report {
   int coil_sets = 0;
   CalibrationFile calibration_paper;
   CalibrationFile calibration_robust;
-  std::vector<CoilSetIdentification> pgnn;
-  std::vector<CoilSetIdentification> spline;
+  std::vector<data::CoilSetIdentification> pgnn;
+  std::vector<data::CoilSetIdentification> spline;
   std::vector<CommutationResult> results;  ///< original, classical, pgnn, spline, oracle
   std::vector<CommutationResult> validation;  ///< the same on the held-out trajectory
   std::string validation_program;

@@ -23,7 +23,7 @@ const PaperRow kPaper[] = {
 
 std::string number(double value) {
   if (!std::isfinite(value)) return "null";
-  return shortest_double(value);
+  return data::shortest_double(value);
 }
 
 std::string triple(const std::array<double, 3>& values) {
@@ -55,7 +55,7 @@ std::string fixed(double value, const char* format = "%.3g") {
   return buffer;
 }
 
-void identification_json(std::ostringstream& out, const std::vector<CoilSetIdentification>& entries) {
+void identification_json(std::ostringstream& out, const std::vector<data::CoilSetIdentification>& entries) {
   out << "[";
   for (std::size_t l = 0; l < entries.size(); ++l) {
     const auto& r = entries[l].report;
@@ -264,13 +264,13 @@ std::string report_markdown(const Report& report) {
         << " | " << fixed(b.motor_constant_N_per_A, "%.2f") << " | " << fixed(b.phase_offset_rad, "%.3f") << " | "
         << (l < 3 ? fixed(paper_k[l], "%.2f") : "–") << " | " << (l < 3 ? fixed(paper_zeta[l], "%.2f") : "–") << " |\n";
   }
-  const auto identification = [&](const char* title, const std::vector<CoilSetIdentification>& entries) {
+  const auto identification = [&](const char* title, const std::vector<data::CoilSetIdentification>& entries) {
     out << "\n## Identification: " << title << "\n\nData-term cost (mean squared error) per direction y/x/z, physics-only "
            "model vs identified model, on training and held-out validation data.\n\n"
            "| coil set | physics train | model train | physics valid | model valid | Prop. 4.1 |\n|---|---|---|---|---|---|\n";
     for (std::size_t l = 0; l < entries.size(); ++l) {
       const auto& r = entries[l].report;
-      const auto cell = [&](const DirectionCost& c) {
+      const auto cell = [&](const identification::DirectionCost& c) {
         return fixed(c[0]) + " / " + fixed(c[1]) + " / " + fixed(c[2]);
       };
       out << "| " << l + 1 << " | " << cell(r.physics_training) << " | " << cell(r.model_training) << " | "

@@ -4,8 +4,9 @@
 #include <stdexcept>
 
 #include "commutation/calibration.hpp"
+#include "commutation/identification/linear_parameters.hpp"
 
-namespace clm {
+namespace clm::data {
 
 CalibrationFile calibrate_motor(const ExperimentData& data, const MotorDescription& motor, CalibrationMethod method) {
   CalibrationFile file;
@@ -22,8 +23,8 @@ CalibrationFile calibrate_motor(const ExperimentData& data, const MotorDescripti
       if (method == CalibrationMethod::kAlgorithm1) {
         result = calibrate_classical(motor.drive.motor_constant_N_per_A, motor.drive.phase_offset_rad, first, second);
       } else {
-        SplineOptions grid;
-        const auto basis = spline_basis_for(experiment.dataset.position_m, motor.pole_pitch_m, grid);
+        identification::SplineOptions grid;
+        const auto basis = identification::spline_basis_for(experiment.dataset.position_m, motor.pole_pitch_m, grid);
         result = calibrate_classical_offset_robust(motor.drive.motor_constant_N_per_A, motor.drive.phase_offset_rad,
                                                    first, second, basis);
       }
@@ -57,13 +58,13 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
     all_positions.segment(at, experiment.dataset.size()) = experiment.dataset.position_m;
     at += experiment.dataset.size();
   }
-  model.normalisation = normalisation_for(all_positions);
-  model.spline_basis = spline_basis_for(all_positions, motor.pole_pitch_m, options.spline);
+  model.normalisation = identification::normalisation_for(all_positions);
+  model.spline_basis = identification::spline_basis_for(all_positions, motor.pole_pitch_m, options.spline);
 
   reports.clear();
   const int count = static_cast<int>(data.coil_sets.size());
   for (const auto& experiment : data.coil_sets) {
-    const auto split = split_contiguous_blocks(experiment.dataset, options.validation_fraction);
+    const auto split = identification::split_contiguous_blocks(experiment.dataset, options.validation_fraction);
     const auto training = experiment.dataset.subset(split.training);
     const auto validation = experiment.dataset.subset(split.validation);
     CoilSetIdentification entry;
@@ -71,15 +72,16 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
     entry.validation_samples = split.validation.size();
     CoilSetModel part;
     if (options.kind == ModelKind::kPgnn) {
-      PgnnOptions pgnn = options.pgnn;
+      identification::PgnnOptions pgnn = options.pgnn;
       pgnn.seed = options.pgnn.seed + static_cast<std::uint64_t>(experiment.coil_set) * 1000;
-      part = identify_pgnn_coil_set(training, validation, motor.pole_pitch_m, model.normalisation, pgnn, entry.report,
-                                    [&](const PgnnProgress& p) {
-                                      if (progress) progress({experiment.coil_set, count, p.restart + 1, p.restarts + 1});
-                                    });
+      const auto on_step = [&](const identification::PgnnProgress& p) {
+        if (progress) progress({experiment.coil_set, count, p.restart + 1, p.restarts + 1});
+      };
+      part = identification::identify_pgnn_coil_set(training, validation, motor.pole_pitch_m, model.normalisation,
+                                                    pgnn, entry.report, on_step);
     } else {
-      part = identify_spline_coil_set(training, validation, motor.pole_pitch_m, model.spline_basis, options.spline,
-                                      entry.report);
+      part = identification::identify_spline_coil_set(training, validation, motor.pole_pitch_m, model.spline_basis,
+                                                      options.spline, entry.report);
       if (progress) progress({experiment.coil_set, count, 1, 1});
     }
     model.coil_sets.push_back(std::move(part));
@@ -108,4 +110,4 @@ std::string utc_timestamp() {
   return buffer;
 }
 
-}  // namespace clm
+}  // namespace clm::data

@@ -7,11 +7,13 @@
 #include <string>
 #include <vector>
 
-#include "commutation/identification/identification.hpp"
+#include "commutation/identification/pgnn_training.hpp"
+#include "commutation/identification/report.hpp"
+#include "commutation/identification/spline_fit.hpp"
 #include "commutation/model_file.hpp"
 #include "tools/data/experiment_data.hpp"
 
-namespace clm {
+namespace clm::data {
 
 enum class CalibrationMethod { kAlgorithm1, kOffsetRobust };
 
@@ -21,8 +23,8 @@ CalibrationFile calibrate_motor(const ExperimentData& data, const MotorDescripti
 
 struct IdentifyOptions {
   ModelKind kind = ModelKind::kPgnn;
-  PgnnOptions pgnn;
-  SplineOptions spline;
+  identification::PgnnOptions pgnn;
+  identification::SplineOptions spline;
   double validation_fraction = 0.2;
 };
 
@@ -34,7 +36,7 @@ struct IdentifyProgress {
 };
 
 struct CoilSetIdentification {
-  IdentificationReport report;
+  identification::IdentificationReport report;
   std::size_t training_samples = 0;
   std::size_t validation_samples = 0;
 };
@@ -48,4 +50,4 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
 /// Current UTC time as 2026-11-21T05:09:41Z.
 std::string utc_timestamp();
 
-}  // namespace clm
+}  // namespace clm::data

@@ -8,7 +8,7 @@
 
 #include "config/atomic_file.hpp"
 
-namespace clm {
+namespace clm::data {
 namespace {
 
 std::string_view trim(std::string_view text) {
@@ -178,4 +178,4 @@ void write_csv_atomically(const std::string& path, std::span<const std::string> 
   write_file_atomically(path, out);
 }
 
-}  // namespace clm
+}  // namespace clm::data

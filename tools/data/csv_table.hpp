@@ -10,7 +10,7 @@
 #include <string_view>
 #include <vector>
 
-namespace clm {
+namespace clm::data {
 
 class CsvTable {
  public:
@@ -64,4 +64,4 @@ void write_csv_atomically(const std::string& path, std::span<const std::string> 
 /// Shortest text that reads back as the same double.
 std::string shortest_double(double value);
 
-}  // namespace clm
+}  // namespace clm::data

@@ -5,7 +5,7 @@
 
 #include "commutation/classical.hpp"
 
-namespace clm {
+namespace clm::data {
 
 ExperimentData read_experiment_data(const CsvTable& table, const MotorDescription& motor) {
   const std::string& file = table.origin();
@@ -98,4 +98,4 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
   return data;
 }
 
-}  // namespace clm
+}  // namespace clm::data

@@ -11,7 +11,7 @@
 #include "commutation/model_file.hpp"
 #include "tools/data/csv_table.hpp"
 
-namespace clm {
+namespace clm::data {
 
 struct CoilSetExperiment {
   int coil_set = 0;  ///< 1-based
@@ -20,7 +20,7 @@ struct CoilSetExperiment {
   std::array<std::vector<double>, 2> position_m, magnitude_N, driving_force_N;
   /// Both groups with currents (measured ia_A/ib_A when present, else
   /// reconstructed through the drive's fixed commutation, eq. 19).
-  CoilSetDataset dataset;
+  identification::CoilSetDataset dataset;
 };
 
 struct ExperimentData {
@@ -35,4 +35,4 @@ struct ExperimentData {
 /// distinct offsets.
 ExperimentData read_experiment_data(const CsvTable& table, const MotorDescription& motor);
 
-}  // namespace clm
+}  // namespace clm::data

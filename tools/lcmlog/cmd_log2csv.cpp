@@ -35,7 +35,7 @@ void add_log2csv(CLI::App& app) {
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(options->log + ": " + e.what());
     }
-    write_csv_atomically(options->output, columns.names, columns.values);
+    data::write_csv_atomically(options->output, columns.names, columns.values);
     std::printf("wrote %s: %zu rows, %zu columns from %zu CLM_SERVO_STATE messages\n", options->output.c_str(),
                 columns.rows(), columns.names.size(), states.size());
   });

@@ -19,8 +19,8 @@ bool is_lcm_log(const std::string& path) {
   return magic == std::array<unsigned char, 4>{0xED, 0xA1, 0xDA, 0x01};
 }
 
-CsvTable load_data_table(const std::string& path, CsvFormat format) {
-  if (!is_lcm_log(path)) return CsvTable::load(path);
+data::CsvTable load_data_table(const std::string& path, CsvFormat format) {
+  if (!is_lcm_log(path)) return data::CsvTable::load(path);
   ServoStateLog log = read_servo_state_log(path);
   CsvColumns columns;
   try {
@@ -30,7 +30,8 @@ CsvTable load_data_table(const std::string& path, CsvFormat format) {
   }
   std::vector<std::int64_t> events(columns.rows());
   for (std::size_t r = 0; r < events.size(); ++r) events[r] = log.events[columns.source_states[r]];
-  return CsvTable::from_columns(path, std::move(columns.names), std::move(columns.values), "event", std::move(events));
+  return data::CsvTable::from_columns(path, std::move(columns.names), std::move(columns.values), "event",
+                                      std::move(events));
 }
 
 }  // namespace clm::lcmlog

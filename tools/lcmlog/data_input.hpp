@@ -22,6 +22,6 @@ bool is_lcm_log(const std::string& path);
 /// of a log are named by event number in later errors ("run.lcm: event 1742:
 /// column 'Fy_N': 'nan' is not a finite number"). Throws std::runtime_error
 /// with one line naming the file (and the event for a damaged log).
-CsvTable load_data_table(const std::string& path, CsvFormat format);
+data::CsvTable load_data_table(const std::string& path, CsvFormat format);
 
 }  // namespace clm::lcmlog

@@ -32,7 +32,7 @@ struct ServoStateLog {
 /// As read_servo_states, keeping each state's event number; same errors.
 ServoStateLog read_servo_state_log(const std::string& lcm_log_path);
 
-/// Named columns of equal length, ready for clm::write_csv_atomically.
+/// Named columns of equal length, ready for clm::data::write_csv_atomically.
 struct CsvColumns {
   std::vector<std::string> names;
   std::vector<std::vector<double>> values;  ///< values[column][row]

@@ -2,7 +2,7 @@
 """PyTorch reference implementation of the PGNN identification (Algorithm 2).
 
 The same model, data, split, normalisation, physics-only target and cost as
-commutation/identification/identification.cpp, trained with a different
+commutation/identification/ (pgnn_training.cpp), trained with a different
 optimiser (full-batch L-BFGS with strong-Wolfe line search instead of
 Levenberg-Marquardt on decimated data), so that our C++ identification can be
 benchmarked against a mainstream implementation (docs/benchmarks.md,

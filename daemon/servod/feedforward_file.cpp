@@ -1,6 +1,6 @@
-#include "tools/data/feedforward_file.hpp"
+#include "daemon/servod/feedforward_file.hpp"
 
-namespace clm {
+namespace clm::servod {
 
 std::string format_feedforward_file(const FeedforwardFile& file) {
   YAML::Emitter out;
@@ -40,4 +40,4 @@ FeedforwardFile load_feedforward_file(const std::string& path) {
   return parse_feedforward_file(yaml::Node::load_file(path));
 }
 
-}  // namespace clm
+}  // namespace clm::servod

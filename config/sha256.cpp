@@ -1,4 +1,4 @@
-#include "tools/data/sha256.hpp"
+#include "config/sha256.hpp"
 
 #include <array>
 #include <cstdint>

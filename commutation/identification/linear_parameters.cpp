@@ -1,0 +1,129 @@
+#include "commutation/identification/linear_parameters.hpp"
+
+#include <Eigen/Dense>
+
+#include "commutation/identification/physics_fit.hpp"
+
+namespace clm::identification {
+
+PgnnFeatures features_of(const CoilSetDataset& data, double pole_pitch_m, const PositionNormalisation& normalisation) {
+  PgnnFeatures f;
+  const Eigen::ArrayXd theta = data.position_m.array() * (kTwoPi / pole_pitch_m);
+  f.cos_theta = theta.cos();
+  f.sin_theta = theta.sin();
+  f.input = (data.position_m.array() - normalisation.offset_m) / normalisation.scale_m;
+  return f;
+}
+
+void ridge_linear(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnLayout& layout, const double* nonlinear,
+                  const CoilGain& physics_a, const CoilGain& physics_b, double regularisation,
+                  Eigen::Matrix<double, Eigen::Dynamic, 3>& linear) {
+  const int p = layout.linear_size();
+  Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(p, p);
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(p, 3);
+  double m[kMaxRegressor];
+  double ha[Network::kMaxWidth], hb[Network::kMaxWidth], hc[Network::kMaxWidth];
+  const double inv_n = 1.0 / static_cast<double>(data.size());
+  for (Eigen::Index t = 0; t < data.size(); ++t) {
+    regressor(layout, nonlinear, f.cos_theta[t], f.sin_theta[t], f.input[t], data.currents_A(0, t),
+              data.currents_A(1, t), m, ha, hb, hc);
+    const Eigen::Map<const Eigen::VectorXd> mv(m, p);
+    gram.selfadjointView<Eigen::Lower>().rankUpdate(mv, inv_n);
+    rhs.noalias() += mv * (data.wrench.col(t).transpose() * inv_n);
+  }
+  gram = gram.selfadjointView<Eigen::Lower>();
+  const double lambda2 = regularisation * regularisation;
+  for (int k = 0; k < 4; ++k) gram(k, k) += lambda2;
+  for (int q = 0; q < 3; ++q) rhs.block<4, 1>(0, q) += lambda2 * physics_target(physics_a, physics_b, q);
+  // A tiny ridge on the output layers keeps the solve defined when a neuron is
+  // saturated over the whole stroke (a constant column duplicates the bias).
+  for (int k = 4; k < p; ++k) gram(k, k) += 1e-10 * (1.0 + gram(k, k));
+  linear = gram.ldlt().solve(rhs);
+}
+
+void unpack_parameters(const PgnnLayout& layout, const double* nonlinear,
+                       const Eigen::Matrix<double, Eigen::Dynamic, 3>& linear, CoilSetModel& coil_set) {
+  const int na = layout.column_hidden;
+  const int nc = layout.cogging_hidden;
+  coil_set.column_a = Network::zeros({na});
+  coil_set.column_b = Network::zeros({na});
+  coil_set.cogging = Network::zeros({nc});
+  for (int j = 0; j < na; ++j) {
+    coil_set.column_a.layers[0].weights(j, 0) = nonlinear[j];
+    coil_set.column_a.layers[0].biases[j] = nonlinear[na + j];
+    coil_set.column_b.layers[0].weights(j, 0) = nonlinear[2 * na + j];
+    coil_set.column_b.layers[0].biases[j] = nonlinear[3 * na + j];
+  }
+  for (int j = 0; j < nc; ++j) {
+    coil_set.cogging.layers[0].weights(j, 0) = nonlinear[4 * na + j];
+    coil_set.cogging.layers[0].biases[j] = nonlinear[4 * na + nc + j];
+  }
+  for (int q = 0; q < 3; ++q) {
+    coil_set.a_N_per_A(q, 0) = linear(0, q);
+    coil_set.a_N_per_A(q, 1) = linear(1, q);
+    coil_set.b_N_per_A(q, 0) = linear(2, q);
+    coil_set.b_N_per_A(q, 1) = linear(3, q);
+    for (int j = 0; j < na; ++j) {
+      coil_set.column_a.layers[1].weights(q, j) = linear(layout.column_a_offset() + j, q);
+      coil_set.column_b.layers[1].weights(q, j) = linear(layout.column_b_offset() + j, q);
+    }
+    coil_set.column_a.layers[1].biases[q] = linear(layout.column_a_offset() + na, q);
+    coil_set.column_b.layers[1].biases[q] = linear(layout.column_b_offset() + na, q);
+    for (int j = 0; j < nc; ++j) coil_set.cogging.layers[1].weights(q, j) = linear(layout.cogging_offset() + j, q);
+    coil_set.cogging.layers[1].biases[q] = linear(layout.cogging_offset() + nc, q);
+  }
+}
+
+void pack_parameters(const PgnnLayout& layout, const CoilSetModel& coil_set, std::vector<double>& nonlinear,
+                     Eigen::Matrix<double, Eigen::Dynamic, 3>& linear) {
+  const int na = layout.column_hidden;
+  const int nc = layout.cogging_hidden;
+  nonlinear.assign(static_cast<std::size_t>(layout.nonlinear_size()), 0.0);
+  for (int j = 0; j < na; ++j) {
+    nonlinear[static_cast<std::size_t>(j)] = coil_set.column_a.layers[0].weights(j, 0);
+    nonlinear[static_cast<std::size_t>(na + j)] = coil_set.column_a.layers[0].biases[j];
+    nonlinear[static_cast<std::size_t>(2 * na + j)] = coil_set.column_b.layers[0].weights(j, 0);
+    nonlinear[static_cast<std::size_t>(3 * na + j)] = coil_set.column_b.layers[0].biases[j];
+  }
+  for (int j = 0; j < nc; ++j) {
+    nonlinear[static_cast<std::size_t>(4 * na + j)] = coil_set.cogging.layers[0].weights(j, 0);
+    nonlinear[static_cast<std::size_t>(4 * na + nc + j)] = coil_set.cogging.layers[0].biases[j];
+  }
+  linear.resize(layout.linear_size(), 3);
+  for (int q = 0; q < 3; ++q) {
+    linear(0, q) = coil_set.a_N_per_A(q, 0);
+    linear(1, q) = coil_set.a_N_per_A(q, 1);
+    linear(2, q) = coil_set.b_N_per_A(q, 0);
+    linear(3, q) = coil_set.b_N_per_A(q, 1);
+    for (int j = 0; j < na; ++j) {
+      linear(layout.column_a_offset() + j, q) = coil_set.column_a.layers[1].weights(q, j);
+      linear(layout.column_b_offset() + j, q) = coil_set.column_b.layers[1].weights(q, j);
+    }
+    linear(layout.column_a_offset() + na, q) = coil_set.column_a.layers[1].biases[q];
+    linear(layout.column_b_offset() + na, q) = coil_set.column_b.layers[1].biases[q];
+    for (int j = 0; j < nc; ++j) linear(layout.cogging_offset() + j, q) = coil_set.cogging.layers[1].weights(q, j);
+    linear(layout.cogging_offset() + nc, q) = coil_set.cogging.layers[1].biases[q];
+  }
+}
+
+PositionNormalisation normalisation_for(const Eigen::VectorXd& position_m) {
+  const double low = position_m.minCoeff();
+  const double high = position_m.maxCoeff();
+  const double half = 0.5 * (high - low);
+  return {0.5 * (high + low), half > 0.0 ? half : 1.0};
+}
+
+void solve_linear_parameters(const CoilSetDataset& data, double pole_pitch_m,
+                             const PositionNormalisation& normalisation, const CoilGain& physics_a,
+                             const CoilGain& physics_b, double regularisation, CoilSetModel& coil_set) {
+  const PgnnLayout layout{static_cast<int>(coil_set.column_a.layers[0].biases.size()),
+                          static_cast<int>(coil_set.cogging.layers[0].biases.size())};
+  std::vector<double> nonlinear;
+  Eigen::Matrix<double, Eigen::Dynamic, 3> linear;
+  pack_parameters(layout, coil_set, nonlinear, linear);
+  const PgnnFeatures f = features_of(data, pole_pitch_m, normalisation);
+  ridge_linear(data, f, layout, nonlinear.data(), physics_a, physics_b, regularisation, linear);
+  unpack_parameters(layout, nonlinear.data(), linear, coil_set);
+}
+
+}  // namespace clm::identification

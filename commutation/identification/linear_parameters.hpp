@@ -1,0 +1,99 @@
+#pragma once
+// The parameters in which the PGNN is linear (θ_L of eq. 29): their layout,
+// the regressor M(θ_NL, t) of eq. (28), and eq. (31), the ridge least-squares
+// solve of θ_L for fixed hidden layers θ_NL. The PGNN training calls these at
+// every restart and at the end; solve_linear_parameters is the public form.
+// No I/O.
+
+#include <Eigen/Core>
+#include <cmath>
+#include <vector>
+
+#include "commutation/identification/dataset.hpp"
+#include "commutation/model.hpp"
+
+namespace clm::identification {
+
+/// Input normalisation mapping the positions in `data` to [−1, 1].
+PositionNormalisation normalisation_for(const Eigen::VectorXd& position_m);
+
+/// Eq. (31): ridge least squares of every parameter in which the PGNN is
+/// linear (A, B and the output layers), direction by direction, with the
+/// hidden layers of `coil_set` held fixed. Modifies `coil_set` in place.
+void solve_linear_parameters(const CoilSetDataset& data, double pole_pitch_m,
+                             const PositionNormalisation& normalisation, const CoilGain& physics_a,
+                             const CoilGain& physics_b, double regularisation, CoilSetModel& coil_set);
+
+/// Per-sample quantities that do not depend on the parameters: cos θ, sin θ
+/// of the electrical angle and the normalised network input.
+struct PgnnFeatures {
+  Eigen::ArrayXd cos_theta, sin_theta, input;
+};
+
+/// The features of every sample of `data` (θ from position_m and pole_pitch_m,
+/// input = (y − offset_m) / scale_m). No checks: `data` is validated by the caller.
+PgnnFeatures features_of(const CoilSetDataset& data, double pole_pitch_m, const PositionNormalisation& normalisation);
+
+/// Layout of the parameters of one direction in which the PGNN is linear
+/// (eq. 29): [A_q (2), B_q (2), W_a (n_a), b_a, W_b (n_b), b_b, W_cog (n_c), b_cog].
+struct PgnnLayout {
+  int column_hidden;
+  int cogging_hidden;
+  int linear_size() const { return 4 + 2 * (column_hidden + 1) + cogging_hidden + 1; }
+  int column_a_offset() const { return 4; }
+  int column_b_offset() const { return 4 + column_hidden + 1; }
+  int cogging_offset() const { return 4 + 2 * (column_hidden + 1); }
+  // Hidden layers (eq. 29's θ_NL): [w_a, b_a, w_b, b_b, w_cog, b_cog].
+  int nonlinear_size() const { return 4 * column_hidden + 2 * cogging_hidden; }
+};
+
+/// Largest linear_size() for networks of at most Network::kMaxWidth neurons.
+constexpr int kMaxRegressor = 4 + 2 * (Network::kMaxWidth + 1) + Network::kMaxWidth + 1;
+
+/// Regressor M(θ_NL, t) of eq. (28) (the same for all three directions) into
+/// m[0..linear_size()), and the hidden activations into hidden_a/b/cog.
+/// Inline: the cost functions of the PGNN training call it once per sample.
+inline void regressor(const PgnnLayout& layout, const double* nonlinear, double c, double s, double x, double ia,
+                      double ib, double* m, double* hidden_a, double* hidden_b, double* hidden_cog) {
+  m[0] = c * ia;
+  m[1] = c * ib;
+  m[2] = s * ia;
+  m[3] = s * ib;
+  const int na = layout.column_hidden;
+  const int nc = layout.cogging_hidden;
+  const double* wa = nonlinear;
+  const double* ba = wa + na;
+  const double* wb = ba + na;
+  const double* bb = wb + na;
+  const double* wc = bb + na;
+  const double* bc = wc + nc;
+  for (int j = 0; j < na; ++j) {
+    hidden_a[j] = 1.0 - 2.0 / (1.0 + std::exp(2.0 * (wa[j] * x + ba[j])));
+    hidden_b[j] = 1.0 - 2.0 / (1.0 + std::exp(2.0 * (wb[j] * x + bb[j])));
+    m[layout.column_a_offset() + j] = hidden_a[j] * ia;
+    m[layout.column_b_offset() + j] = hidden_b[j] * ib;
+  }
+  m[layout.column_a_offset() + na] = ia;
+  m[layout.column_b_offset() + na] = ib;
+  for (int j = 0; j < nc; ++j) {
+    hidden_cog[j] = 1.0 - 2.0 / (1.0 + std::exp(2.0 * (wc[j] * x + bc[j])));
+    m[layout.cogging_offset() + j] = hidden_cog[j];
+  }
+  m[layout.cogging_offset() + nc] = 1.0;
+}
+
+/// Eq. (31) for one coil set, given the hidden layers in `nonlinear`; writes the
+/// three directions' linear parameters (one column per direction).
+void ridge_linear(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnLayout& layout, const double* nonlinear,
+                  const CoilGain& physics_a, const CoilGain& physics_b, double regularisation,
+                  Eigen::Matrix<double, Eigen::Dynamic, 3>& linear);
+
+/// Writes the hidden and linear parameters into the networks of `coil_set`.
+void unpack_parameters(const PgnnLayout& layout, const double* nonlinear,
+                       const Eigen::Matrix<double, Eigen::Dynamic, 3>& linear, CoilSetModel& coil_set);
+
+/// Reads the parameters back from the networks (inverse of unpack_parameters).
+void pack_parameters(const PgnnLayout& layout, const CoilSetModel& coil_set, std::vector<double>& nonlinear,
+                     Eigen::Matrix<double, Eigen::Dynamic, 3>& linear);
+
+}  // namespace clm::identification

@@ -1,0 +1,56 @@
+#pragma once
+// Algorithm 2 for one coil set: the PGNN (eq. 24-25) by Levenberg–Marquardt
+// (Ceres, a private dependency of this file) with seeded random restarts, and
+// eq. (31) applied at the end. No I/O.
+
+#include <cstdint>
+#include <functional>
+
+#include "commutation/identification/dataset.hpp"
+#include "commutation/identification/report.hpp"
+#include "commutation/model.hpp"
+
+namespace clm::identification {
+
+/// How Levenberg–Marquardt treats the parameters in which the PGNN is linear
+/// (θ_L of eq. 29; docs/commutation.md, "Identification").
+enum class PgnnSolver {
+  kVariableProjection,  ///< θ_L by eq. (31) at every θ_NL, LM on θ_NL alone (Kaufman's Jacobian)
+  kJointSchur,          ///< LM on θ_L and θ_NL together, θ_L eliminated by the Schur complement
+};
+
+struct PgnnOptions {
+  int column_hidden = 2;        ///< neurons of each column network of K̂ (paper: 2)
+  int cogging_hidden = 16;      ///< neurons of the cogging network (paper: 16)
+  double regularisation = 0.1;  ///< Λ = regularisation·I in eq. (26) (paper: 0.1)
+  int restarts = 5;             ///< seeded random initialisations, best kept
+  std::uint64_t seed = 1;
+  int restart_iterations = 40;  ///< LM iterations per restart, on the decimated training set
+  int restart_decimation = 8;   ///< every n-th training sample is used for the restarts
+  int final_iterations = 100;   ///< LM iterations polishing the best restart
+  int final_decimation = 2;     ///< every n-th training sample is used for the polish
+  // At 1 kHz the experiments sample the stroke every 25-150 µm, far finer
+  // than anything the networks resolve; the decimated sets keep every
+  // position region. Eq. (31) at the end always uses all training samples.
+  int threads = 2;
+  PgnnSolver solver = PgnnSolver::kVariableProjection;
+};
+
+struct PgnnProgress {
+  int restart = 0;      ///< 0-based; restarts == polishing step
+  int restarts = 0;
+  double cost = 0.0;    ///< eq. (26) at the end of this step
+};
+
+/// Algorithm 2 for one coil set: returns A, B and the three networks. The
+/// networks take `normalisation` of the position as input. Eq. (31) is
+/// applied to the best parameters at the end, which guarantees eq. (32).
+/// `progress` (optional) is called after every restart and the polish.
+/// Throws std::invalid_argument for too few samples, network sizes outside
+/// 1..Network::kMaxWidth, no restarts or a negative regularisation.
+CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSetDataset& validation,
+                                    double pole_pitch_m, const PositionNormalisation& normalisation,
+                                    const PgnnOptions& options, IdentificationReport& report,
+                                    const std::function<void(const PgnnProgress&)>& progress = {});
+
+}  // namespace clm::identification

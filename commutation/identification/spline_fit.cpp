@@ -1,0 +1,108 @@
+#include "commutation/identification/spline_fit.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "commutation/identification/physics_fit.hpp"
+
+namespace clm::identification {
+
+UniformCubicBasis spline_basis_for(const Eigen::VectorXd& position_m, double pole_pitch_m, const SplineOptions& options) {
+  const double spacing = options.knot_spacing_m > 0.0 ? options.knot_spacing_m : pole_pitch_m / 8.0;
+  const double low = position_m.minCoeff();
+  const double high = position_m.maxCoeff();
+  const int intervals = std::max(1, static_cast<int>(std::ceil((high - low) / spacing)));
+  const double centre = 0.5 * (low + high);
+  const double half = 0.5 * intervals * spacing;
+  return {centre - half, centre + half, intervals};
+}
+
+CoilSetModel identify_spline_coil_set(const CoilSetDataset& training, const CoilSetDataset& validation,
+                                      double pole_pitch_m, const UniformCubicBasis& basis,
+                                      const SplineOptions& options, IdentificationReport& report) {
+  check_dataset(training, "training");
+  if (!(options.smoothing >= 0.0) || !(options.regularisation >= 0.0)) {
+    throw std::invalid_argument("spline smoothing and regularisation must be non-negative");
+  }
+  CoilGain physics_a, physics_b;
+  fit_physics_only(training, pole_pitch_m, physics_a, physics_b);
+  const int n = basis.size();
+  const int p = 4 + 3 * n;  // [A_q, B_q, C_a (n), C_b (n), G (n)]
+  Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(p, p);
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(p, 3);
+  const double inv_n = 1.0 / static_cast<double>(training.size());
+  for (Eigen::Index t = 0; t < training.size(); ++t) {
+    const double y = training.position_m[t];
+    const double theta = electrical_angle_rad(y, pole_pitch_m);
+    const double c = std::cos(theta), s = std::sin(theta);
+    const double ia = training.currents_A(0, t), ib = training.currents_A(1, t);
+    const auto span = basis.evaluate(y);
+    int index[16];
+    double value[16];
+    const double head[4] = {c * ia, c * ib, s * ia, s * ib};
+    for (int k = 0; k < 4; ++k) {
+      index[k] = k;
+      value[k] = head[k];
+      index[4 + k] = 4 + span.first + k;
+      value[4 + k] = span.value[static_cast<std::size_t>(k)] * ia;
+      index[8 + k] = 4 + n + span.first + k;
+      value[8 + k] = span.value[static_cast<std::size_t>(k)] * ib;
+      index[12 + k] = 4 + 2 * n + span.first + k;
+      value[12 + k] = span.value[static_cast<std::size_t>(k)];
+    }
+    for (int r = 0; r < 16; ++r) {
+      for (int k = 0; k < 16; ++k) gram(index[r], index[k]) += inv_n * value[r] * value[k];
+      for (int q = 0; q < 3; ++q) rhs(index[r], q) += inv_n * value[r] * training.wrench(q, t);
+    }
+  }
+  // Roughness penalty: squared second differences of each coefficient row.
+  for (int block = 0; block < 3; ++block) {
+    const int first = 4 + block * n;
+    for (int j = 0; j + 2 < n; ++j) {
+      const int idx[3] = {first + j, first + j + 1, first + j + 2};
+      const double d[3] = {1.0, -2.0, 1.0};
+      for (int r = 0; r < 3; ++r) {
+        for (int k = 0; k < 3; ++k) gram(idx[r], idx[k]) += options.smoothing * d[r] * d[k];
+      }
+    }
+  }
+  const double lambda2 = options.regularisation * options.regularisation;
+  for (int k = 0; k < 4; ++k) gram(k, k) += lambda2;
+  for (int q = 0; q < 3; ++q) rhs.block<4, 1>(0, q) += lambda2 * physics_target(physics_a, physics_b, q);
+  for (int k = 4; k < p; ++k) gram(k, k) += 1e-12 * (1.0 + gram(k, k));
+  const Eigen::MatrixXd solution = gram.ldlt().solve(rhs);
+  if (!solution.allFinite()) throw std::invalid_argument("spline least-squares problem is singular");
+
+  CoilSetModel result;
+  result.column_a_spline.resize(3, n);
+  result.column_b_spline.resize(3, n);
+  result.cogging_spline.resize(3, n);
+  for (int q = 0; q < 3; ++q) {
+    result.a_N_per_A(q, 0) = solution(0, q);
+    result.a_N_per_A(q, 1) = solution(1, q);
+    result.b_N_per_A(q, 0) = solution(2, q);
+    result.b_N_per_A(q, 1) = solution(3, q);
+    for (int j = 0; j < n; ++j) {
+      result.column_a_spline(q, j) = solution(4 + j, q);
+      result.column_b_spline(q, j) = solution(4 + n + j, q);
+      result.cogging_spline(q, j) = solution(4 + 2 * n + j, q);
+    }
+  }
+  CoilSetModel physics;
+  physics.a_N_per_A = physics_a;
+  physics.b_N_per_A = physics_b;
+  physics.column_a_spline = SplineCoefficients::Zero(3, n);
+  physics.column_b_spline = SplineCoefficients::Zero(3, n);
+  physics.cogging_spline = SplineCoefficients::Zero(3, n);
+  const auto model = single_coil_set_model(ModelKind::kSpline, pole_pitch_m, {}, basis, result);
+  const auto physics_model = single_coil_set_model(ModelKind::kSpline, pole_pitch_m, {}, basis, physics);
+  fill_report_costs(model, physics_model, training, validation, report);
+  report.regularised_cost = report.model_training.sum();
+  report.best_restart = 0;
+  report.iterations = 0;
+  return result;
+}
+
+}  // namespace clm::identification
