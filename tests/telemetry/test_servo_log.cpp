@@ -39,7 +39,7 @@ class TemporaryDirectory {
 /// after every tenth state. Cycles 3, 7, 11, ... are in PGNN mode, the rest
 /// in experiment mode. Returns the states and, for each, its event number.
 struct WrittenLog {
-  std::vector<ServoStateSample> states;
+  std::vector<clm::servo::CycleRecord> states;
   std::vector<std::int64_t> event_numbers;
   std::int64_t events = 0;
 };
@@ -52,7 +52,7 @@ WrittenLog write_log(const std::string& path, int state_count, int coil_sets = 3
   for (int i = 0; i < state_count; ++i) {
     auto state = clm::test::make_state(i, coil_sets);
     if (i % 4 == 3) {
-      state.commutation = clm_lcm::servo_state_t::COMMUTATION_PGNN;
+      state.commutation = clm::servo::CommutationMode::kPgnn;
       state.coil_set = 0;
     }
     publish_message(writer, kStateChannel, to_message(state), state.utime);
@@ -122,9 +122,9 @@ TEST_CASE("log2csv --format experiment writes the experiment-mode states in the 
   log2csv("--log " + log + " --output " + csv + " --format experiment");
 
   const auto table = clm::CsvTable::load(csv);
-  std::vector<ServoStateSample> expected;
+  std::vector<clm::servo::CycleRecord> expected;
   for (const auto& s : written.states) {
-    if (s.commutation == clm_lcm::servo_state_t::COMMUTATION_EXPERIMENT) expected.push_back(s);
+    if (s.commutation == clm::servo::CommutationMode::kExperiment) expected.push_back(s);
   }
   REQUIRE(expected.size() == 30);
   REQUIRE(table.rows() == expected.size());
@@ -200,9 +200,9 @@ TEST_CASE("log2csv --format full writes every field, coil-set columns per coil s
     CHECK(ib2[i] == s.ib_A[1]);
     CHECK(damping[i] == (s.damping_engaged ? 1.0 : 0.0));
     CHECK(current[i] == s.current_square_sum_A2);
-    CHECK(mode[i] == s.commutation);
+    CHECK(mode[i] == static_cast<double>(s.commutation));
     CHECK(limited[i] == (s.force_limited ? 1.0 : 0.0));
-    CHECK(state[i] == s.state);
+    CHECK(state[i] == static_cast<double>(s.state));
     CHECK(running[i] == (s.program_running ? 1.0 : 0.0));
     CHECK(program_time[i] == s.program_time_s);
   }
@@ -288,7 +288,7 @@ TEST_CASE("log2csv refuses a missing log, an unknown format and experiment data 
   {
     LcmLogWriter writer(log);
     auto state = clm::test::make_state(0);
-    state.commutation = clm_lcm::servo_state_t::COMMUTATION_CLASSICAL;
+    state.commutation = clm::servo::CommutationMode::kClassical;
     state.coil_set = 0;
     publish_message(writer, kStateChannel, to_message(state), 0);
     writer.close();
