@@ -316,3 +316,25 @@ TEST_CASE("A state claiming more coil sets than a motor can have is refused with
   }
   CHECK_THROWS_WITH(clm::lcmlog::read_servo_states(log), log + ": event 1: CLM_SERVO_STATE: coil_sets 9 outside 0..8");
 }
+
+TEST_CASE("A state with an unknown commutation or state is refused with its event number", "[lcmlog]") {
+  const TemporaryDirectory directory("unknown");
+  const std::string log = directory.file("run.lcm");
+  {
+    LcmLogWriter writer(log);
+    publish_message(writer, kStateChannel, to_message(clm::test::make_state(0)), 0);
+    auto commutation = to_message(clm::test::make_state(1));
+    commutation.commutation = 6;
+    publish_message(writer, kStateChannel, commutation, 0);
+    writer.close();
+  }
+  CHECK_THROWS_WITH(clm::lcmlog::read_servo_states(log), log + ": event 1: CLM_SERVO_STATE: commutation 6 outside 0..5");
+  {
+    LcmLogWriter writer(log);
+    auto state = to_message(clm::test::make_state(0));
+    state.state = 3;
+    publish_message(writer, kStateChannel, state, 0);
+    writer.close();
+  }
+  CHECK_THROWS_WITH(clm::lcmlog::read_servo_states(log), log + ": event 0: CLM_SERVO_STATE: state 3 outside 0..2");
+}
