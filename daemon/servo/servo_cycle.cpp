@@ -292,7 +292,8 @@ void ServoCycle::report_bus(drivers::BusState bus_state, bool send_failed) noexc
 }
 
 void ServoCycle::zero_setpoints() noexcept {
-  for (auto& setpoint : record_.setpoints) setpoint = {};
+  record_.magnitude_N.fill(0.0);
+  record_.setpoint_delta_rad.fill(0.0);
   record_.ia_A.fill(0.0);
   record_.ib_A.fill(0.0);
   record_.damping_engaged = false;
@@ -301,27 +302,32 @@ void ServoCycle::zero_setpoints() noexcept {
 
 void ServoCycle::commutate(double position_m, double force_N) noexcept {
   const int coil_sets = settings_.protocol.coil_sets;
-  record_.desired_wrench = Wrench(force_N, 0.0, 0.0);
+  const Wrench desired(force_N, 0.0, 0.0);
+  record_.Fy_star_N = desired.x();
+  record_.Fx_star_N = desired.y();
+  record_.Tz_star_Nm = desired.z();
   if (mode_ == CommutationMode::kExperiment) {
     // Algorithms 1 and 2: the whole demand through one coil set at Δ.
     zero_setpoints();
     const auto l = static_cast<std::size_t>(experiment_coil_set_ - 1);
-    record_.setpoints[l] = {force_N, experiment_delta_rad_};
-    const Eigen::Vector2d i = drive_phase_currents(settings_.drive, record_.setpoints[l], position_m,
-                                                   settings_.pole_pitch_m);
+    const DriveSetpoint setpoint{force_N, experiment_delta_rad_};
+    record_.magnitude_N[l] = setpoint.magnitude_N;
+    record_.setpoint_delta_rad[l] = setpoint.delta_rad;
+    const Eigen::Vector2d i = drive_phase_currents(settings_.drive, setpoint, position_m, settings_.pole_pitch_m);
     record_.ia_A[l] = i.x();
     record_.ib_A[l] = i.y();
     record_.current_square_sum_A2 = i.squaredNorm() + (i.x() + i.y()) * (i.x() + i.y());
     return;
   }
   const CommutationLaw* law = laws_[static_cast<std::size_t>(mode_)];
-  law->commutate(position_m, record_.desired_wrench, commutation_);
+  law->commutate(position_m, desired, commutation_);
   for (int l = 0; l < coil_sets; ++l) {
     const auto s = static_cast<std::size_t>(l);
-    record_.setpoints[s] = commutation_.setpoints[s];
+    record_.magnitude_N[s] = commutation_.setpoints[s].magnitude_N;
+    record_.setpoint_delta_rad[s] = commutation_.setpoints[s].delta_rad;
     record_.ia_A[s] = commutation_.currents_A[2 * l];
     record_.ib_A[s] = commutation_.currents_A[2 * l + 1];
-    if (!std::isfinite(record_.setpoints[s].magnitude_N) || !std::isfinite(record_.setpoints[s].delta_rad)) {
+    if (!std::isfinite(record_.magnitude_N[s]) || !std::isfinite(record_.setpoint_delta_rad[s])) {
       latch(Fault::kCommutationNotFinite);
     }
   }
@@ -389,12 +395,14 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
       }
     }
     double force = controller_.update(now, next, position_m_);
-    record_.reference = now;
-    record_.error_m = now.position_m - position_m_;
-    record_.feedback_N = controller_.last_feedback_N();
-    record_.feedforward_N = controller_.last_feedforward_N();
+    record_.r_m = now.position_m;
+    record_.r_dot_m_per_s = now.velocity_m_per_s;
+    record_.r_ddot_m_per_s2 = now.acceleration_m_per_s2;
+    record_.e_m = now.position_m - position_m_;
+    record_.u_fb_N = controller_.last_feedback_N();
+    record_.u_ff_N = controller_.last_feedforward_N();
     if (!std::isfinite(force)) latch(Fault::kFeedbackNotFinite);
-    if (std::abs(record_.error_m) > settings_.following_error_limit_m) latch(Fault::kFollowingError);
+    if (std::abs(record_.e_m) > settings_.following_error_limit_m) latch(Fault::kFollowingError);
     if (std::abs(force) > settings_.force_limit_N) {
       force = std::copysign(settings_.force_limit_N, force);
       record_.force_limited = true;
@@ -404,15 +412,16 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
     } else {
       saturated_time_s_ = 0.0;
     }
-    record_.force_demand_N = force;
+    record_.F_star_N = force;
     if (state_ == ServoState::kEnabled) commutate(position_m_, force);
   } else {
     // Not driving: the reference follows the axis so that enabling is bumpless.
     hold_m_ = position_m_;
     hold_position_m_.store(hold_m_, std::memory_order_release);
-    record_.reference = {position_m_, 0.0, 0.0, 0.0};
-    record_.error_m = record_.feedback_N = record_.feedforward_N = record_.force_demand_N = 0.0;
-    record_.desired_wrench.setZero();
+    record_.r_m = position_m_;
+    record_.r_dot_m_per_s = record_.r_ddot_m_per_s2 = 0.0;
+    record_.e_m = record_.u_fb_N = record_.u_ff_N = record_.F_star_N = 0.0;
+    record_.Fy_star_N = record_.Fx_star_N = record_.Tz_star_Nm = 0.0;
   }
   if (state_ != ServoState::kEnabled) zero_setpoints();
 
@@ -422,7 +431,10 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
   command.enable = state_ == ServoState::kEnabled;
   command.clear_fault = clear_drive_fault_;
   command.alive_counter = setpoint_alive_++;
-  for (int l = 0; l < command.coil_sets; ++l) command.setpoints[static_cast<std::size_t>(l)] = record_.setpoints[static_cast<std::size_t>(l)];
+  for (int l = 0; l < command.coil_sets; ++l) {
+    const auto s = static_cast<std::size_t>(l);
+    command.setpoints[s] = {record_.magnitude_N[s], record_.setpoint_delta_rad[s]};
+  }
   can::CodecStatus status = can::CodecStatus::kOk;
   std::size_t count = can::encode_setpoints(settings_.protocol, command, frames_, status);
   if (status != can::CodecStatus::kOk) {
@@ -437,14 +449,16 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
 
   // 4. Record.
   record_.cycle = cycle_;
-  record_.time_s = time_s;
+  record_.t_s = time_s;
   record_.state = state_;
   record_.fault = fault_;
-  record_.mode = mode_;
-  record_.experiment_coil_set = mode_ == CommutationMode::kExperiment ? experiment_coil_set_ : 0;
-  record_.experiment_delta_rad = mode_ == CommutationMode::kExperiment ? experiment_delta_rad_ : 0.0;
-  record_.position_m = position_m_;
-  record_.measured_wrench = force_.wrench;
+  record_.commutation = mode_;
+  record_.coil_set = mode_ == CommutationMode::kExperiment ? experiment_coil_set_ : 0;
+  record_.delta_rad = mode_ == CommutationMode::kExperiment ? experiment_delta_rad_ : 0.0;
+  record_.y_m = position_m_;
+  record_.Fy_N = force_.wrench.x();
+  record_.Fx_N = force_.wrench.y();
+  record_.Tz_Nm = force_.wrench.z();
   record_.program_running = running_ != nullptr;
   if (!record_.program_running) record_.program_time_s = 0.0;
   record_.drive_status_word = drive_.status_word;

@@ -19,27 +19,13 @@
 #include "commutation/commutator.hpp"
 #include "daemon/control/position_controller.hpp"
 #include "daemon/control/trajectory.hpp"
+#include "daemon/servo/cycle_record.hpp"
 #include "daemon/servo/fault.hpp"
 #include "daemon/servo/handover.hpp"
 #include "drivers/can_bus.hpp"
 #include "drivers/can_protocol.hpp"
 
 namespace clm::servo {
-
-enum class ServoState : std::uint8_t { kDisabled = 0, kEnabled = 1, kFault = 2 };
-
-/// The commutation the cycle uses; values are those of the LCM types.
-enum class CommutationMode : std::uint8_t {
-  kOriginal = 0,    ///< the drive's own fixed law, uncalibrated
-  kClassical = 1,   ///< classical law (12) with calibrated constants
-  kPgnn = 2,        ///< inverse (37) of the PGNN model
-  kSpline = 3,      ///< inverse (37) of the spline model
-  kOracle = 4,      ///< inverse of the simulator's static truth (simulation only)
-  kExperiment = 5,  ///< one coil set driven with F* and a constant offset Δ (Algorithms 1, 2)
-};
-inline constexpr int kCommutationModes = 6;
-const char* name(CommutationMode mode) noexcept;
-const char* name(ServoState state) noexcept;
 
 struct ServoSettings {
   double period_s = 1e-3;
@@ -70,35 +56,6 @@ enum class CommandStatus : std::uint8_t {
   kRejectedInvalid,   ///< argument out of range
 };
 const char* describe(CommandStatus status) noexcept;
-
-/// What one cycle did, for telemetry. Fixed size.
-struct CycleRecord {
-  std::int64_t cycle = 0;
-  double time_s = 0.0;
-  ServoState state = ServoState::kDisabled;
-  Fault fault = Fault::kNone;
-  CommutationMode mode = CommutationMode::kOriginal;
-  int experiment_coil_set = 0;  ///< 1-based, 0 when not in experiment mode
-  double experiment_delta_rad = 0.0;
-  control::ReferenceSample reference;
-  double position_m = 0.0;
-  double error_m = 0.0;
-  double force_demand_N = 0.0;
-  double feedback_N = 0.0;
-  double feedforward_N = 0.0;
-  bool force_limited = false;
-  Wrench desired_wrench = Wrench::Zero();
-  Wrench measured_wrench = Wrench::Zero();
-  int coil_sets = 0;
-  std::array<DriveSetpoint, kMaxCoilSets> setpoints{};
-  std::array<double, kMaxCoilSets> ia_A{};
-  std::array<double, kMaxCoilSets> ib_A{};
-  bool damping_engaged = false;
-  double current_square_sum_A2 = 0.0;
-  bool program_running = false;
-  double program_time_s = 0.0;
-  std::uint16_t drive_status_word = 0;
-};
 
 struct CycleCounters {
   std::int64_t cycles = 0;

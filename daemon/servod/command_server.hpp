@@ -1,16 +1,16 @@
 #pragma once
 // clm-servod's command thread (non-real-time): takes the checked commands
-// the telemetry publisher received on CLM_SERVO_COMMAND, translates them
-// into DaemonCommands, submits them to the ServoDaemon and acknowledges each
-// with exactly one CLM_SERVO_COMMAND_ACK:
+// the telemetry publisher received on CLM_SERVO_COMMAND, submits them to the
+// ServoDaemon and acknowledges each with exactly one CLM_SERVO_COMMAND_ACK:
 //
-//   - commands the daemon answers at once (move_to, run_program,
-//     load_calibration, load_model; and any refusal) are acked with that reply;
-//   - commands queued for the cycle (enable, disable, clear_fault, stop,
-//     set_commutation, set_experiment, and load_feedforward, whose file is
-//     read here and whose three parameters go through the cycle's queue) are
-//     acked with the cycle's decision, which take_replies() delivers a cycle
-//     later.
+//   - commands the daemon answers (servo::kCommandRoutes: move_to,
+//     run_program, load_calibration, load_model; and any refusal) are acked
+//     with submit's reply;
+//   - commands the cycle answers (enable, disable, clear_fault, stop,
+//     set_commutation, set_experiment, and load_feedforward, whose file
+//     submit reads and whose three parameters go through the cycle's queue)
+//     are acked with the cycle's decision, which take_replies() delivers a
+//     cycle later.
 //
 // It is the only thread that calls poll_command (single consumer),
 // ServoDaemon::submit (single producer of the cycle's command queue) and
@@ -25,18 +25,6 @@
 #include "daemon/telemetry/telemetry.hpp"
 
 namespace clm::servod {
-
-/// Translates a checked LCM command. Returns "" and fills `out`, or the
-/// one-line reason it cannot be carried out (set_commutation to experiment;
-/// load_model whose file cannot be read or whose `kind:` is neither pgnn nor
-/// spline: the file's kind chooses the law it loads into; load_feedforward
-/// whose file cannot be read or holds a non-finite parameter). Non-real-time:
-/// load_model and load_feedforward read the file.
-std::string to_daemon_command(const telemetry::ServoCommand& command, DaemonCommand& out);
-
-/// True for the commands ServoDaemon::submit queues for the cycle: their
-/// accepted reply is only "queued" and the decision comes from take_replies().
-bool answered_by_cycle(DaemonCommand::Kind kind) noexcept;
 
 class CommandServer {
  public:

@@ -211,8 +211,8 @@ int run(const std::string& config_path, double duration_s) {
   if (signal != 0) note(std::string("stopping on ") + (signal == SIGINT ? "SIGINT" : "SIGTERM"));
   if (commands) commands->stop();  // from here on main alone submits and takes replies
   if (!loop_exited.load(std::memory_order_acquire)) {
-    servod::DaemonCommand disable;
-    disable.kind = servod::DaemonCommand::Kind::kDisable;
+    servo::Command disable;
+    disable.kind = servo::CommandKind::kDisable;
     disable.sequence = -1;
     daemon.submit(disable);
     const std::int64_t until = daemon.cycles_done() + kShutdownCycles;

@@ -4,6 +4,7 @@
 
 #include <stdexcept>
 
+#include "daemon/servod/command_check.hpp"
 #include "daemon/servod/wakeup_schedule.hpp"
 
 namespace clm::servod {
@@ -24,15 +25,6 @@ void sleep_until(std::int64_t time_ns) noexcept {
 }
 
 }  // namespace
-
-struct ServoDaemon::RtCommand {
-  DaemonCommand::Kind kind = DaemonCommand::Kind::kEnable;
-  std::int64_t sequence = 0;
-  servo::CommutationMode mode = servo::CommutationMode::kOriginal;
-  int coil_set = 0;
-  double delta_rad = 0.0;
-  control::FeedforwardParameters feedforward{};
-};
 
 struct ServoDaemon::RtReply {
   std::int64_t sequence = 0;
@@ -80,7 +72,7 @@ ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drive
   if (status != servo::CommandStatus::kAccepted) {
     throw std::runtime_error(config_.origin + ": commutation.mode: " + servo::describe(status));
   }
-  commands_ = std::make_unique<telemetry::SpscQueue<RtCommand>>(64);
+  commands_ = std::make_unique<telemetry::SpscQueue<servo::Command>>(64);
   replies_ = std::make_unique<telemetry::SpscQueue<RtReply>>(64);
 }
 
@@ -122,71 +114,77 @@ std::unique_ptr<ServoDaemon::OwnedLaw> ServoDaemon::build_law(servo::Commutation
   return owned;
 }
 
-CommandReply ServoDaemon::queue(const DaemonCommand& command) {
-  RtCommand rt;
-  rt.kind = command.kind;
-  rt.sequence = command.sequence;
-  rt.mode = command.mode;
-  rt.coil_set = command.coil_set;
-  rt.delta_rad = command.delta_rad;
-  rt.feedforward = command.feedforward;
-  if (!commands_->try_push(rt)) return {command.sequence, false, "command queue full"};
+CommandReply ServoDaemon::queue(const servo::Command& command) {
+  if (!commands_->try_push(command)) return {command.sequence, false, "command queue full"};
   return {command.sequence, true, "queued"};
 }
 
-CommandReply ServoDaemon::submit(const DaemonCommand& command) {
-  using Kind = DaemonCommand::Kind;
-  collect_garbage();
-  try {
-    switch (command.kind) {
-      case Kind::kEnable:
-      case Kind::kDisable:
-      case Kind::kClearFault:
-      case Kind::kStop:
-      case Kind::kSetCommutation:
-      case Kind::kSetExperiment:
-      case Kind::kSetFeedforward:
-        return queue(command);
-      case Kind::kMoveTo:
-      case Kind::kRunProgram: {
-        if (!cycle_->idle()) return {command.sequence, false, "rejected: a program is running"};
-        if (cycle_->program_handover().pending()) return {command.sequence, false, "rejected: a program is waiting to start"};
-        const double hold = cycle_->hold_position_m();
-        std::unique_ptr<control::MoveProgram> program;
-        if (command.kind == Kind::kMoveTo) {
-          if (!(command.target_m >= config_.servo.soft_limit_min_m && command.target_m <= config_.servo.soft_limit_max_m)) {
-            return {command.sequence, false, "rejected: target outside the soft limits"};
-          }
-          program = std::make_unique<control::MoveProgram>(
-              hold, std::vector<control::ProgramStep>{{command.target_m, command.limits, 0.0}});
-        } else {
-          const ProgramFile file = command.program ? *command.program : load_program_file(command.path);
-          for (const auto& step : file.steps) {
-            if (step.target_m < config_.servo.soft_limit_min_m || step.target_m > config_.servo.soft_limit_max_m) {
-              return {command.sequence, false, "rejected: a program target lies outside the soft limits"};
-            }
-          }
-          program = std::make_unique<control::MoveProgram>(program_from(file, hold));
-        }
-        if (!cycle_->program_handover().post(program.get())) return {command.sequence, false, "rejected: busy"};
-        programs_.push_back(std::move(program));
-        return {command.sequence, true, "program posted"};
+CommandReply ServoDaemon::post_program(const servo::Command& command, const ProgramFile* program) {
+  if (!cycle_->idle()) return {command.sequence, false, "rejected: a program is running"};
+  if (cycle_->program_handover().pending()) return {command.sequence, false, "rejected: a program is waiting to start"};
+  const double hold = cycle_->hold_position_m();
+  std::unique_ptr<control::MoveProgram> move;
+  if (command.kind == servo::CommandKind::kMoveTo) {
+    if (!(command.target_m >= config_.servo.soft_limit_min_m && command.target_m <= config_.servo.soft_limit_max_m)) {
+      return {command.sequence, false, "rejected: target outside the soft limits"};
+    }
+    move = std::make_unique<control::MoveProgram>(
+        hold, std::vector<control::ProgramStep>{{command.target_m, command.limits, 0.0}});
+  } else {
+    const ProgramFile file = program != nullptr ? *program : load_program_file(std::string(command.program.view()));
+    for (const auto& step : file.steps) {
+      if (step.target_m < config_.servo.soft_limit_min_m || step.target_m > config_.servo.soft_limit_max_m) {
+        return {command.sequence, false, "rejected: a program target lies outside the soft limits"};
       }
+    }
+    move = std::make_unique<control::MoveProgram>(program_from(file, hold));
+  }
+  if (!cycle_->program_handover().post(move.get())) return {command.sequence, false, "rejected: busy"};
+  programs_.push_back(std::move(move));
+  return {command.sequence, true, "program posted"};
+}
+
+CommandReply ServoDaemon::submit_program(const ProgramFile& program, std::int64_t sequence) {
+  collect_garbage();
+  servo::Command command;
+  command.kind = servo::CommandKind::kRunProgram;
+  command.sequence = sequence;
+  try {
+    return post_program(command, &program);
+  } catch (const std::exception& e) {
+    return {sequence, false, std::string("rejected: ") + e.what()};
+  }
+}
+
+CommandReply ServoDaemon::submit(const servo::Command& received) {
+  using Kind = servo::CommandKind;
+  collect_garbage();
+  servo::Command command = received;
+  try {
+    const std::string reason = check_command(command);
+    if (!reason.empty()) return {command.sequence, false, "rejected: " + reason};
+    if (servo::answered_by_cycle(command.kind)) return queue(command);
+    switch (command.kind) {
+      case Kind::kMoveTo:
+      case Kind::kRunProgram:
+        return post_program(command, nullptr);
       case Kind::kLoadCalibration:
       case Kind::kLoadModel: {
         const servo::CommutationMode mode =
-            command.kind == Kind::kLoadCalibration ? servo::CommutationMode::kClassical : command.mode;
+            command.kind == Kind::kLoadCalibration ? servo::CommutationMode::kClassical : command.commutation;
         if (mode != servo::CommutationMode::kClassical && mode != servo::CommutationMode::kPgnn &&
             mode != servo::CommutationMode::kSpline) {
           return {command.sequence, false, "rejected: models load into pgnn or spline"};
         }
-        auto law = build_law(mode, command.path);  // throws on any problem: the running law stays
+        auto law = build_law(mode, std::string(command.path.view()));  // throws on any problem: the running law stays
         if (!cycle_->law_handover(mode).post(law->law.get())) {
           return {command.sequence, false, "rejected: an earlier load is still waiting for standstill"};
         }
         laws_.push_back(std::move(law));
         return {command.sequence, true, "loaded; swapped in at the next standstill"};
       }
+      default:
+        break;
     }
   } catch (const std::exception& e) {
     return {command.sequence, false, std::string("rejected: ") + e.what()};
@@ -214,8 +212,8 @@ void ServoDaemon::collect_garbage() {
 }
 
 void ServoDaemon::drain_commands() noexcept {
-  using Kind = DaemonCommand::Kind;
-  RtCommand command;
+  using Kind = servo::CommandKind;
+  servo::Command command;
   while (commands_->try_pop(command)) {
     servo::CommandStatus status = servo::CommandStatus::kAccepted;
     switch (command.kind) {
@@ -223,12 +221,12 @@ void ServoDaemon::drain_commands() noexcept {
       case Kind::kDisable: status = cycle_->disable(); break;
       case Kind::kClearFault: status = cycle_->clear_fault(); break;
       case Kind::kStop: status = cycle_->stop(); break;
-      case Kind::kSetCommutation: status = cycle_->request_mode(command.mode); break;
+      case Kind::kSetCommutation: status = cycle_->request_mode(command.commutation); break;
       case Kind::kSetExperiment:
         status = cycle_->request_mode(servo::CommutationMode::kExperiment, command.coil_set, command.delta_rad);
         break;
-      case Kind::kSetFeedforward: cycle_->set_feedforward(command.feedforward); break;
-      default: status = servo::CommandStatus::kRejectedInvalid; break;
+      case Kind::kLoadFeedforward: cycle_->set_feedforward(command.feedforward); break;
+      default: status = servo::CommandStatus::kRejectedInvalid; break;  // not a kind the cycle answers
     }
     replies_->try_push({command.sequence, status});
   }

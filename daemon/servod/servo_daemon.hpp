@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "daemon/servo/command.hpp"
 #include "daemon/servo/servo_cycle.hpp"
 #include "daemon/servo/timing.hpp"
 #include "daemon/servod/program_file.hpp"
@@ -21,23 +22,6 @@
 #include "drivers/can_bus.hpp"
 
 namespace clm::servod {
-
-struct DaemonCommand {
-  enum class Kind {
-    kEnable, kDisable, kClearFault, kStop, kMoveTo, kRunProgram, kSetCommutation, kSetExperiment,
-    kLoadCalibration, kLoadModel, kSetFeedforward,
-  };
-  Kind kind = Kind::kEnable;
-  std::int64_t sequence = 0;
-  double target_m = 0.0;                         ///< kMoveTo
-  control::MotionLimits limits{0.1, 1.0, 1000.0};  ///< kMoveTo
-  std::string path;                              ///< kRunProgram, kLoadCalibration, kLoadModel
-  std::optional<ProgramFile> program;            ///< kRunProgram without a file
-  servo::CommutationMode mode = servo::CommutationMode::kOriginal;  ///< kSetCommutation, kLoadModel (pgnn or spline)
-  int coil_set = 0;                              ///< kSetExperiment (1-based)
-  double delta_rad = 0.0;                        ///< kSetExperiment
-  control::FeedforwardParameters feedforward{};  ///< kSetFeedforward
-};
 
 struct CommandReply {
   std::int64_t sequence = 0;
@@ -83,10 +67,14 @@ class ServoDaemon {
   ServoDaemon(const ServoDaemon&) = delete;
   ServoDaemon& operator=(const ServoDaemon&) = delete;
 
-  /// Non-real-time: validates and prepares a command. Small commands are
-  /// queued for the cycle and answered in the reply queue once executed;
-  /// file and planning commands are answered here.
-  CommandReply submit(const DaemonCommand& command);
+  /// Non-real-time: checks and completes a command (check_command), then
+  /// carries it out as servo::kCommandRoutes says: the kinds the cycle
+  /// answers are queued for it and answered in the reply queue once executed
+  /// (the reply here is only "queued"); file and planning commands are
+  /// answered here.
+  CommandReply submit(const servo::Command& command);
+  /// Non-real-time: run_program with the program given instead of a file.
+  CommandReply submit_program(const ProgramFile& program, std::int64_t sequence = 0);
   /// Replies of queued commands executed by the cycle since the last call.
   std::vector<CommandReply> take_replies();
   /// Frees programs and laws the cycle no longer uses. Non-real-time.
@@ -110,14 +98,14 @@ class ServoDaemon {
   drivers::BusState bus_state() const noexcept { return bus_->state(); }
 
  private:
-  struct RtCommand;
   struct RtReply;
   struct OwnedLaw;
   void one_cycle(std::int64_t sync_time_ns, std::int64_t deadline_ns, double time_s, std::int64_t next_sync_ns,
                  bool realtime) noexcept;
   void drain_commands() noexcept;
   std::unique_ptr<OwnedLaw> build_law(servo::CommutationMode mode, const std::string& path) const;
-  CommandReply queue(const DaemonCommand& command);
+  CommandReply queue(const servo::Command& command);
+  CommandReply post_program(const servo::Command& command, const ProgramFile* program);
 
   ServodConfig config_;
   drivers::CanBus* bus_;
@@ -126,7 +114,7 @@ class ServoDaemon {
   std::unique_ptr<servo::ServoCycle> cycle_;
   std::vector<std::unique_ptr<OwnedLaw>> laws_;
   std::vector<std::unique_ptr<control::MoveProgram>> programs_;
-  std::unique_ptr<telemetry::SpscQueue<RtCommand>> commands_;
+  std::unique_ptr<telemetry::SpscQueue<servo::Command>> commands_;
   std::unique_ptr<telemetry::SpscQueue<RtReply>> replies_;
   LoopTiming timing_;
   CycleObserver* observer_ = nullptr;

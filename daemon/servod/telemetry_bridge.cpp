@@ -17,43 +17,6 @@ TelemetryBridge::TelemetryBridge(telemetry::TelemetrySink& sink, const ServoDaem
   status_every_cycles_ = std::max<std::int64_t>(1, std::llround(1.0 / (rate_hz * daemon.config().servo.period_s)));
 }
 
-void TelemetryBridge::fill_state(const servo::ServoCycle& cycle, telemetry::ServoStateSample& out) noexcept {
-  const auto& r = cycle.record();
-  out.utime = 0;
-  out.cycle = r.cycle;
-  out.t_s = r.time_s;
-  out.r_m = r.reference.position_m;
-  out.r_dot_m_per_s = r.reference.velocity_m_per_s;
-  out.r_ddot_m_per_s2 = r.reference.acceleration_m_per_s2;
-  out.y_m = r.position_m;
-  out.e_m = r.error_m;
-  out.F_star_N = r.force_demand_N;
-  out.u_fb_N = r.feedback_N;
-  out.u_ff_N = r.feedforward_N;
-  out.Fy_star_N = r.desired_wrench.x();
-  out.Fx_star_N = r.desired_wrench.y();
-  out.Tz_star_Nm = r.desired_wrench.z();
-  out.Fy_N = r.measured_wrench.x();
-  out.Fx_N = r.measured_wrench.y();
-  out.Tz_Nm = r.measured_wrench.z();
-  out.commutation = static_cast<std::int8_t>(r.mode);
-  out.coil_set = static_cast<std::int8_t>(r.experiment_coil_set);
-  out.delta_rad = r.experiment_delta_rad;
-  out.coil_sets = static_cast<std::int8_t>(r.coil_sets);
-  for (std::size_t l = 0; l < kMaxCoilSets; ++l) {
-    out.magnitude_N[l] = r.setpoints[l].magnitude_N;
-    out.setpoint_delta_rad[l] = r.setpoints[l].delta_rad;
-    out.ia_A[l] = r.ia_A[l];
-    out.ib_A[l] = r.ib_A[l];
-  }
-  out.damping_engaged = r.damping_engaged;
-  out.current_square_sum_A2 = r.current_square_sum_A2;
-  out.force_limited = r.force_limited;
-  out.state = static_cast<std::int8_t>(r.state);
-  out.program_running = r.program_running;
-  out.program_time_s = r.program_time_s;
-}
-
 void TelemetryBridge::fill_status(const servo::ServoCycle& cycle, const LoopTiming& timing,
                                   telemetry::ServoStatusSample& out) const noexcept {
   const auto& c = cycle.counters();
@@ -99,8 +62,7 @@ void TelemetryBridge::on_cycle(const servo::ServoCycle& cycle, const LoopTiming&
   }
   const bool status_due = n % status_every_cycles_ == 0;
   if (publisher_ != nullptr) {
-    fill_state(cycle, state_);
-    publisher_->push_state(state_);  // decimation and drop counting inside
+    publisher_->push_state(cycle.record());  // decimation and drop counting inside
     if (changed) publisher_->push_event(event_);
     if (status_due) {
       fill_status(cycle, timing, status_);
@@ -111,8 +73,7 @@ void TelemetryBridge::on_cycle(const servo::ServoCycle& cycle, const LoopTiming&
   // Offline: straight to the sink; conversion allocates, which is fine off the real-time path.
   try {
     if (n % state_decimation_ == 0) {
-      fill_state(cycle, state_);
-      telemetry::publish_message(*sink_, telemetry::kStateChannel, telemetry::to_message(state_),
+      telemetry::publish_message(*sink_, telemetry::kStateChannel, telemetry::to_message(cycle.record()),
                                  telemetry::wall_clock_utime());
     }
     if (changed) {

@@ -1,5 +1,5 @@
 #pragma once
-// Telemetry of the servo cycle: every cycle's state (decimated), a status at
+// Telemetry of the servo cycle: every cycle's record (decimated), a status at
 // the configured rate, and an event when a fault latches or the state
 // changes. In the daemon the samples go through the publisher's lock-free
 // queues (nothing blocks or allocates on the loop thread); offline (commissioning
@@ -22,7 +22,6 @@ class TelemetryBridge final : public CycleObserver {
 
   void on_cycle(const servo::ServoCycle& cycle, const LoopTiming& timing) noexcept override;
 
-  static void fill_state(const servo::ServoCycle& cycle, telemetry::ServoStateSample& out) noexcept;
   void fill_status(const servo::ServoCycle& cycle, const LoopTiming& timing, telemetry::ServoStatusSample& out) const noexcept;
 
  private:
@@ -33,7 +32,6 @@ class TelemetryBridge final : public CycleObserver {
   std::int64_t status_every_cycles_ = 100;
   servo::ServoState last_state_ = servo::ServoState::kDisabled;
   servo::Fault last_fault_ = servo::Fault::kNone;
-  telemetry::ServoStateSample state_{};
   telemetry::ServoStatusSample status_{};
   telemetry::ServoEventSample event_{};
 };

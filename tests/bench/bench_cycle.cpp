@@ -78,7 +78,7 @@ void run(benchmark::State& state, servo::CommutationMode mode, const Commutation
   cycle.enable();
   for (auto _ : state) one();
   if (cycle.state() != servo::ServoState::kEnabled) {
-    std::fprintf(stderr, "fault at cycle %ld of %ld: F %g y %g\n", static_cast<long>(cycle.fault_cycle()), static_cast<long>(k), cycle.record().force_demand_N, cycle.record().position_m);
+    std::fprintf(stderr, "fault at cycle %ld of %ld: F %g y %g\n", static_cast<long>(cycle.fault_cycle()), static_cast<long>(k), cycle.record().F_star_N, cycle.record().y_m);
     state.SkipWithError(servo::describe(cycle.fault()));
   }
 }

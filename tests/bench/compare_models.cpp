@@ -12,7 +12,7 @@
 //    path for every model whoever trained it;
 //  * the closed-loop evaluation of `clm commission` (tools/commission/commission.cpp
 //    step 4) on the daemon core with the embedded simulated motor on the
-//    virtual clock: the model loaded into the pgnn law (DaemonCommand
+//    virtual clock: the model loaded into the pgnn law (servo::Command
 //    kLoadModel), feedforward (40) identified from a run of the program
 //    without feedforward, then the evaluation run with it; commutation MSE
 //    (filtered and unfiltered, y/x/z) and tracking MSE, on the program
@@ -57,7 +57,7 @@ namespace {
 using namespace clm;
 using namespace clm::data;
 using namespace clm::identification;
-using Kind = servod::DaemonCommand::Kind;
+using Kind = servo::CommandKind;
 
 struct NamedModel {
   std::string name;
@@ -76,8 +76,8 @@ struct ClosedLoop {
   std::optional<commission::CommutationResult> validation;
 };
 
-servod::DaemonCommand make(Kind kind) {
-  servod::DaemonCommand command;
+servo::Command make(Kind kind) {
+  servo::Command command;
   command.kind = kind;
   return command;
 }
@@ -103,14 +103,14 @@ ClosedLoop closed_loop(const servod::ServodConfig& config, const NamedModel& mod
   daemon.run_cycles(20);
   commission::execute(daemon, make(Kind::kEnable));
   auto load = make(Kind::kLoadModel);
-  load.mode = servo::CommutationMode::kPgnn;
-  load.path = model.path;
+  load.commutation = servo::CommutationMode::kPgnn;
+  load.path.assign(model.path);
   commission::execute(daemon, load);
   auto set = make(Kind::kSetCommutation);
-  set.mode = servo::CommutationMode::kPgnn;
+  set.commutation = servo::CommutationMode::kPgnn;
   commission::execute(daemon, set);
   daemon.run_cycles(5);
-  auto ff = make(Kind::kSetFeedforward);
+  auto ff = make(Kind::kLoadFeedforward);  // no path: the parameters as given
   ff.feedforward = {};
   commission::execute(daemon, ff);
   const auto identification_run = commission::run_program(axis, program, model.name + " feedforward data");

@@ -190,7 +190,8 @@ TEST_CASE("a log's states are checked as CSV rows are, named by event: NaN, coil
   const ExperimentFiles& experiments = experiment_files();
   TemporaryDirectory dir;
   const lcmlog::ServoStateLog full = lcmlog::read_servo_state_log(experiments.lcm);
-  std::vector<clm_lcm::servo_state_t> states(full.states.begin(), full.states.begin() + 400);
+  std::vector<clm_lcm::servo_state_t> states;
+  for (std::size_t k = 0; k < 400; ++k) states.push_back(telemetry::to_message(full.states[k]));
   const std::string log = dir.file("run.lcm");
 
   SECTION("a NaN force") {

@@ -223,7 +223,7 @@ TEST_CASE("ff-identify on closed-loop data writes a feedforward file that load_f
   const std::string data = dir.file("closed-loop.csv");
   std::vector<std::vector<double>> columns(3);
   for (const auto& s : experiments.experiments.runs.front().samples) {
-    columns[0].push_back(s.t_s);
+    columns[0].push_back(s.program_time_s);
     columns[1].push_back(s.r_m);
     columns[2].push_back(s.F_star_N);
   }

@@ -34,9 +34,9 @@ inline servod::ServodConfig virtual_config(const std::string& file = "config/ser
   return config;
 }
 
-inline servod::CommandReply command(servod::ServoDaemon& daemon, servod::DaemonCommand::Kind kind,
+inline servod::CommandReply command(servod::ServoDaemon& daemon, servo::CommandKind kind,
                                     std::int64_t cycles = 1) {
-  servod::DaemonCommand c;
+  servo::Command c;
   c.kind = kind;
   auto reply = daemon.submit(c);
   daemon.run_cycles(cycles);

@@ -16,7 +16,7 @@
 #include "tests/daemon/daemon_support.hpp"
 
 using namespace clm;
-using Kind = servod::DaemonCommand::Kind;
+using Kind = servo::CommandKind;
 using servo::Fault;
 using servo::ServoState;
 
@@ -37,7 +37,7 @@ struct EnabledAxis {
   int limit() const { return daemon.config().servo.missing_frame_limit; }
 
   void move_to(double target_m, control::MotionLimits limits) {
-    servod::DaemonCommand move;
+    servo::Command move;
     move.kind = Kind::kMoveTo;
     move.target_m = target_m;
     move.limits = limits;
@@ -235,7 +235,7 @@ TEST_CASE("a corrupted position (0x7fffffff nm = 2.147 m) latches kPositionOutOf
   EnabledAxis axis;
   axis.injection().corrupt_position_frames = 1;
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
-  CHECK(axis.daemon.cycle().record().position_m == Approx(2147483647e-9));
+  CHECK(axis.daemon.cycle().record().y_m == Approx(2147483647e-9));
   CHECK(std::abs(axis.motor().truth().position_m) < 1e-3);  // the axis itself did not move
   axis.require_latched(Fault::kPositionOutOfRange);
   axis.require_recovers();
@@ -253,13 +253,13 @@ TEST_CASE("a following error above the configured limit latches kFollowingError 
   std::int64_t cycles = 0;
   while (axis.daemon.cycle().state() == ServoState::kEnabled) {
     const auto& record = axis.daemon.cycle().record();
-    previous_error_m = record.reference.position_m - axis.motor().truth().position_m;
+    previous_error_m = record.r_m - axis.motor().truth().position_m;
     axis.daemon.run_cycles(1);
     REQUIRE(++cycles < 2000);
   }
   // Independent of the record: the encoder is the truth quantised to 0.1 µm.
   const double error_m =
-      axis.daemon.cycle().record().reference.position_m - axis.motor().truth().position_m;
+      axis.daemon.cycle().record().r_m - axis.motor().truth().position_m;
   INFO("error at the fault " << error_m << " m, one cycle before " << previous_error_m << " m");
   CHECK(std::abs(error_m) > 50e-6 - 1e-7);
   CHECK(std::abs(previous_error_m) <= 50e-6 + 1e-7);

@@ -14,7 +14,7 @@
 #include "tests/daemon/daemon_support.hpp"
 
 using namespace clm;
-using Kind = servod::DaemonCommand::Kind;
+using Kind = servo::CommandKind;
 using servo::CommutationMode;
 
 namespace {
@@ -42,11 +42,12 @@ class LawPair {
     REQUIRE(sent.complete);
     if (!sent.command.enable) return Used::kNoSetpoints;
     const auto& record = daemon.cycle().record();
-    first_.commutate(record.position_m, record.desired_wrench, first_out_);
-    second_.commutate(record.position_m, record.desired_wrench, second_out_);
+    const Wrench desired(record.Fy_star_N, record.Fx_star_N, record.Tz_star_Nm);
+    first_.commutate(record.y_m, desired, first_out_);
+    second_.commutate(record.y_m, desired, second_out_);
     const bool first = matches(sent.command, first_out_);
     const bool second = matches(sent.command, second_out_);
-    INFO("cycle " << record.cycle << " force demand " << record.force_demand_N << " N");
+    INFO("cycle " << record.cycle << " force demand " << record.F_star_N << " N");
     REQUIRE(first != second);
     return first ? Used::kFirst : Used::kSecond;
   }
@@ -67,18 +68,18 @@ class LawPair {
   CommutationOutput first_out_, second_out_;
 };
 
-servod::DaemonCommand load_model(const std::string& path) {
-  servod::DaemonCommand load;
+servo::Command load_model(const std::string& path) {
+  servo::Command load;
   load.kind = Kind::kLoadModel;
-  load.mode = CommutationMode::kPgnn;
-  load.path = path;
+  load.commutation = CommutationMode::kPgnn;
+  load.path.assign(path);
   return load;
 }
 
-servod::DaemonCommand fig8() {
-  servod::DaemonCommand run;
+servo::Command fig8() {
+  servo::Command run;
   run.kind = Kind::kRunProgram;
-  run.path = test::source_path("config/programs/fig8.yaml");
+  run.program.assign(test::source_path("config/programs/fig8.yaml"));
   return run;
 }
 
@@ -156,7 +157,7 @@ TEST_CASE("a model loaded mid-program is swapped in only at standstill after the
   }
   CHECK(daemon.law_source(CommutationMode::kPgnn) == rig.second_path);
   // And it drives the next program.
-  servod::DaemonCommand back;
+  servo::Command back;
   back.kind = Kind::kMoveTo;
   back.target_m = 0.0;
   REQUIRE(daemon.submit(back).accepted);
@@ -187,7 +188,7 @@ TEST_CASE("a model file that does not load leaves the running law untouched and 
   LawPair laws(rig.config, rig.first_path, rig.second_path);
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 10);
-  servod::DaemonCommand move;
+  servo::Command move;
   move.kind = Kind::kMoveTo;
   move.target_m = 0.05;
   move.limits = {0.05, 1.0, 1000.0};
@@ -223,15 +224,15 @@ TEST_CASE("a commutation change requested mid-move is deferred to standstill", "
   servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 10);
-  servod::DaemonCommand move;
+  servo::Command move;
   move.kind = Kind::kMoveTo;
   move.target_m = 0.05;
   move.limits = {0.05, 1.0, 1000.0};
   REQUIRE(daemon.submit(move).accepted);
   daemon.run_cycles(200);
-  servod::DaemonCommand set;
+  servo::Command set;
   set.kind = Kind::kSetCommutation;
-  set.mode = CommutationMode::kOracle;
+  set.commutation = CommutationMode::kOracle;
   set.sequence = 7;
   REQUIRE(daemon.submit(set).accepted);
   daemon.run_cycles(1);

@@ -16,7 +16,7 @@
 #include "tests/daemon/malloc_counter.hpp"
 
 using namespace clm;
-using Kind = servod::DaemonCommand::Kind;
+using Kind = servo::CommandKind;
 using servo::CommutationMode;
 
 TEST_CASE("10^5 cycles with a program running allocate nothing, in every commutation mode", "[daemon][allocation]") {
@@ -31,15 +31,15 @@ TEST_CASE("10^5 cycles with a program running allocate nothing, in every commuta
   daemon.run_cycles(10);
   if (mode == CommutationMode::kExperiment) {
     // Algorithms 1 and 2: the whole demand through coil set 2 at Δ = π/4.
-    servod::DaemonCommand experiment;
+    servo::Command experiment;
     experiment.kind = Kind::kSetExperiment;
     experiment.coil_set = 2;
     experiment.delta_rad = kPi / 4;
     REQUIRE(daemon.submit(experiment).accepted);
   } else {
-    servod::DaemonCommand set;
+    servo::Command set;
     set.kind = Kind::kSetCommutation;
-    set.mode = mode;
+    set.commutation = mode;
     REQUIRE(daemon.submit(set).accepted);
   }
   test::command(daemon, Kind::kEnable, 10);
@@ -50,15 +50,12 @@ TEST_CASE("10^5 cycles with a program running allocate nothing, in every commuta
   servod::ProgramFile fig8 = servod::load_program_file(test::source_path("config/programs/fig8.yaml"));
   servod::ProgramFile program = fig8;
   for (int k = 0; k < 3; ++k) program.steps.insert(program.steps.end(), fig8.steps.begin(), fig8.steps.end());
-  servod::DaemonCommand run;
-  run.kind = Kind::kRunProgram;
-  run.program = program;
-  REQUIRE(daemon.submit(run).accepted);
+  REQUIRE(daemon.submit_program(program).accepted);
   daemon.run_cycles(1);
   REQUIRE(daemon.cycle().record().program_running);
   // A command waiting in the queue: draining it is part of the counted cycles.
-  servod::DaemonCommand feedforward;
-  feedforward.kind = Kind::kSetFeedforward;
+  servo::Command feedforward;
+  feedforward.kind = Kind::kLoadFeedforward;  // no path: the parameters as given
   feedforward.feedforward = daemon.config().servo.feedforward;
   REQUIRE(daemon.submit(feedforward).accepted);
 

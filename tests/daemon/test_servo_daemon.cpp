@@ -9,7 +9,7 @@
 #include "tests/daemon/daemon_support.hpp"
 
 using namespace clm;
-using Kind = servod::DaemonCommand::Kind;
+using Kind = servo::CommandKind;
 
 TEST_CASE("the daemon runs the Fig. 8 program with the drive's own commutation and tracks it", "[daemon][tracking]") {
   servod::WiredAxis axis(test::virtual_config());
@@ -17,9 +17,9 @@ TEST_CASE("the daemon runs the Fig. 8 program with the drive's own commutation a
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable);
   REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
-  servod::DaemonCommand run;
+  servo::Command run;
   run.kind = Kind::kRunProgram;
-  run.path = test::source_path("config/programs/fig8.yaml");
+  run.program.assign(test::source_path("config/programs/fig8.yaml"));
   const auto reply = daemon.submit(run);
   REQUIRE(reply.accepted);
   double max_error = 0.0, sum_sq = 0.0;
@@ -30,7 +30,7 @@ TEST_CASE("the daemon runs the Fig. 8 program with the drive's own commutation a
     REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
     if (!record.program_running && n > 10) break;
     // Independent of the daemon's own record: the simulator's true position.
-    const double error = record.reference.position_m - axis.simulated_motor()->truth().position_m;
+    const double error = record.r_m - axis.simulated_motor()->truth().position_m;
     max_error = std::max(max_error, std::abs(error));
     sum_sq += error * error;
     ++n;

@@ -12,7 +12,7 @@
 #include "tests/daemon/daemon_support.hpp"
 
 using namespace clm;
-using Kind = servod::DaemonCommand::Kind;
+using Kind = servo::CommandKind;
 using servo::CommutationMode;
 
 namespace {
@@ -33,9 +33,9 @@ Tracking run_fig8(servod::WiredAxis& axis) {
   REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
   const std::string path = test::source_path("config/programs/fig8.yaml");
   const control::MoveProgram expected = servod::program_from(servod::load_program_file(path), daemon.cycle().hold_position_m());
-  servod::DaemonCommand run;
+  servo::Command run;
   run.kind = Kind::kRunProgram;
-  run.path = path;
+  run.program.assign(path);
   REQUIRE(daemon.submit(run).accepted);
   const double period_s = daemon.config().servo.period_s;
   Tracking result;
@@ -46,7 +46,7 @@ Tracking run_fig8(servod::WiredAxis& axis) {
     const double t_s = static_cast<double>(result.cycles) * period_s;
     if (t_s > expected.duration_s()) break;
     const double r_m = expected.sample(t_s).position_m;
-    REQUIRE(daemon.cycle().record().reference.position_m == Approx(r_m).margin(1e-12));
+    REQUIRE(daemon.cycle().record().r_m == Approx(r_m).margin(1e-12));
     const double error_m = r_m - axis.simulated_motor()->truth().position_m;
     result.max_error_m = std::max(result.max_error_m, std::abs(error_m));
     sum_sq += error_m * error_m;

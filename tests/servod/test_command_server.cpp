@@ -1,5 +1,6 @@
-// The command thread's work: LCM commands translated into DaemonCommands and
-// answered by exactly one ack each, on the daemon core in virtual time.
+// The command thread's work: checked LCM commands completed by check_command,
+// submitted, and answered by exactly one ack each, on the daemon core in
+// virtual time.
 #include <catch2/catch.hpp>
 
 #include <unistd.h>
@@ -9,13 +10,14 @@
 #include <map>
 
 #include "daemon/servod/axis_wiring.hpp"
+#include "daemon/servod/command_check.hpp"
 #include "daemon/servod/command_server.hpp"
 
 using namespace clm;
 using namespace clm::servod;
 namespace fs = std::filesystem;
-using Kind = DaemonCommand::Kind;
-using telemetry::CommandKind;
+using servo::CommandKind;
+using servo::answered_by_cycle;
 
 namespace {
 
@@ -29,10 +31,10 @@ ServodConfig virtual_config() {
   return config;
 }
 
-telemetry::ServoCommand received(CommandKind kind, std::int64_t sequence = 7) {
-  telemetry::ServoCommand command;
+servo::Command received(CommandKind kind, std::int64_t sequence = 7) {
+  servo::Command command;
   command.sequence = sequence;
-  command.command = kind;
+  command.kind = kind;
   return command;
 }
 
@@ -68,97 +70,112 @@ std::multimap<std::int64_t, clm_lcm::servo_command_ack_t> acks(const telemetry::
 
 }  // namespace
 
-TEST_CASE("Every LCM command kind translates into the daemon command of the same meaning", "[servod][commands]") {
-  const std::pair<CommandKind, Kind> simple[] = {{CommandKind::kEnable, Kind::kEnable},
-                                                 {CommandKind::kDisable, Kind::kDisable},
-                                                 {CommandKind::kClearFault, Kind::kClearFault},
-                                                 {CommandKind::kStop, Kind::kStop}};
-  for (const auto& [from, to] : simple) {
-    DaemonCommand out;
-    CHECK(to_daemon_command(received(from, 11), out).empty());
-    CHECK(out.kind == to);
+TEST_CASE("Every command kind passes check_command with its meaning kept", "[servod][commands]") {
+  const CommandKind simple[] = {CommandKind::kEnable, CommandKind::kDisable, CommandKind::kClearFault,
+                                CommandKind::kStop};
+  for (const auto kind : simple) {
+    servo::Command out = received(kind, 11);
+    CHECK(check_command(out).empty());
+    CHECK(out.kind == kind);
     CHECK(out.sequence == 11);
     CHECK(answered_by_cycle(out.kind));
   }
 
-  auto move = received(CommandKind::kMoveTo);
-  move.target_m = 0.05;
-  move.velocity_m_per_s = 0.2;
-  move.acceleration_m_per_s2 = 2.0;
-  move.jerk_m_per_s3 = 500.0;
-  DaemonCommand out;
-  REQUIRE(to_daemon_command(move, out).empty());
-  CHECK(out.kind == Kind::kMoveTo);
+  servo::Command out = received(CommandKind::kMoveTo);
+  out.target_m = 0.05;
+  out.limits = {0.2, 2.0, 500.0};
+  REQUIRE(check_command(out).empty());
+  CHECK(out.kind == CommandKind::kMoveTo);
   CHECK(out.target_m == 0.05);
   CHECK(out.limits.velocity_m_per_s == 0.2);
   CHECK(out.limits.acceleration_m_per_s2 == 2.0);
   CHECK(out.limits.jerk_m_per_s3 == 500.0);
   CHECK_FALSE(answered_by_cycle(out.kind));
 
-  auto program = received(CommandKind::kRunProgram);
-  program.program.assign("/etc/clm-servo/programs/fig8.yaml");
-  REQUIRE(to_daemon_command(program, out).empty());
-  CHECK(out.kind == Kind::kRunProgram);
-  CHECK(out.path == "/etc/clm-servo/programs/fig8.yaml");
+  out = received(CommandKind::kRunProgram);
+  out.program.assign("/etc/clm-servo/programs/fig8.yaml");
+  REQUIRE(check_command(out).empty());
+  CHECK(out.kind == CommandKind::kRunProgram);
+  CHECK(out.program.view() == "/etc/clm-servo/programs/fig8.yaml");
+  CHECK_FALSE(answered_by_cycle(out.kind));
 
   for (int code = 0; code <= 4; ++code) {
-    auto commutation = received(CommandKind::kSetCommutation);
-    commutation.commutation = static_cast<std::int8_t>(code);
-    REQUIRE(to_daemon_command(commutation, out).empty());
-    CHECK(out.kind == Kind::kSetCommutation);
-    CHECK(static_cast<int>(out.mode) == code);
+    out = received(CommandKind::kSetCommutation);
+    out.commutation = static_cast<servo::CommutationMode>(code);
+    REQUIRE(check_command(out).empty());
+    CHECK(out.kind == CommandKind::kSetCommutation);
+    CHECK(static_cast<int>(out.commutation) == code);
+    CHECK(answered_by_cycle(out.kind));
   }
 
-  auto experiment = received(CommandKind::kSetExperiment);
-  experiment.coil_set = 2;
-  experiment.delta_rad = -0.25;
-  REQUIRE(to_daemon_command(experiment, out).empty());
-  CHECK(out.kind == Kind::kSetExperiment);
+  out = received(CommandKind::kSetExperiment);
+  out.commutation = servo::CommutationMode::kExperiment;
+  out.coil_set = 2;
+  out.delta_rad = -0.25;
+  REQUIRE(check_command(out).empty());
+  CHECK(out.kind == CommandKind::kSetExperiment);
   CHECK(out.coil_set == 2);
   CHECK(out.delta_rad == -0.25);
+  CHECK(answered_by_cycle(out.kind));
 
-  auto calibration = received(CommandKind::kLoadCalibration);
-  calibration.path.assign("/var/lib/clm-servo/calibration.yaml");
-  REQUIRE(to_daemon_command(calibration, out).empty());
-  CHECK(out.kind == Kind::kLoadCalibration);
-  CHECK(out.path == "/var/lib/clm-servo/calibration.yaml");
+  out = received(CommandKind::kLoadCalibration);
+  out.path.assign("/var/lib/clm-servo/calibration.yaml");
+  REQUIRE(check_command(out).empty());
+  CHECK(out.kind == CommandKind::kLoadCalibration);
+  CHECK(out.path.view() == "/var/lib/clm-servo/calibration.yaml");
+  CHECK_FALSE(answered_by_cycle(out.kind));
+}
+
+TEST_CASE("The route table names every kind once, in the order of its LCM value", "[servod][commands]") {
+  for (int code = 1; code <= servo::kCommandKinds; ++code) {
+    const auto kind = static_cast<CommandKind>(code);
+    CHECK(static_cast<int>(servo::route(kind).kind) == code);
+  }
+  CHECK(servo::is_command_kind(servo::kCommandKinds));
+  CHECK_FALSE(servo::is_command_kind(0));
+  CHECK_FALSE(servo::is_command_kind(servo::kCommandKinds + 1));
+  for (const auto kind : {CommandKind::kMoveTo, CommandKind::kRunProgram, CommandKind::kLoadCalibration,
+                          CommandKind::kLoadModel}) {
+    CHECK_FALSE(answered_by_cycle(kind));
+  }
+  CHECK(answered_by_cycle(CommandKind::kLoadFeedforward));
 }
 
 TEST_CASE("set_commutation to experiment and move_to without positive limits are refused with the reason",
           "[servod][commands]") {
-  DaemonCommand out;
   auto commutation = received(CommandKind::kSetCommutation);
-  commutation.commutation = 5;
-  CHECK_THAT(to_daemon_command(commutation, out), Catch::Contains("experiments use set_experiment"));
+  commutation.commutation = servo::CommutationMode::kExperiment;
+  CHECK_THAT(check_command(commutation), Catch::Contains("experiments use set_experiment"));
 
   auto move = received(CommandKind::kMoveTo);
-  move.velocity_m_per_s = 0.1;
-  move.acceleration_m_per_s2 = 0.0;
-  move.jerk_m_per_s3 = 1000.0;
-  CHECK_THAT(to_daemon_command(move, out), Catch::Contains("acceleration_m_per_s2 must be positive"));
+  move.limits = {0.1, 0.0, 1000.0};
+  CHECK_THAT(check_command(move), Catch::Contains("acceleration_m_per_s2 must be positive"));
 }
 
 TEST_CASE("load_model loads into the law the model file's kind names", "[servod][commands]") {
   const TemporaryFile pgnn("pgnn.yaml", "format: clm-servo-model\nkind: pgnn\n");
   const TemporaryFile spline("spline.yaml", "format: clm-servo-model\nkind: spline\n");
   const TemporaryFile other("other.yaml", "format: clm-servo-model\nkind: table\n");
-  DaemonCommand out;
-  auto load = received(CommandKind::kLoadModel);
+  auto load = received(CommandKind::kLoadModel);  // as from LCM: no law named
   load.path.assign(pgnn.path());
-  REQUIRE(to_daemon_command(load, out).empty());
-  CHECK(out.kind == Kind::kLoadModel);
-  CHECK(out.mode == servo::CommutationMode::kPgnn);
-  CHECK(out.path == pgnn.path());
+  servo::Command out = load;
+  REQUIRE(check_command(out).empty());
+  CHECK(out.kind == CommandKind::kLoadModel);
+  CHECK(out.commutation == servo::CommutationMode::kPgnn);
+  CHECK(out.path.view() == pgnn.path());
 
   load.path.assign(spline.path());
-  REQUIRE(to_daemon_command(load, out).empty());
-  CHECK(out.mode == servo::CommutationMode::kSpline);
+  out = load;
+  REQUIRE(check_command(out).empty());
+  CHECK(out.commutation == servo::CommutationMode::kSpline);
 
   load.path.assign(other.path());
-  CHECK_THAT(to_daemon_command(load, out), Catch::Contains("kind: expected pgnn or spline, got 'table'"));
+  out = load;
+  CHECK_THAT(check_command(out), Catch::Contains("kind: expected pgnn or spline, got 'table'"));
 
   load.path.assign("/nonexistent/model.yaml");
-  CHECK_THAT(to_daemon_command(load, out), Catch::Contains("/nonexistent/model.yaml"));
+  out = load;
+  CHECK_THAT(check_command(out), Catch::Contains("/nonexistent/model.yaml"));
 }
 
 TEST_CASE("Each command gets exactly one ack: queued ones with the cycle's decision, others at once",
@@ -202,7 +219,7 @@ TEST_CASE("Each command gets exactly one ack: queued ones with the cycle's decis
   CHECK(acks(sink).find(3)->second.accepted);
   CHECK(acks(sink).find(3)->second.text == "program posted");
   daemon.run_until_idle(5000);
-  CHECK(daemon.cycle().record().position_m == Approx(0.01).margin(5e-4));
+  CHECK(daemon.cycle().record().y_m == Approx(0.01).margin(5e-4));
 
   // A target beyond the soft limits, and a translation refusal.
   move.sequence = 4;
@@ -229,21 +246,23 @@ TEST_CASE("load_feedforward reads the file off the cycle, the cycle applies its 
                            "viscous_N_s_per_m: 10.0\ncoulomb_N: 3.0\n");
   const TemporaryFile wrong("ff-wrong.yaml", "format: clm-servo-model\nformat_version: 1\n");
 
-  // Translation: the file is read here, the parameters travel in the command.
-  DaemonCommand out;
+  // Checking: the file is read here, the parameters travel in the command.
   auto load = received(CommandKind::kLoadFeedforward, 21);
   load.path.assign(file.path());
-  REQUIRE(to_daemon_command(load, out).empty());
-  CHECK(out.kind == Kind::kSetFeedforward);
+  servo::Command out = load;
+  REQUIRE(check_command(out).empty());
+  CHECK(out.kind == CommandKind::kLoadFeedforward);
   CHECK(out.sequence == 21);
   CHECK(out.feedforward.mass_kg == 2.0);
   CHECK(out.feedforward.viscous_N_s_per_m == 10.0);
   CHECK(out.feedforward.coulomb_N == 3.0);
   CHECK(answered_by_cycle(out.kind));
   load.path.assign("/nonexistent/ff.yaml");
-  CHECK_THAT(to_daemon_command(load, out), Catch::StartsWith("load_feedforward: /nonexistent/ff.yaml"));
+  out = load;
+  CHECK_THAT(check_command(out), Catch::StartsWith("load_feedforward: /nonexistent/ff.yaml"));
   load.path.assign(wrong.path());
-  CHECK_THAT(to_daemon_command(load, out), Catch::Contains(wrong.path()));
+  out = load;
+  CHECK_THAT(check_command(out), Catch::Contains(wrong.path()));
 
   // End to end: over the publisher's command path into the running cycle.
   WiredAxis axis(virtual_config());
@@ -276,9 +295,9 @@ TEST_CASE("load_feedforward reads the file off the cycle, the cycle applies its 
   REQUIRE(acks(sink).find(3)->second.accepted);
   daemon.run_cycles(400);
   const auto& record = daemon.cycle().record();
-  REQUIRE(record.reference.velocity_m_per_s == Approx(0.1).margin(1e-9));
-  REQUIRE(record.reference.acceleration_m_per_s2 == Approx(0.0).margin(1e-9));
-  CHECK(record.feedforward_N == Approx(4.0).margin(1e-6));
+  REQUIRE(record.r_dot_m_per_s == Approx(0.1).margin(1e-9));
+  REQUIRE(record.r_ddot_m_per_s2 == Approx(0.0).margin(1e-9));
+  CHECK(record.u_ff_N == Approx(4.0).margin(1e-6));
 
   // A missing file is refused at once, and the running feedforward stays.
   ff.sequence = 4;
@@ -289,5 +308,5 @@ TEST_CASE("load_feedforward reads the file off the cycle, the cycle applies its 
   CHECK_FALSE(acks(sink).find(4)->second.accepted);
   CHECK_THAT(acks(sink).find(4)->second.text, Catch::StartsWith("rejected: load_feedforward: /nonexistent/ff.yaml"));
   daemon.run_cycles(1);
-  CHECK(daemon.cycle().record().feedforward_N == Approx(4.0).margin(1e-6));
+  CHECK(daemon.cycle().record().u_ff_N == Approx(4.0).margin(1e-6));
 }

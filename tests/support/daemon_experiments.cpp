@@ -14,7 +14,7 @@
 namespace clm::test {
 
 DaemonExperiments run_daemon_experiments(const std::string& servod_config_path, const std::string& lcm_log_path) {
-  using Kind = servod::DaemonCommand::Kind;
+  using Kind = servo::CommandKind;
   servod::ServodConfig config = servod::load_servod_config(servod_config_path);
   config.loop.clock = servod::ClockMode::kVirtual;
   config.telemetry.enabled = false;
@@ -37,12 +37,12 @@ DaemonExperiments run_daemon_experiments(const std::string& servod_config_path, 
     bridge.emplace(*log, daemon, 1);
   }
   daemon.run_cycles(20);
-  servod::DaemonCommand enable;
+  servo::Command enable;
   enable.kind = Kind::kEnable;
   commission::execute(daemon, enable);
   for (int l = 1; l <= config.motor.coil_sets; ++l) {
     for (double delta : {-kPi / 4, kPi / 4}) {
-      servod::DaemonCommand experiment;
+      servo::Command experiment;
       experiment.kind = Kind::kSetExperiment;
       experiment.coil_set = l;
       experiment.delta_rad = delta;
@@ -66,11 +66,11 @@ ExperimentColumns experiment_columns(const DaemonExperiments& experiments, std::
     for (std::size_t k = 0; k < n; k += std::max<std::size_t>(1, every_nth)) {
       const auto& s = run.samples[k];
       const auto l = static_cast<std::size_t>(s.coil_set - 1);
-      const double row[] = {offset_s + s.t_s, static_cast<double>(s.coil_set), s.delta_rad, s.setpoints[l].magnitude_N,
-                            s.y_m, s.measured.x(), s.measured.y(), s.measured.z()};
+      const double row[] = {offset_s + s.program_time_s, static_cast<double>(s.coil_set), s.delta_rad,
+                            s.magnitude_N[l], s.y_m, s.Fy_N, s.Fx_N, s.Tz_Nm};
       for (std::size_t c = 0; c < out.names.size(); ++c) out.values[c].push_back(row[c]);
     }
-    if (!run.samples.empty()) offset_s += run.samples.back().t_s + 1.0;
+    if (!run.samples.empty()) offset_s += run.samples.back().program_time_s + 1.0;
   }
   return out;
 }

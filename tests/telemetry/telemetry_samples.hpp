@@ -1,6 +1,6 @@
 #pragma once
-// Samples with a distinct value in every field, and field-by-field checks of
-// the decoded LCM messages against them.
+// Records and samples with a distinct value in every field, and
+// field-by-field checks of the decoded LCM messages against them.
 
 #include <catch2/catch.hpp>
 
@@ -10,8 +10,8 @@ namespace clm::test {
 
 /// A state whose fields all differ (so a swapped field is caught); `cycle`
 /// shifts every value.
-inline telemetry::ServoStateSample make_state(std::int64_t cycle, int coil_sets = 3) {
-  telemetry::ServoStateSample s;
+inline servo::CycleRecord make_state(std::int64_t cycle, int coil_sets = 3) {
+  servo::CycleRecord s;
   const double k = static_cast<double>(cycle);
   s.utime = 1'700'000'000'000'000 + cycle * 1000;
   s.cycle = cycle;
@@ -30,10 +30,10 @@ inline telemetry::ServoStateSample make_state(std::int64_t cycle, int coil_sets 
   s.Fy_N = 6.25 + k;
   s.Fx_N = -7.25 - k;
   s.Tz_Nm = 0.375 + k;
-  s.commutation = 5;
-  s.coil_set = static_cast<std::int8_t>(1 + cycle % coil_sets);
+  s.commutation = servo::CommutationMode::kExperiment;
+  s.coil_set = static_cast<int>(1 + cycle % coil_sets);
   s.delta_rad = cycle % 2 == 0 ? 0.0 : 1.5707963267948966;
-  s.coil_sets = static_cast<std::int8_t>(coil_sets);
+  s.coil_sets = coil_sets;
   for (int l = 0; l < coil_sets; ++l) {
     s.magnitude_N[l] = 10.0 * (l + 1) + k;
     s.setpoint_delta_rad[l] = 0.1 * (l + 1) + 1e-3 * k;
@@ -43,13 +43,13 @@ inline telemetry::ServoStateSample make_state(std::int64_t cycle, int coil_sets 
   s.damping_engaged = cycle % 3 == 0;
   s.current_square_sum_A2 = 2.5 + k;
   s.force_limited = cycle % 5 == 1;
-  s.state = static_cast<std::int8_t>(cycle % 3);
+  s.state = static_cast<servo::ServoState>(cycle % 3);
   s.program_running = cycle % 2 == 1;
   s.program_time_s = 0.75 + 1e-3 * k;
   return s;
 }
 
-inline void check_state(const telemetry::ServoStateSample& s, const clm_lcm::servo_state_t& m) {
+inline void check_state(const servo::CycleRecord& s, const clm_lcm::servo_state_t& m) {
   CHECK(m.utime == s.utime);
   CHECK(m.cycle == s.cycle);
   CHECK(m.t_s == s.t_s);
@@ -67,7 +67,7 @@ inline void check_state(const telemetry::ServoStateSample& s, const clm_lcm::ser
   CHECK(m.Fy_N == s.Fy_N);
   CHECK(m.Fx_N == s.Fx_N);
   CHECK(m.Tz_Nm == s.Tz_Nm);
-  CHECK(m.commutation == s.commutation);
+  CHECK(m.commutation == static_cast<int>(s.commutation));
   CHECK(m.coil_set == s.coil_set);
   CHECK(m.delta_rad == s.delta_rad);
   REQUIRE(m.coil_sets == s.coil_sets);
@@ -84,9 +84,46 @@ inline void check_state(const telemetry::ServoStateSample& s, const clm_lcm::ser
   CHECK(static_cast<bool>(m.damping_engaged) == s.damping_engaged);
   CHECK(m.current_square_sum_A2 == s.current_square_sum_A2);
   CHECK(static_cast<bool>(m.force_limited) == s.force_limited);
-  CHECK(m.state == s.state);
+  CHECK(m.state == static_cast<int>(s.state));
   CHECK(static_cast<bool>(m.program_running) == s.program_running);
   CHECK(m.program_time_s == s.program_time_s);
+}
+
+/// Every field of two records that servo_state_t carries.
+inline void check_state(const servo::CycleRecord& s, const servo::CycleRecord& r) {
+  CHECK(r.utime == s.utime);
+  CHECK(r.cycle == s.cycle);
+  CHECK(r.t_s == s.t_s);
+  CHECK(r.r_m == s.r_m);
+  CHECK(r.r_dot_m_per_s == s.r_dot_m_per_s);
+  CHECK(r.r_ddot_m_per_s2 == s.r_ddot_m_per_s2);
+  CHECK(r.y_m == s.y_m);
+  CHECK(r.e_m == s.e_m);
+  CHECK(r.F_star_N == s.F_star_N);
+  CHECK(r.u_fb_N == s.u_fb_N);
+  CHECK(r.u_ff_N == s.u_ff_N);
+  CHECK(r.Fy_star_N == s.Fy_star_N);
+  CHECK(r.Fx_star_N == s.Fx_star_N);
+  CHECK(r.Tz_star_Nm == s.Tz_star_Nm);
+  CHECK(r.Fy_N == s.Fy_N);
+  CHECK(r.Fx_N == s.Fx_N);
+  CHECK(r.Tz_Nm == s.Tz_Nm);
+  CHECK(r.commutation == s.commutation);
+  CHECK(r.coil_set == s.coil_set);
+  CHECK(r.delta_rad == s.delta_rad);
+  REQUIRE(r.coil_sets == s.coil_sets);
+  for (std::size_t l = 0; l < static_cast<std::size_t>(s.coil_sets); ++l) {
+    CHECK(r.magnitude_N[l] == s.magnitude_N[l]);
+    CHECK(r.setpoint_delta_rad[l] == s.setpoint_delta_rad[l]);
+    CHECK(r.ia_A[l] == s.ia_A[l]);
+    CHECK(r.ib_A[l] == s.ib_A[l]);
+  }
+  CHECK(r.damping_engaged == s.damping_engaged);
+  CHECK(r.current_square_sum_A2 == s.current_square_sum_A2);
+  CHECK(r.force_limited == s.force_limited);
+  CHECK(r.state == s.state);
+  CHECK(r.program_running == s.program_running);
+  CHECK(r.program_time_s == s.program_time_s);
 }
 
 inline telemetry::ServoStatusSample make_status() {
@@ -125,7 +162,7 @@ inline void check_status(const telemetry::ServoStatusSample& s, const clm_lcm::s
   CHECK(m.fault == s.fault);
   CHECK(m.fault_reason == s.fault_reason.view());
   CHECK(m.fault_cycle == s.fault_cycle);
-  CHECK(m.commutation == s.commutation);
+  CHECK(m.commutation == static_cast<int>(s.commutation));
   CHECK(m.model_file == s.model_file.view());
   CHECK(m.calibration_file == s.calibration_file.view());
   CHECK(m.wakeup_latency_p50_s == s.wakeup_latency_p50_s);

@@ -128,7 +128,7 @@ TEST_CASE("Commands sent over udpm multicast reach poll_command, and a too-long 
   load.path = "/" + std::string(400, 'x');
 
   // The real-time side polls; resend until the command is taken (datagrams may be lost).
-  ServoCommand command;
+  clm::servo::Command command;
   bool taken = false;
   for (int attempt = 0; attempt < 5 && !taken; ++attempt) {
     REQUIRE(operator_side.publish(kCommandChannel, &move) == 0);
@@ -139,11 +139,11 @@ TEST_CASE("Commands sent over udpm multicast reach poll_command, and a too-long 
   }
   if (!taken) FAIL(no_multicast("a command published on " + url + " never reached the publisher"));
   CHECK(command.sequence == 1001);
-  CHECK(command.command == CommandKind::kMoveTo);
+  CHECK(command.kind == clm::servo::CommandKind::kMoveTo);
   CHECK(command.target_m == 0.025);
-  CHECK(command.velocity_m_per_s == 0.2);
-  CHECK(command.acceleration_m_per_s2 == 5.0);
-  CHECK(command.jerk_m_per_s3 == 500.0);
+  CHECK(command.limits.velocity_m_per_s == 0.2);
+  CHECK(command.limits.acceleration_m_per_s2 == 5.0);
+  CHECK(command.limits.jerk_m_per_s3 == 500.0);
 
   bool refused = false;
   for (int attempt = 0; attempt < 5 && !refused; ++attempt) {

@@ -10,7 +10,6 @@
 #include <limits>
 #include <mutex>
 
-#include "config/yaml_reader.hpp"
 #include "support/allocation_counter.hpp"
 #include "telemetry/telemetry_samples.hpp"
 
@@ -125,8 +124,8 @@ TEST_CASE("The publisher sends states, status, events and acks to its sink with 
   CHECK(publisher.counters().publish_failures == 0);
 }
 
-TEST_CASE("A sample without utime is stamped with the wall clock at publication", "[telemetry][publisher]") {
-  ServoStateSample sample = clm::test::make_state(1);
+TEST_CASE("A record without utime is stamped with the wall clock at publication", "[telemetry][publisher]") {
+  clm::servo::CycleRecord sample = clm::test::make_state(1);
   sample.utime = 0;
   const auto before = wall_clock_utime();
   const auto message = to_message(sample);
@@ -135,9 +134,9 @@ TEST_CASE("A sample without utime is stamped with the wall clock at publication"
 }
 
 TEST_CASE("A state with coil_sets outside 0..8 is refused at conversion, not cut", "[telemetry][publisher]") {
-  ServoStateSample sample = clm::test::make_state(7);
+  clm::servo::CycleRecord sample = clm::test::make_state(7);
   sample.coil_sets = 9;
-  CHECK_THROWS_WITH(to_message(sample), "ServoStateSample of cycle 7: coil_sets 9 outside 0..8");
+  CHECK_THROWS_WITH(to_message(sample), "CycleRecord of cycle 7: coil_sets 9 outside 0..8");
 }
 
 TEST_CASE("push never blocks while the publisher is stalled: 1e5 pushes, drops = pushes - capacity exactly, "
@@ -156,7 +155,7 @@ TEST_CASE("push never blocks while the publisher is stalled: 1e5 pushes, drops =
   // If push waited for room this loop would never end: the consumer is only
   // released after it. The timing below is a report, not the proof.
   constexpr std::int64_t kPushes = 100000;
-  ServoStateSample sample = clm::test::make_state(1);
+  clm::servo::CycleRecord sample = clm::test::make_state(1);
   std::int64_t accepted = 0;
   double longest_push_s = 0.0;
   const clm::test::AllocationScope allocations;
@@ -240,11 +239,11 @@ TEST_CASE("The real-time side (push_*, poll_command) does not allocate", "[telem
   move.target_m = 0.05;
   REQUIRE(publisher.submit_command(move));
   publisher.start();
-  ServoStateSample state = clm::test::make_state(1);
+  clm::servo::CycleRecord state = clm::test::make_state(1);
   const ServoStatusSample status = clm::test::make_status();
   ServoEventSample event;
   ServoCommandAck ack;
-  ServoCommand command;
+  clm::servo::Command command;
   std::int64_t commands = 0;
   const clm::test::AllocationScope allocations;
   for (std::int64_t i = 0; i < 20000; ++i) {
@@ -262,7 +261,7 @@ TEST_CASE("The real-time side (push_*, poll_command) does not allocate", "[telem
   CHECK(allocations.allocations() == 0);
   publisher.stop();
   CHECK(commands == 1);
-  CHECK(command.command == CommandKind::kMoveTo);
+  CHECK(command.kind == clm::servo::CommandKind::kMoveTo);
   CHECK(command.target_m == 0.05);
 }
 
@@ -285,29 +284,29 @@ TEST_CASE("A well-formed command reaches poll_command with its fields", "[teleme
   commutation.commutation = clm_lcm::servo_state_t::COMMUTATION_PGNN;
   for (const auto& m : {move, experiment, load, program, commutation}) REQUIRE(publisher.submit_command(m));
 
-  ServoCommand c;
+  clm::servo::Command c;
   REQUIRE(publisher.poll_command(c));
   CHECK(c.sequence == 5);
   CHECK(c.utime == move.utime);
-  CHECK(c.command == CommandKind::kMoveTo);
+  CHECK(c.kind == clm::servo::CommandKind::kMoveTo);
   CHECK(c.target_m == -0.03);
-  CHECK(c.velocity_m_per_s == 0.5);
-  CHECK(c.acceleration_m_per_s2 == 10.0);
-  CHECK(c.jerk_m_per_s3 == 1000.0);
+  CHECK(c.limits.velocity_m_per_s == 0.5);
+  CHECK(c.limits.acceleration_m_per_s2 == 10.0);
+  CHECK(c.limits.jerk_m_per_s3 == 1000.0);
   REQUIRE(publisher.poll_command(c));
-  CHECK(c.command == CommandKind::kSetExperiment);
+  CHECK(c.kind == clm::servo::CommandKind::kSetExperiment);
   CHECK(c.coil_set == 2);
   CHECK(c.delta_rad == 1.5);
-  CHECK(c.commutation == clm_lcm::servo_state_t::COMMUTATION_EXPERIMENT);
+  CHECK(static_cast<int>(c.commutation) == clm_lcm::servo_state_t::COMMUTATION_EXPERIMENT);
   REQUIRE(publisher.poll_command(c));
-  CHECK(c.command == CommandKind::kLoadModel);
+  CHECK(c.kind == clm::servo::CommandKind::kLoadModel);
   CHECK(c.path.view() == load.path);
   REQUIRE(publisher.poll_command(c));
-  CHECK(c.command == CommandKind::kRunProgram);
+  CHECK(c.kind == clm::servo::CommandKind::kRunProgram);
   CHECK(c.program.view() == "/etc/clm-servo/fig8.yaml");
   REQUIRE(publisher.poll_command(c));
-  CHECK(c.command == CommandKind::kSetCommutation);
-  CHECK(c.commutation == clm_lcm::servo_state_t::COMMUTATION_PGNN);
+  CHECK(c.kind == clm::servo::CommandKind::kSetCommutation);
+  CHECK(static_cast<int>(c.commutation) == clm_lcm::servo_state_t::COMMUTATION_PGNN);
   CHECK_FALSE(publisher.poll_command(c));
   CHECK(memory.size() == 0);  // accepted commands are acked by the daemon, not here
 }
@@ -349,7 +348,7 @@ TEST_CASE("An ill-formed command is refused with an ack naming the field, and ne
   MemorySink memory;
   TelemetryPublisher publisher(TelemetryConfig{}, memory);
   for (const auto& c : cases) CHECK_FALSE(publisher.submit_command(c.message));
-  ServoCommand command;
+  clm::servo::Command command;
   CHECK_FALSE(publisher.poll_command(command));
   const auto acks = memory.decode<clm_lcm::servo_command_ack_t>(kCommandAckChannel);
   REQUIRE(acks.size() == cases.size());
@@ -434,40 +433,7 @@ TEST_CASE("The publisher records into an LcmLogWriter next to its main sink", "[
   CHECK(memory.size() == 100);
 }
 
-TEST_CASE("The telemetry YAML section: defaults, every key, errors naming key and value", "[telemetry][config]") {
-  using clm::yaml::Node;
-  const auto defaults = read_telemetry_config(Node::load_string("telemetry: {}\n", "servod.yaml")["telemetry"]);
-  CHECK(defaults.lcm_url == kDefaultLcmUrl);
-  CHECK(defaults.state_decimation == 1);
-  const auto config = read_telemetry_config(Node::load_string(
-      "telemetry:\n"
-      "  lcm_url: udpm://239.255.76.67:7700?ttl=1\n"
-      "  state_decimation: 10\n"
-      "  state_queue_capacity: 8192\n"
-      "  status_queue_capacity: 8\n"
-      "  event_queue_capacity: 128\n"
-      "  command_queue_capacity: 16\n"
-      "  ack_queue_capacity: 32\n"
-      "  idle_period_s: 0.002\n",
-      "servod.yaml")["telemetry"]);
-  CHECK(config.lcm_url == "udpm://239.255.76.67:7700?ttl=1");
-  CHECK(config.state_decimation == 10);
-  CHECK(config.state_queue_capacity == 8192);
-  CHECK(config.status_queue_capacity == 8);
-  CHECK(config.event_queue_capacity == 128);
-  CHECK(config.command_queue_capacity == 16);
-  CHECK(config.ack_queue_capacity == 32);
-  CHECK(config.idle_period_s == 0.002);
-
-  CHECK_THROWS_WITH(
-      read_telemetry_config(Node::load_string("telemetry:\n  state_queue_capacity: 1000\n", "servod.yaml")["telemetry"]),
-      Catch::Contains("servod.yaml:2") && Catch::Contains("1000 is not a power of two"));
-  CHECK_THROWS_AS(read_telemetry_config(Node::load_string("telemetry:\n  lcm_uri: x\n", "servod.yaml")["telemetry"]),
-                  clm::yaml::Error);
-  CHECK_THROWS_AS(
-      read_telemetry_config(Node::load_string("telemetry:\n  state_decimation: 0\n", "servod.yaml")["telemetry"]),
-      clm::yaml::Error);
-
+TEST_CASE("A publisher refuses a configuration with a queue capacity that is not a power of two", "[telemetry][config]") {
   TelemetryConfig bad;
   bad.event_queue_capacity = 100;
   MemorySink memory;

@@ -39,7 +39,7 @@ class TemporaryDirectory {
 /// after every tenth state. Cycles 3, 7, 11, ... are in PGNN mode, the rest
 /// in experiment mode. Returns the states and, for each, its event number.
 struct WrittenLog {
-  std::vector<ServoStateSample> states;
+  std::vector<clm::servo::CycleRecord> states;
   std::vector<std::int64_t> event_numbers;
   std::int64_t events = 0;
 };
@@ -52,7 +52,7 @@ WrittenLog write_log(const std::string& path, int state_count, int coil_sets = 3
   for (int i = 0; i < state_count; ++i) {
     auto state = clm::test::make_state(i, coil_sets);
     if (i % 4 == 3) {
-      state.commutation = clm_lcm::servo_state_t::COMMUTATION_PGNN;
+      state.commutation = clm::servo::CommutationMode::kPgnn;
       state.coil_set = 0;
     }
     publish_message(writer, kStateChannel, to_message(state), state.utime);
@@ -122,9 +122,9 @@ TEST_CASE("log2csv --format experiment writes the experiment-mode states in the 
   log2csv("--log " + log + " --output " + csv + " --format experiment");
 
   const auto table = clm::data::CsvTable::load(csv);
-  std::vector<ServoStateSample> expected;
+  std::vector<clm::servo::CycleRecord> expected;
   for (const auto& s : written.states) {
-    if (s.commutation == clm_lcm::servo_state_t::COMMUTATION_EXPERIMENT) expected.push_back(s);
+    if (s.commutation == clm::servo::CommutationMode::kExperiment) expected.push_back(s);
   }
   REQUIRE(expected.size() == 30);
   REQUIRE(table.rows() == expected.size());
@@ -200,9 +200,9 @@ TEST_CASE("log2csv --format full writes every field, coil-set columns per coil s
     CHECK(ib2[i] == s.ib_A[1]);
     CHECK(damping[i] == (s.damping_engaged ? 1.0 : 0.0));
     CHECK(current[i] == s.current_square_sum_A2);
-    CHECK(mode[i] == s.commutation);
+    CHECK(mode[i] == static_cast<double>(s.commutation));
     CHECK(limited[i] == (s.force_limited ? 1.0 : 0.0));
-    CHECK(state[i] == s.state);
+    CHECK(state[i] == static_cast<double>(s.state));
     CHECK(running[i] == (s.program_running ? 1.0 : 0.0));
     CHECK(program_time[i] == s.program_time_s);
   }
@@ -288,7 +288,7 @@ TEST_CASE("log2csv refuses a missing log, an unknown format and experiment data 
   {
     LcmLogWriter writer(log);
     auto state = clm::test::make_state(0);
-    state.commutation = clm_lcm::servo_state_t::COMMUTATION_CLASSICAL;
+    state.commutation = clm::servo::CommutationMode::kClassical;
     state.coil_set = 0;
     publish_message(writer, kStateChannel, to_message(state), 0);
     writer.close();
@@ -315,4 +315,26 @@ TEST_CASE("A state claiming more coil sets than a motor can have is refused with
     writer.close();
   }
   CHECK_THROWS_WITH(clm::lcmlog::read_servo_states(log), log + ": event 1: CLM_SERVO_STATE: coil_sets 9 outside 0..8");
+}
+
+TEST_CASE("A state with an unknown commutation or state is refused with its event number", "[lcmlog]") {
+  const TemporaryDirectory directory("unknown");
+  const std::string log = directory.file("run.lcm");
+  {
+    LcmLogWriter writer(log);
+    publish_message(writer, kStateChannel, to_message(clm::test::make_state(0)), 0);
+    auto commutation = to_message(clm::test::make_state(1));
+    commutation.commutation = 6;
+    publish_message(writer, kStateChannel, commutation, 0);
+    writer.close();
+  }
+  CHECK_THROWS_WITH(clm::lcmlog::read_servo_states(log), log + ": event 1: CLM_SERVO_STATE: commutation 6 outside 0..5");
+  {
+    LcmLogWriter writer(log);
+    auto state = to_message(clm::test::make_state(0));
+    state.state = 3;
+    publish_message(writer, kStateChannel, state, 0);
+    writer.close();
+  }
+  CHECK_THROWS_WITH(clm::lcmlog::read_servo_states(log), log + ": event 0: CLM_SERVO_STATE: state 3 outside 0..2");
 }

@@ -31,11 +31,11 @@ void write_experiment_csv(const std::string& path, const std::vector<Recording>&
   for (const auto& run : runs) {
     for (const auto& s : run.samples) {
       const auto l = static_cast<std::size_t>(s.coil_set - 1);
-      const double row[] = {offset_s + s.t_s, static_cast<double>(s.coil_set), s.delta_rad, s.setpoints[l].magnitude_N,
-                            s.y_m, s.measured.x(), s.measured.y(), s.measured.z()};
+      const double row[] = {offset_s + s.program_time_s, static_cast<double>(s.coil_set), s.delta_rad,
+                            s.magnitude_N[l], s.y_m, s.Fy_N, s.Fx_N, s.Tz_Nm};
       for (std::size_t c = 0; c < names.size(); ++c) columns[c].push_back(row[c]);
     }
-    if (!run.samples.empty()) offset_s += run.samples.back().t_s + 1.0;
+    if (!run.samples.empty()) offset_s += run.samples.back().program_time_s + 1.0;
   }
   data::write_csv_atomically(path, names, columns);
 }
@@ -44,7 +44,7 @@ void write_feedforward_csv(const std::string& path, const Recording& run) {
   const std::vector<std::string> names = {"t_s", "r_m", "F_star_N"};
   std::vector<std::vector<double>> columns(3);
   for (const auto& s : run.samples) {
-    columns[0].push_back(s.t_s);
+    columns[0].push_back(s.program_time_s);
     columns[1].push_back(s.r_m);
     columns[2].push_back(s.F_star_N);
   }
@@ -57,9 +57,9 @@ void write_evaluation_csv(const std::string& path, const Recording& run, const c
   std::vector<std::vector<double>> columns(names.size());
   std::size_t step = 0;
   for (const auto& s : run.samples) {
-    while (step + 1 < program.steps().size() && s.t_s >= program.step_start_s(step + 1)) ++step;
-    const double row[] = {s.t_s, static_cast<double>(step), s.r_m, s.y_m, s.r_m - s.y_m, s.F_star_N, s.u_ff_N,
-                          s.desired.x(), s.measured.x(), s.measured.y(), s.measured.z(), s.current_square_sum_A2};
+    while (step + 1 < program.steps().size() && s.program_time_s >= program.step_start_s(step + 1)) ++step;
+    const double row[] = {s.program_time_s, static_cast<double>(step), s.r_m, s.y_m, s.r_m - s.y_m, s.F_star_N,
+                          s.u_ff_N, s.Fy_star_N, s.Fy_N, s.Fx_N, s.Tz_Nm, s.current_square_sum_A2};
     for (std::size_t c = 0; c < names.size(); ++c) columns[c].push_back(row[c]);
   }
   data::write_csv_atomically(path, names, columns);
@@ -124,8 +124,8 @@ CommutationResult evaluate(const Recording& run, double period_s) {
   std::vector<Eigen::Vector3d> measured, desired;
   double tracking = 0.0, current = 0.0;
   for (const auto& s : run.samples) {
-    measured.push_back(s.measured);
-    desired.push_back(s.desired);
+    measured.emplace_back(s.Fy_N, s.Fx_N, s.Tz_Nm);
+    desired.emplace_back(s.Fy_star_N, s.Fx_star_N, s.Tz_star_Nm);
     tracking += (s.r_m - s.y_m) * (s.r_m - s.y_m);
     current += s.current_square_sum_A2;
   }

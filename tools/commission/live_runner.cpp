@@ -48,27 +48,6 @@ bool decode(const std::vector<std::uint8_t>& data, Message& out) {
   return out.decode(data.data(), 0, size) == size;
 }
 
-Sample to_sample(const servo_state_t& s) {
-  Sample out;
-  out.t_s = s.program_time_s;
-  out.r_m = s.r_m;
-  out.r_dot_m_per_s = s.r_dot_m_per_s;
-  out.r_ddot_m_per_s2 = s.r_ddot_m_per_s2;
-  out.y_m = s.y_m;
-  out.y_true_m = std::numeric_limits<double>::quiet_NaN();  // no simulator truth over LCM
-  out.F_star_N = s.F_star_N;
-  out.u_ff_N = s.u_ff_N;
-  out.desired = Wrench(s.Fy_star_N, s.Fx_star_N, s.Tz_star_Nm);
-  out.measured = Wrench(s.Fy_N, s.Fx_N, s.Tz_Nm);
-  out.coil_set = s.coil_set;
-  out.delta_rad = s.delta_rad;
-  for (std::size_t l = 0; l < static_cast<std::size_t>(s.coil_sets) && l < kMaxCoilSets; ++l) {
-    out.setpoints[l] = {s.magnitude_N[l], s.setpoint_delta_rad[l]};
-  }
-  out.current_square_sum_A2 = s.current_square_sum_A2;
-  return out;
-}
-
 }  // namespace
 
 StateGaps find_state_gaps(const std::vector<std::int64_t>& cycles, int max_ranges) {
@@ -367,7 +346,7 @@ Recording LcmRunner::attempt(const servod::ProgramFile& program, const std::stri
     captured_.clear();
   }
 
-  Recording recording{name, {}, 0, 0};
+  Recording recording{name, {}, {}, 0, 0};  // no simulator truth over LCM
   std::vector<std::int64_t> cycles;
   states = 0;
   for (const auto& message : messages) {
@@ -376,7 +355,11 @@ Recording LcmRunner::attempt(const servod::ProgramFile& program, const std::stri
     ++states;
     cycles.push_back(s.cycle);
     if (!s.program_running || s.state != kStateEnabled) continue;
-    recording.samples.push_back(to_sample(s));
+    try {
+      recording.samples.push_back(telemetry::to_record(s));
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error("run '" + name + "': CLM_SERVO_STATE of cycle " + std::to_string(s.cycle) + ": " + e.what());
+    }
     if (s.damping_engaged) ++recording.damping_cycles;
     if (s.force_limited) ++recording.force_limited_cycles;
   }

@@ -1,7 +1,5 @@
 #include "tools/commission/runs.hpp"
 
-#include <cmath>
-#include <limits>
 #include <stdexcept>
 
 #include "daemon/servod/telemetry_bridge.hpp"
@@ -11,50 +9,45 @@
 namespace clm::commission {
 
 void Recorder::start(const std::string& name) {
-  recording_ = Recording{name, {}, 0, 0};
+  recording_ = Recording{name, {}, {}, 0, 0};
   recording_.samples.reserve(40000);
+  if (truth_ != nullptr) recording_.y_true_m.reserve(40000);
   active_ = true;
 }
 
 void Recorder::on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming& timing) noexcept {
   const auto& record = cycle.record();
   if (!active_ || !record.program_running || record.state != servo::ServoState::kEnabled) return;
-  Sample s;
-  s.t_s = record.program_time_s;
-  s.r_m = record.reference.position_m;
-  s.r_dot_m_per_s = record.reference.velocity_m_per_s;
-  s.r_ddot_m_per_s2 = record.reference.acceleration_m_per_s2;
-  s.y_m = record.position_m;
-  s.y_true_m = truth_ != nullptr ? truth_->truth().position_m : std::numeric_limits<double>::quiet_NaN();
-  s.F_star_N = record.force_demand_N;
-  s.u_ff_N = record.feedforward_N;
-  s.desired = record.desired_wrench;
-  s.measured = record.measured_wrench;
-  s.coil_set = record.experiment_coil_set;
-  s.delta_rad = record.experiment_delta_rad;
-  s.setpoints = record.setpoints;
-  s.current_square_sum_A2 = record.current_square_sum_A2;
+  if (truth_ != nullptr) recording_.y_true_m.push_back(truth_->truth().position_m);
   if (record.damping_engaged) ++recording_.damping_cycles;
   if (record.force_limited) ++recording_.force_limited_cycles;
-  recording_.samples.push_back(s);  // offline tool: the vector was reserved
+  recording_.samples.push_back(record);  // offline tool: the vectors were reserved
   if (forward_ != nullptr) forward_->on_cycle(cycle, timing);
 }
 
-void execute(servod::ServoDaemon& daemon, servod::DaemonCommand command) {
-  const auto reply = daemon.submit(command);
+namespace {
+
+void check_reply(const servod::CommandReply& reply) {
   if (!reply.accepted) throw std::runtime_error("daemon refused a command: " + reply.text);
+}
+
+void run_reply_cycle(servod::ServoDaemon& daemon) {
   daemon.run_cycles(1);
-  for (const auto& r : daemon.take_replies()) {
-    if (!r.accepted) throw std::runtime_error("daemon refused a command: " + r.text);
-  }
+  for (const auto& r : daemon.take_replies()) check_reply(r);
+}
+
+}  // namespace
+
+void execute(servod::ServoDaemon& daemon, const servo::Command& command) {
+  check_reply(daemon.submit(command));
+  run_reply_cycle(daemon);
 }
 
 Recording run_program(servod::ServoDaemon& daemon, const sim::SimulatedMotor* truth, const servod::ProgramFile& program,
                       const std::string& name, servod::CycleObserver* log) {
-  using Kind = servod::DaemonCommand::Kind;
   // Approach: move to the start and settle.
-  servod::DaemonCommand approach;
-  approach.kind = Kind::kMoveTo;
+  servo::Command approach;
+  approach.kind = servo::CommandKind::kMoveTo;
   approach.target_m = program.start_m;
   approach.limits = program.steps.front().limits;
   execute(daemon, approach);
@@ -65,11 +58,9 @@ Recording run_program(servod::ServoDaemon& daemon, const sim::SimulatedMotor* tr
   recorder.forward_to(log);
   daemon.set_observer(&recorder);
   recorder.start(name);
-  servod::DaemonCommand run;
-  run.kind = Kind::kRunProgram;
-  run.program = program;
   try {
-    execute(daemon, run);
+    check_reply(daemon.submit_program(program));
+    run_reply_cycle(daemon);
     daemon.run_until_idle(10'000'000);
   } catch (...) {
     daemon.set_observer(nullptr);
@@ -105,10 +96,20 @@ servod::ServodConfig offline(servod::ServodConfig config) {
   return config;
 }
 
-servod::DaemonCommand make(servod::DaemonCommand::Kind kind) {
-  servod::DaemonCommand command;
+servo::Command make(servo::CommandKind kind) {
+  servo::Command command;
   command.kind = kind;
   return command;
+}
+
+/// `path` as a command's path; throws when it does not fit.
+servo::PathText path_text(const std::string& path) {
+  servo::PathText text;
+  if (!text.assign(path)) {
+    throw std::runtime_error(path + ": path longer than " + std::to_string(servo::PathText::kMaxChars) +
+                             " characters, the daemon's limit");
+  }
+  return text;
 }
 
 }  // namespace
@@ -120,37 +121,37 @@ InProcessRunner::InProcessRunner(const servod::ServodConfig& config)
 
 InProcessRunner::~InProcessRunner() = default;
 
-void InProcessRunner::enable() { execute(*daemon_, make(servod::DaemonCommand::Kind::kEnable)); }
+void InProcessRunner::enable() { execute(*daemon_, make(servo::CommandKind::kEnable)); }
 
 void InProcessRunner::set_experiment(int coil_set, double delta_rad) {
-  auto command = make(servod::DaemonCommand::Kind::kSetExperiment);
+  auto command = make(servo::CommandKind::kSetExperiment);
   command.coil_set = coil_set;
   command.delta_rad = delta_rad;
   execute(*daemon_, command);
 }
 
 void InProcessRunner::set_commutation(servo::CommutationMode mode) {
-  auto command = make(servod::DaemonCommand::Kind::kSetCommutation);
-  command.mode = mode;
+  auto command = make(servo::CommandKind::kSetCommutation);
+  command.commutation = mode;
   execute(*daemon_, command);
   daemon_->run_cycles(5);
 }
 
 void InProcessRunner::load_calibration(const std::string& path) {
-  auto command = make(servod::DaemonCommand::Kind::kLoadCalibration);
-  command.path = path;
+  auto command = make(servo::CommandKind::kLoadCalibration);
+  command.path = path_text(path);
   execute(*daemon_, command);
 }
 
 void InProcessRunner::load_model(servo::CommutationMode mode, const std::string& path) {
-  auto command = make(servod::DaemonCommand::Kind::kLoadModel);
-  command.mode = mode;
-  command.path = path;
+  auto command = make(servo::CommandKind::kLoadModel);
+  command.commutation = mode;
+  command.path = path_text(path);
   execute(*daemon_, command);
 }
 
 void InProcessRunner::load_feedforward(const control::FeedforwardParameters& parameters, const std::string&) {
-  auto command = make(servod::DaemonCommand::Kind::kSetFeedforward);
+  auto command = make(servo::CommandKind::kLoadFeedforward);  // no path: the parameters as given
   command.feedforward = parameters;
   execute(*daemon_, command);
 }

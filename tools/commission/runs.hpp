@@ -14,28 +14,15 @@
 
 namespace clm::commission {
 
-/// One cycle as recorded: what the daemon commanded and measured, plus the
-/// simulator's truth when there is one.
-struct Sample {
-  double t_s = 0.0;
-  double r_m = 0.0;         ///< reference
-  double r_dot_m_per_s = 0.0;
-  double r_ddot_m_per_s2 = 0.0;
-  double y_m = 0.0;         ///< measured (encoder)
-  double y_true_m = 0.0;    ///< simulator truth (NaN without a simulator)
-  double F_star_N = 0.0;    ///< force demand
-  double u_ff_N = 0.0;
-  Wrench desired = Wrench::Zero();
-  Wrench measured = Wrench::Zero();
-  int coil_set = 0;         ///< experiment coil set, 0 otherwise
-  double delta_rad = 0.0;   ///< experiment offset
-  std::array<DriveSetpoint, kMaxCoilSets> setpoints{};
-  double current_square_sum_A2 = 0.0;
-};
-
+/// The cycles of a program run as recorded: the daemon's record of each
+/// (t_s there is the daemon's time; program_time_s the time into the
+/// program), and beside it the simulator's truth where there is one.
 struct Recording {
   std::string name;
-  std::vector<Sample> samples;
+  std::vector<servo::CycleRecord> samples;
+  /// y_true_m[k]: the simulated motor's true position at samples[k] [m];
+  /// empty without a simulator in this process (live runs).
+  std::vector<double> y_true_m;
   std::int64_t damping_cycles = 0;
   std::int64_t force_limited_cycles = 0;
 };
@@ -61,11 +48,11 @@ class Recorder final : public servod::CycleObserver {
 };
 
 /// Throws std::runtime_error with the daemon's reply text when a command is refused.
-void execute(servod::ServoDaemon& daemon, servod::DaemonCommand command);
+void execute(servod::ServoDaemon& daemon, const servo::Command& command);
 
 /// Runs `program` from the program's start (an approach move first, not
 /// recorded) and returns the recording of the program proper; `truth` is the
-/// simulated motor the daemon drives, for Sample::y_true_m (nullptr: NaN).
+/// simulated motor the daemon drives, for Recording::y_true_m (nullptr: none).
 /// With `log` set, the cycles of the program are also written there (one
 /// CLM_SERVO_STATE per cycle, status and events) as an LCM log.
 Recording run_program(servod::ServoDaemon& daemon, const sim::SimulatedMotor* truth, const servod::ProgramFile& program,

@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "commutation/types.hpp"
+#include "daemon/telemetry/lcm_conversion.hpp"
 
 namespace clm::lcmlog {
 namespace {
@@ -46,7 +47,7 @@ void check_state(const clm_lcm::servo_state_t& state, const std::string& path, s
 
 }  // namespace
 
-std::vector<clm_lcm::servo_state_t> read_servo_states(const std::string& lcm_log_path) {
+std::vector<servo::CycleRecord> read_servo_states(const std::string& lcm_log_path) {
   return read_servo_state_log(lcm_log_path).states;
 }
 
@@ -105,7 +106,11 @@ ServoStateLog read_servo_state_log(const std::string& lcm_log_path) {
     clm_lcm::servo_state_t state;
     if (state.decode(data.data(), 0, data_length) != data_length) fail(std::string("cannot decode ") + kStateChannel);
     check_state(state, lcm_log_path, event);
-    log.states.push_back(std::move(state));
+    try {
+      log.states.push_back(telemetry::to_record(state));
+    } catch (const std::invalid_argument& e) {
+      fail(std::string(kStateChannel) + ": " + e.what());
+    }
     log.events.push_back(event);
   }
   return log;
@@ -153,11 +158,11 @@ class ColumnBuilder {
 
 }  // namespace
 
-CsvColumns experiment_columns(std::span<const clm_lcm::servo_state_t> states) {
+CsvColumns experiment_columns(std::span<const servo::CycleRecord> states) {
   ColumnBuilder out;
   for (std::size_t k = 0; k < states.size(); ++k) {
     const auto& s = states[k];
-    if (s.commutation != clm_lcm::servo_state_t::COMMUTATION_EXPERIMENT || s.coil_set < 1) continue;
+    if (s.commutation != servo::CommutationMode::kExperiment || s.coil_set < 1) continue;
     const auto l = static_cast<std::size_t>(s.coil_set - 1);
     out.begin_row(k);
     out.add("t_s", s.t_s);
@@ -180,7 +185,7 @@ CsvColumns experiment_columns(std::span<const clm_lcm::servo_state_t> states) {
   return columns;
 }
 
-CsvColumns feedforward_columns(std::span<const clm_lcm::servo_state_t> states) {
+CsvColumns feedforward_columns(std::span<const servo::CycleRecord> states) {
   ColumnBuilder out;
   for (std::size_t k = 0; k < states.size(); ++k) {
     const auto& s = states[k];
@@ -193,7 +198,7 @@ CsvColumns feedforward_columns(std::span<const clm_lcm::servo_state_t> states) {
   return out.finish({"t_s", "r_m", "F_star_N"});
 }
 
-CsvColumns full_columns(std::span<const clm_lcm::servo_state_t> states) {
+CsvColumns full_columns(std::span<const servo::CycleRecord> states) {
   int coil_sets = 0;
   for (const auto& s : states) coil_sets = std::max(coil_sets, static_cast<int>(s.coil_sets));
   constexpr double kAbsent = std::numeric_limits<double>::quiet_NaN();
@@ -218,7 +223,7 @@ CsvColumns full_columns(std::span<const clm_lcm::servo_state_t> states) {
     out.add("Fy_N", s.Fy_N);
     out.add("Fx_N", s.Fx_N);
     out.add("Tz_Nm", s.Tz_Nm);
-    out.add("commutation", s.commutation);
+    out.add("commutation", static_cast<double>(s.commutation));
     out.add("coil_set", s.coil_set);
     out.add("delta_rad", s.delta_rad);
     out.add("coil_sets", s.coil_sets);
@@ -234,7 +239,7 @@ CsvColumns full_columns(std::span<const clm_lcm::servo_state_t> states) {
     out.add("damping_engaged", s.damping_engaged ? 1.0 : 0.0);
     out.add("current_square_sum_A2", s.current_square_sum_A2);
     out.add("force_limited", s.force_limited ? 1.0 : 0.0);
-    out.add("state", s.state);
+    out.add("state", static_cast<double>(s.state));
     out.add("program_running", s.program_running ? 1.0 : 0.0);
     out.add("program_time_s", s.program_time_s);
     out.end_row();
@@ -246,7 +251,7 @@ CsvColumns full_columns(std::span<const clm_lcm::servo_state_t> states) {
                              "program_time_s"});
 }
 
-CsvColumns to_csv_columns(std::span<const clm_lcm::servo_state_t> states, CsvFormat format) {
+CsvColumns to_csv_columns(std::span<const servo::CycleRecord> states, CsvFormat format) {
   switch (format) {
     case CsvFormat::kExperiment:
       return experiment_columns(states);

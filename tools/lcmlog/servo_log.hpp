@@ -10,23 +10,24 @@
 #include <string_view>
 #include <vector>
 
-#include "clm_lcm/servo_state_t.hpp"
+#include "daemon/servo/cycle_record.hpp"
 
 namespace clm::lcmlog {
 
-/// Every CLM_SERVO_STATE message of the log at `lcm_log_path`, in file order;
-/// other channels are skipped. Throws std::runtime_error with one line naming
+/// Every CLM_SERVO_STATE message of the log at `lcm_log_path`, in file order,
+/// as records (telemetry::to_record); other channels are skipped. Throws std::runtime_error with one line naming
 /// the file and the event (0-based, counting every channel, as lcm-logplayer):
 ///   "run.lcm: cannot open: No such file or directory"
 ///   "run.lcm: event 17: cannot decode CLM_SERVO_STATE"
 ///   "run.lcm: event 17: CLM_SERVO_STATE: coil_sets 9 outside 0..8"
+///   "run.lcm: event 17: CLM_SERVO_STATE: commutation 7 outside 0..5"
 ///   "run.lcm: event 17: no LCM sync word at byte 5120 (corrupt log, or not an LCM log)"
 ///   "run.lcm: event 17: truncated: the event at byte 5120 needs 415 bytes after its header, the file has 12"
-std::vector<clm_lcm::servo_state_t> read_servo_states(const std::string& lcm_log_path);
+std::vector<servo::CycleRecord> read_servo_states(const std::string& lcm_log_path);
 
 /// The CLM_SERVO_STATE messages of a log with the event number of each.
 struct ServoStateLog {
-  std::vector<clm_lcm::servo_state_t> states;
+  std::vector<servo::CycleRecord> states;
   std::vector<std::int64_t> events;  ///< events[k]: event number of states[k] (0-based, every channel)
 };
 /// As read_servo_states, keeping each state's event number; same errors.
@@ -54,16 +55,16 @@ CsvFormat parse_csv_format(std::string_view name);
 /// are those of the driven coil set, delta_rad the experiment's offset. ia_A,
 /// ib_A are the commanded currents. Throws std::invalid_argument when no
 /// state is in experiment mode.
-CsvColumns experiment_columns(std::span<const clm_lcm::servo_state_t> states);
+CsvColumns experiment_columns(std::span<const servo::CycleRecord> states);
 
 /// Feedforward identification data for `clm ff-identify`: every state.
-CsvColumns feedforward_columns(std::span<const clm_lcm::servo_state_t> states);
+CsvColumns feedforward_columns(std::span<const servo::CycleRecord> states);
 
 /// Every field of every state. utime is exact (< 2^53 µs); booleans are 0/1;
 /// coil-set columns run to the largest coil_sets in the log, NaN where a
 /// state has fewer coil sets.
-CsvColumns full_columns(std::span<const clm_lcm::servo_state_t> states);
+CsvColumns full_columns(std::span<const servo::CycleRecord> states);
 
-CsvColumns to_csv_columns(std::span<const clm_lcm::servo_state_t> states, CsvFormat format);
+CsvColumns to_csv_columns(std::span<const servo::CycleRecord> states, CsvFormat format);
 
 }  // namespace clm::lcmlog

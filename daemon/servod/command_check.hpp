@@ -1,0 +1,22 @@
+#pragma once
+// What ServoDaemon::submit checks and completes in a command before acting on
+// it, beyond the wire-level checks of telemetry::to_command. Non-real-time:
+// it may read the files the command names.
+
+#include <string>
+
+#include "daemon/servo/command.hpp"
+
+namespace clm::servod {
+
+/// Checks and completes `command` in place. Returns "" when it can be carried
+/// out, else the one-line reason: move_to whose limits are not positive;
+/// set_commutation to experiment (set_experiment is the way there);
+/// load_model whose file cannot be read or whose `kind:` is neither pgnn nor
+/// spline, when the command names no law (the file's kind then chooses it);
+/// load_feedforward whose file cannot be read or holds a non-finite parameter
+/// (the parameters read go into command.feedforward; an empty path keeps the
+/// parameters given).
+std::string check_command(servo::Command& command);
+
+}  // namespace clm::servod

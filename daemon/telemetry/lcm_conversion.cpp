@@ -1,0 +1,262 @@
+#include "daemon/telemetry/lcm_conversion.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+namespace clm::telemetry {
+
+using clm_lcm::servo_command_t;
+using clm_lcm::servo_state_t;
+using servo::CommandKind;
+
+static_assert(static_cast<int>(CommandKind::kEnable) == servo_command_t::ENABLE);
+static_assert(static_cast<int>(CommandKind::kDisable) == servo_command_t::DISABLE);
+static_assert(static_cast<int>(CommandKind::kClearFault) == servo_command_t::CLEAR_FAULT);
+static_assert(static_cast<int>(CommandKind::kMoveTo) == servo_command_t::MOVE_TO);
+static_assert(static_cast<int>(CommandKind::kRunProgram) == servo_command_t::RUN_PROGRAM);
+static_assert(static_cast<int>(CommandKind::kSetCommutation) == servo_command_t::SET_COMMUTATION);
+static_assert(static_cast<int>(CommandKind::kSetExperiment) == servo_command_t::SET_EXPERIMENT);
+static_assert(static_cast<int>(CommandKind::kLoadCalibration) == servo_command_t::LOAD_CALIBRATION);
+static_assert(static_cast<int>(CommandKind::kLoadModel) == servo_command_t::LOAD_MODEL);
+static_assert(static_cast<int>(CommandKind::kStop) == servo_command_t::STOP);
+static_assert(static_cast<int>(CommandKind::kLoadFeedforward) == servo_command_t::LOAD_FEEDFORWARD);
+static_assert(servo::kCommandKinds == servo_command_t::LOAD_FEEDFORWARD);
+static_assert(static_cast<int>(servo::CommutationMode::kOriginal) == servo_state_t::COMMUTATION_ORIGINAL);
+static_assert(static_cast<int>(servo::CommutationMode::kClassical) == servo_state_t::COMMUTATION_CLASSICAL);
+static_assert(static_cast<int>(servo::CommutationMode::kPgnn) == servo_state_t::COMMUTATION_PGNN);
+static_assert(static_cast<int>(servo::CommutationMode::kSpline) == servo_state_t::COMMUTATION_SPLINE);
+static_assert(static_cast<int>(servo::CommutationMode::kOracle) == servo_state_t::COMMUTATION_ORACLE);
+static_assert(static_cast<int>(servo::CommutationMode::kExperiment) == servo_state_t::COMMUTATION_EXPERIMENT);
+static_assert(static_cast<int>(servo::ServoState::kDisabled) == clm_lcm::servo_status_t::STATE_DISABLED);
+static_assert(static_cast<int>(servo::ServoState::kEnabled) == clm_lcm::servo_status_t::STATE_ENABLED);
+static_assert(static_cast<int>(servo::ServoState::kFault) == clm_lcm::servo_status_t::STATE_FAULT);
+
+// ---- the cycle's record --------------------------------------------------------
+
+clm_lcm::servo_state_t to_message(const servo::CycleRecord& record) {
+  if (record.coil_sets < 0 || record.coil_sets > kMaxCoilSets) {
+    // A bug in the caller, not a measurement: refuse rather than cut the arrays.
+    throw std::logic_error("CycleRecord of cycle " + std::to_string(record.cycle) + ": coil_sets " +
+                           std::to_string(record.coil_sets) + " outside 0.." + std::to_string(kMaxCoilSets));
+  }
+  servo_state_t m;
+  m.utime = stamped(record.utime);
+  m.cycle = record.cycle;
+  m.t_s = record.t_s;
+  m.r_m = record.r_m;
+  m.r_dot_m_per_s = record.r_dot_m_per_s;
+  m.r_ddot_m_per_s2 = record.r_ddot_m_per_s2;
+  m.y_m = record.y_m;
+  m.e_m = record.e_m;
+  m.F_star_N = record.F_star_N;
+  m.u_fb_N = record.u_fb_N;
+  m.u_ff_N = record.u_ff_N;
+  m.Fy_star_N = record.Fy_star_N;
+  m.Fx_star_N = record.Fx_star_N;
+  m.Tz_star_Nm = record.Tz_star_Nm;
+  m.Fy_N = record.Fy_N;
+  m.Fx_N = record.Fx_N;
+  m.Tz_Nm = record.Tz_Nm;
+  m.commutation = static_cast<std::int8_t>(record.commutation);
+  m.coil_set = static_cast<std::int8_t>(record.coil_set);
+  m.delta_rad = record.delta_rad;
+  m.coil_sets = static_cast<std::int8_t>(record.coil_sets);
+  const auto count = static_cast<std::size_t>(record.coil_sets);
+  m.magnitude_N.assign(record.magnitude_N.begin(), record.magnitude_N.begin() + count);
+  m.setpoint_delta_rad.assign(record.setpoint_delta_rad.begin(), record.setpoint_delta_rad.begin() + count);
+  m.ia_A.assign(record.ia_A.begin(), record.ia_A.begin() + count);
+  m.ib_A.assign(record.ib_A.begin(), record.ib_A.begin() + count);
+  m.damping_engaged = record.damping_engaged;
+  m.current_square_sum_A2 = record.current_square_sum_A2;
+  m.force_limited = record.force_limited;
+  m.state = static_cast<std::int8_t>(record.state);
+  m.program_running = record.program_running;
+  m.program_time_s = record.program_time_s;
+  return m;
+}
+
+servo::CycleRecord to_record(const clm_lcm::servo_state_t& m) {
+  const auto fail = [](const std::string& what) { throw std::invalid_argument(what); };
+  if (m.coil_sets < 0 || m.coil_sets > kMaxCoilSets) {
+    fail("coil_sets " + std::to_string(m.coil_sets) + " outside 0.." + std::to_string(kMaxCoilSets));
+  }
+  const auto count = static_cast<std::size_t>(m.coil_sets);
+  for (const auto& [field, size] : {std::pair{"magnitude_N", m.magnitude_N.size()},
+                                    std::pair{"setpoint_delta_rad", m.setpoint_delta_rad.size()},
+                                    std::pair{"ia_A", m.ia_A.size()}, std::pair{"ib_A", m.ib_A.size()}}) {
+    if (size < count) fail(std::string(field) + " has " + std::to_string(size) + " entries, coil_sets is " + std::to_string(count));
+  }
+  if (m.commutation < servo_state_t::COMMUTATION_ORIGINAL || m.commutation > servo_state_t::COMMUTATION_EXPERIMENT) {
+    fail("commutation " + std::to_string(m.commutation) + " outside 0..5");
+  }
+  if (m.state < clm_lcm::servo_status_t::STATE_DISABLED || m.state > clm_lcm::servo_status_t::STATE_FAULT) {
+    fail("state " + std::to_string(m.state) + " outside 0..2");
+  }
+  servo::CycleRecord r;
+  r.utime = m.utime;
+  r.cycle = m.cycle;
+  r.t_s = m.t_s;
+  r.r_m = m.r_m;
+  r.r_dot_m_per_s = m.r_dot_m_per_s;
+  r.r_ddot_m_per_s2 = m.r_ddot_m_per_s2;
+  r.y_m = m.y_m;
+  r.e_m = m.e_m;
+  r.F_star_N = m.F_star_N;
+  r.u_fb_N = m.u_fb_N;
+  r.u_ff_N = m.u_ff_N;
+  r.Fy_star_N = m.Fy_star_N;
+  r.Fx_star_N = m.Fx_star_N;
+  r.Tz_star_Nm = m.Tz_star_Nm;
+  r.Fy_N = m.Fy_N;
+  r.Fx_N = m.Fx_N;
+  r.Tz_Nm = m.Tz_Nm;
+  r.commutation = static_cast<servo::CommutationMode>(m.commutation);
+  r.coil_set = m.coil_set;
+  r.delta_rad = m.delta_rad;
+  r.coil_sets = m.coil_sets;
+  for (std::size_t l = 0; l < count; ++l) {
+    r.magnitude_N[l] = m.magnitude_N[l];
+    r.setpoint_delta_rad[l] = m.setpoint_delta_rad[l];
+    r.ia_A[l] = m.ia_A[l];
+    r.ib_A[l] = m.ib_A[l];
+  }
+  r.damping_engaged = m.damping_engaged;
+  r.current_square_sum_A2 = m.current_square_sum_A2;
+  r.force_limited = m.force_limited;
+  r.state = static_cast<servo::ServoState>(m.state);
+  r.program_running = m.program_running;
+  r.program_time_s = m.program_time_s;
+  return r;
+}
+
+// ---- status, events, acks ------------------------------------------------------
+
+clm_lcm::servo_status_t to_message(const ServoStatusSample& sample, std::int64_t telemetry_dropped) {
+  clm_lcm::servo_status_t m;
+  m.utime = stamped(sample.utime);
+  m.state = sample.state;
+  m.fault = sample.fault;
+  m.fault_reason = std::string(sample.fault_reason.view());
+  m.fault_cycle = sample.fault_cycle;
+  m.commutation = sample.commutation;
+  m.model_file = std::string(sample.model_file.view());
+  m.calibration_file = std::string(sample.calibration_file.view());
+  m.wakeup_latency_p50_s = sample.wakeup_latency_p50_s;
+  m.wakeup_latency_p99_s = sample.wakeup_latency_p99_s;
+  m.wakeup_latency_max_s = sample.wakeup_latency_max_s;
+  m.compute_time_p50_s = sample.compute_time_p50_s;
+  m.compute_time_p99_s = sample.compute_time_p99_s;
+  m.compute_time_max_s = sample.compute_time_max_s;
+  m.overruns = sample.overruns;
+  m.cycles = sample.cycles;
+  m.frames_sent = sample.frames_sent;
+  m.frames_received = sample.frames_received;
+  m.frames_missing = sample.frames_missing;
+  m.frames_late = sample.frames_late;
+  m.frames_rejected = sample.frames_rejected;
+  m.telemetry_dropped = telemetry_dropped;
+  m.bus_state = sample.bus_state;
+  m.damping_cycles = sample.damping_cycles;
+  m.program_running = sample.program_running;
+  m.program_time_s = sample.program_time_s;
+  return m;
+}
+
+clm_lcm::servo_event_t to_message(const ServoEventSample& sample) {
+  clm_lcm::servo_event_t m;
+  m.utime = stamped(sample.utime);
+  m.cycle = sample.cycle;
+  m.code = sample.code;
+  m.severity = sample.severity;
+  m.text = std::string(sample.text.view());
+  return m;
+}
+
+clm_lcm::servo_command_ack_t to_message(const ServoCommandAck& ack) {
+  clm_lcm::servo_command_ack_t m;
+  m.utime = stamped(ack.utime);
+  m.sequence = ack.sequence;
+  m.accepted = ack.accepted;
+  m.text = std::string(ack.text.view());
+  return m;
+}
+
+// ---- commands ------------------------------------------------------------------
+
+namespace {
+
+std::string check_finite(const char* field, double value) {
+  if (std::isfinite(value)) return "";
+  return std::string(field) + " is not a finite number";
+}
+
+std::string copy_path(const char* field, const std::string& text, PathText& out) {
+  if (text.empty()) return std::string(field) + " is empty";
+  if (text.find('\0') != std::string::npos) return std::string(field) + " contains a NUL character";
+  if (!out.assign(text)) {
+    return std::string(field) + " is " + std::to_string(text.size()) + " characters long, at most " +
+           std::to_string(PathText::kMaxChars) + " fit";
+  }
+  return "";
+}
+
+}  // namespace
+
+std::string to_command(const clm_lcm::servo_command_t& message, servo::Command& out) {
+  servo::Command command;
+  command.utime = message.utime;
+  command.sequence = message.sequence;
+  if (!servo::is_command_kind(message.command)) {
+    return "unknown command " + std::to_string(message.command) + " (1.." + std::to_string(servo::kCommandKinds) + ")";
+  }
+  command.kind = static_cast<CommandKind>(message.command);
+  std::string reason;
+  switch (command.kind) {
+    case CommandKind::kEnable:
+    case CommandKind::kDisable:
+    case CommandKind::kClearFault:
+    case CommandKind::kStop:
+      break;
+    case CommandKind::kMoveTo:
+      for (const auto& [field, value] : {std::pair{"target_m", message.target_m},
+                                         std::pair{"velocity_m_per_s", message.velocity_m_per_s},
+                                         std::pair{"acceleration_m_per_s2", message.acceleration_m_per_s2},
+                                         std::pair{"jerk_m_per_s3", message.jerk_m_per_s3}}) {
+        if (reason.empty()) reason = check_finite(field, value);
+      }
+      command.target_m = message.target_m;
+      command.limits = {message.velocity_m_per_s, message.acceleration_m_per_s2, message.jerk_m_per_s3};
+      break;
+    case CommandKind::kRunProgram:
+      reason = copy_path("program", message.program, command.program);
+      break;
+    case CommandKind::kSetCommutation:
+      if (message.commutation < servo_state_t::COMMUTATION_ORIGINAL ||
+          message.commutation > servo_state_t::COMMUTATION_EXPERIMENT) {
+        reason = "unknown commutation mode " + std::to_string(message.commutation) + " (0..5)";
+      } else {
+        command.commutation = static_cast<servo::CommutationMode>(message.commutation);
+      }
+      break;
+    case CommandKind::kSetExperiment:
+      if (message.coil_set < 1 || message.coil_set > kMaxCoilSets) {
+        reason = "coil_set " + std::to_string(message.coil_set) + " outside 1.." + std::to_string(kMaxCoilSets);
+      } else {
+        reason = check_finite("delta_rad", message.delta_rad);
+      }
+      command.commutation = servo::CommutationMode::kExperiment;
+      command.coil_set = message.coil_set;
+      command.delta_rad = message.delta_rad;
+      break;
+    case CommandKind::kLoadCalibration:
+    case CommandKind::kLoadModel:
+    case CommandKind::kLoadFeedforward:
+      reason = copy_path("path", message.path, command.path);
+      break;
+  }
+  if (reason.empty()) out = command;
+  return reason;
+}
+
+}  // namespace clm::telemetry

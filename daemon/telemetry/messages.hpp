@@ -1,0 +1,82 @@
+#pragma once
+// The messages of clm-servod besides the cycle's record (daemon/servo/
+// cycle_record.hpp) and commands (daemon/servo/command.hpp), as fixed-size
+// structs the real-time thread can fill without allocating, and the LCM
+// channels they go out on (docs/telemetry.md).
+
+#include <cstdint>
+#include <string_view>
+
+#include "daemon/servo/fixed_text.hpp"
+
+namespace clm::telemetry {
+
+/// LCM channels of clm-servod.
+inline constexpr const char* kStateChannel = "CLM_SERVO_STATE";
+inline constexpr const char* kStatusChannel = "CLM_SERVO_STATUS";
+inline constexpr const char* kEventChannel = "CLM_SERVO_EVENT";
+inline constexpr const char* kCommandChannel = "CLM_SERVO_COMMAND";
+inline constexpr const char* kCommandAckChannel = "CLM_SERVO_COMMAND_ACK";
+
+/// Multicast on the local host only (ttl=0): LCM's default group and port.
+inline constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+using servo::FixedText;
+/// One-line reasons and event texts: up to 127 characters.
+using ReasonText = FixedText<128>;
+/// File paths in commands and status: up to 255 characters.
+using PathText = servo::PathText;
+
+/// Daemon health, as servo_status_t, without telemetry_dropped (the
+/// publisher fills that in from its own counters).
+struct ServoStatusSample {
+  std::int64_t utime = 0;  ///< [µs since the UNIX epoch]; 0 = stamp at publication
+  std::int8_t state = 0;   ///< clm_lcm::servo_status_t::STATE_*
+  std::int16_t fault = 0;  ///< daemon/servo/fault.hpp code, 0 = none
+  ReasonText fault_reason;
+  std::int64_t fault_cycle = -1;  ///< -1 = no fault
+  std::int8_t commutation = 0;
+  PathText model_file;
+  PathText calibration_file;
+  double wakeup_latency_p50_s = 0.0;
+  double wakeup_latency_p99_s = 0.0;
+  double wakeup_latency_max_s = 0.0;
+  double compute_time_p50_s = 0.0;
+  double compute_time_p99_s = 0.0;
+  double compute_time_max_s = 0.0;
+  std::int64_t overruns = 0;
+  std::int64_t cycles = 0;
+  std::int64_t frames_sent = 0;
+  std::int64_t frames_received = 0;
+  std::int64_t frames_missing = 0;
+  std::int64_t frames_late = 0;
+  std::int64_t frames_rejected = 0;
+  std::int8_t bus_state = -1;  ///< clm_lcm::servo_status_t::BUS_STATE_*
+  std::int64_t damping_cycles = 0;
+  bool program_running = false;
+  double program_time_s = 0.0;
+};
+
+/// Something that happened once, as servo_event_t.
+struct ServoEventSample {
+  std::int64_t utime = 0;  ///< [µs since the UNIX epoch]; 0 = stamp at publication
+  std::int64_t cycle = 0;
+  std::int16_t code = 0;
+  std::int8_t severity = 0;  ///< clm_lcm::servo_event_t::SEVERITY_*
+  ReasonText text;
+};
+
+/// The cycle's answer to a command, as servo_command_ack_t.
+struct ServoCommandAck {
+  std::int64_t utime = 0;  ///< 0 = stamp at publication
+  std::int64_t sequence = 0;
+  bool accepted = false;
+  ReasonText text;
+};
+
+/// Wall-clock time [µs since the UNIX epoch], the LCM convention for utime.
+std::int64_t wall_clock_utime() noexcept;
+/// `utime`, or wall_clock_utime() when it is 0 ("stamp at publication").
+inline std::int64_t stamped(std::int64_t utime) noexcept { return utime != 0 ? utime : wall_clock_utime(); }
+
+}  // namespace clm::telemetry

@@ -1,0 +1,153 @@
+#pragma once
+// The publisher of clm-servod's telemetry and receiver of its commands
+// (docs/telemetry.md).
+//
+// The real-time cycle hands fixed-size records and samples (no allocation)
+// to a TelemetryPublisher through lock-free single-producer queues; the
+// publisher's own thread converts them to the clm_lcm message types
+// (lcm_conversion.hpp) and publishes them to its sinks: LCM (udpm
+// multicast), an LCM log file, or memory. A full queue refuses the sample
+// and counts the drop; the count goes out in the next status message.
+// Commands arrive on the same LCM instance, are checked and copied into
+// fixed-size servo::Command structs, and reach the daemon through another queue.
+//
+// Thread roles: push_* — the real-time thread only (one producer per
+// queue); poll_command — one consumer thread (the daemon's command thread).
+// publish_ack, submit_command, counters — any non-real-time thread. Sinks
+// are called from one thread at a time.
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <string_view>
+#include <thread>
+#include <vector>
+
+#include "clm_lcm/servo_command_t.hpp"
+#include "daemon/servo/command.hpp"
+#include "daemon/servo/cycle_record.hpp"
+#include "daemon/telemetry/lcm_sink.hpp"
+#include "daemon/telemetry/messages.hpp"
+#include "daemon/telemetry/sink.hpp"
+#include "daemon/telemetry/spsc_queue.hpp"
+
+namespace lcm {
+class LCM;
+struct ReceiveBuffer;
+}  // namespace lcm
+
+namespace clm::telemetry {
+
+/// Settings of the publisher (the daemon's configuration fills them from
+/// its `telemetry:` section, daemon/servod/servod_config.hpp).
+struct TelemetryConfig {
+  std::string lcm_url = kDefaultLcmUrl;
+  /// Publish the state of cycles whose number is a multiple of this; 1 = every cycle.
+  int state_decimation = 1;
+  /// Queue capacities [items], powers of two. 4096 states = 4 s at 1 kHz.
+  std::size_t state_queue_capacity = 4096;
+  std::size_t status_queue_capacity = 16;
+  std::size_t event_queue_capacity = 256;
+  std::size_t command_queue_capacity = 64;
+  std::size_t ack_queue_capacity = 64;
+  /// How long the publisher thread sleeps (or waits for commands) when every
+  /// queue is empty [s].
+  double idle_period_s = 1e-3;
+};
+
+/// Totals since construction.
+struct TelemetryCounters {
+  std::int64_t states_pushed = 0;    ///< accepted by push_state (after decimation)
+  std::int64_t states_dropped = 0;   ///< refused by push_state: queue full
+  std::int64_t statuses_dropped = 0;
+  std::int64_t events_dropped = 0;
+  std::int64_t acks_dropped = 0;
+  std::int64_t published = 0;         ///< messages handed to the sinks without error
+  std::int64_t publish_failures = 0;  ///< sink errors (each sink counts once per message)
+  std::int64_t commands_received = 0;
+  std::int64_t commands_rejected = 0;  ///< undecodable, ill-formed, or the command queue was full
+  std::int64_t telemetry_dropped() const { return states_dropped + statuses_dropped + events_dropped + acks_dropped; }
+};
+
+class TelemetryPublisher {
+ public:
+  /// Opens LCM on config.lcm_url, publishes there and receives commands on
+  /// CLM_SERVO_COMMAND. Throws std::invalid_argument for a bad config and
+  /// std::runtime_error when LCM cannot be opened. Allocates every queue.
+  explicit TelemetryPublisher(const TelemetryConfig& config);
+  /// Publishes to `sink` only, no LCM; commands come in only through
+  /// submit_command. `sink` must outlive the publisher.
+  TelemetryPublisher(const TelemetryConfig& config, TelemetrySink& sink);
+  /// stop().
+  ~TelemetryPublisher();
+  TelemetryPublisher(const TelemetryPublisher&) = delete;
+  TelemetryPublisher& operator=(const TelemetryPublisher&) = delete;
+
+  /// Also publishes everything to `sink` (e.g. an LcmLogWriter recording an
+  /// experiment). Before start() only (std::logic_error otherwise).
+  void add_sink(TelemetrySink& sink);
+  /// Starts the publisher thread. std::logic_error if it runs already.
+  void start();
+  /// Publishes what is still queued, then stops and joins the thread.
+  void stop();
+
+  // ---- real-time thread: never block, allocate or throw -------------------
+  /// Queues `record` if its cycle is a multiple of state_decimation. False
+  /// only when the queue was full (the drop is counted).
+  bool push_state(const servo::CycleRecord& record) noexcept;
+  /// False when the queue was full (counted).
+  bool push_status(const ServoStatusSample& sample) noexcept;
+  bool push_event(const ServoEventSample& sample) noexcept;
+  bool push_ack(const ServoCommandAck& ack) noexcept;
+  /// The oldest well-formed command not yet taken; false if none.
+  bool poll_command(servo::Command& out) noexcept;
+
+  // ---- any other thread ---------------------------------------------------
+  /// Publishes an ack now, on the calling thread.
+  void publish_ack(std::int64_t sequence, bool accepted, std::string_view text);
+  /// Handles `message` as if it had arrived on CLM_SERVO_COMMAND: checks it,
+  /// queues it for poll_command, or refuses it with an ack. True if queued.
+  bool submit_command(const clm_lcm::servo_command_t& message);
+  TelemetryCounters counters() const noexcept;
+  const TelemetryConfig& config() const { return config_; }
+
+ private:
+  void run();
+  std::size_t drain();
+  template <typename Message>
+  void publish_to_sinks(const char* channel, const Message& message, std::int64_t utime);
+  void on_command(const lcm::ReceiveBuffer* buffer, const std::string& channel);
+
+  TelemetryConfig config_;
+  std::unique_ptr<lcm::LCM> lcm_;
+  std::unique_ptr<LcmSink> lcm_sink_;
+  std::vector<TelemetrySink*> sinks_;
+  std::mutex sink_mutex_;     // serialises sink calls (publisher thread, publish_ack)
+  std::mutex command_mutex_;  // serialises producers of the command queue (LCM handler, submit_command)
+
+  SpscQueue<servo::CycleRecord> states_;
+  SpscQueue<ServoStatusSample> statuses_;
+  SpscQueue<ServoEventSample> events_;
+  SpscQueue<ServoCommandAck> acks_;
+  SpscQueue<servo::Command> commands_;
+
+  // Written by the real-time thread, read by anyone.
+  std::atomic<std::int64_t> states_pushed_{0};
+  std::atomic<std::int64_t> states_dropped_{0};
+  std::atomic<std::int64_t> statuses_dropped_{0};
+  std::atomic<std::int64_t> events_dropped_{0};
+  std::atomic<std::int64_t> acks_dropped_{0};
+  // Written by the publisher thread (and publish_ack / submit_command).
+  std::atomic<std::int64_t> published_{0};
+  std::atomic<std::int64_t> publish_failures_{0};
+  std::atomic<std::int64_t> commands_received_{0};
+  std::atomic<std::int64_t> commands_rejected_{0};
+
+  std::atomic<bool> stop_requested_{false};
+  std::thread thread_;
+};
+
+}  // namespace clm::telemetry
