@@ -11,20 +11,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# clang-14 and its runtimes (libFuzzer, ASan, UBSan) from Debian 12.
-packages=(clang-14 libclang-rt-14-dev)
-missing=()
-for p in "${packages[@]}"; do
-  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then missing+=("$p"); fi
-done
-if [ "${#missing[@]}" -gt 0 ]; then
-  echo "fuzz: installing ${missing[*]}"
-  SUDO=""
-  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
-  export DEBIAN_FRONTEND=noninteractive
-  $SUDO apt-get update -qq
-  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-fi
+# clang-14 and its runtimes (libFuzzer, ASan, UBSan) come from .ci/install-deps.sh.
+command -v clang++-14 > /dev/null || { echo "fuzz: no clang++-14: run bash .ci/install-deps.sh" >&2; exit 1; }
 
 # -O1 -gline-tables-only as OSS-Fuzz builds: fast to compile, line numbers
 # in reports; no -DNDEBUG, so assert() and Eigen's index checks are findings too.

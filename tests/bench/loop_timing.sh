@@ -9,6 +9,8 @@
 # Needs build/bin/clm-servod, cyclictest and root (SCHED_FIFO, mlockall).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
+# shellcheck source=../support/script_helpers.sh
+source tests/support/script_helpers.sh
 duration=${1:-60}
 priority=${2:-80}
 python=/usr/bin/python3
@@ -44,11 +46,9 @@ echo "| rate | who | p50 [µs] | p99 [µs] | p99.9 [µs] | max [µs] | missed de
 echo "|---|---|---|---|---|---|---|"
 for rate in 1000 4000; do
   interval_us=$((1000000 / rate))
-  sed -e "s|^motor_file: motor-sim.yaml|motor_file: $PWD/config/motor-sim.yaml|" \
-      -e "s|^  rate_hz: 1000|  rate_hz: $rate|" \
-      -e "s|^  priority: 80 |  priority: $priority |" \
-      -e "s|^  enabled: true|  enabled: false|" \
-      -e "s|^  bandwidth_hz: 40.0|  bandwidth_hz: 40.0|" config/servod.yaml > "$work/servod-$rate.yaml"
+  missing=$(config_edit config/servod.yaml "$work/servod-$rate.yaml" "motor_file: $PWD/config/motor-sim.yaml" \
+            "  rate_hz: $rate" "  priority: $priority" "  enabled: false") ||
+    { echo "loop_timing: config: no line '$missing' after editing" >&2; exit 2; }
   ./build/bin/clm-servod --config "$work/servod-$rate.yaml" --duration-s "$duration" 2> "$work/servod-$rate.log" &
   daemon=$!
   cyclictest -m -q -t 1 -p "$priority" --policy=fifo -i "$interval_us" -D "$duration" -h 20000 > "$work/cyclictest-$rate.txt"

@@ -25,14 +25,6 @@ using data::write_csv_atomically;
 
 namespace {
 
-std::string make_temporary_directory(const char* prefix) {
-  std::string pattern = (fs::temp_directory_path() / (std::string(prefix) + "XXXXXX")).string();
-  if (::mkdtemp(pattern.data()) == nullptr) {
-    throw std::runtime_error(pattern + ": cannot create directory: " + std::strerror(errno));
-  }
-  return pattern;
-}
-
 std::vector<std::string> split_cells(const std::string& line) {
   std::vector<std::string> cells;
   std::stringstream stream(line);
@@ -65,7 +57,7 @@ std::vector<std::string> ProcessResult::err_lines() const {
 ProcessResult run_clm(const std::vector<std::string>& args) {
   // Captures live in a directory of their own so that listings of the
   // directory under test see only what clm wrote.
-  static const TemporaryDirectory captures;
+  static const TemporaryDirectory captures("clm_cli_tests");
   const std::string out_path = captures.file("stdout");
   const std::string err_path = captures.file("stderr");
 
@@ -92,13 +84,6 @@ ProcessResult run_clm(const std::vector<std::string>& args) {
   result.out = read_file(out_path);
   result.err = read_file(err_path);
   return result;
-}
-
-TemporaryDirectory::TemporaryDirectory() : path_(make_temporary_directory("clm_cli_tests_")) {}
-
-TemporaryDirectory::~TemporaryDirectory() {
-  std::error_code ignored;
-  fs::remove_all(path_, ignored);
 }
 
 std::set<std::string> listing(const std::string& directory) {

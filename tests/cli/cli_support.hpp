@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "support/daemon_experiments.hpp"
+#include "support/temporary_directory.hpp"
 
 namespace clm::cli_test {
 
@@ -23,19 +24,8 @@ struct ProcessResult {
 ProcessResult run_clm(const std::vector<std::string>& args);
 
 /// A fresh directory under the system's temporary directory, removed with
-/// everything in it on destruction.
-class TemporaryDirectory {
- public:
-  TemporaryDirectory();
-  ~TemporaryDirectory();
-  TemporaryDirectory(const TemporaryDirectory&) = delete;
-  TemporaryDirectory& operator=(const TemporaryDirectory&) = delete;
-  const std::string& path() const { return path_; }
-  std::string file(const std::string& name) const { return path_ + "/" + name; }
-
- private:
-  std::string path_;
-};
+/// everything in it on destruction (tests/support).
+using test::TemporaryDirectory;
 
 /// Names of the entries of `directory` (not recursive).
 std::set<std::string> listing(const std::string& directory);

@@ -8,9 +8,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
-#include <filesystem>
 #include <fstream>
-#include <random>
 #include <string>
 
 #include "commutation/classical.hpp"
@@ -21,6 +19,7 @@
 #include "drivers/sim/in_process_bus.hpp"
 #include "drivers/sim/motor.hpp"
 #include "drivers/sim/motor_file.hpp"
+#include "support/temporary_directory.hpp"
 
 namespace clm::test {
 
@@ -42,27 +41,6 @@ inline servod::CommandReply command(servod::ServoDaemon& daemon, servo::CommandK
   daemon.run_cycles(cycles);
   return reply;
 }
-
-/// A directory under the system's temporary directory, removed with its
-/// contents when the object goes.
-class TempDir {
- public:
-  explicit TempDir(const std::string& stem) {
-    std::random_device entropy;
-    path_ = std::filesystem::temp_directory_path() / (stem + "-" + std::to_string(entropy()));
-    std::filesystem::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  std::filesystem::path path_;
-};
 
 inline void write_text(const std::string& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
@@ -236,7 +214,7 @@ struct LawFiles {
   std::string calibration, pgnn, spline;
 };
 
-inline LawFiles write_truth_laws(const TempDir& dir, const std::string& motor_file) {
+inline LawFiles write_truth_laws(const TemporaryDirectory& dir, const std::string& motor_file) {
   const sim::MotorParameters motor = sim::load_motor_parameters(motor_file);
   LawFiles files{dir.file("calibration.yaml"), dir.file("pgnn.yaml"), dir.file("spline.yaml")};
   write_text(files.calibration, format_calibration_file(truth_calibration(motor)));

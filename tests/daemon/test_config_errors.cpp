@@ -43,7 +43,7 @@ std::string join(const std::vector<std::string>& lines) {
 }
 
 /// Writes the lines as servod.yaml and returns the loader's message ("" if it loaded).
-std::string load_error(const test::TempDir& dir, const std::vector<std::string>& lines) {
+std::string load_error(const test::TemporaryDirectory& dir, const std::vector<std::string>& lines) {
   const std::string path = dir.file("servod.yaml");
   test::write_text(path, join(lines));
   try {
@@ -57,7 +57,7 @@ std::string load_error(const test::TempDir& dir, const std::vector<std::string>&
 }  // namespace
 
 TEST_CASE("the valid test configuration loads and runs", "[daemon][config]") {
-  test::TempDir dir("clm-servod-config");
+  test::TemporaryDirectory dir("clm-servod-config");
   REQUIRE(load_error(dir, valid_lines()).empty());
   servod::WiredAxis axis(servod::load_servod_config(dir.file("servod.yaml")));
   servod::ServoDaemon& daemon = axis.daemon;
@@ -66,7 +66,7 @@ TEST_CASE("the valid test configuration loads and runs", "[daemon][config]") {
 }
 
 TEST_CASE("configuration errors are refused naming file, line and key path", "[daemon][config]") {
-  test::TempDir dir("clm-servod-config");
+  test::TemporaryDirectory dir("clm-servod-config");
   const std::string file = dir.file("servod.yaml");
   auto lines = valid_lines();
 
@@ -141,7 +141,7 @@ TEST_CASE("configuration errors are refused naming file, line and key path", "[d
 
 TEST_CASE("commutation files for another motor or of the wrong kind are refused naming both files",
           "[daemon][config]") {
-  test::TempDir dir("clm-servod-config");
+  test::TemporaryDirectory dir("clm-servod-config");
   // A model and a calibration made for the two-coil-set motor.
   const auto other = sim::load_motor_parameters(test::source_path("config/motor-sim-2coil.yaml"));
   const std::string other_model = dir.file("pgnn-2coil.yaml");

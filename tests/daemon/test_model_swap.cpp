@@ -96,7 +96,7 @@ struct PgnnRig {
     config.commutation.pgnn_model_file = first_path;
     config.commutation.mode = CommutationMode::kPgnn;
   }
-  test::TempDir dir;
+  test::TemporaryDirectory dir;
   std::string first_path, second_path;
   servod::ServodConfig config;
 };

@@ -21,7 +21,7 @@ using servo::CommutationMode;
 
 TEST_CASE("10^5 cycles with a program running allocate nothing, in every commutation mode", "[daemon][allocation]") {
   constexpr std::int64_t kCycles = 100'000;
-  test::TempDir dir("clm-daemon-allocations");
+  test::TemporaryDirectory dir("clm-daemon-allocations");
   const auto files = test::write_truth_laws(dir, test::source_path("config/motor-sim.yaml"));
   const auto mode = GENERATE(CommutationMode::kOriginal, CommutationMode::kClassical, CommutationMode::kPgnn,
                              CommutationMode::kSpline, CommutationMode::kOracle, CommutationMode::kExperiment);

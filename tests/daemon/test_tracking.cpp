@@ -62,7 +62,7 @@ Tracking run_fig8(servod::WiredAxis& axis) {
 }  // namespace
 
 TEST_CASE("the daemon runs the Fig. 8 program in every commutation mode and tracks it", "[daemon][tracking]") {
-  test::TempDir dir("clm-daemon-tracking");
+  test::TemporaryDirectory dir("clm-daemon-tracking");
   const auto files = test::write_truth_laws(dir, test::source_path("config/motor-sim.yaml"));
   const auto mode = GENERATE(CommutationMode::kOriginal, CommutationMode::kClassical, CommutationMode::kPgnn,
                              CommutationMode::kSpline, CommutationMode::kOracle);

@@ -19,14 +19,14 @@
 # per case for docs/reliability.md, and "HIL: N passed, M failed" last.
 # Exit status: 0 all passed, 1 a check failed, 77 no vcan here (skipped).
 set -uo pipefail
-absolute() { echo "$(cd "$(dirname "$1")" && pwd)/$(basename "$1")"; }
+# shellcheck source=../support/script_helpers.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../support/script_helpers.sh"
 clm=$(absolute "$1") servod=$(absolute "$2") checker=$(absolute "$3") source_dir=$(cd "$4" && pwd)
 mkdir -p "$5"
 work=$(cd "$5" && pwd)
-candump=${CANDUMP:-candump}
 cangen=${CANGEN:-cangen}
 lcm_logger=${LCM_LOGGER:-lcm-logger}
-priority=${HIL_PRIORITY:-$(sed -n 's/^  priority: \([0-9]*\).*/\1/p' "$source_dir/config/servod-vcan.yaml")}
+priority=${HIL_PRIORITY:-$(config_value "$source_dir/config/servod-vcan.yaml" "  priority")}
 
 # The plan and what docs/servod.md (Faults, faults.missing_frame_limit = 3 in
 # servod-vcan.yaml) says of each step: "ride" rides through (a missing, late
@@ -66,43 +66,12 @@ start_s=$(date +%s)
 run=$work/faults
 rm -rf "$run"
 mkdir -p "$run"
-pids=()
-created_iface=""
-cleanup() {
-  for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null; done
-  [ -n "$created_iface" ] && ip link del dev "$created_iface" 2>/dev/null
-}
-trap cleanup EXIT
-stop_process() {
-  local pid=$1 tenths=$2 signal=${3:-TERM}
-  kill "-$signal" "$pid" 2>/dev/null
-  for _ in $(seq 1 "$tenths"); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
-  kill -0 "$pid" 2>/dev/null && return 255
-  wait "$pid"
-}
-fifo() {
-  if command -v chrt > /dev/null && chrt -f "$1" true 2> /dev/null; then echo "chrt -f $1"; fi
-}
-field() { sed -n "s/^$1: //p" <<< "$2"; }
-counter() { field frames "$1" | sed -n "s/.*$2 \([0-9]*\).*/\1/p"; }
+trap cleanup_processes EXIT
 # The value of key=value item $1 in line $2.
 value() { awk -v key="$1" '{ for (k = 1; k <= NF; ++k) if (index($k, key "=") == 1) { print substr($k, length(key) + 2); exit } }' <<< "$2"; }
 
 # ---- the bus --------------------------------------------------------------------------------
-iface=${HIL_CAN:-}
-if [ -z "$iface" ]; then
-  candidate="vcanflt$(( $$ % 100000 ))"
-  if ip link add dev "$candidate" type vcan 2>/dev/null; then
-    iface=$candidate created_iface=$candidate
-  elif [ -d /sys/class/net/vcan0 ]; then
-    iface=vcan0
-  else
-    echo "HIL: skipped: cannot create a vcan interface (needs root and the vcan module) and there is no vcan0"
-    exit 77
-  fi
-fi
-ip link set up "$iface" 2>/dev/null
-if [ ! -d "/sys/class/net/$iface" ] || [ "$(cat "/sys/class/net/$iface/operstate")" = down ]; then
+if ! start_bus vcanflt; then
   fail "bus: $iface is not up"
   finish
 fi
@@ -110,46 +79,24 @@ command -v "$cangen" > /dev/null || { fail "no $cangen (Debian package can-utils
 
 port=$((9930 + $$ % 30))
 url="udpm://239.255.76.67:${port}?ttl=0"
-ctl() { "$clm" ctl --lcm-url "$url" "$@"; }
 config=$run/servod-faults.yaml
-sed -e "s|^motor_file: [^ ]*|motor_file: $source_dir/config/motor-sim.yaml|" \
-    -e "s|^\(  interface:\) [^ ]*|\1 $iface|" \
-    -e "s|^\(  priority:\) [0-9]*|\1 $priority|" \
-    -e "s|^\(  lcm_url:\) .*|\1 \"$url\"|" \
-    "$source_dir/config/servod-vcan.yaml" > "$config"
-for expected in "  interface: $iface" "  lcm_url: \"$url\"" "  missing_frame_limit: 3" "  receive_window_fraction: 0.5" \
-                "  rate_hz: 1000"; do
-  grep -qxF -- "$expected" <(sed 's/ *#.*//' "$config") || { fail "config: no line '$expected' in $config"; finish; }
-done
+if ! missing=$(config_edit "$source_dir/config/servod-vcan.yaml" "$config" \
+               "motor_file: $source_dir/config/motor-sim.yaml" "  interface: $iface" "  priority: $priority" \
+               "  lcm_url: \"$url\"" &&
+               config_require "$config" "  missing_frame_limit: 3" "  receive_window_fraction: 0.5" "  rate_hz: 1000"); then
+  fail "config: no line '$missing' in $config"
+  finish
+fi
 plan=$(IFS=,; echo "${steps[*]}")
 
-$(fifo 60) "$candump" -L -d "$iface" > "$run/candump.log" 2> "$run/candump.err" &
-candump_pid=$!
-pids+=("$candump_pid")
-start_sim() {
-  $(fifo 70) "$clm" sim --can "$iface" --motor "$source_dir/config/motor-sim.yaml" --inject "$plan" \
-    --event-log "$run/sim-events.log" > "$run/sim.out" 2> "$run/sim.err" &
-  sim_pid=$!
-  pids+=("$sim_pid")
-  for _ in $(seq 1 100); do
-    grep -q "waiting for SYNC" "$run/sim.err" 2>/dev/null && return 0
-    kill -0 $sim_pid 2>/dev/null || break
-    sleep 0.1
-  done
-  return 1
-}
-start_sim || { fail "clm sim: not up: $(head -1 "$run/sim.err")"; finish; }
+start_candump "$run/candump.log" "$run/candump.err"
+start_sim "$run/sim.out" "$run/sim.err" --inject "$plan" --event-log "$run/sim-events.log" ||
+  { fail "clm sim: not up: $(head -1 "$run/sim.err")"; finish; }
 
-start_daemon() {  # $1: name; sets servod_pid and status
-  "$servod" --config "$config" 2> "$run/servod-$1.err" &
-  servod_pid=$!
-  pids+=("$servod_pid")
-  status=""
-  for _ in $(seq 1 20); do
-    status=$(ctl status --timeout-s 1 2>/dev/null) && return 0
-    kill -0 $servod_pid 2>/dev/null || break
-  done
-  return 1
+# Daemon number $1 on the configuration: sets servod_pid and status.
+start_faults_daemon() {
+  start_daemon "$config" "$run/servod-$1.err"
+  wait_for_status $servod_pid 20
 }
 # Enabled (clearing a latched fault first) and moving: a jerk-limited move of
 # 0.03 m, so the setpoints on the bus are not zero when the fault comes.
@@ -168,7 +115,7 @@ enable_and_move() {
   ctl move-to --target-m "$target" --velocity-m-per-s 0.1 --acceleration-m-per-s2 1 > /dev/null
 }
 
-start_daemon 1 || { fail "clm-servod gave no status within 20 s: $(tail -2 "$run/servod-1.err" | tr '\n' ' ')"; finish; }
+start_faults_daemon 1 || { fail "clm-servod gave no status within 20 s: $(tail -2 "$run/servod-1.err" | tr '\n' ' ')"; finish; }
 pass "clm-servod and clm sim --inject up on $iface ($(elapsed) s)"
 $(fifo 50) "$lcm_logger" --quiet --force --channel=CLM_SERVO_STATE --lcm-url="$url" "$run/states.lcm" \
   2> "$run/logger.err" &
@@ -276,7 +223,7 @@ else
 fi
 
 # ---- a second daemon, then the simulator killed ------------------------------------------------------
-if start_daemon 2; then
+if start_faults_daemon 2; then
   # The drive still reports its watchdog fault: the new daemon must latch it.
   for _ in $(seq 1 10); do
     [ "$(field fault "$status")" != 0 ] && break
@@ -313,7 +260,7 @@ sleep 0.2
 stop_process $candump_pid 30
 
 # ---- the bus record -----------------------------------------------------------------------------------
-coil_sets=$(sed -n 's/^  coil_sets: \([0-9]*\).*/\1/p' "$source_dir/config/motor-sim.yaml" | head -1)
+coil_sets=$(config_value "$source_dir/config/motor-sim.yaml" "  coil_sets")
 "$checker" --log "$run/candump.log" --events "$run/sim-events.log" --coil-sets "$coil_sets" \
   --flood-id "$flood_id" --sim-killed > "$run/bus.txt" 2> "$run/bus.err"
 sed 's/^/HIL:   /' "$run/bus.txt"

@@ -29,8 +29,9 @@
 #
 # Exit status: 0 all passed, 1 a check failed, 77 no vcan here (skipped).
 set -uo pipefail
+# shellcheck source=../support/script_helpers.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../support/script_helpers.sh"
 # Absolute paths: the daemon resolves the config's paths against the config's directory.
-absolute() { echo "$(cd "$(dirname "$1")" && pwd)/$(basename "$1")"; }
 clm=$(absolute "$1") servod=$(absolute "$2") checker=$(absolute "$3") source_dir=$(cd "$4" && pwd)
 mkdir -p "$5"
 work=$(cd "$5" && pwd)
@@ -40,9 +41,8 @@ mkdir -p "$artifacts"
 artifacts=$(cd "$artifacts" && pwd)
 program=$(absolute "${HIL_PROGRAM:-$source_dir/config/programs/fig8.yaml}")
 modes=${HIL_MODES:-classical pgnn}
-candump=${CANDUMP:-candump}
 lcm_logger=${LCM_LOGGER:-lcm-logger}
-priority=${HIL_PRIORITY:-$(sed -n 's/^  priority: \([0-9]*\).*/\1/p' "$source_dir/config/servod-vcan.yaml")}
+priority=${HIL_PRIORITY:-$(config_value "$source_dir/config/servod-vcan.yaml" "  priority")}
 # Bounds on max |e_m| over the Fig. 8 program (from its first move), each law
 # with the feedforward commissioned for it. clm commission's evaluation of
 # the same laws on the same program (in-process motor, virtual time) gives
@@ -70,41 +70,14 @@ start_s=$(date +%s)
 rm -rf "$work/run"
 mkdir -p "$work/run"
 run=$work/run
-pids=()
-created_iface=""
-cleanup() {
-  for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null; done
-  [ -n "$created_iface" ] && ip link del dev "$created_iface" 2>/dev/null
-}
-trap cleanup EXIT
-
-# Sends `signal` to `pid` and waits up to `tenths` × 0.1 s; the exit status, or 255 if it is still running.
-stop_process() {
-  local pid=$1 tenths=$2 signal=${3:-TERM}
-  kill "-$signal" "$pid" 2>/dev/null
-  for _ in $(seq 1 "$tenths"); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
-  kill -0 "$pid" 2>/dev/null && return 255
-  wait "$pid"
-}
+trap cleanup_processes EXIT
 
 # ---- the bus -------------------------------------------------------------------
-iface=${HIL_CAN:-}
-if [ "$iface" = sim ]; then
+if [ "${HIL_CAN:-}" = sim ]; then
+  iface=sim
   pass "bus: none, reference run on the in-process simulated motor"
 else
-  if [ -z "$iface" ]; then
-    candidate="vcanhil$(( $$ % 100000 ))"
-    if ip link add dev "$candidate" type vcan 2>/dev/null; then
-      iface=$candidate created_iface=$candidate
-    elif [ -d /sys/class/net/vcan0 ]; then
-      iface=vcan0
-    else
-      echo "HIL: skipped: cannot create a vcan interface (needs root and the vcan module) and there is no vcan0"
-      exit 77
-    fi
-  fi
-  ip link set up "$iface" 2>/dev/null
-  if [ ! -d "/sys/class/net/$iface" ] || [ "$(cat "/sys/class/net/$iface/operstate")" = down ]; then
+  if ! start_bus vcanhil; then
     fail "bus: $iface is not up"
     finish
   fi
@@ -136,34 +109,24 @@ pass "artefacts: calibration, models and feedforwards in $artifacts"
 # ---- configuration: one per law ----------------------------------------------------
 port=$((9960 + $$ % 30))
 url="udpm://239.255.76.67:${port}?ttl=0"
+# The law's commissioning files: the inline feedforward replaced by the
+# law's file, the calibration and the PGNN model added to commutation:.
 write_config() {
-  local mode=$1 output=$2
-  sed -e "s|^motor_file: [^ ]*|motor_file: $source_dir/config/motor-sim.yaml|" \
-      -e "s|^\(  interface:\) [^ ]*|\1 $iface|" \
-      -e "s|^\(  priority:\) [0-9]*|\1 $priority|" \
-      -e "s|^\(  lcm_url:\) .*|\1 \"$url\"|" \
-      -e "s|^  feedforward: .*|  feedforward_file: $artifacts/feedforward-$mode.yaml|" \
+  local mode=$1 output=$2 missing
+  missing=$(config_edit "$source_dir/config/servod-vcan.yaml" "$output" \
+            "motor_file: $source_dir/config/motor-sim.yaml" "  interface: $iface" "  priority: $priority" \
+            "  lcm_url: \"$url\"") || { fail "config: no line '$missing' in $output"; return 1; }
+  sed -i -e "s|^  feedforward: .*|  feedforward_file: $artifacts/feedforward-$mode.yaml|" \
       -e "s|^\(commutation:.*\)|\1\n  calibration_file: $artifacts/calibration.yaml\n  pgnn_model_file: $artifacts/model-pgnn.yaml|" \
-      "$source_dir/config/servod-vcan.yaml" > "$output"
-  local expected
-  for expected in "motor_file: $source_dir/config/motor-sim.yaml" "  interface: $iface" "  priority: $priority" \
-                  "  lcm_url: \"$url\"" "  feedforward_file: $artifacts/feedforward-$mode.yaml" \
-                  "  calibration_file: $artifacts/calibration.yaml" "  pgnn_model_file: $artifacts/model-pgnn.yaml"; do
-    grep -qxF -- "$expected" <(sed 's/ *#.*//' "$output") || { fail "config: no line '$expected' in $output"; return 1; }
-  done
+      "$output"
+  missing=$(config_require "$output" "  feedforward_file: $artifacts/feedforward-$mode.yaml" \
+            "  calibration_file: $artifacts/calibration.yaml" "  pgnn_model_file: $artifacts/model-pgnn.yaml") ||
+    { fail "config: no line '$missing' in $output"; return 1; }
 }
 
-ctl() { "$clm" ctl --lcm-url "$url" "$@"; }
-# The simulated motor and the recorders with SCHED_FIFO below the daemon's
-# loop, where chrt (util-linux) and the rights exist: a `clm ctl` starting up
-# must not delay the drive's reply or the recording. Prints the command
-# prefix (nothing without chrt or the rights); used unquoted, so that $! is
-# the program's own pid (chrt execs it).
-fifo() {
-  if command -v chrt > /dev/null && chrt -f "$1" true 2> /dev/null; then echo "chrt -f $1"; fi
-}
-field() { sed -n "s/^$1: //p" <<< "$2"; }
-counter() { field frames "$1" | sed -n "s/.*$2 \([0-9]*\).*/\1/p"; }
+# The simulated motor and the recorders run with SCHED_FIFO below the
+# daemon's loop (fifo), where chrt and the rights exist: a `clm ctl`
+# starting up must not delay the drive's reply or the recording.
 # "idle total" jiffies of all CPUs, from /proc/stat.
 cpu_jiffies() { awk '/^cpu / { print $5 + $6, $2 + $3 + $4 + $5 + $6 + $7 + $8 + $9 }' /proc/stat; }
 
@@ -172,19 +135,8 @@ expected_bus="error-active"
 if [ "$iface" = sim ]; then
   expected_bus="none (in-process simulated motor)"
 else
-  $(fifo 60) "$candump" -L -d "$iface" > "$run/candump.log" 2> "$run/candump.err" &
-  candump_pid=$!
-  pids+=("$candump_pid")
-
-  $(fifo 70) "$clm" sim --can "$iface" --motor "$source_dir/config/motor-sim.yaml" > "$run/sim.out" 2> "$run/sim.err" &
-  sim_pid=$!
-  pids+=("$sim_pid")
-  for _ in $(seq 1 100); do
-    grep -q "waiting for SYNC" "$run/sim.err" 2>/dev/null && break
-    kill -0 $sim_pid 2>/dev/null || break
-    sleep 0.1
-  done
-  if grep -q "waiting for SYNC" "$run/sim.err"; then
+  start_candump "$run/candump.log" "$run/candump.err"
+  if start_sim "$run/sim.out" "$run/sim.err"; then
     pass "clm sim: listening on $iface"
   else
     fail "clm sim: not up: $(head -1 "$run/sim.err")"
@@ -197,15 +149,8 @@ declare -A rms_e
 daemon_cycles=0
 for mode in $modes; do
   write_config "$mode" "$run/servod-$mode.yaml" || continue
-  "$servod" --config "$run/servod-$mode.yaml" 2> "$run/servod-$mode.err" &
-  servod_pid=$!
-  pids+=("$servod_pid")
-  status=""
-  for _ in $(seq 1 20); do
-    status=$(ctl status --timeout-s 1 2>/dev/null) && break
-    kill -0 $servod_pid 2>/dev/null || break
-  done
-  if [ -z "$status" ]; then
+  start_daemon "$run/servod-$mode.yaml" "$run/servod-$mode.err"
+  if ! wait_for_status $servod_pid 20; then
     fail "$mode: clm-servod gave no status within 20 s: $(grep -v warning "$run/servod-$mode.err" | tail -2 | tr '\n' ' ')"
     stop_process $servod_pid 30
     continue
@@ -372,7 +317,7 @@ fi
 
 sleep 0.2
 stop_process $candump_pid 30
-coil_sets=$(sed -n 's/^  coil_sets: \([0-9]*\).*/\1/p' "$source_dir/config/motor-sim.yaml" | head -1)
+coil_sets=$(config_value "$source_dir/config/motor-sim.yaml" "  coil_sets")
 result=$("$checker" --dbc "$source_dir/drivers/clm-servo.dbc" --log "$run/candump.log" --coil-sets "$coil_sets" \
          --min-frames 1000)
 rc=$?

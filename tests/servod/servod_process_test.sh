@@ -8,6 +8,8 @@
 #   servod_process_test.sh CLM_SERVOD CLM SOURCE_DIR WORK_DIR
 set -euo pipefail
 servod=$1 clm=$2 source_dir=$3 work=$4
+# shellcheck source=../support/script_helpers.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../support/script_helpers.sh"
 
 # A port of its own (the LCM tests use 7700..9699), so parallel runs and a
 # daemon on the default port 7667 do not hear each other.
@@ -24,16 +26,10 @@ fail() {
 }
 
 # config/servod.yaml with an absolute motor file, no real-time rights, our port.
-sed -e "s|^motor_file: [^ ]*|motor_file: $source_dir/config/motor-sim.yaml|" \
-    -e 's|^\(  priority:\) [0-9]*|\1 0|' \
-    -e 's|^\(  lock_memory:\) [a-z]*|\1 false|' \
-    -e 's|^\(  clock:\) [a-z]*|\1 realtime|' \
-    -e "s|^\(  lcm_url:\) .*|\1 \"$url\"|" \
-    "$source_dir/config/servod.yaml" > "$work/servod.yaml"
-for expected in "motor_file: $source_dir/config/motor-sim.yaml" "  priority: 0" "  lock_memory: false" \
-                "  rate_hz: 1000" "  lcm_url: \"$url\""; do
-  grep -qxF -- "$expected" <(sed 's/ *#.*//' "$work/servod.yaml") || fail "config: no line '$expected' after editing"
-done
+missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" \
+          "motor_file: $source_dir/config/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
+          "  lcm_url: \"$url\"" && config_require "$work/servod.yaml" "  rate_hz: 1000") ||
+    fail "config: no line '$missing' after editing"
 
 # 0.01 m out and back at 0.05 m/s: about 1 s.
 cat > "$work/short-program.yaml" <<'PROGRAM'
@@ -57,8 +53,8 @@ expect_refusal() {  # CONFIG EXPECTED-LINE
   grep -qF -- "$2" "$work/refusal.log" || fail "--config $1: '$(cat "$work/refusal.log")' does not say '$2'"
 }
 expect_refusal "$work/no-such-config.yaml" "clm-servod: error: $work/no-such-config.yaml"
-sed -e 's|^\(  cpu:\) [-0-9]*|\1 1023|' -e 's|^\(  require_realtime:\) [a-z]*|\1 true|' \
-    "$work/servod.yaml" > "$work/servod-require-realtime.yaml"
+missing=$(config_edit "$work/servod.yaml" "$work/servod-require-realtime.yaml" "  cpu: 1023" "  require_realtime: true") ||
+    fail "config: no line '$missing' after editing"
 expect_refusal "$work/servod-require-realtime.yaml" \
     "clm-servod: error: pinning the loop thread to CPU 1023 failed: Invalid argument (loop.require_realtime is true)"
 
@@ -83,21 +79,15 @@ listener=$!
 for _ in $(seq 1 50); do [ -S "$notify_dir/notify.sock" ] && break; sleep 0.02; done
 [ -S "$notify_dir/notify.sock" ] || fail "the notify listener did not bind its socket"
 
-NOTIFY_SOCKET="$notify_dir/notify.sock" WATCHDOG_USEC=200000 \
-    "$servod" --config "$work/servod.yaml" 2> "$work/servod.log" &
-pid=$!
+NOTIFY_SOCKET="$notify_dir/notify.sock" WATCHDOG_USEC=200000 start_daemon "$work/servod.yaml" "$work/servod.log"
+pid=$servod_pid
 trap 'kill -KILL $pid $listener 2>/dev/null || true; rm -rf "$notify_dir"' EXIT
 
-ctl() { "$clm" ctl --lcm-url "$url" "$@"; }  # waits 2 s for a status or an ack unless --timeout-s
-field() { sed -n "s/^$1: //p" <<< "$2"; }
-
 # 1. The daemon is up: a status arrives (the first within 5 s).
-status=""
-for _ in 1 2 3 4 5; do
-  status=$(ctl status --timeout-s 1 2>/dev/null) && break
-  kill -0 $pid 2>/dev/null || fail "clm-servod exited at start-up"
-done
-[ -n "$status" ] || fail "clm ctl status saw no CLM_SERVO_STATUS within 5 s"
+rc=0
+wait_for_status $pid 5 || rc=$?
+[ $rc != 2 ] || fail "clm-servod exited at start-up"
+[ $rc = 0 ] || fail "clm ctl status saw no CLM_SERVO_STATUS within 5 s"
 [ "$(field state "$status")" = disabled ] || fail "state after start: $(field state "$status")"
 [ "$(field fault "$status")" = 0 ] || fail "fault after start: $(field fault "$status")"
 
@@ -133,16 +123,9 @@ set -e
 [ "$reply" = "rejected: target outside the soft limits" ] || fail "move-to beyond the soft limits: '$reply'"
 
 # 5. SIGTERM: exit 0 within 2 s.
-kill -TERM $pid
-for _ in $(seq 1 20); do
-  kill -0 $pid 2>/dev/null || break
-  sleep 0.1
-done
-kill -0 $pid 2>/dev/null && fail "clm-servod still running 2 s after SIGTERM"
-set +e
-wait $pid
-rc=$?
-set -e
+rc=0
+stop_process $pid 20 || rc=$?
+[ $rc != 255 ] || fail "clm-servod still running 2 s after SIGTERM"
 trap - EXIT
 [ $rc = 0 ] || fail "clm-servod exit status $rc after SIGTERM, expected 0"
 grep -q "stopping on SIGTERM" "$work/servod.log" || fail "no 'stopping on SIGTERM' in its stderr"

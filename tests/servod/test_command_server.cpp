@@ -3,15 +3,13 @@
 // virtual time.
 #include <catch2/catch.hpp>
 
-#include <unistd.h>
-
-#include <filesystem>
 #include <fstream>
 #include <map>
 
 #include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/command_check.hpp"
 #include "daemon/servod/command_server.hpp"
+#include "support/temporary_directory.hpp"
 
 using namespace clm;
 using namespace clm::servod;
@@ -45,18 +43,17 @@ clm_lcm::servo_command_t message(std::int8_t kind, std::int64_t sequence) {
   return m;
 }
 
-/// A file under /tmp, removed at the end of the test.
+/// A file holding `text` in a directory of its own, removed at the end of the test.
 class TemporaryFile {
  public:
-  TemporaryFile(const std::string& name, const std::string& text)
-      : path_(fs::temp_directory_path() / ("clm_servod_" + std::to_string(::getpid()) + "_" + name)) {
+  TemporaryFile(const std::string& name, const std::string& text) : path_(directory_.file(name)) {
     std::ofstream(path_) << text;
   }
-  ~TemporaryFile() { fs::remove(path_); }
-  std::string path() const { return path_.string(); }
+  const std::string& path() const { return path_; }
 
  private:
-  fs::path path_;
+  test::TemporaryDirectory directory_{"clm_servod"};
+  std::string path_;
 };
 
 /// The acks the publisher sent, by sequence.

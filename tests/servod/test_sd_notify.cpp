@@ -11,15 +11,15 @@
 #include <atomic>
 #include <chrono>
 #include <cstring>
-#include <filesystem>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "daemon/servod/sd_notify.hpp"
+#include "support/temporary_directory.hpp"
 
 using namespace clm::servod;
-namespace fs = std::filesystem;
 
 namespace {
 
@@ -39,18 +39,14 @@ class FakeSystemd {
       length = static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + 1 + name.size());
       path_ = "@" + name;
     } else {
-      file_ = fs::temp_directory_path() / name;
-      fs::remove(file_);
-      path_ = file_.string();
+      directory_.emplace("clm_servod_notify");
+      path_ = directory_->file(name);
       std::memcpy(address.sun_path, path_.data(), path_.size());
       length = static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + path_.size() + 1);
     }
     REQUIRE(::bind(fd_, reinterpret_cast<const sockaddr*>(&address), length) == 0);
   }
-  ~FakeSystemd() {
-    ::close(fd_);
-    if (!file_.empty()) fs::remove(file_);
-  }
+  ~FakeSystemd() { ::close(fd_); }
   const std::string& path() const { return path_; }
 
   /// Every datagram that arrives within `timeout_ms` after the last one.
@@ -68,7 +64,7 @@ class FakeSystemd {
 
  private:
   int fd_ = -1;
-  fs::path file_;
+  std::optional<clm::test::TemporaryDirectory> directory_;  ///< holds the socket file (not abstract)
   std::string path_;
 };
 
@@ -121,7 +117,8 @@ TEST_CASE("An NOTIFY_SOCKET starting with @ is a socket in the abstract namespac
 }
 
 TEST_CASE("Notifying a socket nobody listens on returns the errno and does not throw", "[servod][sd_notify]") {
-  const SystemdNotifier notifier((fs::temp_directory_path() / "clm_servod_no_such_socket").string());
+  const clm::test::TemporaryDirectory directory("clm_servod_notify");
+  const SystemdNotifier notifier(directory.file("no_such_socket"));
   CHECK(notifier.notify("READY=1") != 0);
 }
 

@@ -1,8 +1,6 @@
 // TelemetryPublisher without a network: MemorySink and LcmLogWriter as sinks.
 #include <catch2/catch.hpp>
 
-#include <unistd.h>
-
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -11,6 +9,7 @@
 #include <mutex>
 
 #include "support/allocation_counter.hpp"
+#include "support/temporary_directory.hpp"
 #include "telemetry/telemetry_samples.hpp"
 
 using namespace clm::telemetry;
@@ -46,24 +45,6 @@ class StallingSink : public TelemetrySink {
   std::condition_variable changed_;
   int entered_ = 0;
   bool released_ = false;
-};
-
-/// A fresh directory under /tmp, removed at the end of the test.
-class TemporaryDirectory {
- public:
-  explicit TemporaryDirectory(const std::string& name)
-      : path_(fs::temp_directory_path() / ("clm_telemetry_" + std::to_string(::getpid()) + "_" + name)) {
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TemporaryDirectory() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
 };
 
 clm_lcm::servo_command_t command_message(std::int8_t command, std::int64_t sequence) {
@@ -389,7 +370,7 @@ TEST_CASE("FixedText keeps what fits and says when it had to cut", "[telemetry]"
 }
 
 TEST_CASE("LcmLogWriter writes path.tmp and renames it to path only on close", "[telemetry][log]") {
-  const TemporaryDirectory directory("writer");
+  const clm::test::TemporaryDirectory directory("clm_telemetry_writer");
   const std::string path = directory.file("run.lcm");
   {
     LcmLogWriter writer(path);
@@ -418,7 +399,7 @@ TEST_CASE("LcmLogWriter writes path.tmp and renames it to path only on close", "
 }
 
 TEST_CASE("The publisher records into an LcmLogWriter next to its main sink", "[telemetry][log]") {
-  const TemporaryDirectory directory("record");
+  const clm::test::TemporaryDirectory directory("clm_telemetry_record");
   const std::string path = directory.file("experiment.lcm");
   MemorySink memory;
   LcmLogWriter writer(path);

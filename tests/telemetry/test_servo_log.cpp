@@ -2,12 +2,11 @@
 // with the event number.
 #include <catch2/catch.hpp>
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 
+#include "support/temporary_directory.hpp"
 #include "telemetry/telemetry_samples.hpp"
 #include "tools/data/csv_table.hpp"
 #include "tools/lcmlog/cmd_log2csv.hpp"
@@ -17,23 +16,6 @@ using namespace clm::telemetry;
 namespace fs = std::filesystem;
 
 namespace {
-
-class TemporaryDirectory {
- public:
-  explicit TemporaryDirectory(const std::string& name)
-      : path_(fs::temp_directory_path() / ("clm_lcmlog_" + std::to_string(::getpid()) + "_" + name)) {
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TemporaryDirectory() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
-};
 
 /// A log as the daemon writes it: a status first, then states, with an event
 /// after every tenth state. Cycles 3, 7, 11, ... are in PGNN mode, the rest
@@ -101,7 +83,7 @@ void log2csv(const std::string& arguments) {
 
 TEST_CASE("read_servo_states gives back every state written, in order, with every field equal, skipping other channels",
           "[lcmlog]") {
-  const TemporaryDirectory directory("roundtrip");
+  const clm::test::TemporaryDirectory directory("clm_lcmlog_roundtrip");
   const std::string path = directory.file("run.lcm");
   const auto written = write_log(path, 50);
   CHECK(written.events == 1 + 50 + 5);
@@ -115,7 +97,7 @@ TEST_CASE("read_servo_states gives back every state written, in order, with ever
 
 TEST_CASE("log2csv --format experiment writes the experiment-mode states in the calibrate/identify columns",
           "[lcmlog]") {
-  const TemporaryDirectory directory("experiment");
+  const clm::test::TemporaryDirectory directory("clm_lcmlog_experiment");
   const std::string log = directory.file("run.lcm");
   const std::string csv = directory.file("experiment.csv");
   const auto written = write_log(log, 40);
@@ -150,7 +132,7 @@ TEST_CASE("log2csv --format experiment writes the experiment-mode states in the 
 }
 
 TEST_CASE("log2csv --format feedforward writes t_s, r_m, F_star_N of every state", "[lcmlog]") {
-  const TemporaryDirectory directory("feedforward");
+  const clm::test::TemporaryDirectory directory("clm_lcmlog_feedforward");
   const std::string log = directory.file("run.lcm");
   const std::string csv = directory.file("ff.csv");
   const auto written = write_log(log, 25);
@@ -167,7 +149,7 @@ TEST_CASE("log2csv --format feedforward writes t_s, r_m, F_star_N of every state
 }
 
 TEST_CASE("log2csv --format full writes every field, coil-set columns per coil set, utime exact", "[lcmlog]") {
-  const TemporaryDirectory directory("full");
+  const clm::test::TemporaryDirectory directory("clm_lcmlog_full");
   const std::string log = directory.file("run.lcm");
   const std::string csv = directory.file("full.csv");
   const auto written = write_log(log, 12, 2);
@@ -209,7 +191,7 @@ TEST_CASE("log2csv --format full writes every field, coil-set columns per coil s
 }
 
 TEST_CASE("A state whose payload does not decode is refused with the file and its event number", "[lcmlog]") {
-  const TemporaryDirectory directory("corrupt");
+  const clm::test::TemporaryDirectory directory("clm_lcmlog_corrupt");
   const std::string log = directory.file("run.lcm");
   const auto written = write_log(log, 30);
   auto bytes = read_bytes(log);
@@ -231,7 +213,7 @@ TEST_CASE("A state whose payload does not decode is refused with the file and it
 }
 
 TEST_CASE("Garbage, a damaged header and a truncated last event are refused with the event number", "[lcmlog]") {
-  const TemporaryDirectory directory("garbage");
+  const clm::test::TemporaryDirectory directory("clm_lcmlog_garbage");
   const std::string log = directory.file("run.lcm");
   const auto written = write_log(log, 20);
   const auto original = read_bytes(log);
@@ -280,7 +262,7 @@ TEST_CASE("Garbage, a damaged header and a truncated last event are refused with
 
 TEST_CASE("log2csv refuses a missing log, an unknown format and experiment data without experiment states",
           "[lcmlog]") {
-  const TemporaryDirectory directory("errors");
+  const clm::test::TemporaryDirectory directory("clm_lcmlog_errors");
   const std::string csv = directory.file("out.csv");
   CHECK_THROWS_AS(log2csv("--log " + directory.file("none.lcm") + " --output " + csv + " --format full"),
                   CLI::ValidationError);
@@ -303,7 +285,7 @@ TEST_CASE("log2csv refuses a missing log, an unknown format and experiment data 
 }
 
 TEST_CASE("A state claiming more coil sets than a motor can have is refused with its event number", "[lcmlog]") {
-  const TemporaryDirectory directory("coilsets");
+  const clm::test::TemporaryDirectory directory("clm_lcmlog_coilsets");
   const std::string log = directory.file("run.lcm");
   {
     LcmLogWriter writer(log);
@@ -318,7 +300,7 @@ TEST_CASE("A state claiming more coil sets than a motor can have is refused with
 }
 
 TEST_CASE("A state with an unknown commutation or state is refused with its event number", "[lcmlog]") {
-  const TemporaryDirectory directory("unknown");
+  const clm::test::TemporaryDirectory directory("clm_lcmlog_unknown");
   const std::string log = directory.file("run.lcm");
   {
     LcmLogWriter writer(log);

@@ -11,6 +11,8 @@
 #       within the ack timeout, nothing written.
 set -euo pipefail
 mode=$1 servod=$2 clm=$3 source_dir=$4 work=$5
+# shellcheck source=../support/script_helpers.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../support/script_helpers.sh"
 
 fail() {
   echo "FAIL: $*" >&2
@@ -62,17 +64,12 @@ url="udpm://239.255.76.67:$((9920 + $$ % 30))?ttl=0"
 # some runs; in a clean-clone CI run beside other tests 5 consecutive
 # overruns latched fault 205, so the copy allows 1000 (the largest accepted).
 # This test is about the LCM path, not about real-time timing.
-sed -e 's|^\(  watchdog_timeout_s:\) [0-9.e-]*|\1 0.1|' "$source_dir/config/motor-sim.yaml" > "$work/motor-sim.yaml"
-grep -qx "  watchdog_timeout_s: 0.1" <(sed 's/ *#.*//' "$work/motor-sim.yaml") || fail "motor copy: watchdog not relaxed"
-sed -e "s|^motor_file: [^ ]*|motor_file: $work/motor-sim.yaml|" \
-    -e 's|^\(  clock:\) [a-z]*|\1 realtime|' \
-    -e "s|^\(  lcm_url:\) .*|\1 \"$url\"|" \
-    -e 's|^\(  overrun_limit:\) [0-9]*|\1 1000|' \
-    "$source_dir/config/servod.yaml" > "$work/servod.yaml"
-for expected in "motor_file: $work/motor-sim.yaml" "  clock: realtime" "  rate_hz: 1000" \
-                "  state_decimation: 1" "  lcm_url: \"$url\"" "  overrun_limit: 1000"; do
-  grep -qxF -- "$expected" <(sed 's/ *#.*//' "$work/servod.yaml") || fail "config: no line '$expected' after editing"
-done
+config_edit "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "  watchdog_timeout_s: 0.1" > /dev/null ||
+    fail "motor copy: watchdog not relaxed"
+missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" "motor_file: $work/motor-sim.yaml" \
+          "  clock: realtime" "  lcm_url: \"$url\"" "  overrun_limit: 1000" &&
+          config_require "$work/servod.yaml" "  rate_hz: 1000" "  state_decimation: 1") ||
+    fail "config: no line '$missing' after editing"
 
 # The Fig. 8 stroke (-0.1 .. 0.1 m) once out and back at 0.1 m/s: about 4.6 s
 # a run instead of Fig. 8's 26 s, so the 14 runs fit in about two minutes.
@@ -86,15 +83,13 @@ steps:
   - {target_m: -0.1, velocity_m_per_s: 0.1, acceleration_m_per_s2: 1.0, jerk_m_per_s3: 1000.0, dwell_s: 0.25}
 PROGRAM
 
-"$servod" --config "$work/servod.yaml" 2> "$work/servod.log" &
-pid=$!
+start_daemon "$work/servod.yaml" "$work/servod.log"
+pid=$servod_pid
 trap 'kill -KILL $pid 2>/dev/null || true' EXIT
-status=""
-for _ in 1 2 3 4 5; do
-  status=$("$clm" ctl --lcm-url "$url" status --timeout-s 1 2>/dev/null) && break
-  kill -0 $pid 2>/dev/null || fail "clm-servod exited at start-up"
-done
-[ -n "$status" ] || fail "no CLM_SERVO_STATUS within 5 s"
+rc=0
+wait_for_status $pid 5 || rc=$?
+[ $rc != 2 ] || fail "clm-servod exited at start-up"
+[ $rc = 0 ] || fail "no CLM_SERVO_STATUS within 5 s"
 
 out="$work/out"
 start=$(date +%s.%N)
@@ -105,18 +100,11 @@ elapsed=$(echo "$(date +%s.%N) - $start" | bc)
 cat "$work/commission.out"
 
 # The daemon is still running and healthy, then exits cleanly on SIGTERM.
-status=$("$clm" ctl --lcm-url "$url" status) || fail "no status after commissioning"
+status=$(ctl status) || fail "no status after commissioning"
 grep -qx "fault: 0" <<< "$status" || fail "daemon fault after commissioning: $status"
-kill -TERM $pid
-for _ in $(seq 1 20); do
-  kill -0 $pid 2>/dev/null || break
-  sleep 0.1
-done
-kill -0 $pid 2>/dev/null && fail "clm-servod still running 2 s after SIGTERM"
-set +e
-wait $pid
-rc=$?
-set -e
+rc=0
+stop_process $pid 20 || rc=$?
+[ $rc != 255 ] || fail "clm-servod still running 2 s after SIGTERM"
 trap - EXIT
 [ $rc = 0 ] || fail "clm-servod exit status $rc after SIGTERM"
 if grep -q "error" "$work/servod.log"; then fail "an error line in clm-servod's stderr"; fi

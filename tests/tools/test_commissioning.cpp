@@ -3,8 +3,8 @@
 //
 //   ctest --test-dir build -L slow        or   build/tests/commissioning_tests -s
 #include <catch2/catch.hpp>
-#include <filesystem>
 
+#include "support/temporary_directory.hpp"
 #include "tools/commission/commission.hpp"
 
 using namespace clm;
@@ -23,10 +23,10 @@ const commission::CommutationResult& find(const std::vector<commission::Commutat
 }
 
 commission::Report run_commission(const std::string& config, const std::string& out) {
+  const test::TemporaryDirectory directory(out);
   commission::Options options;
   options.config_path = source(config);
-  options.out_dir = (std::filesystem::temp_directory_path() / out).string();
-  std::filesystem::remove_all(options.out_dir);
+  options.out_dir = directory.file("commission");
   return commission::run(options);
 }
 

@@ -1,33 +1,28 @@
-// clm ctl: talks to a running clm-servod over LCM (docs/servod.md). `status`
-// waits for one CLM_SERVO_STATUS; every other subcommand publishes one
-// servo_command_t with a fresh sequence number on CLM_SERVO_COMMAND and waits
-// for the CLM_SERVO_COMMAND_ACK with that sequence.
+// clm ctl: talks to a running clm-servod over LCM (docs/servod.md) through
+// the servod_client. `status` waits for one CLM_SERVO_STATUS; every other
+// subcommand publishes one servo_command_t with a fresh sequence number on
+// CLM_SERVO_COMMAND and waits for the CLM_SERVO_COMMAND_ACK with that sequence.
 //
 // Exit status: 0 status received / command accepted; 1 timeout or command
 // refused (the ack's text says why); 2 bad arguments or no LCM.
-#include <lcm/lcm-cpp.hpp>
-
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
-#include <optional>
-#include <random>
 #include <stdexcept>
 #include <string>
 
-#include "clm_lcm/servo_command_ack_t.hpp"
 #include "clm_lcm/servo_command_t.hpp"
-#include "clm_lcm/servo_state_t.hpp"
 #include "clm_lcm/servo_status_t.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 #include "tools/clm/commands.hpp"
+#include "tools/servod_client/client.hpp"
 
 namespace clm::cli {
 namespace {
 
 using Command = clm_lcm::servo_command_t;
+using servod_client::make_command;
 
 struct CtlOptions {
   std::string lcm_url = telemetry::kDefaultLcmUrl;
@@ -37,26 +32,12 @@ struct CtlOptions {
 /// Exits `clm` with status 1 without a further message (CLI11 prints nothing for it).
 [[noreturn]] void fail_quietly() { throw CLI::RuntimeError(1); }
 
-std::unique_ptr<lcm::LCM> open_lcm(const CtlOptions& options) {
-  auto lcm = std::make_unique<lcm::LCM>(options.lcm_url);
-  if (!lcm->good()) {
-    throw std::runtime_error("cannot open LCM at '" + options.lcm_url +
-                             "' (for udpm a multicast route is needed: docs/telemetry.md)");
-  }
-  return lcm;
-}
-
-/// Handles `lcm` until `done()` or the timeout; true if done.
-template <typename Done>
-bool handle_until(lcm::LCM& lcm, const Done& done, double timeout_s) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                                std::chrono::duration<double>(timeout_s));
-  while (!done()) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-    if (left.count() <= 0) return false;
-    lcm.handleTimeout(static_cast<int>(std::min<long long>(left.count(), 50)));
-  }
-  return true;
+/// The client of one subcommand: receives `channel` alone.
+servod_client::Options client_options(const CtlOptions& options, const char* channel) {
+  servod_client::Options client;
+  client.lcm_url = options.lcm_url;
+  client.channels = channel;
+  return client;
 }
 
 const char* state_name(int state) {
@@ -112,63 +93,28 @@ void print_status(const clm_lcm::servo_status_t& s) {
 }
 
 void run_status(const CtlOptions& options) {
-  auto lcm = open_lcm(options);
-  std::optional<clm_lcm::servo_status_t> status;
-  struct Handler {
-    std::optional<clm_lcm::servo_status_t>* out;
-    void on_status(const lcm::ReceiveBuffer*, const std::string&, const clm_lcm::servo_status_t* message) {
-      if (!*out) *out = *message;
-    }
-  } handler{&status};
-  lcm->subscribe(telemetry::kStatusChannel, &Handler::on_status, &handler);
-  if (!handle_until(*lcm, [&] { return status.has_value(); }, options.timeout_s)) {
-    std::fprintf(stderr, "clm ctl: no %s on %s within %g s (is clm-servod running with that lcm_url?)\n",
-                 telemetry::kStatusChannel, options.lcm_url.c_str(), options.timeout_s);
+  servod_client::Client client(client_options(options, telemetry::kStatusChannel));  // no LCM: exit status 2
+  clm_lcm::servo_status_t status;
+  try {
+    status = client.wait_for_status(options.timeout_s);
+  } catch (const servod_client::Timeout& e) {
+    std::fprintf(stderr, "clm ctl: %s\n", e.what());
     fail_quietly();
   }
-  print_status(*status);
-}
-
-/// A sequence number no other client is likely to use at the same time:
-/// wall-clock µs times 1000 plus a random 0..999 (positive, < 2^63 until 2262).
-std::int64_t fresh_sequence() {
-  std::random_device random;
-  return telemetry::wall_clock_utime() * 1000 + static_cast<std::int64_t>(random() % 1000);
-}
-
-/// A servo_command_t of kind `kind` with every field set (strings empty).
-Command make_command(std::int8_t kind) {
-  Command command{};
-  command.utime = telemetry::wall_clock_utime();
-  command.sequence = fresh_sequence();
-  command.command = kind;
-  return command;
+  print_status(status);
 }
 
 void send_command(const CtlOptions& options, const Command& command) {
-  auto lcm = open_lcm(options);
-  std::optional<clm_lcm::servo_command_ack_t> ack;
-  struct Handler {
-    std::int64_t sequence;
-    std::optional<clm_lcm::servo_command_ack_t>* out;
-    void on_ack(const lcm::ReceiveBuffer*, const std::string&, const clm_lcm::servo_command_ack_t* message) {
-      if (message->sequence == sequence && !*out) *out = *message;
-    }
-  } handler{command.sequence, &ack};
-  // Subscribe before publishing, so a fast ack is not missed.
-  lcm->subscribe(telemetry::kCommandAckChannel, &Handler::on_ack, &handler);
-  if (lcm->publish(telemetry::kCommandChannel, &command) != 0) {
-    throw std::runtime_error(std::string("LCM refused to publish on ") + telemetry::kCommandChannel + " at " +
-                             options.lcm_url);
-  }
-  if (!handle_until(*lcm, [&] { return ack.has_value(); }, options.timeout_s)) {
-    std::fprintf(stderr, "clm ctl: no %s for sequence %lld on %s within %g s (is clm-servod running with that lcm_url?)\n",
-                 telemetry::kCommandAckChannel, static_cast<long long>(command.sequence), options.lcm_url.c_str(),
-                 options.timeout_s);
+  servod_client::Client client(client_options(options, telemetry::kCommandAckChannel));  // no LCM: exit status 2
+  servod_client::Ack ack;
+  try {
+    ack = client.send(command, options.timeout_s);
+  } catch (const servod_client::NoAck& e) {
+    std::fprintf(stderr, "clm ctl: %s\n", e.what());
     fail_quietly();
   }
-  std::printf("%s\n", ack->text.c_str());
-  if (!ack->accepted) fail_quietly();
+  std::printf("%s\n", ack.text.c_str());
+  if (!ack.accepted) fail_quietly();
 }
 
 /// The daemon opens files itself, from its own working directory: send absolute paths.

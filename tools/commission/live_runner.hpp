@@ -1,36 +1,23 @@
 #pragma once
 // The commissioning's runs on a separately running clm-servod, over LCM
-// (docs/servod.md "Commands", docs/telemetry.md): every command goes out on
-// CLM_SERVO_COMMAND and waits for the CLM_SERVO_COMMAND_ACK with its
-// sequence; files (programs, calibration, models, feedforward) are sent as
+// (docs/servod.md "Commands", docs/telemetry.md), through the
+// servod_client: every command goes out on CLM_SERVO_COMMAND and waits for
+// the CLM_SERVO_COMMAND_ACK with its sequence; files (programs, calibration, models, feedforward) are sent as
 // absolute paths, which the daemon opens itself; the cycles come back as
 // CLM_SERVO_STATE. A run is checked for missing states by the state's cycle
 // counter: any gap is reported, and the run is repeated (LiveOptions::
 // attempts_per_run) or commissioning fails.
 
-#include <atomic>
-#include <condition_variable>
-#include <functional>
 #include <cstdint>
-#include <map>
 #include <memory>
-#include <mutex>
-#include <optional>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "clm_lcm/servo_command_t.hpp"
-#include "clm_lcm/servo_state_t.hpp"
-#include "clm_lcm/servo_status_t.hpp"
 #include "daemon/servod/servod_config.hpp"
 #include "tools/commission/runner.hpp"
 #include "tools/commission/runs.hpp"
-
-namespace lcm {
-class LCM;
-struct ReceiveBuffer;
-}  // namespace lcm
+#include "tools/servod_client/client.hpp"
 
 namespace clm::telemetry {
 class LcmLogWriter;
@@ -38,12 +25,7 @@ class LcmLogWriter;
 
 namespace clm::commission {
 
-/// One LCM message as received: channel, receive time [µs since the UNIX epoch], bytes.
-struct ReceivedMessage {
-  std::string channel;
-  std::int64_t utime = 0;
-  std::vector<std::uint8_t> data;
-};
+using servod_client::ReceivedMessage;
 
 /// Cycles missing from a sequence of CLM_SERVO_STATE cycle counters that
 /// should follow one another (each = previous + 1): the number missing and
@@ -58,8 +40,8 @@ StateGaps find_state_gaps(const std::vector<std::int64_t>& cycles, int max_range
 class LcmRunner final : public ExperimentRunner {
  public:
   /// Opens LCM at options.lcm_url and starts receiving. `config` is the
-  /// daemon's configuration (motor, soft limits, period). Throws when LCM
-  /// cannot be opened.
+  /// daemon's configuration (motor, soft limits, period). Throws when an
+  /// option is out of range or LCM cannot be opened.
   LcmRunner(const servod::ServodConfig& config, LiveOptions options);
   ~LcmRunner() override;
   LcmRunner(const LcmRunner&) = delete;
@@ -83,44 +65,20 @@ class LcmRunner final : public ExperimentRunner {
   std::vector<std::string> notes() const override;
 
  private:
-  struct Ack {
-    bool accepted = false;
-    std::string text;
-  };
-  void receive_loop();
-  void on_message(const lcm::ReceiveBuffer* buffer, const std::string& channel);
-  /// Publishes a command with a fresh sequence and waits for its ack; throws
-  /// on a timeout or a refusal, naming `what`.
+  /// Publishes a command and waits for its ack; throws on a timeout or a
+  /// refusal, naming `what`.
   std::string command(const std::string& what, clm_lcm::servo_command_t message);
-  /// Waits until the latest state satisfies `done` (or `timeout_s` passes:
-  /// throws naming `what`); a latched fault throws at once.
-  void wait_for_state(const std::string& what, double timeout_s,
-                      const std::function<bool(const clm_lcm::servo_state_t&)>& done);
   /// Waits for `cycles` more states.
   void wait_cycles(std::int64_t cycles, const std::string& what);
-  std::string fault_text() const;  ///< with mutex_ held
   /// One attempt of a run; the recording, the messages and the gaps.
   Recording attempt(const servod::ProgramFile& program, const std::string& program_path, const std::string& name,
                     std::vector<ReceivedMessage>& messages, StateGaps& gaps, std::int64_t& states);
 
   servod::ServodConfig config_;
   LiveOptions options_;
-  std::unique_ptr<lcm::LCM> lcm_;
-  std::thread receiver_;
-  std::atomic<bool> stop_{false};
-
-  mutable std::mutex mutex_;
-  std::condition_variable changed_;
-  std::map<std::int64_t, Ack> acks_;
-  std::optional<clm_lcm::servo_state_t> state_;
-  std::optional<clm_lcm::servo_status_t> status_;
-  std::int64_t states_seen_ = 0;
-  std::int64_t undecodable_ = 0;  ///< messages on our channels that did not decode (another version's types)
-  bool capturing_ = false;
-  std::vector<ReceivedMessage> captured_;
+  servod_client::Client client_;
 
   std::unique_ptr<telemetry::LcmLogWriter> log_;
-  std::optional<std::int64_t> first_dropped_;
   LiveSummary summary_;
   std::vector<std::string> notes_;
 };

@@ -1,0 +1,160 @@
+# shellcheck shell=bash disable=SC2034,SC2154
+# Shell helpers of the process-level test scripts (sourced, not run):
+# tests/servod/servod_process_test.sh, tests/tools/commission_live_test.sh,
+# tests/hil/run_hil.sh and tests/hil/run_faults.sh. Bash; works under
+# `set -euo pipefail` (call the functions that can fail in an `if` or
+# before `||`). In the HIL guest it lies at the same path under /hil/src
+# (tests/hil/qemu/make_initramfs.sh).
+#
+# Variables the functions read, set by the sourcing script: clm, servod
+# (the programs), url (the daemon's LCM URL), source_dir, iface (the CAN
+# interface). Processes started here are appended to `pids`; `created_iface`
+# names a vcan interface made here; cleanup_processes (the scripts' EXIT
+# trap) kills the one and deletes the other.
+
+pids=()
+created_iface=""
+
+# ---- paths, `clm ctl` and its status ---------------------------------------------
+
+# The absolute path of `path` (its directory must exist).
+absolute() { echo "$(cd "$(dirname "$1")" && pwd)/$(basename "$1")"; }
+
+# `clm ctl` of the daemon at $url; waits 2 s for a status or an ack unless --timeout-s.
+ctl() { "$clm" ctl --lcm-url "$url" "$@"; }
+
+# The value of `name: value` line NAME in TEXT (a `clm ctl status`).
+field() { sed -n "s/^$1: //p" <<< "$2"; }
+
+# The count after NAME (missing, late, rejected, ...) in the frames line of STATUS.
+counter() { field frames "$1" | sed -n "s/.*$2 \([0-9]*\).*/\1/p"; }
+
+# Waits for the first status of the daemon PID, one `clm ctl status
+# --timeout-s 1` at a time, at most TRIES: sets `status`; 0 when one came,
+# 1 when none did, 2 when PID exited meanwhile.
+wait_for_status() {
+  local pid=$1 tries=$2
+  status=""
+  for _ in $(seq 1 "$tries"); do
+    status=$(ctl status --timeout-s 1 2>/dev/null) && return 0
+    kill -0 "$pid" 2>/dev/null || return 2
+  done
+  return 1
+}
+
+# ---- processes -------------------------------------------------------------------
+
+# Sends SIGNAL (default TERM) to PID and waits up to TENTHS × 0.1 s; returns
+# its exit status, or 255 if it is still running.
+stop_process() {
+  local pid=$1 tenths=$2 signal=${3:-TERM}
+  kill "-$signal" "$pid" 2>/dev/null
+  for _ in $(seq 1 "$tenths"); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
+  kill -0 "$pid" 2>/dev/null && return 255
+  wait "$pid"
+}
+
+# Kills (SIGKILL) every process in `pids` and deletes `created_iface`: the EXIT trap.
+cleanup_processes() {
+  local pid
+  for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null; done
+  [ -n "$created_iface" ] && ip link del dev "$created_iface" 2>/dev/null
+  return 0
+}
+
+# The command prefix that runs a program SCHED_FIFO at PRIORITY where chrt
+# (util-linux) and the rights exist, else nothing. Used unquoted, so that $!
+# is the program's own pid (chrt execs it).
+fifo() {
+  if command -v chrt > /dev/null && chrt -f "$1" true 2> /dev/null; then echo "chrt -f $1"; fi
+}
+
+# Starts clm-servod on CONFIG, stderr to ERR_FILE, in the background: sets
+# servod_pid. The environment of the call is the daemon's (NOTIFY_SOCKET=...
+# start_daemon ...).
+start_daemon() {
+  "$servod" --config "$1" 2> "$2" &
+  servod_pid=$!
+  pids+=("$servod_pid")
+}
+
+# ---- the bus (HIL) -----------------------------------------------------------------
+
+# Sets `iface`: HIL_CAN if set, else a vcan interface PREFIX<pid> made here
+# (root), else vcan0 if it exists; else prints the skip line and exits 77.
+# Then brings it up: 1 when it is not up.
+start_bus() {
+  iface=${HIL_CAN:-}
+  if [ -z "$iface" ]; then
+    local candidate="$1$(( $$ % 100000 ))"
+    if ip link add dev "$candidate" type vcan 2>/dev/null; then
+      iface=$candidate created_iface=$candidate
+    elif [ -d /sys/class/net/vcan0 ]; then
+      iface=vcan0
+    else
+      echo "HIL: skipped: cannot create a vcan interface (needs root and the vcan module) and there is no vcan0"
+      exit 77
+    fi
+  fi
+  ip link set up "$iface" 2>/dev/null
+  [ -d "/sys/class/net/$iface" ] && [ "$(cat "/sys/class/net/$iface/operstate")" != down ]
+}
+
+# Records every frame on $iface with candump -L into LOG (stderr to ERR_FILE),
+# SCHED_FIFO 60 where allowed: sets candump_pid. CANDUMP names the program.
+start_candump() {
+  $(fifo 60) "${CANDUMP:-candump}" -L -d "$iface" > "$1" 2> "$2" &
+  candump_pid=$!
+  pids+=("$candump_pid")
+}
+
+# Starts the simulated motor (`clm sim --can $iface`, config/motor-sim.yaml,
+# and ARGS) at SCHED_FIFO 70 where allowed, stdout to OUT_FILE, stderr to
+# ERR_FILE: sets sim_pid; waits up to 10 s until it waits for SYNC (1: not up).
+start_sim() {
+  local out=$1 err=$2
+  shift 2
+  $(fifo 70) "$clm" sim --can "$iface" --motor "$source_dir/config/motor-sim.yaml" "$@" > "$out" 2> "$err" &
+  sim_pid=$!
+  pids+=("$sim_pid")
+  for _ in $(seq 1 100); do
+    grep -q "waiting for SYNC" "$err" 2>/dev/null && return 0
+    kill -0 "$sim_pid" 2>/dev/null || break
+    sleep 0.1
+  done
+  grep -q "waiting for SYNC" "$err" 2>/dev/null
+}
+
+# ---- configuration files -------------------------------------------------------------
+
+# Checks that every LINE is a whole line of the YAML FILE, comments aside;
+# prints the first that is not and returns 1.
+config_require() {
+  local file=$1 line
+  shift
+  for line in "$@"; do
+    grep -qxF -- "$line" <(sed 's/ *#.*//' "$file") || { echo "$line"; return 1; }
+  done
+}
+
+# Copies the YAML file IN to OUT with each LINE ("<indent>key: value") in
+# place of every line of IN with that indentation and key (value and comment
+# replaced), then checks that each LINE is there (config_require: prints the
+# first that is not and returns 1, e.g. a key IN lacks).
+config_edit() {
+  local in=$1 out=$2 line key text
+  shift 2
+  local script=()
+  for line in "$@"; do
+    key=${line%%:*}
+    text=${line//\\/\\\\}
+    text=${text//|/\\|}
+    text=${text//&/\\&}
+    script+=(-e "s|^$key:.*|$text|")
+  done
+  sed "${script[@]}" "$in" > "$out"
+  config_require "$out" "$@"
+}
+
+# The value of the first line "KEY: value" of FILE, KEY with its indentation, comment aside.
+config_value() { sed -n "s/^$2: \([^ #]*\).*/\1/p" "$1" | head -n 1; }

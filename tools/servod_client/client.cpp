@@ -1,0 +1,233 @@
+#include "tools/servod_client/client.hpp"
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <chrono>
+#include <cstdio>
+
+#include "clm_lcm/servo_command_ack_t.hpp"
+
+namespace clm::servod_client {
+namespace {
+
+using clm_lcm::servo_state_t;
+using clm_lcm::servo_status_t;
+
+constexpr std::int8_t kStateFault = servo_status_t::STATE_FAULT;
+
+std::string seconds(double value_s) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g s", value_s);
+  return text;
+}
+
+std::chrono::duration<double> duration(double value_s) { return std::chrono::duration<double>(value_s); }
+
+}  // namespace
+
+clm_lcm::servo_command_t make_command(std::int8_t kind) {
+  clm_lcm::servo_command_t command{};
+  command.command = kind;
+  return command;
+}
+
+Client::Client(Options options) : options_(std::move(options)) {
+  lcm_ = std::make_unique<lcm::LCM>(options_.every_state ? telemetry::with_receive_buffer(options_.lcm_url)
+                                                         : options_.lcm_url);
+  if (!lcm_->good()) {
+    throw Error("cannot open LCM at '" + options_.lcm_url +
+                "' (for udpm a multicast route is needed: docs/telemetry.md)");
+  }
+  lcm::Subscription* subscription = lcm_->subscribe(options_.channels, &Client::on_message, this);
+  // LCM drops what a subscription has queued beyond its capacity, 30
+  // messages by default: 30 ms of states. A receiving thread descheduled
+  // longer on a loaded host lost bursts of 14 to 300 states that the daemon
+  // had published and the kernel had delivered. A minute of states at 1 kHz.
+  if (options_.every_state) subscription->setQueueCapacity(60000);
+  receiver_ = std::thread([this] { receive_loop(); });
+}
+
+Client::~Client() {
+  stop_.store(true);
+  if (receiver_.joinable()) receiver_.join();
+}
+
+void Client::receive_loop() {
+  while (!stop_.load()) lcm_->handleTimeout(50);
+}
+
+void Client::on_message(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
+  const auto* bytes = static_cast<const std::uint8_t*>(buffer->data);
+  ReceivedMessage message{channel, buffer->recv_utime, std::vector<std::uint8_t>(bytes, bytes + buffer->data_size)};
+  std::lock_guard lock(mutex_);
+  if (channel == telemetry::kStateChannel) {
+    servo_state_t state;
+    if (decode(message.data, state)) {
+      state_ = std::move(state);
+      ++states_seen_;
+    } else {
+      ++undecodable_;
+    }
+  } else if (channel == telemetry::kStatusChannel) {
+    servo_status_t status;
+    if (decode(message.data, status)) {
+      if (!first_status_) first_status_ = status;
+      status_ = std::move(status);
+      ++statuses_seen_;
+    } else {
+      ++undecodable_;
+    }
+  } else if (channel == telemetry::kCommandAckChannel) {
+    clm_lcm::servo_command_ack_t ack;
+    if (decode(message.data, ack)) {
+      // Only our own commands' acks: other clients' would pile up.
+      if (pending_.count(ack.sequence) > 0) {
+        acks_[ack.sequence] = Ack{ack.sequence, static_cast<bool>(ack.accepted), ack.text};
+      }
+    } else {
+      ++undecodable_;
+    }
+  }
+  if (capturing_) captured_.push_back(std::move(message));
+  changed_.notify_all();
+}
+
+/// Wall-clock µs × 1000 + a random 0..999: no other client is likely to use
+/// the same sequence at the same time (positive, < 2^63 until 2262).
+std::int64_t Client::fresh_sequence() {
+  return telemetry::wall_clock_utime() * 1000 + static_cast<std::int64_t>(random_() % 1000);
+}
+
+Ack Client::send(clm_lcm::servo_command_t command, double timeout_s, const std::string& what) {
+  command.utime = telemetry::wall_clock_utime();
+  command.sequence = fresh_sequence();
+  const std::int64_t sequence = command.sequence;
+  {
+    std::lock_guard lock(mutex_);
+    pending_.insert(sequence);  // before publishing, so a fast ack is not missed
+  }
+  const auto forget = [&] {
+    std::lock_guard lock(mutex_);
+    pending_.erase(sequence);
+    acks_.erase(sequence);
+  };
+  if (lcm_->publish(telemetry::kCommandChannel, &command) != 0) {
+    forget();
+    throw Error("LCM refused to publish " + (what.empty() ? std::string() : what + " ") + "on " +
+                telemetry::kCommandChannel + " at " + options_.lcm_url);
+  }
+  std::unique_lock lock(mutex_);
+  if (!changed_.wait_for(lock, duration(timeout_s), [&] { return acks_.count(sequence) > 0; })) {
+    lock.unlock();
+    forget();
+    const std::string channel = telemetry::kCommandAckChannel;
+    const std::string hint = " (is clm-servod running with that lcm_url?)";
+    if (what.empty()) {
+      throw NoAck("no " + channel + " for sequence " + std::to_string(sequence) + " on " + options_.lcm_url +
+                      " within " + seconds(timeout_s) + hint,
+                  sequence);
+    }
+    throw NoAck("no " + channel + " for " + what + " (sequence " + std::to_string(sequence) + ") within " +
+                    seconds(timeout_s) + " on " + options_.lcm_url + hint,
+                sequence);
+  }
+  Ack ack = std::move(acks_[sequence]);
+  acks_.erase(sequence);
+  pending_.erase(sequence);
+  return ack;
+}
+
+std::string Client::command(const std::string& what, clm_lcm::servo_command_t command, double timeout_s) {
+  Ack ack = send(std::move(command), timeout_s, what);
+  if (!ack.accepted) {
+    const std::string message = "clm-servod refused " + what + ": " + ack.text;
+    throw Refused(message, std::move(ack));
+  }
+  return ack.text;
+}
+
+servo_status_t Client::wait_for_status(double timeout_s) {
+  std::unique_lock lock(mutex_);
+  const std::int64_t returned = statuses_returned_;
+  if (!changed_.wait_for(lock, duration(timeout_s), [&] { return statuses_seen_ > returned; })) {
+    throw Timeout(std::string("no ") + telemetry::kStatusChannel + " on " + options_.lcm_url + " within " +
+                  seconds(timeout_s) + " (is clm-servod running with that lcm_url?)");
+  }
+  statuses_returned_ = statuses_seen_;
+  return *status_;
+}
+
+std::string Client::fault_text() const {
+  if (status_ && status_->fault != 0) {
+    return "fault " + std::to_string(status_->fault) + " (" + status_->fault_reason + ") at cycle " +
+           std::to_string(status_->fault_cycle);
+  }
+  return "a fault (CLM_SERVO_STATE state 2; see clm ctl status)";
+}
+
+void Client::wait_for_state(const std::string& what, double timeout_s,
+                            const std::function<bool(const servo_state_t&)>& done) {
+  std::unique_lock lock(mutex_);
+  const bool finished = changed_.wait_for(lock, duration(timeout_s), [&] {
+    return state_ && (state_->state == kStateFault || done(*state_));
+  });
+  if (finished && state_->state == kStateFault) {
+    // The status may trail the state by up to one status period.
+    changed_.wait_for(lock, std::chrono::milliseconds(300), [&] { return status_ && status_->fault != 0; });
+    throw Faulted("clm-servod latched " + fault_text() + " while waiting for " + what);
+  }
+  if (!finished) {
+    std::string last = state_ ? "the last CLM_SERVO_STATE is of cycle " + std::to_string(state_->cycle)
+                              : "no CLM_SERVO_STATE received on " + options_.lcm_url;
+    if (undecodable_ > 0) {
+      last += "; " + std::to_string(undecodable_) + " messages did not decode (a clm-servod built from other lcmtypes?)";
+    }
+    throw Timeout(what + ": not within " + seconds(timeout_s) + " (" + last + ")");
+  }
+}
+
+void Client::wait_states(std::int64_t count, double timeout_s, const std::string& what) {
+  std::unique_lock lock(mutex_);
+  const std::int64_t target = states_seen_ + count;
+  if (!changed_.wait_for(lock, duration(timeout_s), [&] { return states_seen_ >= target; })) {
+    throw Timeout(what + ": " + std::to_string(count) + " CLM_SERVO_STATE messages did not come within " +
+                  seconds(timeout_s) + " on " + options_.lcm_url);
+  }
+  if (state_ && state_->state == kStateFault) throw Faulted("clm-servod latched " + fault_text() + " during " + what);
+}
+
+std::optional<servo_state_t> Client::latest_state() const {
+  std::lock_guard lock(mutex_);
+  return state_;
+}
+
+std::optional<servo_status_t> Client::first_status() const {
+  std::lock_guard lock(mutex_);
+  return first_status_;
+}
+
+std::optional<servo_status_t> Client::latest_status() const {
+  std::lock_guard lock(mutex_);
+  return status_;
+}
+
+std::int64_t Client::states_received() const {
+  std::lock_guard lock(mutex_);
+  return states_seen_;
+}
+
+void Client::start_capture() {
+  std::lock_guard lock(mutex_);
+  captured_.clear();
+  capturing_ = true;
+}
+
+std::vector<ReceivedMessage> Client::stop_capture() {
+  std::lock_guard lock(mutex_);
+  capturing_ = false;
+  std::vector<ReceivedMessage> messages;
+  messages.swap(captured_);
+  return messages;
+}
+
+}  // namespace clm::servod_client

@@ -1,0 +1,182 @@
+#pragma once
+// A client of a running clm-servod over LCM (docs/servod.md "Commands",
+// docs/telemetry.md): receives CLM_SERVO_STATUS, CLM_SERVO_STATE and
+// CLM_SERVO_COMMAND_ACK on a thread of its own; publishes servo_command_t on
+// CLM_SERVO_COMMAND with a fresh sequence number and waits for the ack with
+// that sequence; waits for a status or for states; keeps the messages of a
+// stretch of time. `clm ctl` and `clm commission --live` are built on it.
+// Every failure throws servod_client::Error (a std::runtime_error), one line.
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <random>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "clm_lcm/servo_command_t.hpp"
+#include "clm_lcm/servo_state_t.hpp"
+#include "clm_lcm/servo_status_t.hpp"
+#include "daemon/telemetry/telemetry.hpp"
+
+namespace lcm {
+class LCM;
+struct ReceiveBuffer;
+}  // namespace lcm
+
+namespace clm::servod_client {
+
+/// One LCM message as received: channel, receive time [µs since the UNIX epoch], bytes.
+struct ReceivedMessage {
+  std::string channel;
+  std::int64_t utime = 0;
+  std::vector<std::uint8_t> data;
+};
+
+/// Decodes `data` into `out`; false unless it decodes and uses every byte
+/// (a message of other lcmtypes, or damaged).
+template <typename Message>
+bool decode(const std::vector<std::uint8_t>& data, Message& out) {
+  const int size = static_cast<int>(data.size());
+  return out.decode(data.data(), 0, size) == size;
+}
+
+/// A servo_command_t of kind `kind` (servo_command_t::ENABLE, ...), every
+/// other field zero or empty; send() sets utime and sequence.
+clm_lcm::servo_command_t make_command(std::int8_t kind);
+
+/// What the daemon answered on CLM_SERVO_COMMAND_ACK.
+struct Ack {
+  std::int64_t sequence = 0;
+  bool accepted = false;
+  std::string text;
+};
+
+/// Every failure of the client: LCM not opened, a publish refused, and the
+/// subclasses below.
+class Error : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+/// Nothing (status, ack, states) came within the time waited.
+class Timeout : public Error {
+ public:
+  using Error::Error;
+};
+/// No CLM_SERVO_COMMAND_ACK with the command's sequence within the timeout.
+class NoAck : public Timeout {
+ public:
+  NoAck(const std::string& message, std::int64_t sequence) : Timeout(message), sequence_(sequence) {}
+  std::int64_t sequence() const { return sequence_; }
+
+ private:
+  std::int64_t sequence_;
+};
+/// The daemon acknowledged the command with accepted = false (command()).
+class Refused : public Error {
+ public:
+  Refused(const std::string& message, Ack ack) : Error(message), ack_(std::move(ack)) {}
+  const Ack& ack() const { return ack_; }
+
+ private:
+  Ack ack_;
+};
+/// The daemon latched a fault (CLM_SERVO_STATE state FAULT) while waiting for states.
+class Faulted : public Error {
+ public:
+  using Error::Error;
+};
+
+struct Options {
+  std::string lcm_url = telemetry::kDefaultLcmUrl;
+  /// The channels to receive, an LCM regular expression: ".*" also receives
+  /// events and the commands themselves (multicast loops them back).
+  std::string channels = ".*";
+  /// For every state of a run at 1 kHz on a loaded host: a 4 MiB socket
+  /// receive buffer (telemetry::with_receive_buffer) and room for 60000
+  /// queued messages (a minute of states). Off: LCM's defaults (30 messages).
+  bool every_state = false;
+};
+
+class Client {
+ public:
+  /// Opens LCM at options.lcm_url, subscribes and starts receiving. Throws
+  /// Error when LCM cannot be opened.
+  explicit Client(Options options);
+  ~Client();
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
+
+  const std::string& lcm_url() const { return options_.lcm_url; }
+
+  /// Publishes `command` on CLM_SERVO_COMMAND with a fresh sequence and the
+  /// wall-clock utime, and waits up to `timeout_s` [s] for the ack with that
+  /// sequence; returns it, accepted or not. Throws Error when LCM refuses to
+  /// publish, NoAck when no ack comes. `what` names the command in those
+  /// messages ("": the command is named by its sequence alone).
+  Ack send(clm_lcm::servo_command_t command, double timeout_s, const std::string& what = "");
+  /// send(), and Refused ("clm-servod refused WHAT: TEXT") when the daemon
+  /// refuses; returns the ack's text.
+  std::string command(const std::string& what, clm_lcm::servo_command_t command, double timeout_s);
+
+  /// Waits up to `timeout_s` [s] for a CLM_SERVO_STATUS newer than the last
+  /// one this returned (on the first call: any received since connecting)
+  /// and returns it. Throws Timeout when none comes.
+  clm_lcm::servo_status_t wait_for_status(double timeout_s);
+  /// Waits up to `timeout_s` [s] until the latest CLM_SERVO_STATE satisfies
+  /// `done`. Throws Timeout naming `what`, or Faulted at once when the
+  /// daemon latches a fault (its code and reason from the status).
+  void wait_for_state(const std::string& what, double timeout_s,
+                      const std::function<bool(const clm_lcm::servo_state_t&)>& done);
+  /// Waits up to `timeout_s` [s] for `count` more CLM_SERVO_STATE messages.
+  /// Throws Timeout naming `what`, Faulted when the latest state is a fault.
+  void wait_states(std::int64_t count, double timeout_s, const std::string& what);
+
+  std::optional<clm_lcm::servo_state_t> latest_state() const;
+  /// The first CLM_SERVO_STATUS received since connecting, and the latest.
+  std::optional<clm_lcm::servo_status_t> first_status() const;
+  std::optional<clm_lcm::servo_status_t> latest_status() const;
+  /// CLM_SERVO_STATE messages received (decoded) since connecting.
+  std::int64_t states_received() const;
+
+  /// From now on keeps every message received (the channels of Options).
+  void start_capture();
+  /// Stops keeping messages; returns those kept since start_capture().
+  std::vector<ReceivedMessage> stop_capture();
+
+ private:
+  void receive_loop();
+  void on_message(const lcm::ReceiveBuffer* buffer, const std::string& channel);
+  std::int64_t fresh_sequence();
+  std::string fault_text() const;  ///< with mutex_ held
+
+  Options options_;
+  std::unique_ptr<lcm::LCM> lcm_;
+  std::thread receiver_;
+  std::atomic<bool> stop_{false};
+  std::mt19937_64 random_{std::random_device{}()};
+
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  std::set<std::int64_t> pending_;  ///< sequences sent whose ack has not come
+  std::map<std::int64_t, Ack> acks_;
+  std::optional<clm_lcm::servo_state_t> state_;
+  std::optional<clm_lcm::servo_status_t> first_status_;
+  std::optional<clm_lcm::servo_status_t> status_;
+  std::int64_t states_seen_ = 0;
+  std::int64_t statuses_seen_ = 0;
+  std::int64_t statuses_returned_ = 0;  ///< statuses_seen_ when wait_for_status last returned
+  std::int64_t undecodable_ = 0;  ///< messages on the daemon's channels that did not decode (other lcmtypes)
+  bool capturing_ = false;
+  std::vector<ReceivedMessage> captured_;
+};
+
+}  // namespace clm::servod_client
