@@ -83,6 +83,9 @@ constexpr bool answered_by_cycle(CommandKind kind) noexcept { return route(kind)
 struct Command {
   std::int64_t utime = 0;     ///< sender's wall-clock time [µs since the UNIX epoch]
   std::int64_t sequence = 0;  ///< echoed in the reply
+  FixedText<33> axis;         ///< the axis it is for (daemon/servod/command_gate.hpp)
+  std::int64_t session = 0;   ///< the daemon run it is for
+  std::int64_t client = 0;    ///< the sender; echoed in the reply
   CommandKind kind = CommandKind::kStop;
   double target_m = 0.0;                                  ///< kMoveTo [m]
   control::MotionLimits limits{0.1, 1.0, 1000.0};         ///< kMoveTo

@@ -37,9 +37,9 @@ void CommandServer::stop() {
 
 int CommandServer::serve_once() {
   int acks = 0;
-  const auto ack = [&](std::int64_t sequence, bool accepted, const std::string& text) {
+  const auto ack = [&](const CommandReply& reply) {
     try {
-      publisher_.publish_ack(sequence, accepted, text);
+      publisher_.publish_ack(reply.sequence, reply.client, reply.accepted, reply.text);
     } catch (const std::exception&) {
       // LCM refused the ack: the sender times out; the daemon goes on.
     }
@@ -50,9 +50,9 @@ int CommandServer::serve_once() {
     served_.fetch_add(1, std::memory_order_relaxed);
     const CommandReply reply = daemon_.submit(received);
     // A command the cycle answers is acked once, with its decision (below).
-    if (!(reply.accepted && servo::answered_by_cycle(received.kind))) ack(reply.sequence, reply.accepted, reply.text);
+    if (!(reply.accepted && servo::answered_by_cycle(received.kind))) ack(reply);
   }
-  for (const CommandReply& reply : daemon_.take_replies()) ack(reply.sequence, reply.accepted, reply.text);
+  for (const CommandReply& reply : daemon_.take_replies()) ack(reply);
   if (++passes_ % kGarbagePasses == 0) daemon_.collect_garbage();
   return acks;
 }

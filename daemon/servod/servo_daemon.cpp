@@ -28,6 +28,7 @@ void sleep_until(std::int64_t time_ns) noexcept {
 
 struct ServoDaemon::RtReply {
   std::int64_t sequence = 0;
+  std::int64_t client = 0;
   servo::CommandStatus status = servo::CommandStatus::kAccepted;
 };
 
@@ -157,6 +158,12 @@ CommandReply ServoDaemon::submit_program(const ProgramFile& program, std::int64_
 }
 
 CommandReply ServoDaemon::submit(const servo::Command& received) {
+  CommandReply reply = answer(received);
+  reply.client = received.client;
+  return reply;
+}
+
+CommandReply ServoDaemon::answer(const servo::Command& received) {
   using Kind = servo::CommandKind;
   collect_garbage();
   servo::Command command = received;
@@ -197,7 +204,7 @@ std::vector<CommandReply> ServoDaemon::take_replies() {
   RtReply reply;
   while (replies_->try_pop(reply)) {
     const bool ok = reply.status == servo::CommandStatus::kAccepted || reply.status == servo::CommandStatus::kDeferred;
-    out.push_back({reply.sequence, ok, servo::describe(reply.status)});
+    out.push_back({reply.sequence, ok, servo::describe(reply.status), reply.client});
   }
   return out;
 }
@@ -228,7 +235,7 @@ void ServoDaemon::drain_commands() noexcept {
       case Kind::kLoadFeedforward: cycle_->set_feedforward(command.feedforward); break;
       default: status = servo::CommandStatus::kRejectedInvalid; break;  // not a kind the cycle answers
     }
-    replies_->try_push({command.sequence, status});
+    replies_->try_push({command.sequence, command.client, status});
   }
 }
 

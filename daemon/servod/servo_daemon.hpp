@@ -27,6 +27,7 @@ struct CommandReply {
   std::int64_t sequence = 0;
   bool accepted = false;
   std::string text;
+  std::int64_t client = 0;  ///< the command's client, for the ack
 };
 
 /// Timing of the loop (real-time clock); filled by the loop, read by status.
@@ -104,6 +105,8 @@ class ServoDaemon {
                  bool realtime) noexcept;
   void drain_commands() noexcept;
   std::unique_ptr<OwnedLaw> build_law(servo::CommutationMode mode, const std::string& path) const;
+  /// submit without the client: the reply to `received`.
+  CommandReply answer(const servo::Command& received);
   CommandReply queue(const servo::Command& command);
   CommandReply post_program(const servo::Command& command, const ProgramFile* program);
 

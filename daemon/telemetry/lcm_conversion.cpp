@@ -135,13 +135,21 @@ servo::CycleRecord to_record(const clm_lcm::servo_state_t& m) {
 clm_lcm::servo_status_t to_message(const ServoStatusSample& sample, std::int64_t telemetry_dropped) {
   clm_lcm::servo_status_t m;
   m.utime = stamped(sample.utime);
+  m.axis = std::string(sample.axis.view());
+  m.session = sample.session;
   m.state = sample.state;
   m.fault = sample.fault;
   m.fault_reason = std::string(sample.fault_reason.view());
   m.fault_cycle = sample.fault_cycle;
   m.commutation = sample.commutation;
-  m.model_file = std::string(sample.model_file.view());
-  m.calibration_file = std::string(sample.calibration_file.view());
+  m.calibration_file = std::string(sample.calibration.path.view());
+  m.calibration_sha256 = std::string(sample.calibration.sha256.view());
+  m.pgnn_model_file = std::string(sample.pgnn_model.path.view());
+  m.pgnn_model_sha256 = std::string(sample.pgnn_model.sha256.view());
+  m.spline_model_file = std::string(sample.spline_model.path.view());
+  m.spline_model_sha256 = std::string(sample.spline_model.sha256.view());
+  m.feedforward_file = std::string(sample.feedforward.path.view());
+  m.feedforward_sha256 = std::string(sample.feedforward.sha256.view());
   m.wakeup_latency_p50_s = sample.wakeup_latency_p50_s;
   m.wakeup_latency_p99_s = sample.wakeup_latency_p99_s;
   m.wakeup_latency_max_s = sample.wakeup_latency_max_s;
@@ -160,6 +168,18 @@ clm_lcm::servo_status_t to_message(const ServoStatusSample& sample, std::int64_t
   m.damping_cycles = sample.damping_cycles;
   m.program_running = sample.program_running;
   m.program_time_s = sample.program_time_s;
+  const CommandAuthorityStatus& c = sample.commands;
+  m.control_client = c.control_client;
+  m.control_lease_remaining_s = c.control_lease_remaining_s;
+  m.commands_admitted = c.admitted;
+  m.commands_refused_malformed = c.refused_malformed;
+  m.commands_refused_other_axis = c.refused_other_axis;
+  m.commands_refused_other_session = c.refused_other_session;
+  m.commands_refused_no_client = c.refused_no_client;
+  m.commands_refused_replayed = c.refused_replayed;
+  m.commands_refused_stale = c.refused_stale;
+  m.commands_refused_not_in_control = c.refused_not_in_control;
+  m.commands_refused_by_daemon = c.refused_by_daemon;
   return m;
 }
 
@@ -173,10 +193,13 @@ clm_lcm::servo_event_t to_message(const ServoEventSample& sample) {
   return m;
 }
 
-clm_lcm::servo_command_ack_t to_message(const ServoCommandAck& ack) {
+clm_lcm::servo_command_ack_t to_message(const ServoCommandAck& ack, std::string_view axis, std::int64_t session) {
   clm_lcm::servo_command_ack_t m;
   m.utime = stamped(ack.utime);
   m.sequence = ack.sequence;
+  m.axis = std::string(axis);
+  m.session = session;
+  m.client = ack.client;
   m.accepted = ack.accepted;
   m.text = std::string(ack.text.view());
   return m;
@@ -207,6 +230,9 @@ std::string to_command(const clm_lcm::servo_command_t& message, servo::Command& 
   servo::Command command;
   command.utime = message.utime;
   command.sequence = message.sequence;
+  command.session = message.session;
+  command.client = message.client;
+  if (!command.axis.assign(message.axis)) return "axis is longer than 32 characters";
   if (!servo::is_command_kind(message.command)) {
     return "unknown command " + std::to_string(message.command) + " (1.." + std::to_string(servo::kCommandKinds) + ")";
   }

@@ -28,7 +28,8 @@ servo::CycleRecord to_record(const clm_lcm::servo_state_t& message);
 // A sample's utime of 0 becomes wall_clock_utime().
 clm_lcm::servo_status_t to_message(const ServoStatusSample& sample, std::int64_t telemetry_dropped);
 clm_lcm::servo_event_t to_message(const ServoEventSample& sample);
-clm_lcm::servo_command_ack_t to_message(const ServoCommandAck& ack);
+/// The ack of the daemon driving `axis` in run `session`.
+clm_lcm::servo_command_ack_t to_message(const ServoCommandAck& ack, std::string_view axis, std::int64_t session);
 
 /// Checks a received command and copies it into `out`. Returns "" when it is
 /// well-formed, else the one-line reason to send back in the ack: unknown

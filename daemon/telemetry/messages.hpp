@@ -29,15 +29,40 @@ using PathText = servo::PathText;
 
 /// Daemon health, as servo_status_t, without telemetry_dropped (the
 /// publisher fills that in from its own counters).
+/// A loaded file as the status names it: canonical path and SHA-256 (hex).
+struct LoadedFileText {
+  PathText path;
+  FixedText<65> sha256;
+};
+
+/// Command authority's part of the status (servo_status_t, docs/servod.md).
+struct CommandAuthorityStatus {
+  std::int64_t control_client = 0;
+  double control_lease_remaining_s = 0.0;
+  std::int64_t admitted = 0;
+  std::int64_t refused_malformed = 0;
+  std::int64_t refused_other_axis = 0;
+  std::int64_t refused_other_session = 0;
+  std::int64_t refused_no_client = 0;
+  std::int64_t refused_replayed = 0;
+  std::int64_t refused_stale = 0;
+  std::int64_t refused_not_in_control = 0;
+  std::int64_t refused_by_daemon = 0;
+};
+
 struct ServoStatusSample {
   std::int64_t utime = 0;  ///< [µs since the UNIX epoch]; 0 = stamp at publication
+  FixedText<33> axis;
+  std::int64_t session = 0;
   std::int8_t state = 0;   ///< clm_lcm::servo_status_t::STATE_*
   std::int16_t fault = 0;  ///< daemon/servo/fault.hpp code, 0 = none
   ReasonText fault_reason;
   std::int64_t fault_cycle = -1;  ///< -1 = no fault
   std::int8_t commutation = 0;
-  PathText model_file;
-  PathText calibration_file;
+  LoadedFileText calibration;
+  LoadedFileText pgnn_model;
+  LoadedFileText spline_model;
+  LoadedFileText feedforward;
   double wakeup_latency_p50_s = 0.0;
   double wakeup_latency_p99_s = 0.0;
   double wakeup_latency_max_s = 0.0;
@@ -55,6 +80,7 @@ struct ServoStatusSample {
   std::int64_t damping_cycles = 0;
   bool program_running = false;
   double program_time_s = 0.0;
+  CommandAuthorityStatus commands;
 };
 
 /// Something that happened once, as servo_event_t.
@@ -70,6 +96,7 @@ struct ServoEventSample {
 struct ServoCommandAck {
   std::int64_t utime = 0;  ///< 0 = stamp at publication
   std::int64_t sequence = 0;
+  std::int64_t client = 0;  ///< the command's client; axis and session are the daemon's
   bool accepted = false;
   ReasonText text;
 };

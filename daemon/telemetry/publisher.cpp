@@ -151,12 +151,13 @@ void TelemetryPublisher::publish_to_sinks(const char* channel, const Message& me
   }
 }
 
-void TelemetryPublisher::publish_ack(std::int64_t sequence, bool accepted, std::string_view text) {
-  clm_lcm::servo_command_ack_t message;
-  message.utime = wall_clock_utime();
-  message.sequence = sequence;
-  message.accepted = accepted;
-  message.text = std::string(text);
+void TelemetryPublisher::publish_ack(std::int64_t sequence, std::int64_t client, bool accepted, std::string_view text) {
+  ServoCommandAck ack;
+  ack.sequence = sequence;
+  ack.client = client;
+  ack.accepted = accepted;
+  ack.text.assign(text);
+  const auto message = to_message(ack, config_.axis, config_.session);
   publish_to_sinks(kCommandAckChannel, message, message.utime);
 }
 
@@ -174,7 +175,7 @@ bool TelemetryPublisher::submit_command(const clm_lcm::servo_command_t& message)
     reason = "command queue full (" + std::to_string(commands_.capacity()) + "): the servo cycle is not taking commands";
   }
   commands_rejected_.fetch_add(1, std::memory_order_relaxed);
-  publish_ack(message.sequence, false, reason);
+  publish_ack(message.sequence, message.client, false, reason);
   return false;
 }
 
@@ -215,7 +216,7 @@ std::size_t TelemetryPublisher::drain() {
     publish_to_sinks(kEventChannel, m, m.utime);
   });
   drain_queue(acks_, [&](const ServoCommandAck& a) {
-    const auto m = to_message(a);
+    const auto m = to_message(a, config_.axis, config_.session);
     publish_to_sinks(kCommandAckChannel, m, m.utime);
   });
   drain_queue(statuses_, [&](const ServoStatusSample& s) {

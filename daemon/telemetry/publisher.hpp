@@ -45,6 +45,10 @@ namespace clm::telemetry {
 /// its `telemetry:` section, daemon/servod/servod_config.hpp).
 struct TelemetryConfig {
   std::string lcm_url = kDefaultLcmUrl;
+  /// The daemon's identity, stamped on every ack (config axis.name and the
+  /// session id drawn at start-up).
+  std::string axis = "axis0";
+  std::int64_t session = 0;
   /// Publish the state of cycles whose number is a multiple of this; 1 = every cycle.
   int state_decimation = 1;
   /// Queue capacities [items], powers of two. 4096 states = 4 s at 1 kHz.
@@ -107,7 +111,7 @@ class TelemetryPublisher {
 
   // ---- any other thread ---------------------------------------------------
   /// Publishes an ack now, on the calling thread.
-  void publish_ack(std::int64_t sequence, bool accepted, std::string_view text);
+  void publish_ack(std::int64_t sequence, std::int64_t client, bool accepted, std::string_view text);
   /// Handles `message` as if it had arrived on CLM_SERVO_COMMAND: checks it,
   /// queues it for poll_command, or refuses it with an ack. True if queued.
   bool submit_command(const clm_lcm::servo_command_t& message);

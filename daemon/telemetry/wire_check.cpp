@@ -34,26 +34,39 @@ constexpr WireField doubles(const char* name, int length_field) {
 
 constexpr double kCommutationMax = 5;  // servo_state_t.COMMUTATION_EXPERIMENT
 
+/// Axis names: 1..32 characters (config axis.name); 0 is let through here so
+/// that the refusal names the axis rule rather than the layout.
+constexpr double kMaxAxisBytes = 32;
+
 constexpr std::array kCommandFields{
-    i64("utime"), i64("sequence"), i8("command", 1, 11),
+    i64("utime"), i64("sequence"), text("axis", kMaxAxisBytes), i64("session"), i64("client"), i8("command", 1, 13),
     finite("target_m"), finite("velocity_m_per_s"), finite("acceleration_m_per_s2"), finite("jerk_m_per_s3"),
     text("program", kMaxPathBytes), i8("commutation", 0, kCommutationMax), i8("coil_set", 0, kMaxCoilSetCount),
     finite("delta_rad"), text("path", kMaxPathBytes),
 };
 
-constexpr std::array kAckFields{i64("utime"), i64("sequence"), boolean("accepted"), text("text", kMaxTextBytes)};
+constexpr std::array kAckFields{i64("utime"),   i64("sequence"),        text("axis", kMaxAxisBytes),
+                                i64("session"), i64("client"),          boolean("accepted"),
+                                text("text", kMaxTextBytes)};
 
 constexpr std::array kEventFields{i64("utime"), i64("cycle"), i16("code"), i8("severity", 0, 3),
                                   text("text", kMaxTextBytes)};
 
 constexpr std::array kStatusFields{
-    i64("utime"), i8("state", 0, 2), i16("fault", 0), text("fault_reason", kMaxTextBytes), i64("fault_cycle"),
-    i8("commutation", 0, kCommutationMax), text("model_file", kMaxTextBytes), text("calibration_file", kMaxTextBytes),
+    i64("utime"), text("axis", kMaxAxisBytes), i64("session"), i8("state", 0, 2), i16("fault", 0),
+    text("fault_reason", kMaxTextBytes), i64("fault_cycle"), i8("commutation", 0, kCommutationMax),
+    text("calibration_file", kMaxTextBytes), text("calibration_sha256", 64), text("pgnn_model_file", kMaxTextBytes),
+    text("pgnn_model_sha256", 64), text("spline_model_file", kMaxTextBytes), text("spline_model_sha256", 64),
+    text("feedforward_file", kMaxTextBytes), text("feedforward_sha256", 64),
     finite("wakeup_latency_p50_s"), finite("wakeup_latency_p99_s"), finite("wakeup_latency_max_s"),
     finite("compute_time_p50_s"), finite("compute_time_p99_s"), finite("compute_time_max_s"),
     i64("overruns"), i64("cycles"), i64("frames_sent"), i64("frames_received"), i64("frames_missing"),
     i64("frames_late"), i64("frames_rejected"), i64("telemetry_dropped"), i8("bus_state", -1, 3),
     i64("damping_cycles"), boolean("program_running"), finite("program_time_s"),
+    i64("control_client"), finite("control_lease_remaining_s"), i64("commands_admitted"),
+    i64("commands_refused_malformed"), i64("commands_refused_other_axis"), i64("commands_refused_other_session"),
+    i64("commands_refused_no_client"), i64("commands_refused_replayed"), i64("commands_refused_stale"),
+    i64("commands_refused_not_in_control"), i64("commands_refused_by_daemon"),
 };
 
 // Index 20 is coil_sets, the length of the four arrays after it.

@@ -16,14 +16,17 @@ inline std::vector<std::uint8_t> encode_command(const clm_lcm::servo_command_t& 
   return bytes;
 }
 
-/// Offset of servo_command_t.program's length field: hash, utime, sequence,
-/// command, four doubles.
-inline constexpr std::size_t kCommandProgramLengthOffset = 8 + 8 + 8 + 1 + 4 * 8;
+/// Offset of servo_command_t.program's length field for an empty axis:
+/// hash, utime, sequence, axis (length and NUL), session, client, command,
+/// four doubles.
+inline constexpr std::size_t kCommandProgramLengthOffset = 8 + 8 + 8 + 5 + 8 + 8 + 1 + 4 * 8;
 
-/// The 103-byte MOVE_TO whose `program` length field is −2³¹: lcm-gen's
-/// decode computes length − 1 and copies gigabytes past the buffer.
+/// A MOVE_TO whose `program` length field is −2³¹ (the attack that once
+/// crashed clm-servod, on the present layout): lcm-gen's decode computes
+/// length − 1 and copies gigabytes past the buffer.
 inline std::vector<std::uint8_t> program_length_min_int32_datagram() {
   clm_lcm::servo_command_t command{};
+  command.axis = "";
   command.sequence = 1;
   command.command = clm_lcm::servo_command_t::MOVE_TO;
   command.program = std::string(26, 'p');

@@ -68,13 +68,20 @@ const char* bus_state_name(int state) {
 /// One `field: value` line per servo_status_t field, the field names as in
 /// lcmtypes/servo_status_t.lcm, so scripts can pick lines out.
 void print_status(const clm_lcm::servo_status_t& s) {
+  std::printf("axis: %s\n", s.axis.c_str());
+  std::printf("session: %lld\n", static_cast<long long>(s.session));
   std::printf("state: %s\n", state_name(s.state));
   std::printf("fault: %d\n", s.fault);
   std::printf("fault_reason: %s\n", s.fault_reason.c_str());
   std::printf("fault_cycle: %lld\n", static_cast<long long>(s.fault_cycle));
   std::printf("commutation: %s\n", commutation_name(s.commutation));
-  std::printf("model_file: %s\n", s.model_file.c_str());
-  std::printf("calibration_file: %s\n", s.calibration_file.c_str());
+  const auto file = [](const char* name, const std::string& path, const std::string& sha256) {
+    std::printf("%s: %s%s%s\n", name, path.c_str(), sha256.empty() ? "" : " sha256 ", sha256.c_str());
+  };
+  file("calibration_file", s.calibration_file, s.calibration_sha256);
+  file("pgnn_model_file", s.pgnn_model_file, s.pgnn_model_sha256);
+  file("spline_model_file", s.spline_model_file, s.spline_model_sha256);
+  file("feedforward_file", s.feedforward_file, s.feedforward_sha256);
   std::printf("program_running: %s\n", s.program_running ? "true" : "false");
   std::printf("program_time_s: %.3f\n", s.program_time_s);
   std::printf("cycles: %lld\n", static_cast<long long>(s.cycles));
@@ -90,6 +97,16 @@ void print_status(const clm_lcm::servo_status_t& s) {
   std::printf("bus_state: %s\n", bus_state_name(s.bus_state));
   std::printf("damping_cycles: %lld\n", static_cast<long long>(s.damping_cycles));
   std::printf("telemetry_dropped: %lld\n", static_cast<long long>(s.telemetry_dropped));
+  std::printf("control_client: %lld\n", static_cast<long long>(s.control_client));
+  std::printf("control_lease_remaining_s: %.1f\n", s.control_lease_remaining_s);
+  std::printf("commands: admitted %lld, refused malformed %lld, other_axis %lld, other_session %lld, no_client %lld, "
+              "replayed %lld, stale %lld, not_in_control %lld, by_daemon %lld\n",
+              static_cast<long long>(s.commands_admitted), static_cast<long long>(s.commands_refused_malformed),
+              static_cast<long long>(s.commands_refused_other_axis),
+              static_cast<long long>(s.commands_refused_other_session),
+              static_cast<long long>(s.commands_refused_no_client), static_cast<long long>(s.commands_refused_replayed),
+              static_cast<long long>(s.commands_refused_stale), static_cast<long long>(s.commands_refused_not_in_control),
+              static_cast<long long>(s.commands_refused_by_daemon));
 }
 
 void run_status(const CtlOptions& options) {
