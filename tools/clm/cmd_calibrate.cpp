@@ -16,6 +16,7 @@ void add_calibrate(CLI::App& app) {
   struct Options {
     std::string motor, data, output;
     bool robust = false;
+    DataLimits limits;
   };
   auto options = std::make_shared<Options>();
   sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(CLI::ExistingFile);
@@ -24,10 +25,12 @@ void add_calibrate(CLI::App& app) {
   sub->add_option("--output", options->output, "calibration file to write (YAML)")->required();
   sub->add_flag("--robust", options->robust,
                 "write the offset-robust fit (a position-dependent offset fitted beside c_i) instead of the paper's");
+  lcmlog::add_data_limit_options(*sub, options->limits, "--data");
   sub->callback([options] {
     const auto motor = load_motor_description(options->motor);
-    const auto table = lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment);
-    const auto data = read_experiment_data(table, motor);
+    // The table (the file's text) is dropped once its rows are grouped.
+    const auto data = read_experiment_data(
+        lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment, options->limits), motor);
     const auto paper = calibrate_motor(data, motor, CalibrationMethod::kAlgorithm1);
     const auto robust = calibrate_motor(data, motor, CalibrationMethod::kOffsetRobust);
     CalibrationFile chosen = options->robust ? robust : paper;

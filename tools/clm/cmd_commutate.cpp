@@ -7,6 +7,7 @@
 #include "commutation/model_file.hpp"
 #include "tools/clm/commands.hpp"
 #include "tools/data/csv_table.hpp"
+#include "tools/lcmlog/data_input.hpp"
 
 namespace clm::cli {
 
@@ -14,6 +15,7 @@ void add_commutate(CLI::App& app) {
   auto* sub = app.add_subcommand("commutate", "commutate desired forces into drive setpoints and phase currents");
   struct Options {
     std::string motor, calibration, model, input, output, power = "true";
+    DataLimits limits;
   };
   auto options = std::make_shared<Options>();
   sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(CLI::ExistingFile);
@@ -26,6 +28,7 @@ void add_commutate(CLI::App& app) {
   sub->add_option("--output", options->output, "setpoints to write (CSV)")->required();
   sub->add_option("--power", options->power, "minimum of ||i||^2 as printed (paper) or of ia^2+ib^2+ic^2 (true)")
       ->check(CLI::IsMember({"paper", "true"}))->capture_default_str();
+  lcmlog::add_data_limit_options(*sub, options->limits, "--input");
   sub->callback([options] {
     if (options->calibration.empty() == options->model.empty()) {
       throw std::runtime_error("give exactly one of --calibration and --model");
@@ -46,7 +49,7 @@ void add_commutate(CLI::App& app) {
       commutator_options.power_metric = options->power == "true" ? PowerMetric::kTruePower : PowerMetric::kCurrentNorm;
       law = std::make_unique<ModelCommutator>(model_file.model, motor.drive, commutator_options);
     }
-    const auto table = CsvTable::load(options->input);
+    const auto table = CsvTable::load(options->input, options->limits);
     const auto y = table.numbers("y_m");
     const auto fy = table.numbers("Fy_N");
     const auto fx = table.numbers("Fx_N");

@@ -16,6 +16,7 @@ void add_identify(CLI::App& app) {
   struct Options {
     std::string motor, data, output, model = "pgnn";
     IdentifyOptions identify;
+    DataLimits limits;
   };
   auto options = std::make_shared<Options>();
   auto& o = options->identify;
@@ -45,12 +46,15 @@ void add_identify(CLI::App& app) {
   sub->add_option("--knot-spacing-m", o.spline.knot_spacing_m, "spline knot spacing (0: pole pitch / 8)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   sub->add_option("--smoothing", o.spline.smoothing, "spline roughness penalty")->check(CLI::NonNegativeNumber)->capture_default_str();
+  lcmlog::add_data_limit_options(*sub, options->limits, "--data");
   sub->callback([options] {
     options->identify.kind = options->model == "pgnn" ? ModelKind::kPgnn : ModelKind::kSpline;
     options->identify.spline.regularisation = options->identify.pgnn.regularisation;
     const auto motor = load_motor_description(options->motor);
-    const auto table = lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment);
-    const auto data = read_experiment_data(table, motor);
+    // The table (the file's text) is dropped once its rows are grouped, before
+    // the identification's own matrices are made (docs/benchmarks.md, memory).
+    const auto data = read_experiment_data(
+        lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment, options->limits), motor);
     std::vector<CoilSetIdentification> reports;
     ProgressBar bar("identify " + options->model);
     ModelFile file = identify_motor(data, motor, options->identify, reports, [&](const IdentifyProgress& p) {
