@@ -21,7 +21,7 @@ void add_calibrate(CLI::App& app) {
   auto options = std::make_shared<Options>();
   sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(CLI::ExistingFile);
   sub->add_option("--data", options->data,
-                  "experiment data: CSV, or an LCM log of clm-servod (docs/data-formats.md)")->required()->check(CLI::ExistingFile);
+                  "experiment data: CSV, or an LCM log of clm-servod (docs/data-formats.md)")->required()->check(lcmlog::existing_input_file());
   sub->add_option("--output", options->output, "calibration file to write (YAML)")->required();
   sub->add_flag("--robust", options->robust,
                 "write the offset-robust fit (a position-dependent offset fitted beside c_i) instead of the paper's");

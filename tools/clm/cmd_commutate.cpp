@@ -24,7 +24,7 @@ void add_commutate(CLI::App& app) {
   auto* model = sub->add_option("--model", options->model, "model file: inverse (37), then (39)")->check(CLI::ExistingFile);
   calibration->excludes(model);
   model->excludes(calibration);
-  sub->add_option("--input", options->input, "desired forces (CSV with y_m, Fy_N, Fx_N, Tz_Nm)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--input", options->input, "desired forces (CSV with y_m, Fy_N, Fx_N, Tz_Nm)")->required()->check(lcmlog::existing_input_file());
   sub->add_option("--output", options->output, "setpoints to write (CSV)")->required();
   sub->add_option("--power", options->power, "minimum of ||i||^2 as printed (paper) or of ia^2+ib^2+ic^2 (true)")
       ->check(CLI::IsMember({"paper", "true"}))->capture_default_str();

@@ -19,7 +19,7 @@ void add_ff_identify(CLI::App& app) {
   };
   auto options = std::make_shared<Options>();
   sub->add_option("--data", options->data,
-                  "closed-loop data: CSV with t_s, r_m, F_star_N, or an LCM log of clm-servod")->required()->check(CLI::ExistingFile);
+                  "closed-loop data: CSV with t_s, r_m, F_star_N, or an LCM log of clm-servod")->required()->check(lcmlog::existing_input_file());
   sub->add_option("--output", options->output, "feedforward file to write (YAML)")->required();
   lcmlog::add_data_limit_options(*sub, options->limits, "--data");
   sub->callback([options] {

@@ -28,15 +28,15 @@ void split_line(std::string_view line, std::vector<std::string_view>& out) {
   }
 }
 
-/// Throws "<origin>:1: column 'Fy_N' appears twice (columns 6 and 9)" for the
+/// Throws "<where>: column 'Fy_N' appears twice (columns 6 and 9)" for the
 /// first name that repeats an earlier one (columns counted from 1).
-void check_unique_names(const std::vector<std::string_view>& names, const std::string& origin) {
+void check_unique_names(const std::vector<std::string_view>& names, const std::string& where) {
   std::unordered_map<std::string_view, std::size_t> seen;
   seen.reserve(names.size());
   for (std::size_t c = 0; c < names.size(); ++c) {
     const auto [at, inserted] = seen.emplace(names[c], c);
     if (!inserted) {
-      throw std::runtime_error(origin + ":1: column '" + std::string(names[c]) + "' appears twice (columns " +
+      throw std::runtime_error(where + ": column '" + std::string(names[c]) + "' appears twice (columns " +
                                std::to_string(at->second + 1) + " and " + std::to_string(c + 1) + ")");
     }
   }
@@ -85,7 +85,7 @@ CsvTable CsvTable::parse(std::string text, const std::string& origin, std::size_
     if (line.empty()) continue;
     if (table.header_.empty()) {
       split_line(line, table.header_);
-      check_unique_names(table.header_, origin);
+      check_unique_names(table.header_, origin + ":" + std::to_string(line_number));
       continue;
     }
     cell_count = 1 + static_cast<std::size_t>(std::count(line.begin(), line.end(), ','));

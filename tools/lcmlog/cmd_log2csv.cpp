@@ -21,7 +21,7 @@ void add_log2csv(CLI::App& app) {
   auto options = std::make_shared<Options>();
   sub->add_option("--log", options->log, "LCM log of clm-servod (lcm-logger or the commissioning recorder)")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->check(lcmlog::existing_input_file());
   sub->add_option("--output", options->output, "CSV file to write")->required();
   sub->add_option("--format", options->format,
                   "experiment: t_s, coil_set, delta_rad, magnitude_N, y_m, Fy_N, Fx_N, Tz_Nm, ia_A, ib_A "

@@ -1,5 +1,7 @@
 #include "tools/lcmlog/data_input.hpp"
 
+#include <sys/stat.h>
+
 #include <array>
 #include <cstdint>
 #include <stdexcept>
@@ -30,6 +32,16 @@ CsvTable load_data_table(const std::string& path, CsvFormat format, const DataLi
   std::vector<std::int64_t> events(columns.rows());
   for (std::size_t r = 0; r < events.size(); ++r) events[r] = log.events[columns.source_states[r]];
   return CsvTable::from_columns(path, std::move(columns.names), std::move(columns.values), "event", std::move(events));
+}
+
+CLI::Validator existing_input_file() {
+  return CLI::Validator(
+      [](std::string& path) {
+        struct stat status {};
+        if (::stat(path.c_str(), &status) != 0) return "File does not exist: " + path;
+        return std::string();
+      },
+      "FILE");
 }
 
 void add_data_limit_options(CLI::App& subcommand, DataLimits& limits, const std::string& file_option) {

@@ -27,6 +27,12 @@ bool is_lcm_log(const std::string& path);
 /// a file that is not a regular file or holds more than `limits` allow.
 CsvTable load_data_table(const std::string& path, CsvFormat format, const DataLimits& limits = {});
 
+/// CLI11 check of an input file option: the path must exist, whatever it is.
+/// What it is (only a regular file is read) and its size are checked when it
+/// is opened (clm::open_regular_file), so that a directory, a device or a FIFO
+/// gets the same one-line refusal, and status 2, as any other bad input.
+CLI::Validator existing_input_file();
+
 /// Registers --max-bytes and --max-rows on `subcommand`, bound to `limits`
 /// (defaults DataLimits's), for the data file given by `file_option` ("--data").
 void add_data_limit_options(CLI::App& subcommand, DataLimits& limits, const std::string& file_option);
