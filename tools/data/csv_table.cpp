@@ -74,7 +74,6 @@ CsvTable CsvTable::parse(std::string text, const std::string& origin, std::size_
   table.row_starts_.reserve(std::min(lines - 1, max_rows));
   std::size_t start = 0;
   std::size_t line_number = 0;
-  std::size_t cell_count = 0;
   while (start < all.size()) {
     std::size_t end = all.find('\n', start);
     if (end == std::string_view::npos) end = all.size();
@@ -88,7 +87,7 @@ CsvTable CsvTable::parse(std::string text, const std::string& origin, std::size_
       check_unique_names(table.header_, origin + ":" + std::to_string(line_number));
       continue;
     }
-    cell_count = 1 + static_cast<std::size_t>(std::count(line.begin(), line.end(), ','));
+    const std::size_t cell_count = 1 + static_cast<std::size_t>(std::count(line.begin(), line.end(), ','));
     if (cell_count != table.header_.size()) {
       throw std::runtime_error(origin + ":" + std::to_string(line_number) + ": " + std::to_string(cell_count) +
                                " cells, the header has " + std::to_string(table.header_.size()));
