@@ -178,6 +178,13 @@ TEST_CASE("a FIFO without a writer, /dev/zero, a directory or a socket as input 
                 not_regular(fifo, "a FIFO"), fifo);
   check_refused({"identify", "--motor", "/dev/zero", "--data", data, "--output", out.file("model.yaml")},
                 not_regular("/dev/zero", "a character device"));
+  const std::string motor_directory = dir.file("motor.d");
+  fs::create_directory(motor_directory);
+  check_refused({"commutate", "--motor", motor_directory, "--calibration", calibration_in(out.path()), "--input", data,
+                 "--output", out.file("setpoints.csv")},
+                not_regular(motor_directory, "a directory"));
+  check_refused({"commutate", "--motor", kMotor, "--model", fifo, "--input", data, "--output", out.file("setpoints.csv")},
+                not_regular(fifo, "a FIFO"), fifo);
 }
 
 TEST_CASE("a CSV naming a column twice is refused by every reader with the file, line 1 and the column",

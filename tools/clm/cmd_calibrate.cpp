@@ -19,7 +19,7 @@ void add_calibrate(CLI::App& app) {
     DataLimits limits;
   };
   auto options = std::make_shared<Options>();
-  sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(lcmlog::existing_input_file());
   sub->add_option("--data", options->data,
                   "experiment data: CSV, or an LCM log of clm-servod (docs/data-formats.md)")->required()->check(lcmlog::existing_input_file());
   sub->add_option("--output", options->output, "calibration file to write (YAML)")->required();

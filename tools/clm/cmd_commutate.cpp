@@ -18,10 +18,10 @@ void add_commutate(CLI::App& app) {
     DataLimits limits;
   };
   auto options = std::make_shared<Options>();
-  sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(lcmlog::existing_input_file());
   auto* calibration = sub->add_option("--calibration", options->calibration, "calibration file: classical law (12)")
-                          ->check(CLI::ExistingFile);
-  auto* model = sub->add_option("--model", options->model, "model file: inverse (37), then (39)")->check(CLI::ExistingFile);
+                          ->check(lcmlog::existing_input_file());
+  auto* model = sub->add_option("--model", options->model, "model file: inverse (37), then (39)")->check(lcmlog::existing_input_file());
   calibration->excludes(model);
   model->excludes(calibration);
   sub->add_option("--input", options->input, "desired forces (CSV with y_m, Fy_N, Fx_N, Tz_Nm)")->required()->check(lcmlog::existing_input_file());

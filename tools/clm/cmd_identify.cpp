@@ -20,7 +20,7 @@ void add_identify(CLI::App& app) {
   };
   auto options = std::make_shared<Options>();
   auto& o = options->identify;
-  sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(lcmlog::existing_input_file());
   sub->add_option("--data", options->data, "experiment data: CSV, or an LCM log of clm-servod")->required()->check(lcmlog::existing_input_file());
   sub->add_option("--output", options->output, "model file to write (YAML)")->required();
   sub->add_option("--model", options->model, "model class")->check(CLI::IsMember({"pgnn", "spline"}))->capture_default_str();
