@@ -7,21 +7,26 @@
 #include <catch2/catch.hpp>
 
 #include <fcntl.h>
+#include <spawn.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <thread>
 
 #include "cli/cli_support.hpp"
 #include "commutation/model_file.hpp"
 #include "tools/data/csv_table.hpp"
 #include "tools/lcmlog/servo_log.hpp"
+
+extern char** environ;
 
 using namespace clm;
 using namespace clm::cli_test;
@@ -147,6 +152,43 @@ class BoundSocket {
  private:
   int fd_;
 };
+
+/// Runs clm with `args` (output to /dev/null) and returns its exit status and
+/// its peak resident memory, VmHWM of /proc/<pid>/status read every 2 ms until
+/// it exits. (wait4's ru_maxrss would not do: it includes this process's own
+/// peak, which the child shares until its exec.)
+std::pair<int, long> run_clm_peak_kB(const std::vector<std::string>& args) {
+  std::vector<std::string> argv_strings = {CLM_BINARY};
+  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& s : argv_strings) argv.push_back(s.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, "/dev/null", O_WRONLY, 0);
+  pid_t pid = 0;
+  const int spawned = ::posix_spawn(&pid, CLM_BINARY, &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  REQUIRE(spawned == 0);
+  const std::string status_path = "/proc/" + std::to_string(pid) + "/status";
+  long peak = 0;
+  int status = 0;
+  while (true) {
+    {
+      std::ifstream in(status_path);
+      std::string line;
+      while (std::getline(in, line)) {
+        if (line.rfind("VmHWM:", 0) == 0) peak = std::max(peak, std::stol(line.substr(6)));
+      }
+    }
+    const pid_t done = ::waitpid(pid, &status, WNOHANG);
+    if (done == pid) break;
+    REQUIRE(done == 0);
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), peak};
+}
 
 std::string not_regular(const std::string& path, const std::string& kind) {
   return path + ": not a regular file (" + kind + "); only regular files are read";
@@ -286,4 +328,50 @@ TEST_CASE("an LCM log beyond --max-bytes or --max-rows is refused naming the log
   auto args = readers[0];
   args.insert(args.end(), {"--max-rows", std::to_string(log.states.size()), "--max-bytes", bytes});
   require_success(args);
+}
+
+TEST_CASE("identify's peak memory grows linearly with the rows, at most 0.35 GB per million CSV rows with the spline",
+          "[cli][input_files][memory]") {
+  // The commissioning's experiments tiled to 200 000, 400 000 and 800 000
+  // rows, each copy's t_s shifted by 200 s (as tests/bench/tile_experiments.py;
+  // docs/benchmarks.md, "Memory of clm identify": 0.24 GB per million rows).
+  TemporaryDirectory dir;
+  const std::vector<std::size_t> sizes = {200000, 400000, 800000};
+  {
+    const std::string source = read_file(experiment_files().csv);
+    const std::size_t header_end = source.find('\n') + 1;
+    std::vector<std::pair<double, std::string>> rows;
+    for (std::size_t at = header_end; at < source.size();) {
+      const std::size_t end = source.find('\n', at);
+      const std::string line = source.substr(at, end - at);
+      const std::size_t comma = line.find(',');
+      rows.emplace_back(std::stod(line.substr(0, comma)), line.substr(comma));
+      at = end + 1;
+    }
+    for (std::size_t n : sizes) {
+      std::string text = source.substr(0, header_end);
+      text.reserve(n * 90);
+      for (std::size_t k = 0; k < n; ++k) {
+        const auto& [t, rest] = rows[k % rows.size()];
+        text += shortest_double(t + 200.0 * static_cast<double>(k / rows.size())) + rest + "\n";
+      }
+      write_file(dir.file("exp-" + std::to_string(n) + ".csv"), text);
+    }
+  }
+  std::vector<long> peak_kB;
+  for (std::size_t n : sizes) {
+    const auto [status, peak] = run_clm_peak_kB({"identify", "--motor", kMotor, "--data",
+                                                 dir.file("exp-" + std::to_string(n) + ".csv"), "--output",
+                                                 dir.file("model.yaml"), "--model", "spline"});
+    INFO(n << " rows");
+    REQUIRE(status == 0);
+    peak_kB.push_back(peak);
+  }
+  INFO("peak resident memory [kB] at 200k, 400k, 800k rows: " << peak_kB[0] << ", " << peak_kB[1] << ", " << peak_kB[2]);
+  // No faster than linear: twice and four times the rows, at most twice and
+  // four times the memory.
+  CHECK(peak_kB[1] <= 2 * peak_kB[0]);
+  CHECK(peak_kB[2] <= 4 * peak_kB[0]);
+  // At most 350 bytes a row more.
+  CHECK(static_cast<double>(peak_kB[2] - peak_kB[0]) * 1024.0 <= 350.0 * static_cast<double>(sizes[2] - sizes[0]));
 }
