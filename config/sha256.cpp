@@ -1,10 +1,11 @@
 #include "config/sha256.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
-#include <fstream>
-#include <sstream>
-#include <stdexcept>
+#include <vector>
+
+#include "config/regular_file.hpp"
 
 namespace clm {
 namespace {
@@ -49,36 +50,67 @@ void compress(std::array<std::uint32_t, 8>& state, const unsigned char* block) {
   for (std::size_t i = 0; i < 8; ++i) state[i] += add[i];
 }
 
+/// SHA-256 fed in pieces: the same digest as one call on the concatenation.
+class Sha256 {
+ public:
+  void update(const unsigned char* bytes, std::size_t count) {
+    total_ += count;
+    if (buffered_ > 0) {
+      const std::size_t take = std::min(count, block_.size() - buffered_);
+      std::copy_n(bytes, take, block_.data() + buffered_);
+      buffered_ += take;
+      bytes += take;
+      count -= take;
+      if (buffered_ < block_.size()) return;
+      compress(state_, block_.data());
+      buffered_ = 0;
+    }
+    for (; count >= 64; bytes += 64, count -= 64) compress(state_, bytes);
+    std::copy_n(bytes, count, block_.data());
+    buffered_ = count;
+  }
+
+  std::string finish() {
+    unsigned char tail[128] = {};
+    const std::size_t rest = buffered_;
+    std::copy_n(block_.data(), rest, tail);
+    tail[rest] = 0x80;
+    const std::size_t tail_size = rest + 9 <= 64 ? 64 : 128;
+    const std::uint64_t bits = total_ * 8;
+    for (int i = 0; i < 8; ++i) tail[tail_size - 1 - static_cast<std::size_t>(i)] = static_cast<unsigned char>(bits >> (8 * i));
+    for (std::size_t i = 0; i < tail_size; i += 64) compress(state_, tail + i);
+    static constexpr char kHex[] = "0123456789abcdef";
+    std::string hex;
+    for (std::uint32_t word : state_) {
+      for (int i = 7; i >= 0; --i) hex += kHex[(word >> (4 * i)) & 0xf];
+    }
+    return hex;
+  }
+
+ private:
+  std::array<std::uint32_t, 8> state_ = {0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a,
+                                         0x510e527f, 0x9b05688c, 0x1f83d9ab, 0x5be0cd19};
+  std::array<unsigned char, 64> block_{};
+  std::size_t buffered_ = 0;
+  std::uint64_t total_ = 0;
+};
+
 }  // namespace
 
 std::string sha256_hex(std::string_view data) {
-  std::array<std::uint32_t, 8> state = {0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a,
-                                        0x510e527f, 0x9b05688c, 0x1f83d9ab, 0x5be0cd19};
-  const auto* bytes = reinterpret_cast<const unsigned char*>(data.data());
-  std::size_t full = data.size() / 64;
-  for (std::size_t i = 0; i < full; ++i) compress(state, bytes + 64 * i);
-  unsigned char tail[128] = {};
-  const std::size_t rest = data.size() - 64 * full;
-  for (std::size_t i = 0; i < rest; ++i) tail[i] = bytes[64 * full + i];
-  tail[rest] = 0x80;
-  const std::size_t tail_size = rest + 9 <= 64 ? 64 : 128;
-  const std::uint64_t bits = static_cast<std::uint64_t>(data.size()) * 8;
-  for (int i = 0; i < 8; ++i) tail[tail_size - 1 - static_cast<std::size_t>(i)] = static_cast<unsigned char>(bits >> (8 * i));
-  for (std::size_t i = 0; i < tail_size; i += 64) compress(state, tail + i);
-  static constexpr char kHex[] = "0123456789abcdef";
-  std::string hex;
-  for (std::uint32_t word : state) {
-    for (int i = 7; i >= 0; --i) hex += kHex[(word >> (4 * i)) & 0xf];
-  }
-  return hex;
+  Sha256 hash;
+  hash.update(reinterpret_cast<const unsigned char*>(data.data()), data.size());
+  return hash.finish();
 }
 
 std::string sha256_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path + ": cannot open file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return sha256_hex(buffer.str());
+  // Streamed in blocks: a data file of gigabytes costs no memory here. Only a
+  // regular file (clm::open_regular_file), of any size.
+  RegularFile file = open_regular_file(path, kUnlimitedBytes);
+  Sha256 hash;
+  std::vector<unsigned char> buffer(1 << 20);
+  while (const std::size_t got = file.read(buffer.data(), buffer.size())) hash.update(buffer.data(), got);
+  return hash.finish();
 }
 
 }  // namespace clm

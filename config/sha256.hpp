@@ -8,7 +8,8 @@ namespace clm {
 
 /// Lower-case hex SHA-256 (FIPS 180-4) of `data`.
 std::string sha256_hex(std::string_view data);
-/// SHA-256 of a file's bytes; throws std::runtime_error if it cannot be read.
+/// SHA-256 of a regular file's bytes, read in blocks; throws std::runtime_error
+/// (clm::FileError) if it is not a regular file or cannot be read.
 std::string sha256_file(const std::string& path);
 
 }  // namespace clm

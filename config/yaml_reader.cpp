@@ -1,13 +1,12 @@
 #include "config/yaml_reader.hpp"
 
+#include "config/regular_file.hpp"
+
 #include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
 
 namespace clm::yaml {
 
@@ -25,18 +24,16 @@ Node Node::load_string(const std::string& text, const std::string& origin) {
 }
 
 Node Node::load_file(const std::string& path) {
-  // Read whole, so a device or a pipe named by mistake (motor_file: /dev/zero,
-  // docs/fuzzing.md) would exhaust memory or block: refuse it.
-  std::error_code error;
-  const auto status = std::filesystem::status(path, error);
-  if (!error && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) {
-    throw Error(path + ": not a regular file (a directory, device or pipe)");
+  // Only a regular file, opened without blocking: a device or a pipe named by
+  // mistake (motor_file: /dev/zero, docs/fuzzing.md) would exhaust memory or
+  // block. The size limit keeps yaml-cpp's tree of a huge file from doing so.
+  std::string text;
+  try {
+    text = read_regular_file(path, kMaxFileBytes, " for a YAML file");
+  } catch (const FileError& e) {
+    throw Error(e.what());
   }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return load_string(buffer.str(), path);
+  return load_string(text, path);
 }
 
 int Node::line() const {

@@ -6,6 +6,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <initializer_list>
 #include <memory>
 #include <optional>
@@ -27,7 +28,11 @@ class Node {
  public:
   Node(std::shared_ptr<const std::string> file, YAML::Node node, std::string path);
 
-  /// Parses `path`; throws Error with the parser's line on a syntax error.
+  /// Largest YAML file load_file reads (docs/data-formats.md, "Size limits").
+  static constexpr std::uint64_t kMaxFileBytes = 16u << 20;
+  /// Parses `path`; throws Error with the parser's line on a syntax error, and
+  /// for a file that is not a regular file or is larger than kMaxFileBytes
+  /// (clm::read_regular_file's one-line messages).
   static Node load_file(const std::string& path);
   /// Parses text that came from `origin` (used by tests and fuzzers).
   static Node load_string(const std::string& text, const std::string& origin);

@@ -16,18 +16,21 @@ void add_calibrate(CLI::App& app) {
   struct Options {
     std::string motor, data, output;
     bool robust = false;
+    data::DataLimits limits;
   };
   auto options = std::make_shared<Options>();
-  sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(lcmlog::existing_input_file());
   sub->add_option("--data", options->data,
-                  "experiment data: CSV, or an LCM log of clm-servod (docs/data-formats.md)")->required()->check(CLI::ExistingFile);
+                  "experiment data: CSV, or an LCM log of clm-servod (docs/data-formats.md)")->required()->check(lcmlog::existing_input_file());
   sub->add_option("--output", options->output, "calibration file to write (YAML)")->required();
   sub->add_flag("--robust", options->robust,
                 "write the offset-robust fit (a position-dependent offset fitted beside c_i) instead of the paper's");
+  lcmlog::add_data_limit_options(*sub, options->limits, "--data");
   sub->callback([options] {
     const auto motor = load_motor_description(options->motor);
-    const auto table = lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment);
-    const auto data = data::read_experiment_data(table, motor);
+    // The table (the file's text) is dropped once its rows are grouped.
+    const auto data = data::read_experiment_data(
+        lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment, options->limits), motor);
     const auto paper = data::calibrate_motor(data, motor, data::CalibrationMethod::kAlgorithm1);
     const auto robust = data::calibrate_motor(data, motor, data::CalibrationMethod::kOffsetRobust);
     CalibrationFile chosen = options->robust ? robust : paper;

@@ -7,6 +7,7 @@
 #include "commutation/model_file.hpp"
 #include "tools/clm/commands.hpp"
 #include "tools/data/csv_table.hpp"
+#include "tools/lcmlog/data_input.hpp"
 
 namespace clm::cli {
 
@@ -14,18 +15,20 @@ void add_commutate(CLI::App& app) {
   auto* sub = app.add_subcommand("commutate", "commutate desired forces into drive setpoints and phase currents");
   struct Options {
     std::string motor, calibration, model, input, output, power = "true";
+    data::DataLimits limits;
   };
   auto options = std::make_shared<Options>();
-  sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(lcmlog::existing_input_file());
   auto* calibration = sub->add_option("--calibration", options->calibration, "calibration file: classical law (12)")
-                          ->check(CLI::ExistingFile);
-  auto* model = sub->add_option("--model", options->model, "model file: inverse (37), then (39)")->check(CLI::ExistingFile);
+                          ->check(lcmlog::existing_input_file());
+  auto* model = sub->add_option("--model", options->model, "model file: inverse (37), then (39)")->check(lcmlog::existing_input_file());
   calibration->excludes(model);
   model->excludes(calibration);
-  sub->add_option("--input", options->input, "desired forces (CSV with y_m, Fy_N, Fx_N, Tz_Nm)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--input", options->input, "desired forces (CSV with y_m, Fy_N, Fx_N, Tz_Nm)")->required()->check(lcmlog::existing_input_file());
   sub->add_option("--output", options->output, "setpoints to write (CSV)")->required();
   sub->add_option("--power", options->power, "minimum of ||i||^2 as printed (paper) or of ia^2+ib^2+ic^2 (true)")
       ->check(CLI::IsMember({"paper", "true"}))->capture_default_str();
+  lcmlog::add_data_limit_options(*sub, options->limits, "--input");
   sub->callback([options] {
     if (options->calibration.empty() == options->model.empty()) {
       throw std::runtime_error("give exactly one of --calibration and --model");
@@ -46,7 +49,7 @@ void add_commutate(CLI::App& app) {
       commutator_options.power_metric = options->power == "true" ? PowerMetric::kTruePower : PowerMetric::kCurrentNorm;
       law = std::make_unique<ModelCommutator>(model_file.model, motor.drive, commutator_options);
     }
-    const auto table = data::CsvTable::load(options->input);
+    const auto table = data::CsvTable::load(options->input, options->limits);
     const auto y = table.numbers("y_m");
     const auto fy = table.numbers("Fy_N");
     const auto fx = table.numbers("Fx_N");

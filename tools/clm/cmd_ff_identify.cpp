@@ -15,13 +15,15 @@ void add_ff_identify(CLI::App& app) {
   auto* sub = app.add_subcommand("ff-identify", "identify the feedforward (40): mass, viscous and Coulomb friction");
   struct Options {
     std::string data, output;
+    data::DataLimits limits;
   };
   auto options = std::make_shared<Options>();
   sub->add_option("--data", options->data,
-                  "closed-loop data: CSV with t_s, r_m, F_star_N, or an LCM log of clm-servod")->required()->check(CLI::ExistingFile);
+                  "closed-loop data: CSV with t_s, r_m, F_star_N, or an LCM log of clm-servod")->required()->check(lcmlog::existing_input_file());
   sub->add_option("--output", options->output, "feedforward file to write (YAML)")->required();
+  lcmlog::add_data_limit_options(*sub, options->limits, "--data");
   sub->callback([options] {
-    const auto table = lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kFeedforward);
+    const auto table = lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kFeedforward, options->limits);
     const auto time = table.numbers("t_s");
     const auto reference = table.numbers("r_m");
     const auto force = table.numbers("F_star_N");

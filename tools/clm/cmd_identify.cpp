@@ -16,11 +16,12 @@ void add_identify(CLI::App& app) {
   struct Options {
     std::string motor, data, output, model = "pgnn";
     data::IdentifyOptions identify;
+    data::DataLimits limits;
   };
   auto options = std::make_shared<Options>();
   auto& o = options->identify;
-  sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(CLI::ExistingFile);
-  sub->add_option("--data", options->data, "experiment data: CSV, or an LCM log of clm-servod")->required()->check(CLI::ExistingFile);
+  sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(lcmlog::existing_input_file());
+  sub->add_option("--data", options->data, "experiment data: CSV, or an LCM log of clm-servod")->required()->check(lcmlog::existing_input_file());
   sub->add_option("--output", options->output, "model file to write (YAML)")->required();
   sub->add_option("--model", options->model, "model class")->check(CLI::IsMember({"pgnn", "spline"}))->capture_default_str();
   sub->add_option("--validation-fraction", o.validation_fraction, "held-out share, in contiguous blocks")
@@ -45,12 +46,15 @@ void add_identify(CLI::App& app) {
   sub->add_option("--knot-spacing-m", o.spline.knot_spacing_m, "spline knot spacing (0: pole pitch / 8)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   sub->add_option("--smoothing", o.spline.smoothing, "spline roughness penalty")->check(CLI::NonNegativeNumber)->capture_default_str();
+  lcmlog::add_data_limit_options(*sub, options->limits, "--data");
   sub->callback([options] {
     options->identify.kind = options->model == "pgnn" ? ModelKind::kPgnn : ModelKind::kSpline;
     options->identify.spline.regularisation = options->identify.pgnn.regularisation;
     const auto motor = load_motor_description(options->motor);
-    const auto table = lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment);
-    const auto data = data::read_experiment_data(table, motor);
+    // The table (the file's text) is dropped once its rows are grouped, before
+    // the identification's own matrices are made (docs/benchmarks.md, memory).
+    const auto data = data::read_experiment_data(
+        lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment, options->limits), motor);
     std::vector<data::CoilSetIdentification> reports;
     ProgressBar bar("identify " + options->model);
     const auto on_progress = [&](const data::IdentifyProgress& p) {

@@ -1,12 +1,13 @@
 #include "tools/data/csv_table.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
+#include <unordered_map>
 
 #include "config/atomic_file.hpp"
+#include "config/regular_file.hpp"
 
 namespace clm::data {
 namespace {
@@ -27,42 +28,75 @@ void split_line(std::string_view line, std::vector<std::string_view>& out) {
   }
 }
 
-}  // namespace
-
-CsvTable CsvTable::load(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path + ": cannot open file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return parse(buffer.str(), path);
+/// Throws "<where>: column 'Fy_N' appears twice (columns 6 and 9)" for the
+/// first name that repeats an earlier one (columns counted from 1).
+void check_unique_names(const std::vector<std::string_view>& names, const std::string& where) {
+  std::unordered_map<std::string_view, std::size_t> seen;
+  seen.reserve(names.size());
+  for (std::size_t c = 0; c < names.size(); ++c) {
+    const auto [at, inserted] = seen.emplace(names[c], c);
+    if (!inserted) {
+      throw std::runtime_error(where + ": column '" + std::string(names[c]) + "' appears twice (columns " +
+                               std::to_string(at->second + 1) + " and " + std::to_string(c + 1) + ")");
+    }
+  }
 }
 
-CsvTable CsvTable::parse(std::string text, const std::string& origin) {
+/// Cell `index` (0-based) of the line starting at `line_start`: the text
+/// between the index-th and the next comma, trimmed (as split_line would
+/// give it; parse checked that the line has the header's cell count).
+std::string_view cell_of(std::string_view all, std::size_t line_start, std::size_t index) {
+  std::size_t line_end = all.find('\n', line_start);
+  if (line_end == std::string_view::npos) line_end = all.size();
+  std::size_t from = line_start;
+  for (std::size_t k = 0; k < index; ++k) from = all.find(',', from) + 1;
+  std::size_t to = all.find(',', from);
+  if (to == std::string_view::npos || to > line_end) to = line_end;
+  return trim(all.substr(from, to - from));
+}
+
+}  // namespace
+
+CsvTable CsvTable::load(const std::string& path, const DataLimits& limits) {
+  std::string text = read_regular_file(path, limits.max_bytes, " for a data file (--max-bytes raises it)");
+  return parse(std::move(text), path, limits.max_rows);
+}
+
+CsvTable CsvTable::parse(std::string text, const std::string& origin, std::size_t max_rows) {
   CsvTable table;
   table.origin_ = origin;
   table.text_ = std::make_shared<std::string>(std::move(text));
   const std::string_view all(*table.text_);
+  // Rows are kept as the offsets where their lines start (8 bytes a row); a
+  // column's cells are found again when numbers() asks for it. One count of
+  // the lines first, so that the offsets are allocated once.
+  const std::size_t lines = static_cast<std::size_t>(std::count(all.begin(), all.end(), '\n')) + 1;
+  table.row_starts_.reserve(std::min(lines - 1, max_rows));
   std::size_t start = 0;
   std::size_t line_number = 0;
-  std::vector<std::string_view> cells;
   while (start < all.size()) {
     std::size_t end = all.find('\n', start);
     if (end == std::string_view::npos) end = all.size();
+    const std::size_t line_start = start;
     const std::string_view line = trim(all.substr(start, end - start));
     start = end + 1;
     ++line_number;
     if (line.empty()) continue;
-    cells.clear();
-    split_line(line, cells);
     if (table.header_.empty()) {
-      table.header_ = cells;
+      split_line(line, table.header_);
+      check_unique_names(table.header_, origin + ":" + std::to_string(line_number));
       continue;
     }
-    if (cells.size() != table.header_.size()) {
-      throw std::runtime_error(origin + ":" + std::to_string(line_number) + ": " + std::to_string(cells.size()) +
+    const std::size_t cell_count = 1 + static_cast<std::size_t>(std::count(line.begin(), line.end(), ','));
+    if (cell_count != table.header_.size()) {
+      throw std::runtime_error(origin + ":" + std::to_string(line_number) + ": " + std::to_string(cell_count) +
                                " cells, the header has " + std::to_string(table.header_.size()));
     }
-    table.cells_.insert(table.cells_.end(), cells.begin(), cells.end());
+    if (table.rows_ == max_rows) {
+      throw std::runtime_error(origin + ":" + std::to_string(line_number) + ": more than " +
+                               std::to_string(max_rows) + " data rows, the limit (--max-rows raises it)");
+    }
+    table.row_starts_.push_back(line_start);
     ++table.rows_;
     if (line_number != table.rows_ + 1) {
       // Blank lines inside the data would make row numbers lie; refuse them.
@@ -86,6 +120,14 @@ CsvTable CsvTable::from_columns(std::string origin, std::vector<std::string> nam
   }
   if (!row_numbers.empty() && row_numbers.size() != table.rows_) {
     throw std::invalid_argument("CsvTable: row numbers and rows differ");
+  }
+  {
+    const std::vector<std::string_view> views(names.begin(), names.end());
+    try {
+      check_unique_names(views, table.origin_);
+    } catch (const std::runtime_error& e) {
+      throw std::invalid_argument(std::string("CsvTable: ") + e.what());
+    }
   }
   table.names_ = std::move(names);
   table.values_ = std::move(values);
@@ -139,7 +181,7 @@ std::vector<double> CsvTable::numbers(std::string_view column) const {
   if (index == header_.size()) throw missing();
   std::vector<double> values(rows_);
   for (std::size_t r = 0; r < rows_; ++r) {
-    const std::string_view cell = cells_[r * header_.size() + index];
+    const std::string_view cell = cell_of(*text_, row_starts_[r], index);
     double value = 0.0;
     const auto result = std::from_chars(cell.data(), cell.data() + cell.size(), value);
     if (cell.empty() || result.ec != std::errc() || result.ptr != cell.data() + cell.size() || !std::isfinite(value)) {

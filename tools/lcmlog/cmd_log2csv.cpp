@@ -7,6 +7,7 @@
 #include <string>
 
 #include "tools/data/csv_table.hpp"
+#include "tools/lcmlog/data_input.hpp"
 #include "tools/lcmlog/servo_log.hpp"
 
 namespace clm::cli {
@@ -15,20 +16,22 @@ void add_log2csv(CLI::App& app) {
   auto* sub = app.add_subcommand("log2csv", "convert the CLM_SERVO_STATE messages of an LCM log to CSV");
   struct Options {
     std::string log, output, format;
+    data::DataLimits limits;
   };
   auto options = std::make_shared<Options>();
   sub->add_option("--log", options->log, "LCM log of clm-servod (lcm-logger or the commissioning recorder)")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->check(lcmlog::existing_input_file());
   sub->add_option("--output", options->output, "CSV file to write")->required();
   sub->add_option("--format", options->format,
                   "experiment: t_s, coil_set, delta_rad, magnitude_N, y_m, Fy_N, Fx_N, Tz_Nm, ia_A, ib_A "
                   "(calibrate, identify); feedforward: t_s, r_m, F_star_N (ff-identify); full: every field")
       ->required()
       ->check(CLI::IsMember({"experiment", "feedforward", "full"}));
+  lcmlog::add_data_limit_options(*sub, options->limits, "--log");
   sub->callback([options] {
     const auto format = lcmlog::parse_csv_format(options->format);
-    const auto states = lcmlog::read_servo_states(options->log);
+    const auto states = lcmlog::read_servo_states(options->log, options->limits);
     lcmlog::CsvColumns columns;
     try {
       columns = lcmlog::to_csv_columns(states, format);

@@ -4,6 +4,7 @@
 // converted to the same columns (docs/data-formats.md), so that both take the
 // same validation and the same code path.
 
+#include <CLI/CLI.hpp>
 #include <string>
 
 #include "tools/data/csv_table.hpp"
@@ -13,7 +14,8 @@ namespace clm::lcmlog {
 
 /// True when the file at `path` begins with the LCM log sync word 0xEDA1DA01
 /// (big-endian, as lcm-logger and LcmLogWriter write it), whatever its name.
-/// False for a shorter file; throws std::runtime_error if it cannot be opened.
+/// False for a shorter file; throws std::runtime_error if it cannot be opened
+/// or is not a regular file (clm::open_regular_file, without blocking).
 bool is_lcm_log(const std::string& path);
 
 /// A CSV file as CsvTable::load, or an LCM log (is_lcm_log) whose
@@ -21,7 +23,18 @@ bool is_lcm_log(const std::string& path);
 /// (experiment_columns, feedforward_columns) without a text round trip; rows
 /// of a log are named by event number in later errors ("run.lcm: event 1742:
 /// column 'Fy_N': 'nan' is not a finite number"). Throws std::runtime_error
-/// with one line naming the file (and the event for a damaged log).
-data::CsvTable load_data_table(const std::string& path, CsvFormat format);
+/// with one line naming the file (and the event for a damaged log), also for
+/// a file that is not a regular file or holds more than `limits` allow.
+data::CsvTable load_data_table(const std::string& path, CsvFormat format, const data::DataLimits& limits = {});
+
+/// CLI11 check of an input file option: the path must exist, whatever it is.
+/// What it is (only a regular file is read) and its size are checked when it
+/// is opened (clm::open_regular_file), so that a directory, a device or a FIFO
+/// gets the same one-line refusal, and status 2, as any other bad input.
+CLI::Validator existing_input_file();
+
+/// Registers --max-bytes and --max-rows on `subcommand`, bound to `limits`
+/// (defaults DataLimits's), for the data file given by `file_option` ("--data").
+void add_data_limit_options(CLI::App& subcommand, data::DataLimits& limits, const std::string& file_option);
 
 }  // namespace clm::lcmlog

@@ -5,13 +5,13 @@
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
-#include <fstream>
 #include <initializer_list>
 #include <limits>
 #include <stdexcept>
 
 #include "commutation/types.hpp"
 #include "daemon/telemetry/lcm_conversion.hpp"
+#include "config/regular_file.hpp"
 
 namespace clm::lcmlog {
 namespace {
@@ -45,25 +45,53 @@ void check_state(const clm_lcm::servo_state_t& state, const std::string& path, s
   }
 }
 
+/// Reads a RegularFile through a buffer of 1 MiB: events are small.
+class BufferedReader {
+ public:
+  explicit BufferedReader(RegularFile& file) : file_(file), buffer_(std::size_t{1} << 20) {}
+
+  /// Copies the next `count` bytes to `out`; false if the file ended first.
+  bool read(void* out, std::size_t count) {
+    auto* to = static_cast<std::uint8_t*>(out);
+    while (count > 0) {
+      if (position_ == filled_) {
+        if (count >= buffer_.size()) return file_.read(to, count) == count;
+        filled_ = file_.read(buffer_.data(), buffer_.size());
+        position_ = 0;
+        if (filled_ == 0) return false;
+      }
+      const std::size_t take = std::min(count, filled_ - position_);
+      std::memcpy(to, buffer_.data() + position_, take);
+      position_ += take;
+      to += take;
+      count -= take;
+    }
+    return true;
+  }
+
+ private:
+  RegularFile& file_;
+  std::vector<std::uint8_t> buffer_;
+  std::size_t position_ = 0;
+  std::size_t filled_ = 0;
+};
+
 }  // namespace
 
-std::vector<servo::CycleRecord> read_servo_states(const std::string& lcm_log_path) {
-  return read_servo_state_log(lcm_log_path).states;
+std::vector<servo::CycleRecord> read_servo_states(const std::string& lcm_log_path, const data::DataLimits& limits) {
+  return read_servo_state_log(lcm_log_path, limits).states;
 }
 
-ServoStateLog read_servo_state_log(const std::string& lcm_log_path) {
+ServoStateLog read_servo_state_log(const std::string& lcm_log_path, const data::DataLimits& limits) {
   // The log format (lcm/eventlog.c), every integer big-endian:
   //   sync 0xEDA1DA01 (4), event number (8), timestamp [µs] (8),
   //   channel length (4), data length (4), channel, data.
   // Read here rather than through lcm::LogFile, whose reader stops quietly at
-  // damage (blaming the event before it) and prints to stderr.
-  std::ifstream in(lcm_log_path, std::ios::binary);
-  if (!in) throw std::runtime_error(lcm_log_path + ": cannot open: " + std::strerror(errno));
-  in.seekg(0, std::ios::end);
-  const std::streamoff size = in.tellg();
-  if (size < 0) throw std::runtime_error(lcm_log_path + ": cannot read (not a regular file?)");
-  const auto file_bytes = static_cast<std::uint64_t>(size);
-  in.seekg(0, std::ios::beg);
+  // damage (blaming the event before it) and prints to stderr. Only a regular
+  // file of at most limits.max_bytes is read (a FIFO is refused, not waited on).
+  RegularFile file = open_regular_file(lcm_log_path, limits.max_bytes, " for an LCM log (--max-bytes raises it)");
+  const std::uint64_t file_bytes = file.size_bytes();
+  BufferedReader in(file);
 
   ServoStateLog log;
   std::vector<std::uint8_t> data;
@@ -78,8 +106,7 @@ ServoStateLog read_servo_state_log(const std::string& lcm_log_path) {
       fail("truncated: " + std::to_string(file_bytes - offset) + " bytes at byte " + std::to_string(offset) +
            ", less than an event header");
     }
-    in.read(reinterpret_cast<char*>(header.data()), kEventHeaderBytes);
-    if (!in) fail("read error at byte " + std::to_string(offset));
+    if (!in.read(header.data(), kEventHeaderBytes)) fail("read error at byte " + std::to_string(offset));
     if (big_endian(header.data(), 4) != kSyncWord) {
       fail("no LCM sync word at byte " + std::to_string(offset) + " (corrupt log, or not an LCM log)");
     }
@@ -97,15 +124,19 @@ ServoStateLog read_servo_state_log(const std::string& lcm_log_path) {
     }
     channel.resize(static_cast<std::size_t>(channel_length));
     data.resize(static_cast<std::size_t>(data_length));
-    in.read(channel.data(), channel_length);
-    in.read(reinterpret_cast<char*>(data.data()), data_length);
-    if (!in) fail("read error at byte " + std::to_string(offset));
+    if (!in.read(channel.data(), channel.size()) || !in.read(data.data(), data.size())) {
+      fail("read error at byte " + std::to_string(offset));
+    }
     offset += kEventHeaderBytes + body;
 
     if (channel != kStateChannel) continue;
     clm_lcm::servo_state_t state;
     if (state.decode(data.data(), 0, data_length) != data_length) fail(std::string("cannot decode ") + kStateChannel);
     check_state(state, lcm_log_path, event);
+    if (log.states.size() == limits.max_rows) {
+      fail("more than " + std::to_string(limits.max_rows) + " " + kStateChannel +
+           " messages, the limit (--max-rows raises it)");
+    }
     try {
       log.states.push_back(telemetry::to_record(state));
     } catch (const std::invalid_argument& e) {

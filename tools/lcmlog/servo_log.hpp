@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "daemon/servo/cycle_record.hpp"
+#include "tools/data/csv_table.hpp"
 
 namespace clm::lcmlog {
 
@@ -18,12 +19,15 @@ namespace clm::lcmlog {
 /// as records (telemetry::to_record); other channels are skipped. Throws std::runtime_error with one line naming
 /// the file and the event (0-based, counting every channel, as lcm-logplayer):
 ///   "run.lcm: cannot open: No such file or directory"
+///   "run.lcm: not a regular file (a FIFO); only regular files are read"
+///   "run.lcm: 3000000000 bytes, more than the limit of 2147483648 bytes for an LCM log (--max-bytes raises it)"
+///   "run.lcm: event 17: more than 10000000 CLM_SERVO_STATE messages, the limit (--max-rows raises it)"
 ///   "run.lcm: event 17: cannot decode CLM_SERVO_STATE"
 ///   "run.lcm: event 17: CLM_SERVO_STATE: coil_sets 9 outside 0..8"
 ///   "run.lcm: event 17: CLM_SERVO_STATE: commutation 7 outside 0..5"
 ///   "run.lcm: event 17: no LCM sync word at byte 5120 (corrupt log, or not an LCM log)"
 ///   "run.lcm: event 17: truncated: the event at byte 5120 needs 415 bytes after its header, the file has 12"
-std::vector<servo::CycleRecord> read_servo_states(const std::string& lcm_log_path);
+std::vector<servo::CycleRecord> read_servo_states(const std::string& lcm_log_path, const data::DataLimits& limits = {});
 
 /// The CLM_SERVO_STATE messages of a log with the event number of each.
 struct ServoStateLog {
@@ -31,7 +35,7 @@ struct ServoStateLog {
   std::vector<std::int64_t> events;  ///< events[k]: event number of states[k] (0-based, every channel)
 };
 /// As read_servo_states, keeping each state's event number; same errors.
-ServoStateLog read_servo_state_log(const std::string& lcm_log_path);
+ServoStateLog read_servo_state_log(const std::string& lcm_log_path, const data::DataLimits& limits = {});
 
 /// Named columns of equal length, ready for clm::data::write_csv_atomically.
 struct CsvColumns {
