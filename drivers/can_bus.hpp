@@ -6,7 +6,7 @@
 
 #include <cstdint>
 
-#include "drivers/can_protocol.hpp"
+#include "drivers/can/can_protocol.hpp"
 
 namespace clm::drivers {
 

@@ -23,7 +23,7 @@
 #include "daemon/servo/fault.hpp"
 #include "daemon/servo/handover.hpp"
 #include "drivers/can_bus.hpp"
-#include "drivers/can_protocol.hpp"
+#include "drivers/can/can_protocol.hpp"
 
 namespace clm::servo {
 

@@ -6,7 +6,7 @@
 #include <stdexcept>
 
 #include "daemon/control/position_controller.hpp"
-#include "drivers/can_protocol.hpp"
+#include "drivers/can/can_protocol.hpp"
 #include "daemon/servod/feedforward_file.hpp"
 
 namespace clm::servod {

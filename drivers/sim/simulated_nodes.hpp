@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <span>
 
-#include "drivers/can_protocol.hpp"
+#include "drivers/can/can_protocol.hpp"
 #include "drivers/sim/motor.hpp"
 
 namespace clm::sim {

@@ -28,10 +28,10 @@ def clean_tree(root):
           '#include "drivers/can_bus.hpp"\n#include "clm_lcm/servo_state_t.hpp"\n#include "clm_version.hpp"\n'
           '#include "daemon/servod/servod.hpp"\n')
     write(root, "daemon/servod/servod.hpp", '#pragma once\n#include "commutation/model.hpp"\n')
-    write(root, "tools/clm/main.cpp", '#include "daemon/servod/servod.hpp"\n#include "tools/clm/local.hpp"\n')
-    write(root, "tools/clm/local.hpp", "#pragma once\n")
+    write(root, "tools/cli/main.cpp", '#include "daemon/servod/servod.hpp"\n#include "tools/cli/local.hpp"\n')
+    write(root, "tools/cli/local.hpp", "#pragma once\n")
     # Tests may include anything.
-    write(root, "tests/test_all.cpp", '#include "tools/clm/local.hpp"\n')
+    write(root, "tests/test_all.cpp", '#include "tools/cli/local.hpp"\n')
 
 
 def build_dir(root, link_line):
@@ -63,14 +63,14 @@ def main():
         # Upward includes, one of each kind, at known lines.
         write(source, "commutation/bad.hpp",
               '#pragma once\n#include "config/yaml_reader.hpp"\n#include "daemon/servod/servod.hpp"\n')
-        write(source, "drivers/relative.cpp", '#include "../tools/clm/local.hpp"\n')
+        write(source, "drivers/relative.cpp", '#include "../tools/cli/local.hpp"\n')
         write(source, "config/unknown.cpp", "// nothing\n#include \"nowhere/thing.hpp\"\n")
         status, output = run(source, build)
         expect(status == 1, f"upward includes: expected exit 1, got {status}", output)
         expected = [
             'commutation/bad.hpp:3: includes "daemon/servod/servod.hpp" (layer daemon, rank 3) '
             "from layer commutation (rank 1)",
-            'drivers/relative.cpp:1: includes "../tools/clm/local.hpp" (layer tools, rank 4) from layer drivers (rank 2)',
+            'drivers/relative.cpp:1: includes "../tools/cli/local.hpp" (layer tools, rank 4) from layer drivers (rank 2)',
             'config/unknown.cpp:2: includes "nowhere/thing.hpp", which is in no known layer',
         ]
         for line in expected:

@@ -15,7 +15,7 @@
 #include "commutation/model_file.hpp"
 #include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/servo_daemon.hpp"
-#include "drivers/can_protocol.hpp"
+#include "drivers/can/can_protocol.hpp"
 #include "drivers/sim/in_process_bus.hpp"
 #include "drivers/sim/motor.hpp"
 #include "drivers/sim/motor_file.hpp"

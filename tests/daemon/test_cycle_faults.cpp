@@ -8,7 +8,7 @@
 #include <limits>
 
 #include "daemon/servo/servo_cycle.hpp"
-#include "drivers/can_protocol.hpp"
+#include "drivers/can/can_protocol.hpp"
 #include "tests/daemon/daemon_support.hpp"
 
 using namespace clm;

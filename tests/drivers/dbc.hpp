@@ -1,5 +1,5 @@
 #pragma once
-// A small reader of the DBC subset drivers/clm-servo.dbc uses (BU_, BO_, SG_
+// A small reader of the DBC subset drivers/can/clm-servo.dbc uses (BU_, BO_, SG_
 // lines; comments and attributes skipped), and bit packing by a DBC signal
 // description. Test code only: it is how the tests hold the DBC against the codec.
 
@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "drivers/can_protocol.hpp"
+#include "drivers/can/can_protocol.hpp"
 
 namespace clm::test {
 

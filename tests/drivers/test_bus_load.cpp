@@ -17,7 +17,7 @@
 #include <limits>
 #include <stdexcept>
 
-#include "drivers/can_protocol.hpp"
+#include "drivers/can/can_protocol.hpp"
 
 namespace can = clm::can;
 

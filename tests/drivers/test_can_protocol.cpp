@@ -9,7 +9,7 @@
 #include <random>
 #include <stdexcept>
 
-#include "drivers/can_protocol.hpp"
+#include "drivers/can/can_protocol.hpp"
 #include "support/allocation_counter.hpp"
 
 namespace can = clm::can;

@@ -1,4 +1,4 @@
-// drivers/clm-servo.dbc against the codec: the DBC is read by a small parser
+// drivers/can/clm-servo.dbc against the codec: the DBC is read by a small parser
 // (dbc.cpp) and every frame and signal in it must be what the codec writes and
 // reads, bit for bit, so that the file cannot drift from the code.
 
@@ -12,7 +12,7 @@
 #include <set>
 
 #include "dbc.hpp"
-#include "drivers/can_protocol.hpp"
+#include "drivers/can/can_protocol.hpp"
 
 namespace {
 

@@ -11,7 +11,7 @@
 #include <array>
 #include <cstring>
 
-#include "drivers/can_protocol.hpp"
+#include "drivers/can/can_protocol.hpp"
 #include "fuzz_support.hpp"
 
 namespace can = clm::can;

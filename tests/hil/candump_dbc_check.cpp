@@ -1,5 +1,5 @@
 // hil_candump_check: every frame of a candump log (`candump -L`) must decode
-// against drivers/clm-servo.dbc and through the codec (drivers/can_protocol.hpp).
+// against drivers/can/clm-servo.dbc and through the codec (drivers/can_protocol.hpp).
 //
 // For each line: the identifier must be a DBC message, the DLC the DBC's, every
 // signal's raw value inside the DBC's [minimum, maximum], every bit no signal
@@ -26,7 +26,7 @@
 #include <string>
 #include <vector>
 
-#include "drivers/can_protocol.hpp"
+#include "drivers/can/can_protocol.hpp"
 #include "drivers/dbc.hpp"
 
 namespace {
@@ -235,7 +235,7 @@ int check(const Options& options) {
 int main(int argc, char** argv) {
   CLI::App app{"hil_candump_check: every frame of a candump -L log must decode against the DBC and the codec"};
   Options options;
-  app.add_option("--dbc", options.dbc_path, "DBC file (drivers/clm-servo.dbc)")->required()->check(CLI::ExistingFile);
+  app.add_option("--dbc", options.dbc_path, "DBC file (drivers/can/clm-servo.dbc)")->required()->check(CLI::ExistingFile);
   app.add_option("--log", options.log_path, "candump -L output")->required()->check(CLI::ExistingFile);
   app.add_option("--coil-sets", options.coil_sets, "L of the motor on the bus")->check(CLI::Range(1, 4))->capture_default_str();
   app.add_option("--drive-node-id", options.drive_node_id, "drive node ID")->check(CLI::Range(1, 127))->capture_default_str();

@@ -36,7 +36,7 @@
 #include <string>
 #include <vector>
 
-#include "drivers/can_protocol.hpp"
+#include "drivers/can/can_protocol.hpp"
 
 namespace {
 

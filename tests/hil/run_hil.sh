@@ -5,7 +5,7 @@
 # classical and the PGNN commutation (one daemon each, with the calibration,
 # model and feedforward commissioning made for that law), checks tracking
 # from the daemon's own telemetry, the shutdown of every process, and that
-# every frame on the bus decodes against drivers/clm-servo.dbc.
+# every frame on the bus decodes against drivers/can/clm-servo.dbc.
 #
 # Runs on any Linux with vcan: natively (tests/hil/hil_test.sh) or as the
 # payload of the QEMU guest (tests/hil/qemu/). Prints one "HIL: PASS ..." or
@@ -14,7 +14,7 @@
 #   run_hil.sh CLM CLM_SERVOD HIL_CANDUMP_CHECK SOURCE_DIR WORK_DIR
 #
 # SOURCE_DIR needs config/{servod-vcan,motor-sim}.yaml, config/programs/ and
-# drivers/clm-servo.dbc. Environment (all optional):
+# drivers/can/clm-servo.dbc. Environment (all optional):
 #   HIL_CAN          interface; default: create vcanhil<pid> (root), else vcan0 if it exists.
 #                    "sim": reference run without CAN, the daemon's in-process simulated
 #                    motor on the same real-time clock (no clm sim, candump or bus checks)
@@ -318,7 +318,7 @@ fi
 sleep 0.2
 stop_process $candump_pid 30
 coil_sets=$(config_value "$source_dir/config/motor-sim.yaml" "  coil_sets")
-result=$("$checker" --dbc "$source_dir/drivers/clm-servo.dbc" --log "$run/candump.log" --coil-sets "$coil_sets" \
+result=$("$checker" --dbc "$source_dir/drivers/can/clm-servo.dbc" --log "$run/candump.log" --coil-sets "$coil_sets" \
          --min-frames 1000)
 rc=$?
 echo "$result" | sed 's/^/HIL:   /'

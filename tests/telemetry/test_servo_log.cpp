@@ -75,7 +75,7 @@ std::vector<std::size_t> event_offsets(const std::vector<unsigned char>& bytes) 
 void log2csv(const std::string& arguments) {
   CLI::App app{"clm"};
   app.require_subcommand(1);
-  clm::cli::add_log2csv(app);
+  clm::lcmlog::add_log2csv(app);
   app.parse("log2csv " + arguments, false);
 }
 

@@ -10,7 +10,7 @@
 #include "tools/lcmlog/data_input.hpp"
 #include "tools/lcmlog/servo_log.hpp"
 
-namespace clm::cli {
+namespace clm::lcmlog {
 
 void add_log2csv(CLI::App& app) {
   auto* sub = app.add_subcommand("log2csv", "convert the CLM_SERVO_STATE messages of an LCM log to CSV");
@@ -44,4 +44,4 @@ void add_log2csv(CLI::App& app) {
   });
 }
 
-}  // namespace clm::cli
+}  // namespace clm::lcmlog

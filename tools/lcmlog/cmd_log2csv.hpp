@@ -4,11 +4,11 @@
 
 #include <CLI/CLI.hpp>
 
-namespace clm::cli {
+namespace clm::lcmlog {
 
 /// Registers `log2csv --log FILE --output FILE.csv --format experiment|feedforward|full`
 /// on `app`. Its callback throws std::exception with one line naming the log
 /// file and the event on bad input; the CSV is written atomically, or not at all.
 void add_log2csv(CLI::App& app);
 
-}  // namespace clm::cli
+}  // namespace clm::lcmlog

@@ -97,7 +97,7 @@ for module in can can-raw can-dev vcan; do add_module "$module"; done
 printf '%s\n' "${order[@]}" > "$staging/hil/modules/order"
 
 # What the suite reads from the source tree, at the same relative paths.
-for file in config/servod-vcan.yaml config/motor-sim.yaml drivers/clm-servo.dbc tests/hil/run_hil.sh \
+for file in config/servod-vcan.yaml config/motor-sim.yaml drivers/can/clm-servo.dbc tests/hil/run_hil.sh \
             tests/hil/run_faults.sh tests/support/script_helpers.sh; do
   mkdir -p "$staging/hil/src/$(dirname "$file")"
   cp "$source_dir/$file" "$staging/hil/src/$file"

@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <stdexcept>
 
-#include "tools/clm/commands.hpp"
+#include "tools/cli/commands.hpp"
 #include "tools/commission/commission.hpp"
 
 namespace clm::cli {

@@ -5,7 +5,7 @@
 
 #include "commutation/commutator.hpp"
 #include "commutation/model_file.hpp"
-#include "tools/clm/commands.hpp"
+#include "tools/cli/commands.hpp"
 #include "tools/data/csv_table.hpp"
 #include "tools/lcmlog/data_input.hpp"
 

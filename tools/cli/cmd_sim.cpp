@@ -35,7 +35,7 @@
 #include "drivers/sim/motor_file.hpp"
 #include "drivers/sim/simulated_nodes.hpp"
 #include "drivers/socket_can_bus.hpp"
-#include "tools/clm/commands.hpp"
+#include "tools/cli/commands.hpp"
 
 namespace clm::cli {
 namespace {

@@ -3,7 +3,7 @@
 #include <cstdio>
 
 #include "clm_version.hpp"
-#include "tools/clm/commands.hpp"
+#include "tools/cli/commands.hpp"
 
 namespace clm::cli {
 

@@ -1,4 +1,4 @@
-#include "drivers/can_protocol.hpp"
+#include "drivers/can/can_protocol.hpp"
 
 #include <cmath>
 #include <cstdio>

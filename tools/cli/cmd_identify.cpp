@@ -5,7 +5,7 @@
 #include "commutation/model_file.hpp"
 #include "config/atomic_file.hpp"
 #include "config/sha256.hpp"
-#include "tools/clm/commands.hpp"
+#include "tools/cli/commands.hpp"
 #include "tools/data/commissioning_steps.hpp"
 #include "tools/lcmlog/data_input.hpp"
 

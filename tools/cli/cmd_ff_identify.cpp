@@ -5,7 +5,7 @@
 #include "config/sha256.hpp"
 #include "daemon/control/position_controller.hpp"
 #include "daemon/servod/feedforward_file.hpp"
-#include "tools/clm/commands.hpp"
+#include "tools/cli/commands.hpp"
 #include "tools/data/commissioning_steps.hpp"
 #include "tools/lcmlog/data_input.hpp"
 

@@ -1,6 +1,6 @@
 #pragma once
 // The CAN protocol between the servo daemon, the drive and the force sensor
-// (docs/can-protocol.md, drivers/clm-servo.dbc).
+// (docs/can-protocol.md, drivers/can/clm-servo.dbc).
 //
 // Classic CAN 2.0A (11-bit identifiers) with CANopen-style COB-IDs, so
 // candump, Wireshark and DBC tools read the bus: SYNC 0x080 from the daemon,

@@ -7,7 +7,7 @@
 #include <iostream>
 
 #include "clm_version.hpp"
-#include "tools/clm/commands.hpp"
+#include "tools/cli/commands.hpp"
 #include "tools/lcmlog/cmd_log2csv.hpp"
 
 int main(int argc, char** argv) {
@@ -19,7 +19,7 @@ int main(int argc, char** argv) {
   clm::cli::add_ff_identify(app);
   clm::cli::add_commutate(app);
   clm::cli::add_commission(app);
-  clm::cli::add_log2csv(app);
+  clm::lcmlog::add_log2csv(app);
   clm::cli::add_ctl(app);
   clm::cli::add_sim(app);
   try {

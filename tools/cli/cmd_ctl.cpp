@@ -15,7 +15,7 @@
 #include "clm_lcm/servo_command_t.hpp"
 #include "clm_lcm/servo_status_t.hpp"
 #include "daemon/telemetry/telemetry.hpp"
-#include "tools/clm/commands.hpp"
+#include "tools/cli/commands.hpp"
 #include "tools/servod_client/client.hpp"
 
 namespace clm::cli {
