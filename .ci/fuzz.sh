@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer harnesses of tests/fuzz (docs/fuzzing.md) with
 # clang++-14 into build-fuzz/ and runs each for FUZZ_SECONDS (default 10)
-# seconds on its seed corpus: 7 harnesses, 70 s of fuzzing. Exits non-zero
+# seconds on its seed corpus: 8 harnesses, 80 s of fuzzing. Exits non-zero
 # if any harness finds a crash, a sanitizer report, a leak, a timeout or a
 # broken invariant; the input is kept in build-fuzz/artifacts/.
 #
@@ -67,6 +67,7 @@ run fuzz_calibration_file yaml.dict 4096 "$fuzz_dir"/corpus/calibration_file/*
 run fuzz_motor_file yaml.dict 8192 config/motor-sim*.yaml
 run fuzz_csv_table csv.dict 4096 "$fuzz_dir"/corpus/experiment_data/*
 run fuzz_experiment_data csv.dict 4096 "$fuzz_dir"/corpus/experiment_data/*
+run fuzz_lcm_datagram "" 4096 "$fuzz_dir"/corpus/lcm_datagram/*
 
 if [ "${#failed[@]}" -gt 0 ]; then
   echo "fuzz: ${#failed[@]} harnesses failed: ${failed[*]}"
