@@ -58,7 +58,7 @@ std::string where_in_file(const std::string& message, const std::string& file) {
     const std::size_t end = message.find(": ", at + 1);
     if (end != std::string::npos) key = message.substr(at + 1, end - at - 1);
   }
-  if (key.size() > 64 || key.find('\'') != std::string::npos) key.clear();  // not a key path
+  if (key.size() > 64 || key.find_first_of("' ") != std::string::npos) key.clear();  // not a key path
   std::string where;
   if (!line.empty()) where = "line " + line;
   if (!key.empty()) where += (where.empty() ? "key " : ", key ") + key;
@@ -253,7 +253,11 @@ std::unique_ptr<ServoDaemon::Loaded> ServoDaemon::load(const servo::Command& com
   const std::string rejected = std::string("rejected: ") + servo::route(command.kind).name + ": ";
   const std::string refusal = check_loadable(file_policy_, path, loaded->canonical);
   if (!refusal.empty()) {
-    loaded->refusal = rejected + refusal;
+    // The rule first, the path last: an ack's text is short, a long path is cut.
+    const std::string quoted = "'" + path + "': ";
+    loaded->refusal = refusal.compare(0, quoted.size(), quoted) == 0
+                          ? rejected + refusal.substr(quoted.size()) + ": '" + path + "'"
+                          : rejected + refusal;
     return loaded;
   }
   const std::string& file = loaded->canonical;
@@ -303,8 +307,9 @@ std::unique_ptr<ServoDaemon::Loaded> ServoDaemon::load(const servo::Command& com
     }
     std::string where = where_in_file(message, file);
     if (where.empty()) where = where_in_file(message, path);
-    loaded->refusal = rejected + "'" + path + "'" + (where.empty() ? "" : " (" + where + ")") + ": refused, not a valid " +
-                      file_kind(command.kind) + " file for this axis (the daemon's log says why)";
+    // Short: an ack's text has 127 characters, and the path comes last.
+    loaded->refusal = rejected + "invalid " + file_kind(command.kind) + " file" + (where.empty() ? "" : " (" + where + ")") +
+                      ": '" + path + "'";
     loaded->law.reset();
   }
   return loaded;

@@ -307,7 +307,7 @@ TEST_CASE("load_feedforward reads the file off the cycle, the cycle applies its 
   server.serve_once();
   REQUIRE(acks(sink).count(4) == 1);
   CHECK_FALSE(acks(sink).find(4)->second.accepted);
-  CHECK_THAT(acks(sink).find(4)->second.text, Catch::StartsWith("rejected: load_feedforward: '/nonexistent/ff.yaml'"));
+  CHECK_THAT(acks(sink).find(4)->second.text, Catch::StartsWith("rejected: load_feedforward: ") && Catch::EndsWith(": '/nonexistent/ff.yaml'"));
   daemon.run_cycles(1);
   CHECK(daemon.cycle().record().u_ff_N == Approx(4.0).margin(1e-6));
 }
