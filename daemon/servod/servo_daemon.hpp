@@ -2,8 +2,9 @@
 // clm-servod's core: the configuration made concrete (commutation laws, servo
 // cycle) on the bus it is given, the loop on a real-time or virtual clock,
 // and the command path. Commands arrive on any non-real-time thread through
-// submit(); whatever needs files or planning happens there, and the cycle
-// only receives ready objects (Handover) and small commands (SPSC queue).
+// submit(); planning happens there, files are read on the loader thread when
+// one is set (else there too), and the cycle only receives ready objects
+// (Handover) and small commands (SPSC queue).
 
 #include <atomic>
 #include <cstdint>
