@@ -27,7 +27,8 @@ url="udpm://239.255.76.67:${port}?ttl=0"
 rm -rf "$work"
 mkdir -p "$work"
 pids=()
-trap 'cleanup_processes; rm -f "$work/big.yaml"' EXIT
+created_iface=""
+trap 'cleanup_processes || true; rm -f "$work/big.yaml"' EXIT
 
 fail() {
   echo "FAIL: $*" >&2
@@ -160,6 +161,7 @@ left=$(grep -c "left unfinished" "$work/servod.log" || true)
 echo "SIGTERM during the slow load: $disabled_line; $(grep "exiting" "$work/servod.log" | sed 's/clm-servod: //');" \
      "exit 0 seen $((exited - sent)) ms after kill (polled every 100 ms); load left unfinished: $left"
 [ $((exited - sent)) -lt 1500 ] || fail "exit took $((exited - sent)) ms"
+kill "$loader_ctl" 2>/dev/null || true  # its ack never comes: the daemon left the load
 wait "$loader_ctl" 2>/dev/null || true
 
 # 7. The other stop signals.
@@ -173,4 +175,6 @@ for signal in INT HUP QUIT; do
   line=$(grep "axis disabled" "$work/servod.log") || fail "SIG$signal: no 'axis disabled' line"
   echo "SIG$signal: $line"
 done
+trap - EXIT
+rm -f "$work/big.yaml"
 echo "clm-servod files and shutdown: all as expected"
