@@ -239,6 +239,7 @@ int run(const std::string& config_path, double duration_s) {
   const int signal = wait_for_stop(stop_signals, deadline, loop_exited);
 
   // ---- shutdown: disable first, then join -----------------------------------
+  const std::int64_t cycles_at_stop = daemon.cycles_done();
   const Clock::time_point stop_time = Clock::now();
   daemon.request_disable();  // the loop disables at its next cycle
   notifier.notify("STOPPING=1");
@@ -250,10 +251,17 @@ int run(const std::string& config_path, double duration_s) {
     if (wait_for([&] { return (daemon.cycles_done() >= first + 2 && health.state() != servo::ServoState::kEnabled) ||
                               loop_exited.load(); },
                  bound_s)) {
-      char text[96];
-      std::snprintf(text, sizeof text, "axis disabled %.1f ms after the stop request (%lld cycles)",
-                    1e3 * seconds_since(stop_time), static_cast<long long>(daemon.cycles_done() - first));
-      note(text);
+      // The loop's own record: the cycle that disabled the axis, and when.
+      const std::int64_t after = daemon.disabled_after_cycles();
+      if (after >= 0) {
+        const double ms = 1e-6 * static_cast<double>(daemon.disabled_at_ns() -
+                                                      std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                                          stop_time.time_since_epoch()).count());
+        char text[112];
+        std::snprintf(text, sizeof text, "axis disabled %.1f ms after the stop request, in cycle %lld after it",
+                      ms, static_cast<long long>(after - cycles_at_stop + 1));
+        note(text);
+      }
     } else {
       warn("the axis did not report disabled within " + std::to_string(bound_s) + " s of the stop request");
     }

@@ -492,11 +492,20 @@ void ServoDaemon::drain_commands() noexcept {
       }
       if (status == servo::CommandStatus::kDeferred) deferred_sequence_ = command.sequence;
     }
-    if (disable_requested_.load(std::memory_order_acquire)) cycle_->disable();
+    honour_disable_request();
     mirror_state();
     replies_->try_push({command.sequence, command.client, status});
   }
-  if (disable_requested_.load(std::memory_order_acquire)) cycle_->disable();
+  honour_disable_request();
+}
+
+void ServoDaemon::honour_disable_request() noexcept {
+  if (!disable_requested_.load(std::memory_order_acquire)) return;
+  cycle_->disable();
+  if (disabled_after_cycles_.load(std::memory_order_relaxed) < 0) {
+    disabled_at_ns_.store(monotonic_ns(), std::memory_order_release);
+    disabled_after_cycles_.store(cycles_done_.load(std::memory_order_relaxed), std::memory_order_release);
+  }
 }
 
 void ServoDaemon::one_cycle(std::int64_t sync_time_ns, std::int64_t deadline_ns, double time_s,

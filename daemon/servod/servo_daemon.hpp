@@ -117,6 +117,11 @@ class ServoDaemon {
   /// Any thread, async-signal-safe: the loop disables the axis at its next
   /// cycle and keeps it disabled (shutdown).
   void request_disable() noexcept { disable_requested_.store(true, std::memory_order_release); }
+  /// After request_disable: the cycles completed before the cycle that
+  /// disabled the axis, and when that cycle did [ns, CLOCK_MONOTONIC];
+  /// -1 and 0 until then.
+  std::int64_t disabled_after_cycles() const noexcept { return disabled_after_cycles_.load(std::memory_order_acquire); }
+  std::int64_t disabled_at_ns() const noexcept { return disabled_at_ns_.load(std::memory_order_acquire); }
   /// Any thread: copies the file now in use for `slot` (empty when none) and
   /// returns its generation, which changes with every new file.
   std::uint64_t loaded_file(LoadedFileSlot slot, telemetry::LoadedFileText& out) const noexcept;
@@ -191,6 +196,9 @@ class ServoDaemon {
   std::unique_ptr<Loaded> loaded_;      // a finished load not yet posted
   std::array<FileSlot, kLoadedFileSlots> files_{};
   std::atomic<bool> disable_requested_{false};
+  std::atomic<std::int64_t> disabled_after_cycles_{-1};
+  std::atomic<std::int64_t> disabled_at_ns_{0};
+  void honour_disable_request() noexcept;
   std::atomic<servo::ServoState> state_seen_{servo::ServoState::kDisabled};  // the cycle's, after each command and cycle
   std::atomic<std::int64_t> refused_{0};
   std::int64_t deferred_sequence_ = 0;  // loop thread: the deferred law request waiting for standstill
