@@ -122,6 +122,10 @@ class ServoCycle {
   Fault fault() const noexcept { return fault_; }
   std::int64_t fault_cycle() const noexcept { return fault_cycle_; }
   CommutationMode mode() const noexcept { return mode_; }
+  /// A requested law waits for standstill (request_mode said kDeferred).
+  bool mode_change_pending() const noexcept { return mode_pending_; }
+  /// The law the cycle uses for `mode` now (nullptr: none).
+  const CommutationLaw* law(CommutationMode mode) const noexcept { return laws_[static_cast<std::size_t>(mode)]; }
   const CycleRecord& record() const noexcept { return record_; }
   const CycleCounters& counters() const noexcept { return counters_; }
   const ServoSettings& settings() const noexcept { return settings_; }

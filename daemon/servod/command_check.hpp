@@ -1,7 +1,10 @@
 #pragma once
 // What ServoDaemon::submit checks and completes in a command before acting on
-// it, beyond the wire-level checks of telemetry::to_command. Non-real-time:
-// it may read the files the command names.
+// it, beyond the wire-level checks of telemetry::to_command. Non-real-time.
+// The daemon itself reads the files of load_model and load_feedforward only
+// through its file policy and loader (servo_daemon.hpp, docs/servod.md
+// "Files") and calls this for the other kinds; the file reading here serves
+// in-process callers that trust the path.
 
 #include <string>
 

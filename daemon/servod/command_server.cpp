@@ -49,8 +49,9 @@ int CommandServer::serve_once() {
   while (publisher_.poll_command(received)) {
     served_.fetch_add(1, std::memory_order_relaxed);
     const CommandReply reply = daemon_.submit(received);
-    // A command the cycle answers is acked once, with its decision (below).
-    if (!(reply.accepted && servo::answered_by_cycle(received.kind))) ack(reply);
+    // A command the cycle or the loader answers is acked once, with its
+    // decision (below).
+    if (!reply.answered_later && !(reply.accepted && servo::answered_by_cycle(received.kind))) ack(reply);
   }
   for (const CommandReply& reply : daemon_.take_replies()) ack(reply);
   if (++passes_ % kGarbagePasses == 0) daemon_.collect_garbage();

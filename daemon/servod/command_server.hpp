@@ -5,7 +5,9 @@
 //
 //   - commands the daemon answers (servo::kCommandRoutes: move_to,
 //     run_program, load_calibration, load_model; and any refusal) are acked
-//     with submit's reply;
+//     with submit's reply, or, when their file is read on the daemon's loader
+//     thread (CommandReply::answered_later), with the reply take_replies()
+//     delivers once it is read;
 //   - commands the cycle answers (enable, disable, clear_fault, stop,
 //     set_commutation, set_experiment, and load_feedforward, whose file
 //     submit reads and whose three parameters go through the cycle's queue)

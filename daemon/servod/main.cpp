@@ -2,13 +2,15 @@
 //
 // Threads, all created here:
 //   main       start-up, the loop thread's real-time set-up, signals
-//              (SIGINT/SIGTERM are blocked everywhere and taken with
-//              sigtimedwait here: no asynchronous handler), shutdown;
+//              (SIGINT, SIGTERM, SIGHUP and SIGQUIT are blocked everywhere
+//              and taken with sigtimedwait here: no asynchronous handler),
+//              shutdown;
 //   loop       the servo cycle: a std::thread held at a start gate until
 //              main has pinned it (loop.cpu) and given it SCHED_FIFO
 //              (loop.priority), then ServoDaemon::run_realtime, or
 //              run_cycles at full speed on the virtual clock;
 //   commands   CommandServer: LCM commands → ServoDaemon::submit → acks;
+//   loader     FileLoader: reads the files commands name, one at a time;
 //   telemetry  TelemetryPublisher's own thread (LCM out, commands in);
 //   monitor    ServiceMonitor: WATCHDOG=1 while the loop's cycle counter
 //              advances, STATUS= lines (systemd, Type=notify).
@@ -16,10 +18,20 @@
 //
 // Exit status: 0 after a clean shutdown, 2 when start-up fails (one line on
 // stderr), 1 when the loop thread failed while running.
+//
+// Shutdown (docs/servod.md, "Shutdown"): on a stop signal main sets the
+// daemon's disable request, which the loop honours at its next cycle (not
+// through the command queue, whose one producer is the command thread); it
+// waits for the disabled state and a few cycles of zero setpoints, then stops
+// the command thread, the loop, the monitor and telemetry. A file still being
+// loaded is waited for at most kLoaderWait_s and then left: the process exits
+// without running the loader's destructors.
 
 #include <pthread.h>
 #include <signal.h>
 #include <time.h>
+
+#include <cstdlib>
 
 #include <CLI/CLI.hpp>
 #include <atomic>
@@ -37,6 +49,7 @@
 #include "clm_version.hpp"
 #include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/command_server.hpp"
+#include "daemon/servod/file_loader.hpp"
 #include "daemon/servod/loop_health.hpp"
 #include "daemon/servod/realtime.hpp"
 #include "daemon/servod/sd_notify.hpp"
@@ -63,6 +76,21 @@ std::string format_seconds(double seconds) {
 /// drives see the axis disabled before the bus goes quiet.
 constexpr std::int64_t kShutdownCycles = 10;
 
+/// How long shutdown waits for a file being loaded before leaving it.
+constexpr double kLoaderWait_s = 0.2;
+
+const char* signal_name(int signal) {
+  switch (signal) {
+    case SIGINT: return "SIGINT";
+    case SIGTERM: return "SIGTERM";
+    case SIGHUP: return "SIGHUP";
+    case SIGQUIT: return "SIGQUIT";
+    default: return "a signal";
+  }
+}
+
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
 /// How long start-up waits for the first cycle before giving up.
 constexpr double kFirstCycleTimeout_s = 5.0;
 
@@ -77,12 +105,12 @@ bool wait_for(Done done, double timeout_s) {
   return true;
 }
 
-/// Sleeps until SIGINT/SIGTERM (blocked in every thread), the deadline, or
+/// Sleeps until a stop signal (blocked in every thread), the deadline, or
 /// `loop_exited`. Returns the signal number, or 0.
 int wait_for_stop(const sigset_t& signals, std::optional<Clock::time_point> deadline, const std::atomic<bool>& loop_exited) {
   while (!loop_exited.load(std::memory_order_acquire)) {
     if (deadline && Clock::now() >= *deadline) return 0;
-    const timespec timeout{0, 100'000'000};  // 0.1 s: bounds how late the deadline and a dead loop are seen
+    const timespec timeout{0, 20'000'000};  // 20 ms: bounds how late the deadline and a dead loop are seen
     const int signal = ::sigtimedwait(&signals, nullptr, &timeout);
     if (signal > 0) return signal;
   }
@@ -92,12 +120,13 @@ int wait_for_stop(const sigset_t& signals, std::optional<Clock::time_point> dead
 int run(const std::string& config_path, double duration_s) {
   const servod::ServodConfig config = servod::load_servod_config(config_path);
 
-  // SIGINT and SIGTERM go to main's sigtimedwait only: block them before
-  // any thread exists, so every thread inherits the mask.
+  // The stop signals go to main's sigtimedwait only: block them before any
+  // thread exists, so every thread inherits the mask. SIGHUP and SIGQUIT
+  // stop the daemon like SIGTERM (their default actions would end it with
+  // the axis enabled).
   sigset_t stop_signals;
   sigemptyset(&stop_signals);
-  sigaddset(&stop_signals, SIGINT);
-  sigaddset(&stop_signals, SIGTERM);
+  for (const int signal : {SIGINT, SIGTERM, SIGHUP, SIGQUIT}) sigaddset(&stop_signals, signal);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
   const servod::SystemdNotifier notifier = servod::SystemdNotifier::from_environment();
@@ -119,6 +148,9 @@ int run(const std::string& config_path, double duration_s) {
   }
   servod::LoopHealth health(bridge.get());
   daemon.set_observer(&health);
+  // Files named by commands are read on the loader thread.
+  servod::FileLoader loader;
+  daemon.set_file_loader(&loader);
 
   // ---- the loop thread, held at its start gate --------------------------
   std::promise<bool> gate;
@@ -206,28 +238,43 @@ int run(const std::string& config_path, double duration_s) {
   }
   const int signal = wait_for_stop(stop_signals, deadline, loop_exited);
 
-  // ---- shutdown -----------------------------------------------------------
+  // ---- shutdown: disable first, then join -----------------------------------
+  const std::int64_t cycles_at_stop = daemon.cycles_done();
+  const Clock::time_point stop_time = Clock::now();
+  daemon.request_disable();  // the loop disables at its next cycle
   notifier.notify("STOPPING=1");
-  if (signal != 0) note(std::string("stopping on ") + (signal == SIGINT ? "SIGINT" : "SIGTERM"));
-  if (commands) commands->stop();  // from here on main alone submits and takes replies
+  if (signal != 0) note(std::string("stopping on ") + signal_name(signal));
   if (!loop_exited.load(std::memory_order_acquire)) {
-    servo::Command disable;
-    disable.kind = servo::CommandKind::kDisable;
-    disable.sequence = -1;
-    daemon.submit(disable);
-    const std::int64_t until = daemon.cycles_done() + kShutdownCycles;
-    // Disabled cycles send zero setpoints; a generous bound for a slow loop.
+    const std::int64_t first = daemon.cycles_done();
+    // A generous bound for a slow loop; normally two cycles.
     const double bound_s = 1.0 + 2.0 * static_cast<double>(kShutdownCycles) * config.servo.period_s;
-    if (!wait_for([&] { return (daemon.cycles_done() >= until && health.state() != servo::ServoState::kEnabled) ||
-                               loop_exited.load(); },
-                  bound_s)) {
-      warn("the axis did not report disabled within " + std::to_string(bound_s) + " s of the disable command");
+    if (wait_for([&] { return (daemon.cycles_done() >= first + 2 && health.state() != servo::ServoState::kEnabled) ||
+                              loop_exited.load(); },
+                 bound_s)) {
+      // The loop's own record: the cycle that disabled the axis, and when.
+      const std::int64_t after = daemon.disabled_after_cycles();
+      if (after >= 0) {
+        const double ms = 1e-6 * static_cast<double>(daemon.disabled_at_ns() -
+                                                      std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                                          stop_time.time_since_epoch()).count());
+        char text[112];
+        std::snprintf(text, sizeof text, "axis disabled %.1f ms after the stop request, in cycle %lld after it",
+                      ms, static_cast<long long>(after - cycles_at_stop + 1));
+        note(text);
+      }
+    } else {
+      warn("the axis did not report disabled within " + std::to_string(bound_s) + " s of the stop request");
     }
-    daemon.take_replies();
+    // Disabled cycles send zero setpoints: the drives see them before the bus goes quiet.
+    const std::int64_t until = daemon.cycles_done() + kShutdownCycles;
+    wait_for([&] { return daemon.cycles_done() >= until || loop_exited.load(); }, bound_s);
   }
+  if (commands) commands->stop();
   loop_stop.store(true, std::memory_order_release);
   loop.join();
   monitor.stop();
+  const bool load_left = !loader.wait_idle(kLoaderWait_s);
+  if (load_left) warn("a file was still being loaded at shutdown; left unfinished");
   {
     // One line for benchmarks and logs: the loop's timing over the whole run.
     const servod::LoopTiming& timing = daemon.timing();
@@ -251,6 +298,17 @@ int run(const std::string& config_path, double duration_s) {
                  static_cast<long long>(counters.published), static_cast<long long>(counters.publish_failures),
                  static_cast<long long>(counters.telemetry_dropped()));
   }
+  {
+    char text[64];
+    std::snprintf(text, sizeof text, "exiting %.1f ms after the stop request", 1e3 * seconds_since(stop_time));
+    note(text);
+  }
+  if (load_left) {
+    // The loader thread still reads a file and uses the daemon: exit without
+    // destroying either (no stack unwinding, no static destructors).
+    std::fflush(nullptr);
+    std::_Exit(loop_error ? 1 : 0);
+  }
   if (loop_error) {
     try {
       std::rethrow_exception(loop_error);
@@ -270,7 +328,8 @@ int main(int argc, char** argv) {
   std::string config_path;
   double duration_s = 0.0;
   app.add_option("--config", config_path, "configuration file (YAML, e.g. config/servod.yaml)")->required();
-  app.add_option("--duration-s", duration_s, "stop cleanly after this many seconds [s]; default: run until SIGINT/SIGTERM")
+  app.add_option("--duration-s", duration_s,
+                 "stop cleanly after this many seconds [s]; default: run until SIGINT, SIGTERM, SIGHUP or SIGQUIT")
       ->check(CLI::PositiveNumber);
   try {
     app.parse(argc, argv);

@@ -2,9 +2,15 @@
 
 #include <time.h>
 
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
 #include <stdexcept>
 
+#include "config/regular_file.hpp"
+#include "config/sha256.hpp"
 #include "daemon/servod/command_check.hpp"
+#include "daemon/servod/feedforward_file.hpp"
 #include "daemon/servod/wakeup_schedule.hpp"
 
 namespace clm::servod {
@@ -24,7 +30,61 @@ void sleep_until(std::int64_t time_ns) noexcept {
   }
 }
 
+/// The kinds whose file the loader reads (load_feedforward only with a path).
+bool reads_file(const servo::Command& command) noexcept {
+  using Kind = servo::CommandKind;
+  switch (command.kind) {
+    case Kind::kRunProgram:
+    case Kind::kLoadCalibration:
+    case Kind::kLoadModel: return true;
+    case Kind::kLoadFeedforward: return !command.path.empty();
+    default: return false;
+  }
+}
+
+/// Where in the file a parser message points ("line 3, key kind"), read from
+/// its "<file>:<line>: <key>: ..." prefix; "" when it has none. Nothing after
+/// the key is kept: that part may quote the file's content.
+std::string where_in_file(const std::string& message, const std::string& file) {
+  if (message.compare(0, file.size(), file) != 0 || message.size() <= file.size() || message[file.size()] != ':') {
+    return "";
+  }
+  std::size_t at = file.size() + 1;
+  std::string line;
+  while (at < message.size() && message[at] >= '0' && message[at] <= '9') line += message[at++];
+  if (!line.empty() && at < message.size() && message[at] == ':') ++at;
+  std::string key;
+  if (at < message.size() && message[at] == ' ') {
+    const std::size_t end = message.find(": ", at + 1);
+    if (end != std::string::npos) key = message.substr(at + 1, end - at - 1);
+  }
+  if (key.size() > 64 || key.find_first_of("' ") != std::string::npos) key.clear();  // not a key path
+  std::string where;
+  if (!line.empty()) where = "line " + line;
+  if (!key.empty()) where += (where.empty() ? "key " : ", key ") + key;
+  return where;
+}
+
+const char* file_kind(servo::CommandKind kind) noexcept {
+  switch (kind) {
+    case servo::CommandKind::kRunProgram: return "program";
+    case servo::CommandKind::kLoadCalibration: return "calibration";
+    case servo::CommandKind::kLoadModel: return "model";
+    case servo::CommandKind::kLoadFeedforward: return "feedforward";
+    default: return "input";
+  }
+}
+
 }  // namespace
+
+// What the loader read from one command's file.
+struct ServoDaemon::Loaded {
+  servo::Command command;
+  std::string refusal;  // "" when loaded
+  std::string canonical, sha256;
+  std::unique_ptr<OwnedLaw> law;
+  ProgramFile program;
+};
 
 struct ServoDaemon::RtReply {
   std::int64_t sequence = 0;
@@ -35,7 +95,8 @@ struct ServoDaemon::RtReply {
 // A law with the files it was built from; the law refers into them.
 struct ServoDaemon::OwnedLaw {
   servo::CommutationMode mode = servo::CommutationMode::kOriginal;
-  std::string source;
+  std::string source;  // canonical path of its file
+  std::string sha256;  // of its file
   CalibrationFile calibration;
   std::vector<ClassicalEstimate> estimates;
   ModelFile model;
@@ -62,9 +123,12 @@ ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drive
       {servo::CommutationMode::kPgnn, config_.commutation.pgnn_model_file},
       {servo::CommutationMode::kSpline, config_.commutation.spline_model_file},
   };
+  file_policy_.directories = config_.commands.file_directories;
+  file_policy_.max_file_bytes = config_.commands.max_file_bytes;
   for (const auto& [mode, path] : files) {
     if (path.empty()) continue;
-    auto law = build_law(mode, path);
+    const std::string text = read_regular_file(path, yaml::Node::kMaxFileBytes);
+    auto law = build_law(mode, path, text, sha256_hex(text));
     cycle_->install_law(mode, law->law.get());
     laws_.push_back(std::move(law));
   }
@@ -75,6 +139,13 @@ ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drive
   }
   commands_ = std::make_unique<telemetry::SpscQueue<servo::Command>>(64);
   replies_ = std::make_unique<telemetry::SpscQueue<RtReply>>(64);
+  update_law_files();
+  if (!config_.feedforward_file.empty()) {
+    std::error_code error;
+    const auto canonical = std::filesystem::canonical(config_.feedforward_file, error);
+    set_loaded_file(LoadedFileSlot::kFeedforward, error ? config_.feedforward_file : canonical.string(),
+                    sha256_file(config_.feedforward_file));
+  }
 }
 
 ServoDaemon::~ServoDaemon() = default;
@@ -90,18 +161,22 @@ std::string ServoDaemon::law_source(servo::CommutationMode mode) const {
   return "";
 }
 
-std::unique_ptr<ServoDaemon::OwnedLaw> ServoDaemon::build_law(servo::CommutationMode mode, const std::string& path) const {
+std::unique_ptr<ServoDaemon::OwnedLaw> ServoDaemon::build_law(servo::CommutationMode mode, const std::string& path,
+                                                             const std::string& text, const std::string& sha256) const {
   auto owned = std::make_unique<OwnedLaw>();
   owned->mode = mode;
-  owned->source = path;
+  std::error_code error;
+  const auto canonical = std::filesystem::canonical(path, error);
+  owned->source = error ? path : canonical.string();
+  owned->sha256 = sha256;
   if (mode == servo::CommutationMode::kClassical) {
-    owned->calibration = load_calibration_file(path);
+    owned->calibration = parse_calibration_file(yaml::Node::load_string(text, path));
     check_matches_motor(owned->calibration, config_.motor, path, config_.motor_file);
     owned->estimates = owned->calibration.estimates();
     owned->law = std::make_unique<ClassicalCommutator>(owned->estimates, config_.motor.pole_pitch_m, config_.motor.drive,
                                                        config_.commutation.options.phase_convention);
   } else {
-    owned->model = load_model_file(path);
+    owned->model = parse_model_file(yaml::Node::load_string(text, path));
     check_matches_motor(owned->model.model, config_.motor, path, config_.motor_file);
     const ModelKind expected = mode == servo::CommutationMode::kPgnn ? ModelKind::kPgnn : ModelKind::kSpline;
     if (owned->model.model.kind != expected) {
@@ -121,6 +196,9 @@ CommandReply ServoDaemon::queue(const servo::Command& command) {
 }
 
 CommandReply ServoDaemon::post_program(const servo::Command& command, const ProgramFile* program) {
+  const servo::ServoState state = state_seen_.load(std::memory_order_acquire);
+  if (state == servo::ServoState::kFault) return {command.sequence, false, "rejected: a fault is latched, clear it first"};
+  if (state != servo::ServoState::kEnabled) return {command.sequence, false, "rejected: the axis is disabled, enable first"};
   if (!cycle_->idle()) return {command.sequence, false, "rejected: a program is running"};
   if (cycle_->program_handover().pending()) return {command.sequence, false, "rejected: a program is waiting to start"};
   const double hold = cycle_->hold_position_m();
@@ -132,13 +210,13 @@ CommandReply ServoDaemon::post_program(const servo::Command& command, const Prog
     move = std::make_unique<control::MoveProgram>(
         hold, std::vector<control::ProgramStep>{{command.target_m, command.limits, 0.0}});
   } else {
-    const ProgramFile file = program != nullptr ? *program : load_program_file(std::string(command.program.view()));
-    for (const auto& step : file.steps) {
+    if (program == nullptr) return {command.sequence, false, "rejected: no program"};
+    for (const auto& step : program->steps) {
       if (step.target_m < config_.servo.soft_limit_min_m || step.target_m > config_.servo.soft_limit_max_m) {
         return {command.sequence, false, "rejected: a program target lies outside the soft limits"};
       }
     }
-    move = std::make_unique<control::MoveProgram>(program_from(file, hold));
+    move = std::make_unique<control::MoveProgram>(program_from(*program, hold));
   }
   if (!cycle_->program_handover().post(move.get())) return {command.sequence, false, "rejected: busy"};
   programs_.push_back(std::move(move));
@@ -150,16 +228,122 @@ CommandReply ServoDaemon::submit_program(const ProgramFile& program, std::int64_
   servo::Command command;
   command.kind = servo::CommandKind::kRunProgram;
   command.sequence = sequence;
+  CommandReply reply;
   try {
-    return post_program(command, &program);
+    reply = post_program(command, &program);
   } catch (const std::exception& e) {
-    return {sequence, false, std::string("rejected: ") + e.what()};
+    reply = {sequence, false, std::string("rejected: ") + e.what()};
   }
+  if (!reply.accepted) refused_.fetch_add(1, std::memory_order_relaxed);
+  return reply;
 }
 
 CommandReply ServoDaemon::submit(const servo::Command& received) {
   CommandReply reply = answer(received);
   reply.client = received.client;
+  if (!reply.accepted) refused_.fetch_add(1, std::memory_order_relaxed);
+  return reply;
+}
+
+std::unique_ptr<ServoDaemon::Loaded> ServoDaemon::load(const servo::Command& command) const {
+  using Kind = servo::CommandKind;
+  auto loaded = std::make_unique<Loaded>();
+  loaded->command = command;
+  const std::string path(command.kind == Kind::kRunProgram ? command.program.view() : command.path.view());
+  const std::string rejected = std::string("rejected: ") + servo::route(command.kind).name + ": ";
+  const std::string refusal = check_loadable(file_policy_, path, loaded->canonical);
+  if (!refusal.empty()) {
+    // The rule first, the path last: an ack's text is short, a long path is cut.
+    const std::string quoted = "'" + path + "': ";
+    loaded->refusal = refusal.compare(0, quoted.size(), quoted) == 0
+                          ? rejected + refusal.substr(quoted.size()) + ": '" + path + "'"
+                          : rejected + refusal;
+    return loaded;
+  }
+  const std::string& file = loaded->canonical;
+  try {
+    const std::string text = read_regular_file(file, static_cast<std::uint64_t>(file_policy_.max_file_bytes),
+                                               " (commands.max_file_bytes)");
+    loaded->sha256 = sha256_hex(text);
+    switch (command.kind) {
+      case Kind::kRunProgram:
+        loaded->program = parse_program_file(yaml::Node::load_string(text, file));
+        break;
+      case Kind::kLoadFeedforward: {
+        loaded->command.feedforward = parse_feedforward_file(yaml::Node::load_string(text, file)).parameters;
+        const auto& ff = loaded->command.feedforward;
+        for (const auto& [key, value] : {std::pair{"mass_kg", ff.mass_kg}, std::pair{"viscous_N_s_per_m", ff.viscous_N_s_per_m},
+                                         std::pair{"coulomb_N", ff.coulomb_N}}) {
+          if (!std::isfinite(value)) throw std::runtime_error(file + ": " + key + ": not a finite number");
+        }
+        break;
+      }
+      case Kind::kLoadCalibration:
+        loaded->law = build_law(servo::CommutationMode::kClassical, file, text, loaded->sha256);
+        break;
+      case Kind::kLoadModel: {
+        servo::CommutationMode mode = command.commutation;
+        if (mode != servo::CommutationMode::kPgnn && mode != servo::CommutationMode::kSpline) {
+          // servo_command_t names no law: the model file's own `kind:` says which.
+          const ModelFile model = parse_model_file(yaml::Node::load_string(text, file));
+          mode = model.model.kind == ModelKind::kPgnn ? servo::CommutationMode::kPgnn : servo::CommutationMode::kSpline;
+          loaded->command.commutation = mode;
+        }
+        loaded->law = build_law(mode, file, text, loaded->sha256);
+        break;
+      }
+      default:
+        loaded->refusal = rejected + "not a command that loads a file";
+        break;
+    }
+  } catch (const std::exception& e) {
+    // The parser's message may quote the file: in full to the log only.
+    const std::string message = e.what();
+    if (log_) {
+      log_("refused " + std::string(file_kind(command.kind)) + " file '" + path + "': " + message);
+    } else {
+      std::fprintf(stderr, "clm-servod: refused %s file '%s': %s\n", file_kind(command.kind), path.c_str(),
+                   message.c_str());
+    }
+    std::string where = where_in_file(message, file);
+    if (where.empty()) where = where_in_file(message, path);
+    // Short: an ack's text has 127 characters, and the path comes last.
+    loaded->refusal = rejected + "invalid " + file_kind(command.kind) + " file" + (where.empty() ? "" : " (" + where + ")") +
+                      ": '" + path + "'";
+    loaded->law.reset();
+  }
+  return loaded;
+}
+
+CommandReply ServoDaemon::finish_load(Loaded& loaded) {
+  using Kind = servo::CommandKind;
+  const servo::Command& command = loaded.command;
+  if (!loaded.refusal.empty()) return {command.sequence, false, loaded.refusal, command.client};
+  CommandReply reply{command.sequence, false, "", command.client};
+  switch (command.kind) {
+    case Kind::kRunProgram:
+      reply = post_program(command, &loaded.program);
+      break;
+    case Kind::kLoadFeedforward:
+      reply = queue(command);
+      if (reply.accepted) set_loaded_file(LoadedFileSlot::kFeedforward, loaded.canonical, loaded.sha256);
+      break;
+    case Kind::kLoadCalibration:
+    case Kind::kLoadModel: {
+      const servo::CommutationMode mode = loaded.law->mode;
+      if (!cycle_->law_handover(mode).post(loaded.law->law.get())) {
+        reply.text = "rejected: an earlier load is still waiting for standstill";
+        break;
+      }
+      laws_.push_back(std::move(loaded.law));
+      reply = {command.sequence, true, "loaded; swapped in at the next standstill"};
+      break;
+    }
+    default:
+      reply.text = "unknown command";
+      break;
+  }
+  reply.client = command.client;
   return reply;
 }
 
@@ -168,31 +352,32 @@ CommandReply ServoDaemon::answer(const servo::Command& received) {
   collect_garbage();
   servo::Command command = received;
   try {
+    if (reads_file(command)) {
+      if (command.kind == Kind::kRunProgram) {
+        // Refused before the file is read: it could not run anyway.
+        const servo::ServoState state = state_seen_.load(std::memory_order_acquire);
+        if (state == servo::ServoState::kFault) return {command.sequence, false, "rejected: a fault is latched, clear it first"};
+        if (state != servo::ServoState::kEnabled) return {command.sequence, false, "rejected: the axis is disabled, enable first"};
+      }
+      if (loader_ == nullptr) {
+        auto loaded = load(command);
+        return finish_load(*loaded);
+      }
+      const std::string path(command.kind == Kind::kRunProgram ? command.program.view() : command.path.view());
+      const std::string busy = loader_->start(path, [this, command] {
+        auto loaded = load(command);
+        std::lock_guard lock(loaded_mutex_);
+        loaded_ = std::move(loaded);
+      });
+      if (!busy.empty()) return {command.sequence, false, "rejected: " + busy};
+      CommandReply later{command.sequence, true, "loading"};
+      later.answered_later = true;
+      return later;
+    }
     const std::string reason = check_command(command);
     if (!reason.empty()) return {command.sequence, false, "rejected: " + reason};
     if (servo::answered_by_cycle(command.kind)) return queue(command);
-    switch (command.kind) {
-      case Kind::kMoveTo:
-      case Kind::kRunProgram:
-        return post_program(command, nullptr);
-      case Kind::kLoadCalibration:
-      case Kind::kLoadModel: {
-        const servo::CommutationMode mode =
-            command.kind == Kind::kLoadCalibration ? servo::CommutationMode::kClassical : command.commutation;
-        if (mode != servo::CommutationMode::kClassical && mode != servo::CommutationMode::kPgnn &&
-            mode != servo::CommutationMode::kSpline) {
-          return {command.sequence, false, "rejected: models load into pgnn or spline"};
-        }
-        auto law = build_law(mode, std::string(command.path.view()));  // throws on any problem: the running law stays
-        if (!cycle_->law_handover(mode).post(law->law.get())) {
-          return {command.sequence, false, "rejected: an earlier load is still waiting for standstill"};
-        }
-        laws_.push_back(std::move(law));
-        return {command.sequence, true, "loaded; swapped in at the next standstill"};
-      }
-      default:
-        break;
-    }
+    if (command.kind == Kind::kMoveTo) return post_program(command, nullptr);
   } catch (const std::exception& e) {
     return {command.sequence, false, std::string("rejected: ") + e.what()};
   }
@@ -204,12 +389,33 @@ std::vector<CommandReply> ServoDaemon::take_replies() {
   RtReply reply;
   while (replies_->try_pop(reply)) {
     const bool ok = reply.status == servo::CommandStatus::kAccepted || reply.status == servo::CommandStatus::kDeferred;
+    if (!ok) refused_.fetch_add(1, std::memory_order_relaxed);
     out.push_back({reply.sequence, ok, servo::describe(reply.status), reply.client});
   }
+  std::unique_ptr<Loaded> loaded;
+  {
+    std::lock_guard lock(loaded_mutex_);
+    loaded = std::move(loaded_);
+  }
+  if (loaded) {
+    collect_garbage();
+    CommandReply answer;
+    try {
+      answer = finish_load(*loaded);
+    } catch (const std::exception& e) {
+      answer = {loaded->command.sequence, false, std::string("rejected: ") + e.what(), loaded->command.client};
+    }
+    if (!answer.accepted) refused_.fetch_add(1, std::memory_order_relaxed);
+    // load_feedforward's parameters were queued: the cycle's reply answers it.
+    const bool by_cycle = answer.accepted && servo::answered_by_cycle(loaded->command.kind);
+    if (!by_cycle) out.push_back(answer);
+  }
+  update_law_files();
   return out;
 }
 
 void ServoDaemon::collect_garbage() {
+  update_law_files();
   std::erase_if(programs_, [&](const std::unique_ptr<control::MoveProgram>& program) {
     return !cycle_->program_handover().in_use(program.get());
   });
@@ -218,11 +424,53 @@ void ServoDaemon::collect_garbage() {
   });
 }
 
+void ServoDaemon::set_loaded_file(LoadedFileSlot slot, const std::string& path, const std::string& sha256) noexcept {
+  FileSlot& file = files_[static_cast<std::size_t>(slot)];
+  if (file.text.path.view() == path && file.text.sha256.view() == sha256) return;
+  const std::uint64_t generation = file.generation.load(std::memory_order_relaxed);
+  file.generation.store(generation + 1, std::memory_order_release);  // odd: being written
+  std::atomic_thread_fence(std::memory_order_release);
+  file.text.path.assign(path);
+  file.text.sha256.assign(sha256);
+  file.generation.store(generation + 2, std::memory_order_release);
+}
+
+std::uint64_t ServoDaemon::loaded_file(LoadedFileSlot slot, telemetry::LoadedFileText& out) const noexcept {
+  const FileSlot& file = files_[static_cast<std::size_t>(slot)];
+  std::uint64_t before = 0;
+  for (int attempt = 0; attempt < 8; ++attempt) {
+    before = file.generation.load(std::memory_order_acquire);
+    if (before % 2 != 0) continue;
+    out = file.text;
+    std::atomic_thread_fence(std::memory_order_acquire);
+    if (file.generation.load(std::memory_order_relaxed) == before) return before;
+  }
+  return before;
+}
+
+void ServoDaemon::update_law_files() noexcept {
+  const std::pair<servo::CommutationMode, LoadedFileSlot> slots[] = {
+      {servo::CommutationMode::kClassical, LoadedFileSlot::kCalibration},
+      {servo::CommutationMode::kPgnn, LoadedFileSlot::kPgnnModel},
+      {servo::CommutationMode::kSpline, LoadedFileSlot::kSplineModel},
+  };
+  for (const auto& [mode, slot] : slots) {
+    for (const auto& law : laws_) {
+      if (law->mode == mode && cycle_->law_handover(mode).is_current(law->law.get())) {
+        set_loaded_file(slot, law->source, law->sha256);
+      }
+    }
+  }
+}
+
+void ServoDaemon::mirror_state() noexcept { state_seen_.store(cycle_->state(), std::memory_order_release); }
+
 void ServoDaemon::drain_commands() noexcept {
   using Kind = servo::CommandKind;
   servo::Command command;
   while (commands_->try_pop(command)) {
     servo::CommandStatus status = servo::CommandStatus::kAccepted;
+    const bool was_pending = cycle_->mode_change_pending();
     switch (command.kind) {
       case Kind::kEnable: status = cycle_->enable(); break;
       case Kind::kDisable: status = cycle_->disable(); break;
@@ -235,7 +483,28 @@ void ServoDaemon::drain_commands() noexcept {
       case Kind::kLoadFeedforward: cycle_->set_feedforward(command.feedforward); break;
       default: status = servo::CommandStatus::kRejectedInvalid; break;  // not a kind the cycle answers
     }
+    if (command.kind == Kind::kSetCommutation || command.kind == Kind::kSetExperiment) {
+      const bool replaced = status == servo::CommandStatus::kAccepted || status == servo::CommandStatus::kDeferred;
+      if (was_pending && replaced) {
+        superseded_.superseded = deferred_sequence_;
+        superseded_.by = command.sequence;
+        ++superseded_.count;
+      }
+      if (status == servo::CommandStatus::kDeferred) deferred_sequence_ = command.sequence;
+    }
+    honour_disable_request();
+    mirror_state();
     replies_->try_push({command.sequence, command.client, status});
+  }
+  honour_disable_request();
+}
+
+void ServoDaemon::honour_disable_request() noexcept {
+  if (!disable_requested_.load(std::memory_order_acquire)) return;
+  cycle_->disable();
+  if (disabled_after_cycles_.load(std::memory_order_relaxed) < 0) {
+    disabled_at_ns_.store(monotonic_ns(), std::memory_order_release);
+    disabled_after_cycles_.store(cycles_done_.load(std::memory_order_relaxed), std::memory_order_release);
   }
 }
 
@@ -258,6 +527,7 @@ void ServoDaemon::one_cycle(std::int64_t sync_time_ns, std::int64_t deadline_ns,
     for (const auto& frame : frames) send_failed = !bus_->send(frame) || send_failed;
   }
   cycle_->report_bus(bus_->state(), send_failed);
+  mirror_state();
   if (observer_ != nullptr) observer_->on_cycle(*cycle_, timing_);
   cycles_done_.fetch_add(1, std::memory_order_release);
 }

@@ -2,12 +2,16 @@
 // clm-servod's core: the configuration made concrete (commutation laws, servo
 // cycle) on the bus it is given, the loop on a real-time or virtual clock,
 // and the command path. Commands arrive on any non-real-time thread through
-// submit(); whatever needs files or planning happens there, and the cycle
-// only receives ready objects (Handover) and small commands (SPSC queue).
+// submit(); planning happens there, files are read on the loader thread when
+// one is set (else there too), and the cycle only receives ready objects
+// (Handover) and small commands (SPSC queue).
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <mutex>
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -15,8 +19,11 @@
 #include "daemon/servo/command.hpp"
 #include "daemon/servo/servo_cycle.hpp"
 #include "daemon/servo/timing.hpp"
+#include "daemon/servod/file_loader.hpp"
+#include "daemon/servod/file_policy.hpp"
 #include "daemon/servod/program_file.hpp"
 #include "daemon/servod/servod_config.hpp"
+#include "daemon/telemetry/messages.hpp"
 #include "daemon/telemetry/spsc_queue.hpp"
 #include "drivers/bus_clock.hpp"
 #include "drivers/can_bus.hpp"
@@ -28,6 +35,21 @@ struct CommandReply {
   bool accepted = false;
   std::string text;
   std::int64_t client = 0;  ///< the command's client, for the ack
+  /// The command went to the loader thread: take_replies answers it later
+  /// (this reply is not an answer).
+  bool answered_later = false;
+};
+
+/// The files the status names (servo_status_t.*_file, *_sha256).
+enum class LoadedFileSlot : std::uint8_t { kCalibration = 0, kPgnnModel, kSplineModel, kFeedforward };
+inline constexpr std::size_t kLoadedFileSlots = 4;
+
+/// A deferred law request the cycle replaced by a later one before it took
+/// effect (an event names both).
+struct Superseded {
+  std::int64_t count = 0;       ///< how many so far; changes with each
+  std::int64_t superseded = 0;  ///< sequence of the request replaced
+  std::int64_t by = 0;          ///< sequence of the request that replaced it
 };
 
 /// Timing of the loop (real-time clock); filled by the loop, read by status.
@@ -73,11 +95,40 @@ class ServoDaemon {
   /// answers are queued for it and answered in the reply queue once executed
   /// (the reply here is only "queued"); file and planning commands are
   /// answered here.
+  /// Files named by a command are read only through check_loadable
+  /// (commands.file_directories, commands.max_file_bytes); a file that does
+  /// not parse is refused naming its path, line and key, never its content
+  /// (the full parser message goes to the log). With a file loader set, files
+  /// are read on its thread and the reply has answered_later set; otherwise
+  /// on the caller's thread. move_to and run_program are refused while the
+  /// axis is disabled or faulted.
   CommandReply submit(const servo::Command& command);
   /// Non-real-time: run_program with the program given instead of a file.
   CommandReply submit_program(const ProgramFile& program, std::int64_t sequence = 0);
-  /// Replies of queued commands executed by the cycle since the last call.
+  /// Replies of queued commands executed by the cycle since the last call,
+  /// and of a load the loader finished (its law or program is posted here).
   std::vector<CommandReply> take_replies();
+  /// Loads run on `loader` from now on (nullptr: on the caller's thread). The
+  /// loader must outlive the daemon or be unset first.
+  void set_file_loader(FileLoader* loader) noexcept { loader_ = loader; }
+  /// Where parser messages of refused files go (default: stderr). Called on
+  /// the loader thread or the caller's.
+  void set_log(std::function<void(const std::string&)> log) { log_ = std::move(log); }
+  /// Any thread, async-signal-safe: the loop disables the axis at its next
+  /// cycle and keeps it disabled (shutdown).
+  void request_disable() noexcept { disable_requested_.store(true, std::memory_order_release); }
+  /// After request_disable: the cycles completed before the cycle that
+  /// disabled the axis, and when that cycle did [ns, CLOCK_MONOTONIC];
+  /// -1 and 0 until then.
+  std::int64_t disabled_after_cycles() const noexcept { return disabled_after_cycles_.load(std::memory_order_acquire); }
+  std::int64_t disabled_at_ns() const noexcept { return disabled_at_ns_.load(std::memory_order_acquire); }
+  /// Any thread: copies the file now in use for `slot` (empty when none) and
+  /// returns its generation, which changes with every new file.
+  std::uint64_t loaded_file(LoadedFileSlot slot, telemetry::LoadedFileText& out) const noexcept;
+  /// Commands the daemon refused (by submit, the cycle or the loader).
+  std::int64_t commands_refused() const noexcept { return refused_.load(std::memory_order_relaxed); }
+  /// Loop thread (observers): the last deferred law request superseded.
+  const Superseded& superseded() const noexcept { return superseded_; }
   /// Frees programs and laws the cycle no longer uses. Non-real-time.
   void collect_garbage();
 
@@ -101,10 +152,24 @@ class ServoDaemon {
  private:
   struct RtReply;
   struct OwnedLaw;
+  struct Loaded;
+  struct FileSlot {
+    std::atomic<std::uint64_t> generation{0};  // odd while written
+    telemetry::LoadedFileText text;
+  };
+  /// Any thread: reads the file `command` names and builds what it holds.
+  std::unique_ptr<Loaded> load(const servo::Command& command) const;
+  /// Command thread: posts what `loaded` holds; the reply.
+  CommandReply finish_load(Loaded& loaded);
+  void set_loaded_file(LoadedFileSlot slot, const std::string& path, const std::string& sha256) noexcept;
+  /// Command thread: the status's law files follow the laws the cycle uses.
+  void update_law_files() noexcept;
+  void mirror_state() noexcept;
   void one_cycle(std::int64_t sync_time_ns, std::int64_t deadline_ns, double time_s, std::int64_t next_sync_ns,
                  bool realtime) noexcept;
   void drain_commands() noexcept;
-  std::unique_ptr<OwnedLaw> build_law(servo::CommutationMode mode, const std::string& path) const;
+  std::unique_ptr<OwnedLaw> build_law(servo::CommutationMode mode, const std::string& path, const std::string& text,
+                                      const std::string& sha256) const;
   /// submit without the client: the reply to `received`.
   CommandReply answer(const servo::Command& received);
   CommandReply queue(const servo::Command& command);
@@ -123,6 +188,21 @@ class ServoDaemon {
   CycleObserver* observer_ = nullptr;
   std::atomic<std::int64_t> cycles_done_{0};
   std::int64_t virtual_time_ns_ = 0;
+
+  FilePolicy file_policy_;
+  FileLoader* loader_ = nullptr;
+  std::function<void(const std::string&)> log_;
+  std::mutex loaded_mutex_;             // guards loaded_ (loader thread → command thread)
+  std::unique_ptr<Loaded> loaded_;      // a finished load not yet posted
+  std::array<FileSlot, kLoadedFileSlots> files_{};
+  std::atomic<bool> disable_requested_{false};
+  std::atomic<std::int64_t> disabled_after_cycles_{-1};
+  std::atomic<std::int64_t> disabled_at_ns_{0};
+  void honour_disable_request() noexcept;
+  std::atomic<servo::ServoState> state_seen_{servo::ServoState::kDisabled};  // the cycle's, after each command and cycle
+  std::atomic<std::int64_t> refused_{0};
+  std::int64_t deferred_sequence_ = 0;  // loop thread: the deferred law request waiting for standstill
+  Superseded superseded_;               // loop thread
 };
 
 }  // namespace clm::servod

@@ -43,6 +43,88 @@ void TelemetryBridge::fill_status(const servo::ServoCycle& cycle, const LoopTimi
   out.damping_cycles = c.damping_cycles;
   out.program_running = cycle.record().program_running;
   out.program_time_s = cycle.record().program_time_s;
+  daemon_->loaded_file(LoadedFileSlot::kCalibration, out.calibration);
+  daemon_->loaded_file(LoadedFileSlot::kPgnnModel, out.pgnn_model);
+  daemon_->loaded_file(LoadedFileSlot::kSplineModel, out.spline_model);
+  daemon_->loaded_file(LoadedFileSlot::kFeedforward, out.feedforward);
+  out.commands.refused_by_daemon = daemon_->commands_refused();
+}
+
+void TelemetryBridge::publish_event() noexcept {
+  if (publisher_ != nullptr) {
+    publisher_->push_event(event_);
+    return;
+  }
+  try {
+    telemetry::publish_message(*sink_, telemetry::kEventChannel, telemetry::to_message(event_),
+                               telemetry::wall_clock_utime());
+  } catch (...) {
+    // A failing log sink must not stop the loop; the writer reports the error on close().
+  }
+}
+
+void TelemetryBridge::emit(std::int64_t cycle, EventCode code, std::int8_t severity, const char* text) noexcept {
+  event_.utime = 0;
+  event_.cycle = cycle;
+  event_.code = static_cast<std::int16_t>(code);
+  event_.severity = severity;
+  event_.text.assign(text);
+  publish_event();
+}
+
+void TelemetryBridge::events(const servo::ServoCycle& cycle, std::int64_t n) noexcept {
+  char text[128];
+  telemetry::LoadedFileText file;
+  const LoadedFileSlot slots[] = {LoadedFileSlot::kCalibration, LoadedFileSlot::kPgnnModel,
+                                  LoadedFileSlot::kSplineModel, LoadedFileSlot::kFeedforward};
+  static constexpr const char* kSlotNames[] = {"calibration", "pgnn model", "spline model", "feedforward"};
+  if (!primed_) {
+    // The first cycle: what the daemon started with is no change.
+    primed_ = true;
+    last_mode_ = cycle.mode();
+    for (int m = 0; m < servo::kCommutationModes; ++m) last_laws_[m] = cycle.law(static_cast<servo::CommutationMode>(m));
+    for (std::size_t i = 0; i < kLoadedFileSlots; ++i) last_files_[i] = daemon_->loaded_file(slots[i], file);
+    last_program_running_ = cycle.record().program_running;
+    last_superseded_ = daemon_->superseded().count;
+    return;
+  }
+  if (cycle.mode() != last_mode_) {
+    std::snprintf(text, sizeof text, "commutation %s (was %s)", servo::name(cycle.mode()), servo::name(last_mode_));
+    last_mode_ = cycle.mode();
+    emit(n, EventCode::kCommutationChanged, 0, text);
+  }
+  for (int m = 0; m < servo::kCommutationModes; ++m) {
+    const auto mode = static_cast<servo::CommutationMode>(m);
+    const CommutationLaw* law = cycle.law(mode);
+    if (law == last_laws_[m]) continue;
+    last_laws_[m] = law;
+    std::snprintf(text, sizeof text, "%s law swapped in%s", servo::name(mode), mode == cycle.mode() ? ", in use" : "");
+    emit(n, EventCode::kLawSwapped, 0, text);
+  }
+  for (std::size_t i = 0; i < kLoadedFileSlots; ++i) {
+    const std::uint64_t generation = daemon_->loaded_file(slots[i], file);
+    if (generation == last_files_[i] || generation % 2 != 0) continue;
+    last_files_[i] = generation;
+    // The path's tail fits the event's text; the status has it whole.
+    const std::string_view path = file.path.view();
+    const std::string_view tail = path.size() > 60 ? path.substr(path.size() - 60) : path;
+    std::snprintf(text, sizeof text, "%s file %s%.*s sha256 %.16s", kSlotNames[i], path.size() > 60 ? "..." : "",
+                  static_cast<int>(tail.size()), tail.data(), file.sha256.chars.data());
+    emit(n, EventCode::kFileLoaded, 0, text);
+  }
+  const bool running = cycle.record().program_running;
+  if (running != last_program_running_) {
+    last_program_running_ = running;
+    emit(n, running ? EventCode::kProgramStarted : EventCode::kProgramEnded, 0,
+         running ? "program started" : "program ended");
+  }
+  const Superseded& superseded = daemon_->superseded();
+  if (superseded.count != last_superseded_) {
+    last_superseded_ = superseded.count;
+    std::snprintf(text, sizeof text, "law request %lld superseded by request %lld before it took effect",
+                  static_cast<long long>(superseded.superseded), static_cast<long long>(superseded.by));
+    emit(n, EventCode::kRequestSuperseded, 1, text);
+  }
 }
 
 void TelemetryBridge::on_cycle(const servo::ServoCycle& cycle, const LoopTiming& timing) noexcept {
@@ -63,7 +145,8 @@ void TelemetryBridge::on_cycle(const servo::ServoCycle& cycle, const LoopTiming&
   const bool status_due = n % status_every_cycles_ == 0;
   if (publisher_ != nullptr) {
     publisher_->push_state(cycle.record());  // decimation and drop counting inside
-    if (changed) publisher_->push_event(event_);
+    if (changed) publish_event();
+    events(cycle, n);
     if (status_due) {
       fill_status(cycle, timing, status_);
       publisher_->push_status(status_);
@@ -76,10 +159,8 @@ void TelemetryBridge::on_cycle(const servo::ServoCycle& cycle, const LoopTiming&
       telemetry::publish_message(*sink_, telemetry::kStateChannel, telemetry::to_message(cycle.record()),
                                  telemetry::wall_clock_utime());
     }
-    if (changed) {
-      telemetry::publish_message(*sink_, telemetry::kEventChannel, telemetry::to_message(event_),
-                                 telemetry::wall_clock_utime());
-    }
+    if (changed) publish_event();
+    events(cycle, n);
     if (status_due) {
       fill_status(cycle, timing, status_);
       telemetry::publish_message(*sink_, telemetry::kStatusChannel, telemetry::to_message(status_, 0),

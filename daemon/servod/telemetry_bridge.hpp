@@ -6,12 +6,24 @@
 // on the virtual clock) they are written straight to a sink such as an LCM log,
 // so nothing is dropped.
 
+#include <array>
 #include <string>
 
 #include "daemon/servod/servo_daemon.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 
 namespace clm::servod {
+
+/// servo_event_t.code of the events the bridge emits beside fault and state
+/// changes, whose code is the fault's (docs/telemetry.md, "Events").
+enum class EventCode : std::int16_t {
+  kCommutationChanged = 300,  ///< the cycle commutates with another law (mode)
+  kLawSwapped = 301,          ///< a newly loaded law took over its mode at standstill
+  kFileLoaded = 302,          ///< the status names a new file (calibration, model, feedforward)
+  kProgramStarted = 303,
+  kProgramEnded = 304,
+  kRequestSuperseded = 305,   ///< a deferred law request was replaced before it took effect
+};
 
 class TelemetryBridge final : public CycleObserver {
  public:
@@ -32,6 +44,15 @@ class TelemetryBridge final : public CycleObserver {
   std::int64_t status_every_cycles_ = 100;
   servo::ServoState last_state_ = servo::ServoState::kDisabled;
   servo::Fault last_fault_ = servo::Fault::kNone;
+  bool primed_ = false;  // the fields below hold the first cycle's values
+  servo::CommutationMode last_mode_ = servo::CommutationMode::kOriginal;
+  std::array<const CommutationLaw*, servo::kCommutationModes> last_laws_{};
+  std::array<std::uint64_t, kLoadedFileSlots> last_files_{};
+  bool last_program_running_ = false;
+  std::int64_t last_superseded_ = 0;
+  void emit(std::int64_t cycle, EventCode code, std::int8_t severity, const char* text) noexcept;
+  void publish_event() noexcept;
+  void events(const servo::ServoCycle& cycle, std::int64_t n) noexcept;
   telemetry::ServoStatusSample status_{};
   telemetry::ServoEventSample event_{};
 };

@@ -6,7 +6,9 @@
 // here (its own instance, from the same file) for the cycle's position and
 // force demand.
 #include <catch2/catch.hpp>
+
 #include <cmath>
+#include <filesystem>
 
 #include "commutation/commutator.hpp"
 #include "daemon/servod/servo_daemon.hpp"
@@ -95,6 +97,8 @@ struct PgnnRig {
     config = test::virtual_config();
     config.commutation.pgnn_model_file = first_path;
     config.commutation.mode = CommutationMode::kPgnn;
+    // Commands load files only from the configured directories.
+    config.commands.file_directories.push_back(std::filesystem::canonical(dir.path()).string());
   }
   test::TemporaryDirectory dir;
   std::string first_path, second_path;
@@ -195,15 +199,29 @@ TEST_CASE("a model file that does not load leaves the running law untouched and 
   REQUIRE(daemon.submit(move).accepted);
   daemon.run_cycles(200);
 
+  // The reply names the file, and the line and key when the parser gave
+  // them, never what the file holds; the parser's whole message goes to the
+  // daemon's log.
+  std::vector<std::string> log;
+  daemon.set_log([&](const std::string& line) { log.push_back(line); });
   const auto refused = [&](const std::string& path) {
     const auto reply = daemon.submit(load_model(path));
     CHECK_FALSE(reply.accepted);
     return reply.text;
   };
-  CHECK_THAT(refused(corrupt), Catch::StartsWith("rejected: " + corrupt + ":"));
-  CHECK(refused(other_motor) == "rejected: " + other_motor + ": motor.coil_sets: model has 2 coil sets, " +
-                                    test::source_path("config/motor-sim.yaml") + " has 3");
-  CHECK_THAT(refused(spline), Catch::StartsWith("rejected: " + spline + ": kind: the file holds a spline model"));
+  const std::string why = "rejected: load_model: invalid model file (";
+  CHECK_THAT(refused(corrupt), Catch::StartsWith(why + "line ") && Catch::EndsWith("): '" + corrupt + "'"));
+  REQUIRE(log.size() == 1);
+  CHECK_THAT(log[0], Catch::StartsWith("refused model file '" + corrupt + "': " + corrupt + ":"));
+  CHECK(refused(other_motor) == why + "key motor.coil_sets): '" + other_motor + "'");
+  REQUIRE(log.size() == 2);
+  CHECK(log[1] == "refused model file '" + other_motor + "': " + other_motor +
+                      ": motor.coil_sets: model has 2 coil sets, " + test::source_path("config/motor-sim.yaml") +
+                      " has 3");
+  CHECK(refused(spline) == why + "key kind): '" + spline + "'");
+  REQUIRE(log.size() == 3);
+  CHECK_THAT(log[2], Catch::StartsWith("refused model file '" + spline + "': " + spline +
+                                       ": kind: the file holds a spline model"));
   CHECK_THAT(refused(missing), Catch::StartsWith("rejected: ") && Catch::Contains("no-such-model.yaml"));
 
   // Nothing is waiting: the move ends, the axis comes to rest, and the first

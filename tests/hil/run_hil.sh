@@ -122,6 +122,9 @@ write_config() {
   missing=$(config_require "$output" "  feedforward_file: $artifacts/feedforward-$mode.yaml" \
             "  calibration_file: $artifacts/calibration.yaml" "  pgnn_model_file: $artifacts/model-pgnn.yaml") ||
     { fail "config: no line '$missing' in $output"; return 1; }
+  # Commands load files only from the configured directories: the program's.
+  grep -q "^commands:" "$output" && { fail "config: $output has a commands: section already"; return 1; }
+  printf 'commands:\n  file_directories: ["%s"]\n' "$(dirname "$program")" >> "$output"
 }
 
 # The simulated motor and the recorders run with SCHED_FIFO below the

@@ -3,6 +3,7 @@
 // virtual time.
 #include <catch2/catch.hpp>
 
+#include <filesystem>
 #include <fstream>
 #include <map>
 
@@ -261,8 +262,11 @@ TEST_CASE("load_feedforward reads the file off the cycle, the cycle applies its 
   out = load;
   CHECK_THAT(check_command(out), Catch::Contains(wrong.path()));
 
-  // End to end: over the publisher's command path into the running cycle.
-  WiredAxis axis(virtual_config());
+  // End to end: over the publisher's command path into the running cycle;
+  // commands load files only from the configured directories.
+  ServodConfig config = virtual_config();
+  config.commands.file_directories.push_back(std::filesystem::canonical(std::filesystem::path(file.path()).parent_path()).string());
+  WiredAxis axis(config);
   ServoDaemon& daemon = axis.daemon;
   telemetry::MemorySink sink;
   telemetry::TelemetryPublisher publisher(telemetry::TelemetryConfig{}, sink);
@@ -303,7 +307,7 @@ TEST_CASE("load_feedforward reads the file off the cycle, the cycle applies its 
   server.serve_once();
   REQUIRE(acks(sink).count(4) == 1);
   CHECK_FALSE(acks(sink).find(4)->second.accepted);
-  CHECK_THAT(acks(sink).find(4)->second.text, Catch::StartsWith("rejected: load_feedforward: /nonexistent/ff.yaml"));
+  CHECK_THAT(acks(sink).find(4)->second.text, Catch::StartsWith("rejected: load_feedforward: ") && Catch::EndsWith(": '/nonexistent/ff.yaml'"));
   daemon.run_cycles(1);
   CHECK(daemon.cycle().record().u_ff_N == Approx(4.0).margin(1e-6));
 }

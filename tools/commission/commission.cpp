@@ -151,7 +151,12 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
     throw std::runtime_error(options.config_path + ": can.interface: commissioning runs against the embedded "
                              "simulated motor (interface sim); use --live for a running daemon");
   }
-  InProcessRunner runner(config);
+  // The embedded daemon loads the calibration and models written to the
+  // output directory: commands load files only from configured directories.
+  servod::ServodConfig offline = config;
+  std::filesystem::create_directories(options.out_dir);
+  offline.commands.file_directories.push_back(std::filesystem::canonical(options.out_dir).string());
+  InProcessRunner runner(offline);
   return run(options, runner, progress);
 }
 
