@@ -24,12 +24,13 @@ source "$(dirname "${BASH_SOURCE[0]}")/../support/script_helpers.sh"
 send="$source_dir/tests/support/send_lcm_datagram.py"
 corpus="$source_dir/tests/fuzz/corpus/lcm_datagram"
 
-# A port of its own per mode (9650..9799: no other test uses them).
+# A port of its own per mode (10000..10159; the other LCM tests use 7700..9989,
+# tests/servod/test_axis_presence.cpp 10160..10199).
 case $mode in
-  hostile) base=9650 ;; ctl) base=9690 ;; presence) base=9720 ;; replay) base=9760 ;;
+  hostile) base=10000 ;; ctl) base=10040 ;; presence) base=10080 ;; replay) base=10120 ;;
   *) echo "unknown mode $mode" >&2; exit 2 ;;
 esac
-port=$((base + $$ % 30))
+port=$((base + $$ % 40))
 url="udpm://239.255.76.67:${port}?ttl=0"
 rm -rf "$work"
 mkdir -p "$work"
@@ -42,13 +43,14 @@ fail() {
 }
 
 # config/servod.yaml with an absolute motor file, no real-time rights, our
-# port, and EXTRA lines (config_edit).
+# port, overruns tolerated (a loaded test host; as commission_live_test.sh),
+# and EXTRA lines (config_edit).
 make_config() {  # OUT EXTRA...
   local out=$1
   shift
   config_edit "$source_dir/config/servod.yaml" "$out" \
       "motor_file: $source_dir/config/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
-      "  lcm_url: \"$url\"" "$@" > /dev/null || fail "config: a line is missing after editing $out"
+      "  lcm_url: \"$url\"" "  overrun_limit: 1000" "$@" > /dev/null || fail "config: a line is missing after editing $out"
 }
 
 # Starts a daemon on CONFIG (stderr to LOG) and waits for its status: sets pid.
@@ -206,6 +208,11 @@ replay)
   replayed=$(( $(commands "$after" replayed) - $(commands "$before" replayed) ))
   [ $admitted = 1 ] || fail "the MOVE_TO sent 3 times was admitted $admitted times"
   [ $replayed = 2 ] || fail "the MOVE_TO sent 3 times: $replayed refused as replayed"
+  for _ in $(seq 1 30); do
+    s=$(ctl status)
+    [ "$(field program_running "$s")" = false ] && break
+  done
+  [ "$(field fault "$s")" = 0 ] || fail "fault after the move: $(field fault_reason "$s")"
   # (b) A clm ctl session recorded with lcm-logger ...
   reply=$(ctl release --client-id 77) || fail "release: $reply"
   lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_COMMAND "$work/session.lcmlog" 2> "$work/logger.log" &
