@@ -12,7 +12,7 @@
 #      ctl       enable, move-to, stop typed one after another; a second client
 #                can stop and disable but not enable or move; release.
 #      presence  a second daemon of the same axis refuses to start; one of
-#                another axis starts, and clm ctl then needs --axis; a status
+#                another axis starts, and clm ctl's commands then need --axis; a status
 #                of the same axis from another session disables the axis.
 #      replay    the same MOVE_TO datagram three times runs once; an
 #                lcm-logger log of a clm ctl session replayed onto a restarted
@@ -163,11 +163,11 @@ presence)
   done
   [ $ok = 1 ] || fail "no status of axis1"
   [ "$(field axis "$s")" = axis1 ] || fail "--axis axis1 status names axis $(field axis "$s")"
-  try_ctl status
-  [ $rc = 2 ] || fail "status with two axes and no --axis: exit $rc ($reply)"
-  grep -qF "'axis0', 'axis1'" <<< "$reply" || fail "the refusal does not list both axes: $reply"
   try_ctl enable
   [ $rc = 2 ] || fail "enable with two axes and no --axis: exit $rc ($reply)"
+  grep -qF "'axis0', 'axis1'" <<< "$reply" || fail "the refusal does not list both axes: $reply"
+  s=$(ctl status) || fail "status without --axis (the first axis heard)"
+  grep -qx "axis: axis[01]" <<< "$s" || fail "status without --axis names $(field axis "$s")"
   reply=$(ctl --axis axis0 enable) || fail "enable of axis0 with --axis: $reply"
   s=$(ctl --axis axis0 status)
   [ "$(field state "$s")" = enabled ] || fail "axis0 not enabled: $(field state "$s")"

@@ -7,7 +7,8 @@
 // session, client and sequence. A command that needs control is preceded by
 // TAKE_CONTROL unless the status shows this client holding it with more than
 // 1 s left; stop and disable never take control; `release` gives it up
-// (docs/servod.md "Command authority").
+// (docs/servod.md "Command authority"). `status` prints --axis's status, or
+// the first one heard.
 //
 // Exit status: 0 status received / command accepted; 1 timeout or command
 // refused (the ack's text says why); 2 bad arguments, no LCM, or several
@@ -131,7 +132,8 @@ void run_status(const CtlOptions& options) {
   servod_client::Client client(client_options(options, telemetry::kStatusChannel));  // no LCM: exit status 2
   clm_lcm::servo_status_t status;
   try {
-    client.target(options.timeout_s);
+    // Only reading: the first axis heard (or --axis's), without listening for others.
+    client.target(options.timeout_s, false);
     status = client.wait_for_status(options.timeout_s);
   } catch (const servod_client::SeveralAxes& e) {
     several_axes(e);

@@ -98,7 +98,12 @@ void Client::on_message(const lcm::ReceiveBuffer* buffer, const std::string& cha
   } else if (channel == telemetry::kStatusChannel) {
     servo_status_t status;
     if ((well_formed = decode(message.data, status))) {
-      if (axes_.size() < 64 || axes_.count(status.axis) > 0) axes_[status.axis] = AxisStatus{status, message.utime};
+      if (axes_.size() < 64 || axes_.count(status.axis) > 0) {
+        AxisStatus& heard = axes_[status.axis];
+        heard.status = status;
+        heard.received_utime = message.utime;
+        ++heard.count;
+      }
       if (reported(status)) {
         if (!first_status_) first_status_ = status;
         status_ = std::move(status);
@@ -138,7 +143,7 @@ std::int64_t Client::fresh_sequence() {
   return last_sequence_;
 }
 
-Target Client::target(double timeout_s) {
+Target Client::target(double timeout_s, bool only_axis) {
   std::unique_lock lock(mutex_);
   if (target_) return *target_;
   const std::string& wanted = options_.axis;
@@ -148,9 +153,12 @@ Target Client::target(double timeout_s) {
                   " on " + options_.lcm_url + " within " + seconds(timeout_s) +
                   " (is clm-servod running with that lcm_url?)");
   }
-  if (wanted.empty()) {
-    // Other daemons on the URL publish their statuses as often: listen a little longer.
-    changed_.wait_for(lock, std::chrono::milliseconds(250), [] { return false; });
+  if (wanted.empty() && only_axis) {
+    // Other daemons on the URL publish their statuses about as often: listen
+    // until the first axis's next status (one status period), at most 1 s.
+    const std::string first = axes_.begin()->first;
+    const std::int64_t seen = axes_.begin()->second.count;
+    changed_.wait_for(lock, std::chrono::seconds(1), [&] { return axes_.size() > 1 || axes_.at(first).count > seen; });
     if (axes_.size() > 1) {
       std::string names;
       for (const auto& [axis, status] : axes_) names += (names.empty() ? "'" : ", '") + axis + "'";

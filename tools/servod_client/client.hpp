@@ -28,9 +28,9 @@
 #include <vector>
 
 #include "clm_lcm/servo_command_t.hpp"
+#include "clm_lcm/servo_event_t.hpp"
 #include "clm_lcm/servo_state_t.hpp"
 #include "clm_lcm/servo_status_t.hpp"
-#include "clm_lcm/servo_event_t.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 #include "daemon/telemetry/wire_check.hpp"
 
@@ -154,11 +154,12 @@ class Client {
   std::int64_t client_id() const { return client_id_; }
 
   /// The axis and session to command: on the first call, waits up to
-  /// `timeout_s` [s] for a status of Options::axis (or of any axis, then
-  /// listens 0.25 s more for others), afterwards the same. Throws Timeout
-  /// when no status comes, SeveralAxes (listing them) when several axes
-  /// answer and Options::axis is empty.
-  Target target(double timeout_s);
+  /// `timeout_s` [s] for a status of Options::axis (or of any axis; then,
+  /// with `only_axis`, listens until that axis's next status, at most 1 s,
+  /// for others), afterwards the same. Throws Timeout when no status comes,
+  /// SeveralAxes (listing them) when several axes were heard, Options::axis
+  /// is empty and `only_axis` is set. Without `only_axis`: the first axis heard.
+  Target target(double timeout_s, bool only_axis = true);
 
   /// Publishes `command` on CLM_SERVO_COMMAND for target() (its axis and
   /// session), as client_id(), with a fresh sequence and the wall-clock
@@ -227,6 +228,7 @@ class Client {
   struct AxisStatus {
     clm_lcm::servo_status_t status;
     std::int64_t received_utime = 0;  ///< [µs since the UNIX epoch]
+    std::int64_t count = 0;           ///< statuses of the axis received
   };
 
   Options options_;
