@@ -3,7 +3,8 @@
 // the LCM message (servo_command_t, checked by telemetry::to_command) through
 // ServoDaemon::submit into the cycle's command queue. kCommandRoutes says for
 // every kind who answers it: the cycle (queued, answered with the cycle's
-// decision a cycle later) or the daemon (files and planning, answered at once).
+// decision a cycle later), the daemon (files and planning, answered at once) or
+// the command authority (take and release control).
 
 #include <array>
 #include <cstddef>
@@ -29,8 +30,10 @@ enum class CommandKind : std::int8_t {
   kLoadModel = 9,
   kStop = 10,
   kLoadFeedforward = 11,
+  kTakeControl = 12,
+  kReleaseControl = 13,
 };
-inline constexpr int kCommandKinds = 11;
+inline constexpr int kCommandKinds = 13;
 
 /// True when `code` is a CommandKind value (1..kCommandKinds).
 constexpr bool is_command_kind(int code) noexcept { return code >= 1 && code <= kCommandKinds; }
@@ -39,6 +42,7 @@ constexpr bool is_command_kind(int code) noexcept { return code >= 1 && code <= 
 enum class AnsweredBy : std::uint8_t {
   kCycle,   ///< queued for the cycle; answered with its decision (ServoDaemon::take_replies)
   kDaemon,  ///< reads files or plans on the caller's thread; answered by ServoDaemon::submit
+  kAuthority,  ///< who commands the axis: answered by the command gate (daemon/servod/command_gate.hpp), never submitted
 };
 
 struct CommandRoute {
@@ -61,6 +65,8 @@ inline constexpr std::array<CommandRoute, kCommandKinds> kCommandRoutes{{
     {CommandKind::kLoadModel, "load_model", AnsweredBy::kDaemon},
     {CommandKind::kStop, "stop", AnsweredBy::kCycle},
     {CommandKind::kLoadFeedforward, "load_feedforward", AnsweredBy::kCycle},
+    {CommandKind::kTakeControl, "take_control", AnsweredBy::kAuthority},
+    {CommandKind::kReleaseControl, "release_control", AnsweredBy::kAuthority},
 }};
 
 constexpr bool routes_in_order() noexcept {

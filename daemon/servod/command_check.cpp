@@ -80,6 +80,9 @@ std::string check_command(servo::Command& command) {
     case CommandKind::kSetExperiment:
     case CommandKind::kLoadCalibration:
       return "";
+    case CommandKind::kTakeControl:
+    case CommandKind::kReleaseControl:
+      return std::string(servo::route(command.kind).name) + " is answered by the command authority, not the daemon";
   }
   return "unknown command " + std::to_string(static_cast<int>(command.kind));
 }

@@ -1,6 +1,7 @@
 #include "daemon/servod/command_server.hpp"
 
 #include <chrono>
+#include <cstdio>
 #include <exception>
 #include <stdexcept>
 
@@ -10,11 +11,33 @@ namespace {
 // collect_garbage about every 100 passes (0.2 s at the default poll period).
 constexpr std::int64_t kGarbagePasses = 100;
 
+/// The sequence of commands the server makes itself (the disable when
+/// another daemon drives the axis): client 0, never acked.
+constexpr std::int64_t kOwnSequence = -1;
+
+bool own_command(const CommandReply& reply) { return reply.client == 0 && reply.sequence == kOwnSequence; }
+
 }  // namespace
+
+CommandClass command_class(servo::CommandKind kind) noexcept {
+  switch (kind) {
+    case servo::CommandKind::kStop:
+    case servo::CommandKind::kDisable: return CommandClass::kSafety;
+    case servo::CommandKind::kTakeControl: return CommandClass::kTakeControl;
+    case servo::CommandKind::kReleaseControl: return CommandClass::kReleaseControl;
+    default: return CommandClass::kControlled;
+  }
+}
 
 CommandServer::CommandServer(telemetry::TelemetryPublisher& publisher, ServoDaemon& daemon, double poll_period_s)
     : publisher_(publisher), daemon_(daemon), poll_period_s_(poll_period_s) {
   if (!(poll_period_s > 0.0)) throw std::invalid_argument("CommandServer: poll_period_s must be positive");
+}
+
+CommandServer::CommandServer(telemetry::TelemetryPublisher& publisher, ServoDaemon& daemon,
+                             CommandGateSettings authority, double poll_period_s)
+    : CommandServer(publisher, daemon, poll_period_s) {
+  gate_.emplace(std::move(authority));
 }
 
 CommandServer::~CommandServer() { stop(); }
@@ -35,27 +58,96 @@ void CommandServer::stop() {
   if (thread_.joinable()) thread_.join();
 }
 
+void CommandServer::ack(const CommandReply& reply, int& acks) {
+  try {
+    publisher_.publish_ack(reply.sequence, reply.client, reply.accepted, reply.text);
+  } catch (const std::exception&) {
+    // LCM refused the ack: the sender times out; the daemon goes on.
+  }
+  ++acks;
+}
+
+void CommandServer::check_other_daemon() {
+  const std::int64_t other = publisher_.foreign_session();
+  if (other == 0 || other == other_session_handled_) return;
+  other_session_handled_ = other;
+  servo::Command disable;
+  disable.kind = servo::CommandKind::kDisable;
+  disable.sequence = kOwnSequence;
+  disable.client = 0;
+  daemon_.submit(disable);
+  telemetry::ServoEventSample event;
+  event.severity = 2;  // clm_lcm::servo_event_t::SEVERITY_ERROR
+  char text[128];
+  std::snprintf(text, sizeof(text), "axis %s is also driven by session %lld on this URL: axis disabled",
+                publisher_.config().axis.c_str(), static_cast<long long>(other));
+  event.text.assign(text);
+  try {
+    publisher_.publish_event(event);
+  } catch (const std::exception&) {
+    // The disable above is what matters; the status still names the conflict's effect.
+  }
+}
+
 int CommandServer::serve_once() {
   int acks = 0;
-  const auto ack = [&](const CommandReply& reply) {
-    try {
-      publisher_.publish_ack(reply.sequence, reply.client, reply.accepted, reply.text);
-    } catch (const std::exception&) {
-      // LCM refused the ack: the sender times out; the daemon goes on.
-    }
-    ++acks;
-  };
   servo::Command received;
   while (publisher_.poll_command(received)) {
     served_.fetch_add(1, std::memory_order_relaxed);
+    const servo::CommandRoute& route = servo::route(received.kind);
+    if (gate_) {
+      const CommandOrigin origin{received.axis.view(), received.session, received.client, received.sequence,
+                                 received.utime};
+      const GateDecision decision = gate_->admit(origin, command_class(received.kind), telemetry::wall_clock_utime());
+      if (!decision.admitted()) {
+        ack({received.sequence, false, std::string("refused ") + name(decision.refusal) + ": " + decision.reason,
+             received.client},
+            acks);
+        continue;
+      }
+    }
+    if (route.answered_by == servo::AnsweredBy::kAuthority) {
+      if (!gate_) {
+        ack({received.sequence, false, std::string("rejected: ") + route.name + ": no command authority in this process",
+             received.client},
+            acks);
+      } else if (received.kind == servo::CommandKind::kTakeControl) {
+        char text[96];
+        std::snprintf(text, sizeof(text), "control taken, lease %g s",
+                      gate_->lease_remaining_s(telemetry::wall_clock_utime()));
+        ack({received.sequence, true, text, received.client}, acks);
+      } else {
+        ack({received.sequence, true, "control released", received.client}, acks);
+      }
+      continue;
+    }
     const CommandReply reply = daemon_.submit(received);
     // A command the cycle or the loader answers is acked once, with its
     // decision (below).
-    if (!reply.answered_later && !(reply.accepted && servo::answered_by_cycle(received.kind))) ack(reply);
+    if (!reply.answered_later && !(reply.accepted && servo::answered_by_cycle(received.kind))) ack(reply, acks);
   }
-  for (const CommandReply& reply : daemon_.take_replies()) ack(reply);
+  for (const CommandReply& reply : daemon_.take_replies()) {
+    if (own_command(reply)) continue;
+    ack(reply, acks);
+  }
+  check_other_daemon();
   if (++passes_ % kGarbagePasses == 0) daemon_.collect_garbage();
   return acks;
+}
+
+void CommandServer::fill(telemetry::CommandAuthorityStatus& out) const noexcept {
+  out.refused_malformed = publisher_.counters().commands_malformed;
+  if (!gate_) return;
+  const std::int64_t now = telemetry::wall_clock_utime();
+  out.control_client = gate_->holder(now);
+  out.control_lease_remaining_s = gate_->lease_remaining_s(now);
+  out.admitted = gate_->count(GateRefusal::kAdmitted);
+  out.refused_other_axis = gate_->count(GateRefusal::kOtherAxis);
+  out.refused_other_session = gate_->count(GateRefusal::kOtherSession);
+  out.refused_no_client = gate_->count(GateRefusal::kNoClient);
+  out.refused_replayed = gate_->count(GateRefusal::kReplayed);
+  out.refused_stale = gate_->count(GateRefusal::kStale);
+  out.refused_not_in_control = gate_->count(GateRefusal::kNotInControl);
 }
 
 }  // namespace clm::servod

@@ -1,8 +1,14 @@
 #pragma once
 // clm-servod's command thread (non-real-time): takes the checked commands
-// the telemetry publisher received on CLM_SERVO_COMMAND, submits them to the
-// ServoDaemon and acknowledges each with exactly one CLM_SERVO_COMMAND_ACK:
+// the telemetry publisher received on CLM_SERVO_COMMAND, puts each through
+// the command authority (CommandGate: axis, session, client, sequence, age,
+// control; docs/servod.md "Command authority"), submits the admitted ones to
+// the ServoDaemon and acknowledges each command with exactly one
+// CLM_SERVO_COMMAND_ACK:
 //
+//   - refused by the gate: acked at once with the refusal and its reason;
+//   - take_control, release_control (servo::AnsweredBy::kAuthority): acked
+//     by the gate's decision, never submitted;
 //   - commands the daemon answers (servo::kCommandRoutes: move_to,
 //     run_program, load_calibration, load_model; and any refusal) are acked
 //     with submit's reply, or, when their file is read on the daemon's loader
@@ -14,24 +20,40 @@
 //     are acked with the cycle's decision, which take_replies() delivers a
 //     cycle later.
 //
+// When the publisher hears another session's status for this axis (a second
+// daemon driving it), the server disables the axis and publishes an error
+// event, once per other session.
+//
 // It is the only thread that calls poll_command (single consumer),
 // ServoDaemon::submit (single producer of the cycle's command queue) and
 // take_replies; it also frees retired programs and laws (collect_garbage).
 
 #include <atomic>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <thread>
 
+#include "daemon/servod/command_gate.hpp"
 #include "daemon/servod/servo_daemon.hpp"
+#include "daemon/servod/telemetry_bridge.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 
 namespace clm::servod {
 
-class CommandServer {
+/// What the gate asks of a command of `kind`: stop and disable are kSafety.
+CommandClass command_class(servo::CommandKind kind) noexcept;
+
+class CommandServer final : public AuthorityReport {
  public:
+  /// Without command authority: every well-formed command is submitted
+  /// (in-process use and tests); take/release control are refused.
   /// `poll_period_s`: how long the thread sleeps when there is nothing to do.
   CommandServer(telemetry::TelemetryPublisher& publisher, ServoDaemon& daemon, double poll_period_s = 0.002);
+  /// With the command authority `authority` (throws std::invalid_argument
+  /// for invalid settings, CommandGateSettings::validate).
+  CommandServer(telemetry::TelemetryPublisher& publisher, ServoDaemon& daemon, CommandGateSettings authority,
+                double poll_period_s = 0.002);
   /// stop().
   ~CommandServer();
   CommandServer(const CommandServer&) = delete;
@@ -49,12 +71,22 @@ class CommandServer {
   int serve_once();
 
   std::int64_t commands_served() const noexcept { return served_.load(std::memory_order_relaxed); }
+  /// Commands admitted by the gate (or submitted, without one) that the daemon then refused.
+  /// The gate; nullptr without command authority.
+  const CommandGate* gate() const noexcept { return gate_ ? &*gate_ : nullptr; }
+  /// The status's command part: holder, lease and every counter. Any thread; noexcept, no allocation.
+  void fill(telemetry::CommandAuthorityStatus& out) const noexcept override;
 
  private:
+  void ack(const CommandReply& reply, int& acks);
+  void check_other_daemon();
+
   telemetry::TelemetryPublisher& publisher_;
   ServoDaemon& daemon_;
+  std::optional<CommandGate> gate_;
   double poll_period_s_;
   std::int64_t passes_ = 0;
+  std::int64_t other_session_handled_ = 0;
   std::atomic<std::int64_t> served_{0};
   std::atomic<bool> stop_requested_{false};
   std::thread thread_;

@@ -9,7 +9,8 @@
 //              main has pinned it (loop.cpu) and given it SCHED_FIFO
 //              (loop.priority), then ServoDaemon::run_realtime, or
 //              run_cycles at full speed on the virtual clock;
-//   commands   CommandServer: LCM commands → ServoDaemon::submit → acks;
+//   commands   CommandServer: LCM commands → command authority →
+//              ServoDaemon::submit → acks;
 //   loader     FileLoader: reads the files commands name, one at a time;
 //   telemetry  TelemetryPublisher's own thread (LCM out, commands in);
 //   monitor    ServiceMonitor: WATCHDOG=1 while the loop's cycle counter
@@ -47,6 +48,7 @@
 #include <thread>
 
 #include "clm_version.hpp"
+#include "daemon/servod/axis_presence.hpp"
 #include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/command_server.hpp"
 #include "daemon/servod/file_loader.hpp"
@@ -119,6 +121,11 @@ int wait_for_stop(const sigset_t& signals, std::optional<Clock::time_point> dead
 
 int run(const std::string& config_path, double duration_s) {
   const servod::ServodConfig config = servod::load_servod_config(config_path);
+  // This run's identity, in every status and ack; no other daemon may drive the axis on the URL.
+  const std::int64_t session = servod::draw_session_id();
+  if (config.telemetry.enabled) {
+    servod::require_axis_free(config.telemetry.lcm_url, config.axis_name, session, config.telemetry.status_rate_hz);
+  }
 
   // The stop signals go to main's sigtimedwait only: block them before any
   // thread exists, so every thread inherits the mask. SIGHUP and SIGQUIT
@@ -143,6 +150,8 @@ int run(const std::string& config_path, double duration_s) {
     telemetry::TelemetryConfig telemetry_config;
     telemetry_config.lcm_url = config.telemetry.lcm_url;
     telemetry_config.state_decimation = config.telemetry.state_decimation;
+    telemetry_config.axis = config.axis_name;
+    telemetry_config.session = session;
     publisher = std::make_unique<telemetry::TelemetryPublisher>(telemetry_config);
     bridge = std::make_unique<servod::TelemetryBridge>(*publisher, daemon);
   }
@@ -214,7 +223,12 @@ int run(const std::string& config_path, double duration_s) {
   // ---- start ------------------------------------------------------------
   if (publisher) publisher->start();
   std::optional<servod::CommandServer> commands;
-  if (publisher) commands.emplace(*publisher, daemon);
+  if (publisher) {
+    commands.emplace(*publisher, daemon,
+                     servod::CommandGateSettings{config.axis_name, session, config.commands.max_age_s,
+                                                 config.commands.control_lease_s});
+    bridge->set_authority(&*commands);
+  }
   if (commands) commands->start();
   gate.set_value(true);
   gate_open = true;

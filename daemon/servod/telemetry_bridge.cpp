@@ -21,6 +21,9 @@ void TelemetryBridge::fill_status(const servo::ServoCycle& cycle, const LoopTimi
                                   telemetry::ServoStatusSample& out) const noexcept {
   const auto& c = cycle.counters();
   out.utime = 0;
+  out.axis.assign(daemon_->config().axis_name);
+  out.session = publisher_ != nullptr ? publisher_->config().session : 0;
+  if (authority_ != nullptr) authority_->fill(out.commands);
   out.state = static_cast<std::int8_t>(cycle.state());
   out.fault = static_cast<std::int16_t>(cycle.fault());
   out.fault_reason.assign(servo::describe(cycle.fault()));

@@ -25,6 +25,16 @@ enum class EventCode : std::int16_t {
   kRequestSuperseded = 305,   ///< a deferred law request was replaced before it took effect
 };
 
+/// Who reports the command authority's part of the status (the command
+/// server). fill() runs on the loop thread: it must not block or allocate.
+class AuthorityReport {
+ public:
+  virtual void fill(telemetry::CommandAuthorityStatus& out) const noexcept = 0;
+
+ protected:
+  ~AuthorityReport() = default;
+};
+
 class TelemetryBridge final : public CycleObserver {
  public:
   /// Real-time use: samples go to `publisher`'s queues.
@@ -34,12 +44,17 @@ class TelemetryBridge final : public CycleObserver {
 
   void on_cycle(const servo::ServoCycle& cycle, const LoopTiming& timing) noexcept override;
 
+  /// From now on the status carries `report`'s command authority (nullptr:
+  /// none, the counters stay 0). Before the loop starts.
+  void set_authority(const AuthorityReport* report) noexcept { authority_ = report; }
+
   void fill_status(const servo::ServoCycle& cycle, const LoopTiming& timing, telemetry::ServoStatusSample& out) const noexcept;
 
  private:
   telemetry::TelemetryPublisher* publisher_ = nullptr;
   telemetry::TelemetrySink* sink_ = nullptr;
   const ServoDaemon* daemon_;
+  const AuthorityReport* authority_ = nullptr;
   int state_decimation_ = 1;
   std::int64_t status_every_cycles_ = 100;
   servo::ServoState last_state_ = servo::ServoState::kDisabled;

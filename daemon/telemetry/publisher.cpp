@@ -9,6 +9,7 @@
 #include <type_traits>
 
 #include "daemon/telemetry/lcm_conversion.hpp"
+#include "daemon/telemetry/wire_check.hpp"
 
 namespace clm::telemetry {
 
@@ -65,6 +66,7 @@ TelemetryPublisher::TelemetryPublisher(const TelemetryConfig& config)
   lcm_sink_ = std::make_unique<LcmSink>(*lcm_);
   sinks_.push_back(lcm_sink_.get());
   lcm_->subscribe(kCommandChannel, &TelemetryPublisher::on_command, this);
+  lcm_->subscribe(kStatusChannel, &TelemetryPublisher::on_status, this);
 }
 
 TelemetryPublisher::~TelemetryPublisher() { stop(); }
@@ -128,6 +130,8 @@ TelemetryCounters TelemetryPublisher::counters() const noexcept {
   c.publish_failures = publish_failures_.load(std::memory_order_relaxed);
   c.commands_received = commands_received_.load(std::memory_order_relaxed);
   c.commands_rejected = commands_rejected_.load(std::memory_order_relaxed);
+  c.commands_malformed = commands_malformed_.load(std::memory_order_relaxed);
+  c.foreign_statuses = foreign_statuses_.load(std::memory_order_relaxed);
   return c;
 }
 
@@ -161,10 +165,16 @@ void TelemetryPublisher::publish_ack(std::int64_t sequence, std::int64_t client,
   publish_to_sinks(kCommandAckChannel, message, message.utime);
 }
 
+void TelemetryPublisher::publish_event(const ServoEventSample& sample) {
+  const auto message = to_message(sample);
+  publish_to_sinks(kEventChannel, message, message.utime);
+}
+
 bool TelemetryPublisher::submit_command(const clm_lcm::servo_command_t& message) {
   commands_received_.fetch_add(1, std::memory_order_relaxed);
   servo::Command command;
   std::string reason = to_command(message, command);
+  if (!reason.empty()) commands_malformed_.fetch_add(1, std::memory_order_relaxed);
   if (reason.empty()) {
     bool queued = false;
     {
@@ -183,15 +193,30 @@ void TelemetryPublisher::on_command(const lcm::ReceiveBuffer* buffer, const std:
   // Runs inside lcm_handle (C frames): nothing may propagate out of here.
   try {
     clm_lcm::servo_command_t message;
-    const int size = static_cast<int>(buffer->data_size);
-    if (message.decode(buffer->data, 0, size) != size) {
+    const std::span<const std::uint8_t> datagram(static_cast<const std::uint8_t*>(buffer->data), buffer->data_size);
+    if (!decode_checked(datagram, message).empty()) {
+      // Not acked: its sequence, client and axis cannot be trusted.
       commands_received_.fetch_add(1, std::memory_order_relaxed);
-      commands_rejected_.fetch_add(1, std::memory_order_relaxed);  // no sequence to answer to
+      commands_rejected_.fetch_add(1, std::memory_order_relaxed);
+      commands_malformed_.fetch_add(1, std::memory_order_relaxed);
       return;
     }
     submit_command(message);
   } catch (const std::exception&) {
     commands_rejected_.fetch_add(1, std::memory_order_relaxed);
+  }
+}
+
+void TelemetryPublisher::on_status(const lcm::ReceiveBuffer* buffer, const std::string& /*channel*/) {
+  try {
+    clm_lcm::servo_status_t message;
+    const std::span<const std::uint8_t> datagram(static_cast<const std::uint8_t*>(buffer->data), buffer->data_size);
+    if (!decode_checked(datagram, message).empty()) return;  // not a status anyone can rely on
+    if (message.axis != config_.axis || message.session == config_.session) return;
+    foreign_statuses_.fetch_add(1, std::memory_order_relaxed);
+    foreign_session_.store(message.session, std::memory_order_release);
+  } catch (const std::exception&) {
+    // A status that cannot be handled is ignored; the publisher goes on.
   }
 }
 

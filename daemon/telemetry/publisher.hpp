@@ -8,8 +8,11 @@
 // (lcm_conversion.hpp) and publishes them to its sinks: LCM (udpm
 // multicast), an LCM log file, or memory. A full queue refuses the sample
 // and counts the drop; the count goes out in the next status message.
-// Commands arrive on the same LCM instance, are checked and copied into
-// fixed-size servo::Command structs, and reach the daemon through another queue.
+// Commands arrive on the same LCM instance, are checked (wire_check.hpp's
+// decode_checked, then to_command) and copied into fixed-size servo::Command
+// structs, and reach the daemon through another queue. The instance also
+// listens to CLM_SERVO_STATUS for another daemon driving the same axis
+// (foreign_session()).
 //
 // Thread roles: push_* — the real-time thread only (one producer per
 // queue); poll_command — one consumer thread (the daemon's command thread).
@@ -73,6 +76,12 @@ struct TelemetryCounters {
   std::int64_t publish_failures = 0;  ///< sink errors (each sink counts once per message)
   std::int64_t commands_received = 0;
   std::int64_t commands_rejected = 0;  ///< undecodable, ill-formed, or the command queue was full
+  /// Of commands_rejected: datagrams that failed decode_checked (not acked:
+  /// nothing in them can be trusted) or to_command's field checks (acked).
+  std::int64_t commands_malformed = 0;
+  /// CLM_SERVO_STATUS messages of this axis from another session (another
+  /// daemon driving the same axis on the same URL).
+  std::int64_t foreign_statuses = 0;
   std::int64_t telemetry_dropped() const { return states_dropped + statuses_dropped + events_dropped + acks_dropped; }
 };
 
@@ -112,6 +121,11 @@ class TelemetryPublisher {
   // ---- any other thread ---------------------------------------------------
   /// Publishes an ack now, on the calling thread.
   void publish_ack(std::int64_t sequence, std::int64_t client, bool accepted, std::string_view text);
+  /// Publishes an event now, on the calling thread (not the real-time one).
+  void publish_event(const ServoEventSample& sample);
+  /// The session of the last CLM_SERVO_STATUS of this axis from another
+  /// session (0: none seen), with the LCM instance only.
+  std::int64_t foreign_session() const noexcept { return foreign_session_.load(std::memory_order_acquire); }
   /// Handles `message` as if it had arrived on CLM_SERVO_COMMAND: checks it,
   /// queues it for poll_command, or refuses it with an ack. True if queued.
   bool submit_command(const clm_lcm::servo_command_t& message);
@@ -124,6 +138,7 @@ class TelemetryPublisher {
   template <typename Message>
   void publish_to_sinks(const char* channel, const Message& message, std::int64_t utime);
   void on_command(const lcm::ReceiveBuffer* buffer, const std::string& channel);
+  void on_status(const lcm::ReceiveBuffer* buffer, const std::string& channel);
 
   TelemetryConfig config_;
   std::unique_ptr<lcm::LCM> lcm_;
@@ -149,6 +164,9 @@ class TelemetryPublisher {
   std::atomic<std::int64_t> publish_failures_{0};
   std::atomic<std::int64_t> commands_received_{0};
   std::atomic<std::int64_t> commands_rejected_{0};
+  std::atomic<std::int64_t> commands_malformed_{0};
+  std::atomic<std::int64_t> foreign_statuses_{0};
+  std::atomic<std::int64_t> foreign_session_{0};
 
   std::atomic<bool> stop_requested_{false};
   std::thread thread_;

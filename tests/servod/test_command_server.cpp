@@ -311,3 +311,137 @@ TEST_CASE("load_feedforward reads the file off the cycle, the cycle applies its 
   daemon.run_cycles(1);
   CHECK(daemon.cycle().record().u_ff_N == Approx(4.0).margin(1e-6));
 }
+
+namespace {
+
+/// A command of client `client` for the gate's axis and session, sent now.
+clm_lcm::servo_command_t authored(std::int8_t kind, std::int64_t sequence, std::int64_t client,
+                                  std::int64_t session = 77, const std::string& axis = "axis0") {
+  clm_lcm::servo_command_t m = message(kind, sequence);
+  m.utime = telemetry::wall_clock_utime();
+  m.axis = axis;
+  m.session = session;
+  m.client = client;
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("With command authority, the server admits through the gate, answers take/release and counts every refusal",
+          "[servod][commands][authority]") {
+  using C = clm_lcm::servo_command_t;
+  WiredAxis axis(virtual_config());
+  ServoDaemon& daemon = axis.daemon;
+  telemetry::MemorySink sink;
+  telemetry::TelemetryPublisher publisher(telemetry::TelemetryConfig{}, sink);
+  CommandServer server(publisher, daemon, CommandGateSettings{"axis0", 77, 2.0, 30.0});
+  REQUIRE(server.gate() != nullptr);
+  const auto serve = [&] {
+    server.serve_once();
+    daemon.run_cycles(1);
+    server.serve_once();
+  };
+
+  // Enable without control: refused by the gate, never reaches the cycle.
+  REQUIRE(publisher.submit_command(authored(C::ENABLE, 1, 5)));
+  serve();
+  REQUIRE(acks(sink).count(1) == 1);
+  CHECK_FALSE(acks(sink).find(1)->second.accepted);
+  CHECK_THAT(acks(sink).find(1)->second.text, Catch::StartsWith("refused not_in_control: take control first"));
+  CHECK(daemon.cycle().state() == servo::ServoState::kDisabled);
+
+  // Take control, enable: both accepted; the ack names the client, axis and session.
+  REQUIRE(publisher.submit_command(authored(C::TAKE_CONTROL, 2, 5)));
+  REQUIRE(publisher.submit_command(authored(C::ENABLE, 3, 5)));
+  serve();
+  REQUIRE(acks(sink).count(2) == 1);
+  CHECK(acks(sink).find(2)->second.accepted);
+  CHECK_THAT(acks(sink).find(2)->second.text, Catch::StartsWith("control taken"));
+  REQUIRE(acks(sink).count(3) == 1);
+  CHECK(acks(sink).find(3)->second.accepted);
+  CHECK(acks(sink).find(3)->second.client == 5);
+  CHECK(daemon.cycle().state() == servo::ServoState::kEnabled);
+
+  // Another client: move refused, stop and disable obeyed; control stays with 5.
+  auto move = authored(C::MOVE_TO, 4, 6);
+  move.target_m = 0.01;
+  move.velocity_m_per_s = 0.1;
+  move.acceleration_m_per_s2 = 1.0;
+  move.jerk_m_per_s3 = 1000.0;
+  REQUIRE(publisher.submit_command(move));
+  REQUIRE(publisher.submit_command(authored(C::STOP, 5, 6)));
+  REQUIRE(publisher.submit_command(authored(C::DISABLE, 6, 6)));
+  serve();
+  CHECK_THAT(acks(sink).find(4)->second.text, Catch::StartsWith("refused not_in_control: client 5 holds control"));
+  CHECK(acks(sink).find(5)->second.accepted);
+  CHECK(acks(sink).find(6)->second.accepted);
+  CHECK(daemon.cycle().state() == servo::ServoState::kDisabled);
+
+  // Replayed, other session, other axis, client 0, stale; then a daemon refusal.
+  REQUIRE(publisher.submit_command(authored(C::DISABLE, 6, 6)));
+  REQUIRE(publisher.submit_command(authored(C::STOP, 7, 6, 78)));
+  REQUIRE(publisher.submit_command(authored(C::STOP, 8, 6, 77, "axis1")));
+  REQUIRE(publisher.submit_command(authored(C::STOP, 9, 0)));
+  auto stale = authored(C::STOP, 10, 6);
+  stale.utime -= 10'000'000;
+  REQUIRE(publisher.submit_command(stale));
+  auto beyond = authored(C::MOVE_TO, 11, 5);
+  beyond.target_m = 1.0;
+  beyond.velocity_m_per_s = 0.1;
+  beyond.acceleration_m_per_s2 = 1.0;
+  beyond.jerk_m_per_s3 = 1000.0;
+  REQUIRE(publisher.submit_command(beyond));
+  // release by 6 (not the holder) refused, by 5 accepted.
+  REQUIRE(publisher.submit_command(authored(C::RELEASE_CONTROL, 12, 6)));
+  REQUIRE(publisher.submit_command(authored(C::RELEASE_CONTROL, 13, 5)));
+  serve();
+  const auto all = acks(sink);
+  CHECK_THAT(all.find(7)->second.text, Catch::StartsWith("refused other_session"));
+  CHECK_THAT(all.find(8)->second.text, Catch::StartsWith("refused other_axis"));
+  CHECK_THAT(all.find(9)->second.text, Catch::StartsWith("refused no_client"));
+  CHECK_THAT(all.find(10)->second.text, Catch::StartsWith("refused stale"));
+  CHECK(all.find(11)->second.text == "rejected: target outside the soft limits");
+  CHECK_THAT(all.find(12)->second.text, Catch::StartsWith("refused not_in_control"));
+  CHECK(all.find(13)->second.text == "control released");
+  CHECK(all.count(6) == 2);  // the disable, and its replay's refusal
+  int replay_refusals = 0;
+  for (auto [it, end] = all.equal_range(6); it != end; ++it) {
+    if (it->second.text.rfind("refused replayed", 0) == 0) ++replay_refusals;
+  }
+  CHECK(replay_refusals == 1);
+
+  telemetry::CommandAuthorityStatus status;
+  server.fill(status);
+  CHECK(status.control_client == 0);
+  CHECK(status.control_lease_remaining_s == 0.0);
+  CHECK(status.admitted == 6);  // take, enable (5); stop, disable (6); the move beyond the limits, release (5)
+  CHECK(status.refused_not_in_control == 3);
+  CHECK(status.refused_replayed == 1);
+  CHECK(status.refused_other_session == 1);
+  CHECK(status.refused_other_axis == 1);
+  CHECK(status.refused_no_client == 1);
+  CHECK(status.refused_stale == 1);
+  CHECK(daemon.commands_refused() == 1);  // the status takes it from the daemon (TelemetryBridge)
+  CHECK(status.refused_malformed == 0);
+}
+
+TEST_CASE("Without command authority, take and release control are refused and other commands pass",
+          "[servod][commands][authority]") {
+  WiredAxis axis(virtual_config());
+  telemetry::MemorySink sink;
+  telemetry::TelemetryPublisher publisher(telemetry::TelemetryConfig{}, sink);
+  CommandServer server(publisher, axis.daemon);
+  CHECK(server.gate() == nullptr);
+  REQUIRE(publisher.submit_command(message(clm_lcm::servo_command_t::TAKE_CONTROL, 1)));
+  server.serve_once();
+  REQUIRE(acks(sink).count(1) == 1);
+  CHECK_FALSE(acks(sink).find(1)->second.accepted);
+  CHECK_THAT(acks(sink).find(1)->second.text, Catch::Contains("no command authority"));
+  CHECK(command_class(CommandKind::kStop) == CommandClass::kSafety);
+  CHECK(command_class(CommandKind::kDisable) == CommandClass::kSafety);
+  CHECK(command_class(CommandKind::kClearFault) == CommandClass::kControlled);
+  CHECK(command_class(CommandKind::kTakeControl) == CommandClass::kTakeControl);
+  CHECK(command_class(CommandKind::kReleaseControl) == CommandClass::kReleaseControl);
+  CHECK(servo::route(CommandKind::kTakeControl).answered_by == servo::AnsweredBy::kAuthority);
+  CHECK(servo::route(CommandKind::kReleaseControl).answered_by == servo::AnsweredBy::kAuthority);
+}

@@ -95,7 +95,8 @@ TEST_CASE("A state pushed by the cycle arrives over udpm multicast with every fi
   CHECK(statuses.messages.front().telemetry_dropped == 0);
 }
 
-TEST_CASE("Commands sent over udpm multicast reach poll_command, and a too-long path is refused with an ack",
+TEST_CASE("Commands sent over udpm multicast reach poll_command, an empty path is refused with an ack, a too-long "
+          "one (failing the wire check) without one",
           "[telemetry][lcm]") {
   const std::string url = test_url();
   lcm::LCM operator_side(url);
@@ -125,7 +126,10 @@ TEST_CASE("Commands sent over udpm multicast reach poll_command, and a too-long 
   load.utime = wall_clock_utime();
   load.sequence = 1002;
   load.command = clm_lcm::servo_command_t::LOAD_MODEL;
-  load.path = "/" + std::string(400, 'x');
+  load.path = "";  // well-formed on the wire, refused by to_command
+  clm_lcm::servo_command_t too_long = load;
+  too_long.sequence = 1003;
+  too_long.path = "/" + std::string(400, 'x');  // beyond the wire layout's 255 bytes: no ack, counted malformed
 
   // The real-time side polls; resend until the command is taken (datagrams may be lost).
   clm::servo::Command command;
@@ -151,10 +155,23 @@ TEST_CASE("Commands sent over udpm multicast reach poll_command, and a too-long 
     refused = handle_until(
         operator_side, [&] { return !acks.messages.empty(); }, std::chrono::milliseconds(1000));
   }
-  publisher->stop();
   REQUIRE(refused);
+  const std::int64_t malformed_before = publisher->counters().commands_malformed;
+  bool counted = false;
+  for (int attempt = 0; attempt < 5 && !counted; ++attempt) {
+    REQUIRE(operator_side.publish(kCommandChannel, &too_long) == 0);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+    while (!(counted = publisher->counters().commands_malformed > malformed_before) &&
+           std::chrono::steady_clock::now() < deadline) {
+      operator_side.handleTimeout(10);
+    }
+  }
+  handle_until(operator_side, [] { return false; }, std::chrono::milliseconds(100));  // an ack would come by now
+  publisher->stop();
+  CHECK(counted);
   CHECK(acks.messages.front().sequence == 1002);
   CHECK_FALSE(acks.messages.front().accepted);
-  CHECK(acks.messages.front().text == "path is 401 characters long, at most 255 fit");
+  CHECK(acks.messages.front().text == "path is empty");
+  for (const auto& ack : acks.messages) CHECK(ack.sequence != 1003);
   while (publisher->poll_command(command)) CHECK(command.sequence == 1001);  // resent duplicates only
 }

@@ -102,6 +102,9 @@ cat "$work/commission.out"
 # The daemon is still running and healthy, then exits cleanly on SIGTERM.
 status=$(ctl status) || fail "no status after commissioning"
 grep -qx "fault: 0" <<< "$status" || fail "daemon fault after commissioning: $status"
+# Commissioning took control for its run and gave it back at the end.
+grep -qx "control_client: 0" <<< "$status" || fail "control not released after commissioning: $status"
+grep -q "^commands: admitted [1-9]" <<< "$status" || fail "no command admitted during commissioning: $status"
 rc=0
 stop_process $pid 20 || rc=$?
 [ $rc != 255 ] || fail "clm-servod still running 2 s after SIGTERM"

@@ -1,13 +1,22 @@
 // clm ctl: talks to a running clm-servod over LCM (docs/servod.md) through
 // the servod_client. `status` waits for one CLM_SERVO_STATUS; every other
-// subcommand publishes one servo_command_t with a fresh sequence number on
-// CLM_SERVO_COMMAND and waits for the CLM_SERVO_COMMAND_ACK with that sequence.
+// subcommand publishes one servo_command_t for the axis and session a status
+// names (--axis chooses among several axes), as this user's client id
+// (--client-id overrides), with a fresh sequence number, on
+// CLM_SERVO_COMMAND and waits for the CLM_SERVO_COMMAND_ACK with that axis,
+// session, client and sequence. A command that needs control is preceded by
+// TAKE_CONTROL unless the status shows this client holding it with more than
+// 1 s left; stop and disable never take control; `release` gives it up
+// (docs/servod.md "Command authority"). `status` prints --axis's status, or
+// the first one heard.
 //
 // Exit status: 0 status received / command accepted; 1 timeout or command
-// refused (the ack's text says why); 2 bad arguments or no LCM.
+// refused (the ack's text says why); 2 bad arguments, no LCM, or several
+// axes answering without --axis.
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -27,17 +36,27 @@ using servod_client::make_command;
 struct CtlOptions {
   std::string lcm_url = telemetry::kDefaultLcmUrl;
   double timeout_s = 2.0;
+  std::string axis;            ///< empty: the only axis answering
+  std::int64_t client_id = 0;  ///< 0: servod_client::default_client_id()
 };
 
 /// Exits `clm` with status 1 without a further message (CLI11 prints nothing for it).
 [[noreturn]] void fail_quietly() { throw CLI::RuntimeError(1); }
 
-/// The client of one subcommand: receives `channel` alone.
-servod_client::Options client_options(const CtlOptions& options, const char* channel) {
+/// The client of one subcommand: receives `channels` alone (an LCM regular expression).
+servod_client::Options client_options(const CtlOptions& options, const std::string& channels) {
   servod_client::Options client;
   client.lcm_url = options.lcm_url;
-  client.channels = channel;
+  client.channels = channels;
+  client.axis = options.axis;
+  client.client_id = options.client_id;
   return client;
+}
+
+/// Several axes answer and --axis does not choose: exit status 2 with the list.
+[[noreturn]] void several_axes(const servod_client::SeveralAxes& e) {
+  std::fprintf(stderr, "clm ctl: %s\n", e.what());
+  throw CLI::RuntimeError(2);
 }
 
 const char* state_name(int state) {
@@ -113,7 +132,11 @@ void run_status(const CtlOptions& options) {
   servod_client::Client client(client_options(options, telemetry::kStatusChannel));  // no LCM: exit status 2
   clm_lcm::servo_status_t status;
   try {
+    // Only reading: the first axis heard (or --axis's), without listening for others.
+    client.target(options.timeout_s, false);
     status = client.wait_for_status(options.timeout_s);
+  } catch (const servod_client::SeveralAxes& e) {
+    several_axes(e);
   } catch (const servod_client::Timeout& e) {
     std::fprintf(stderr, "clm ctl: %s\n", e.what());
     fail_quietly();
@@ -122,10 +145,14 @@ void run_status(const CtlOptions& options) {
 }
 
 void send_command(const CtlOptions& options, const Command& command) {
-  servod_client::Client client(client_options(options, telemetry::kCommandAckChannel));  // no LCM: exit status 2
+  // The status names axis, session and the control holder; the ack answers.
+  servod_client::Client client(client_options(
+      options, std::string("(") + telemetry::kStatusChannel + "|" + telemetry::kCommandAckChannel + ")"));  // no LCM: exit status 2
   servod_client::Ack ack;
   try {
     ack = client.send(command, options.timeout_s);
+  } catch (const servod_client::SeveralAxes& e) {
+    several_axes(e);
   } catch (const servod_client::NoAck& e) {
     std::fprintf(stderr, "clm ctl: %s\n", e.what());
     fail_quietly();
@@ -148,6 +175,11 @@ void add_ctl(CLI::App& app) {
   ctl->add_option("--timeout-s", options->timeout_s, "how long to wait for the status or the ack [s]")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  ctl->add_option("--axis", options->axis,
+                  "the axis to command or report (servo_status_t.axis); default: the only one answering");
+  ctl->add_option("--client-id", options->client_id,
+                  "client id the commands carry; default: FNV-1a-64 of \"UID@HOSTNAME\", the same for every clm ctl of the user")
+      ->check(CLI::Range(static_cast<std::int64_t>(1), std::numeric_limits<std::int64_t>::max()));
 
   ctl->add_subcommand("status", "wait for one CLM_SERVO_STATUS and print it")->callback([options] {
     run_status(*options);
@@ -160,6 +192,8 @@ void add_ctl(CLI::App& app) {
   simple("disable", Command::DISABLE, "open the loop, drives off");
   simple("clear-fault", Command::CLEAR_FAULT, "leave the fault state (to disabled)");
   simple("stop", Command::STOP, "stop the running motion (jerk-limited), stay enabled");
+  simple("take-control", Command::TAKE_CONTROL, "become the client that commands the axis (other commands do it themselves)");
+  simple("release", Command::RELEASE_CONTROL, "give up control of the axis");
 
   struct MoveOptions {
     double target_m = 0.0, velocity_m_per_s = 0.1, acceleration_m_per_s2 = 1.0, jerk_m_per_s3 = 1000.0;

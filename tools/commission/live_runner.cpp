@@ -74,7 +74,15 @@ LcmRunner::LcmRunner(const servod::ServodConfig& config, LiveOptions options)
   summary_.lcm_url = options_.lcm_url;
 }
 
-LcmRunner::~LcmRunner() = default;
+LcmRunner::~LcmRunner() {
+  // Control goes back at the end, also when commissioning failed.
+  if (!took_control_) return;
+  try {
+    client_.release_control(options_.ack_timeout_s);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "clm commission: warning: control of the axis not released: %s\n", e.what());
+  }
+}
 
 std::string LcmRunner::command(const std::string& what, Command message) {
   return client_.command(what, std::move(message), options_.ack_timeout_s);
@@ -86,6 +94,9 @@ void LcmRunner::wait_cycles(std::int64_t cycles, const std::string& what) {
 }
 
 void LcmRunner::enable() {
+  // The first command of commissioning: take control for all of it.
+  client_.take_control(options_.ack_timeout_s, "ENABLE");
+  took_control_ = true;
   command("ENABLE", make_command(Command::ENABLE));
   client_.wait_for_state("CLM_SERVO_STATE of the enabled axis", 2.0,
                  [](const servo_state_t& s) { return s.state == kStateEnabled; });

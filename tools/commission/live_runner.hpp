@@ -1,7 +1,8 @@
 #pragma once
 // The commissioning's runs on a separately running clm-servod, over LCM
 // (docs/servod.md "Commands", docs/telemetry.md), through the
-// servod_client: every command goes out on CLM_SERVO_COMMAND and waits for
+// servod_client: control of the axis is taken before the first command and
+// released at the end (docs/servod.md "Command authority"); every command goes out on CLM_SERVO_COMMAND and waits for
 // the CLM_SERVO_COMMAND_ACK with its sequence; files (programs, calibration, models, feedforward) are sent as
 // absolute paths, which the daemon opens itself; the cycles come back as
 // CLM_SERVO_STATE. A run is checked for missing states by the state's cycle
@@ -43,11 +44,12 @@ class LcmRunner final : public ExperimentRunner {
   /// daemon's configuration (motor, soft limits, period). Throws when an
   /// option is out of range or LCM cannot be opened.
   LcmRunner(const servod::ServodConfig& config, LiveOptions options);
+  /// Releases control of the axis if enable() took it (a failure is a warning on stderr).
   ~LcmRunner() override;
   LcmRunner(const LcmRunner&) = delete;
   LcmRunner& operator=(const LcmRunner&) = delete;
 
-  /// ENABLE; then checks that states arrive for every cycle, at the
+  /// TAKE_CONTROL (held for the whole commissioning), ENABLE; then checks that states arrive for every cycle, at the
   /// configuration's period and coil-set count.
   void enable() override;
   void set_experiment(int coil_set, double delta_rad) override;
@@ -81,6 +83,7 @@ class LcmRunner final : public ExperimentRunner {
   std::unique_ptr<telemetry::LcmLogWriter> log_;
   LiveSummary summary_;
   std::vector<std::string> notes_;
+  bool took_control_ = false;
 };
 
 }  // namespace clm::commission

@@ -2,6 +2,9 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 
@@ -31,7 +34,26 @@ clm_lcm::servo_command_t make_command(std::int8_t kind) {
   return command;
 }
 
-Client::Client(Options options) : options_(std::move(options)) {
+bool needs_control(std::int8_t kind) {
+  using C = clm_lcm::servo_command_t;
+  return kind != C::STOP && kind != C::DISABLE && kind != C::TAKE_CONTROL && kind != C::RELEASE_CONTROL;
+}
+
+std::int64_t default_client_id() {
+  char host[256] = {};
+  if (::gethostname(host, sizeof(host) - 1) != 0) host[0] = '\0';
+  const std::string text = std::to_string(::getuid()) + "@" + host;
+  std::uint64_t hash = 0xcbf29ce484222325ULL;  // FNV-1a-64 offset basis
+  for (const unsigned char c : text) {
+    hash ^= c;
+    hash *= 0x100000001b3ULL;  // FNV-1a-64 prime
+  }
+  const auto id = static_cast<std::int64_t>(hash & 0x7fffffffffffffffULL);
+  return id != 0 ? id : 1;
+}
+
+Client::Client(Options options)
+    : options_(std::move(options)), client_id_(options_.client_id != 0 ? options_.client_id : default_client_id()) {
   lcm_ = std::make_unique<lcm::LCM>(options_.every_state ? telemetry::with_receive_buffer(options_.lcm_url)
                                                          : options_.lcm_url);
   if (!lcm_->good()) {
@@ -56,37 +78,57 @@ void Client::receive_loop() {
   while (!stop_.load()) lcm_->handleTimeout(50);
 }
 
+bool Client::reported(const servo_status_t& status) const {
+  if (!options_.axis.empty()) return status.axis == options_.axis;
+  if (target_) return status.axis == target_->axis;
+  return true;
+}
+
 void Client::on_message(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
   const auto* bytes = static_cast<const std::uint8_t*>(buffer->data);
   ReceivedMessage message{channel, buffer->recv_utime, std::vector<std::uint8_t>(bytes, bytes + buffer->data_size)};
   std::lock_guard lock(mutex_);
+  bool well_formed = true;
   if (channel == telemetry::kStateChannel) {
     servo_state_t state;
-    if (decode(message.data, state)) {
+    if ((well_formed = decode(message.data, state))) {
       state_ = std::move(state);
       ++states_seen_;
-    } else {
-      ++undecodable_;
     }
   } else if (channel == telemetry::kStatusChannel) {
     servo_status_t status;
-    if (decode(message.data, status)) {
-      if (!first_status_) first_status_ = status;
-      status_ = std::move(status);
-      ++statuses_seen_;
-    } else {
-      ++undecodable_;
+    if ((well_formed = decode(message.data, status))) {
+      if (axes_.size() < 64 || axes_.count(status.axis) > 0) {
+        AxisStatus& heard = axes_[status.axis];
+        heard.status = status;
+        heard.received_utime = message.utime;
+        ++heard.count;
+      }
+      if (reported(status)) {
+        if (!first_status_) first_status_ = status;
+        status_ = std::move(status);
+        ++statuses_seen_;
+      }
     }
+  } else if (channel == telemetry::kEventChannel) {
+    clm_lcm::servo_event_t event;
+    if ((well_formed = decode(message.data, event))) event_ = std::move(event);
   } else if (channel == telemetry::kCommandAckChannel) {
     clm_lcm::servo_command_ack_t ack;
-    if (decode(message.data, ack)) {
+    if ((well_formed = decode(message.data, ack))) {
       // Only our own commands' acks: other clients' would pile up.
-      if (pending_.count(ack.sequence) > 0) {
-        acks_[ack.sequence] = Ack{ack.sequence, static_cast<bool>(ack.accepted), ack.text};
+      if (pending_.count(ack.sequence) > 0 && ack.client == client_id_ && target_ && ack.axis == target_->axis &&
+          ack.session == target_->session) {
+        acks_[ack.sequence] = Ack{ack.sequence, ack.axis, ack.session, ack.client, static_cast<bool>(ack.accepted), ack.text};
       }
-    } else {
-      ++undecodable_;
     }
+  } else if (channel == telemetry::kCommandChannel) {
+    clm_lcm::servo_command_t command;
+    well_formed = decode(message.data, command);
+  }
+  if (!well_formed) {
+    ++undecodable_;
+    return;  // nothing of it is kept, not even in a capture
   }
   if (capturing_) captured_.push_back(std::move(message));
   changed_.notify_all();
@@ -94,13 +136,105 @@ void Client::on_message(const lcm::ReceiveBuffer* buffer, const std::string& cha
 
 /// Wall-clock µs × 1000 + a random 0..999: no other client is likely to use
 /// the same sequence at the same time (positive, < 2^63 until 2262).
+/// Above the last one this client used, so increasing also within a microsecond.
 std::int64_t Client::fresh_sequence() {
-  return telemetry::wall_clock_utime() * 1000 + static_cast<std::int64_t>(random_() % 1000);
+  last_sequence_ =
+      std::max(last_sequence_ + 1, telemetry::wall_clock_utime() * 1000 + static_cast<std::int64_t>(random_() % 1000));
+  return last_sequence_;
+}
+
+Target Client::target(double timeout_s, bool only_axis) {
+  std::unique_lock lock(mutex_);
+  if (target_) return *target_;
+  const std::string& wanted = options_.axis;
+  const auto heard = [&] { return wanted.empty() ? !axes_.empty() : axes_.count(wanted) > 0; };
+  if (!changed_.wait_for(lock, duration(timeout_s), heard)) {
+    throw Timeout(std::string("no ") + telemetry::kStatusChannel + (wanted.empty() ? "" : " of axis '" + wanted + "'") +
+                  " on " + options_.lcm_url + " within " + seconds(timeout_s) +
+                  " (is clm-servod running with that lcm_url?)");
+  }
+  if (wanted.empty() && only_axis) {
+    // Other daemons on the URL publish their statuses about as often: listen
+    // until the first axis's next status (one status period), at most 1 s.
+    const std::string first = axes_.begin()->first;
+    const std::int64_t seen = axes_.begin()->second.count;
+    changed_.wait_for(lock, std::chrono::seconds(1), [&] { return axes_.size() > 1 || axes_.at(first).count > seen; });
+    if (axes_.size() > 1) {
+      std::string names;
+      for (const auto& [axis, status] : axes_) names += (names.empty() ? "'" : ", '") + axis + "'";
+      throw SeveralAxes("several axes answer on " + options_.lcm_url + ": " + names + "; choose one with --axis");
+    }
+  }
+  const AxisStatus& chosen = wanted.empty() ? axes_.begin()->second : axes_.at(wanted);
+  target_ = Target{chosen.status.axis, chosen.status.session};
+  if (!status_ || status_->axis != target_->axis) {
+    first_status_ = chosen.status;
+    status_ = chosen.status;
+  }
+  return *target_;
+}
+
+bool Client::holds_control(double margin_s) const {
+  std::lock_guard lock(mutex_);
+  if (!target_) return false;
+  const auto found = axes_.find(target_->axis);
+  if (found == axes_.end()) return false;
+  const servo_status_t& status = found->second.status;
+  if (status.session != target_->session || status.control_client != client_id_) return false;
+  const double since_s = static_cast<double>(telemetry::wall_clock_utime() - found->second.received_utime) * 1e-6;
+  return status.control_lease_remaining_s - since_s > margin_s;
+}
+
+void Client::take_control(double timeout_s, const std::string& what) {
+  Target to;
+  try {
+    to = target(timeout_s);
+  } catch (const SeveralAxes&) {
+    throw;
+  } catch (const Timeout& e) {
+    throw NoAck(std::string("no ") + telemetry::kCommandAckChannel + " for " + what + ": " + e.what(), 0);
+  }
+  Ack ack = send_once(make_command(clm_lcm::servo_command_t::TAKE_CONTROL), to, timeout_s,
+                      what == "TAKE_CONTROL" ? what : "TAKE_CONTROL (for " + what + ")");
+  if (!ack.accepted) throw Refused("clm-servod refused TAKE_CONTROL: " + ack.text, std::move(ack));
+}
+
+void Client::release_control(double timeout_s) {
+  command("RELEASE_CONTROL", make_command(clm_lcm::servo_command_t::RELEASE_CONTROL), timeout_s);
 }
 
 Ack Client::send(clm_lcm::servo_command_t command, double timeout_s, const std::string& what) {
+  Target to;
+  try {
+    to = target(timeout_s);
+  } catch (const SeveralAxes&) {
+    throw;
+  } catch (const Timeout& e) {
+    throw NoAck(std::string("no ") + telemetry::kCommandAckChannel + (what.empty() ? "" : " for " + what) + ": " +
+                    e.what(),
+                0);
+  }
+  if (needs_control(command.command) && !holds_control()) {
+    const std::string name = what.empty() ? "the command" : what;
+    Ack taken = send_once(make_command(clm_lcm::servo_command_t::TAKE_CONTROL), to, timeout_s,
+                          "TAKE_CONTROL (for " + name + ")");
+    if (!taken.accepted) {
+      taken.text = "TAKE_CONTROL for " + name + ": " + taken.text;
+      return taken;
+    }
+  }
+  return send_once(std::move(command), to, timeout_s, what);
+}
+
+Ack Client::send_once(clm_lcm::servo_command_t command, const Target& to, double timeout_s, const std::string& what) {
+  command.axis = to.axis;
+  command.session = to.session;
+  command.client = client_id_;
   command.utime = telemetry::wall_clock_utime();
-  command.sequence = fresh_sequence();
+  {
+    std::lock_guard lock(mutex_);
+    command.sequence = fresh_sequence();
+  }
   const std::int64_t sequence = command.sequence;
   {
     std::lock_guard lock(mutex_);
@@ -209,6 +343,16 @@ std::optional<servo_status_t> Client::first_status() const {
 std::optional<servo_status_t> Client::latest_status() const {
   std::lock_guard lock(mutex_);
   return status_;
+}
+
+std::optional<clm_lcm::servo_event_t> Client::latest_event() const {
+  std::lock_guard lock(mutex_);
+  return event_;
+}
+
+std::int64_t Client::undecodable() const {
+  std::lock_guard lock(mutex_);
+  return undecodable_;
 }
 
 std::int64_t Client::states_received() const {

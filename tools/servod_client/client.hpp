@@ -1,10 +1,14 @@
 #pragma once
-// A client of a running clm-servod over LCM (docs/servod.md "Commands",
-// docs/telemetry.md): receives CLM_SERVO_STATUS, CLM_SERVO_STATE and
-// CLM_SERVO_COMMAND_ACK on a thread of its own; publishes servo_command_t on
-// CLM_SERVO_COMMAND with a fresh sequence number and waits for the ack with
-// that sequence; waits for a status or for states; keeps the messages of a
-// stretch of time. `clm ctl` and `clm commission --live` are built on it.
+// A client of a running clm-servod over LCM (docs/servod.md "Commands" and
+// "Command authority", docs/telemetry.md): receives CLM_SERVO_STATUS,
+// CLM_SERVO_STATE, CLM_SERVO_EVENT and CLM_SERVO_COMMAND_ACK on a thread of
+// its own, each message checked by telemetry::decode_checked before it is
+// decoded (a datagram that fails is counted and dropped); publishes
+// servo_command_t on CLM_SERVO_COMMAND for the axis and session a status
+// names, as its client id, with a fresh sequence number, and waits for the
+// ack with that axis, session, client and sequence; takes control before a
+// command that needs it; waits for a status or for states; keeps the messages
+// of a stretch of time. `clm ctl` and `clm commission --live` are built on it.
 // Every failure throws servod_client::Error (a std::runtime_error), one line.
 
 #include <atomic>
@@ -17,15 +21,18 @@
 #include <optional>
 #include <random>
 #include <set>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "clm_lcm/servo_command_t.hpp"
+#include "clm_lcm/servo_event_t.hpp"
 #include "clm_lcm/servo_state_t.hpp"
 #include "clm_lcm/servo_status_t.hpp"
 #include "daemon/telemetry/telemetry.hpp"
+#include "daemon/telemetry/wire_check.hpp"
 
 namespace lcm {
 class LCM;
@@ -41,21 +48,38 @@ struct ReceivedMessage {
   std::vector<std::uint8_t> data;
 };
 
-/// Decodes `data` into `out`; false unless it decodes and uses every byte
-/// (a message of other lcmtypes, or damaged).
+/// Checks `data` against Message's layout (telemetry::decode_checked) and
+/// decodes it into `out`; false for a message of other lcmtypes, damaged or
+/// hostile (nothing is decoded then).
 template <typename Message>
 bool decode(const std::vector<std::uint8_t>& data, Message& out) {
-  const int size = static_cast<int>(data.size());
-  return out.decode(data.data(), 0, size) == size;
+  return telemetry::decode_checked(std::span<const std::uint8_t>(data.data(), data.size()), out).empty();
 }
 
 /// A servo_command_t of kind `kind` (servo_command_t::ENABLE, ...), every
-/// other field zero or empty; send() sets utime and sequence.
+/// other field zero or empty; send() sets utime, sequence, axis, session and client.
 clm_lcm::servo_command_t make_command(std::int8_t kind);
+
+/// True for the commands that need control (all but STOP, DISABLE,
+/// TAKE_CONTROL and RELEASE_CONTROL).
+bool needs_control(std::int8_t kind);
+
+/// This user's client id: FNV-1a-64 of "UID@HOSTNAME", as a positive int64,
+/// never 0. The same in every process of the user on the host.
+std::int64_t default_client_id();
+
+/// The daemon a client commands: its axis and session (from its status).
+struct Target {
+  std::string axis;
+  std::int64_t session = 0;
+};
 
 /// What the daemon answered on CLM_SERVO_COMMAND_ACK.
 struct Ack {
   std::int64_t sequence = 0;
+  std::string axis;
+  std::int64_t session = 0;
+  std::int64_t client = 0;
   bool accepted = false;
   std::string text;
 };
@@ -104,6 +128,17 @@ struct Options {
   /// receive buffer (telemetry::with_receive_buffer) and room for 60000
   /// queued messages (a minute of states). Off: LCM's defaults (30 messages).
   bool every_state = false;
+  /// The client id the commands carry; 0: default_client_id().
+  std::int64_t client_id = 0;
+  /// The axis to command and report (servo_status_t.axis); empty: the only
+  /// axis whose status is heard on the URL (target() refuses when several are).
+  std::string axis;
+};
+
+/// Several daemons answer on the URL and Options::axis does not choose (target()).
+class SeveralAxes : public Error {
+ public:
+  using Error::Error;
 };
 
 class Client {
@@ -116,13 +151,35 @@ class Client {
   Client& operator=(const Client&) = delete;
 
   const std::string& lcm_url() const { return options_.lcm_url; }
+  std::int64_t client_id() const { return client_id_; }
 
-  /// Publishes `command` on CLM_SERVO_COMMAND with a fresh sequence and the
-  /// wall-clock utime, and waits up to `timeout_s` [s] for the ack with that
-  /// sequence; returns it, accepted or not. Throws Error when LCM refuses to
-  /// publish, NoAck when no ack comes. `what` names the command in those
-  /// messages ("": the command is named by its sequence alone).
+  /// The axis and session to command: on the first call, waits up to
+  /// `timeout_s` [s] for a status of Options::axis (or of any axis; then,
+  /// with `only_axis`, listens until that axis's next status, at most 1 s,
+  /// for others), afterwards the same. Throws Timeout when no status comes,
+  /// SeveralAxes (listing them) when several axes were heard, Options::axis
+  /// is empty and `only_axis` is set. Without `only_axis`: the first axis heard.
+  Target target(double timeout_s, bool only_axis = true);
+
+  /// Publishes `command` on CLM_SERVO_COMMAND for target() (its axis and
+  /// session), as client_id(), with a fresh sequence and the wall-clock
+  /// utime, and waits up to `timeout_s` [s] for the ack with that axis,
+  /// session, client and sequence; returns it, accepted or not. A command
+  /// that needs control (needs_control) is preceded by TAKE_CONTROL unless
+  /// the latest status shows this client holding control with more than
+  /// 1 s of lease left; a refused TAKE_CONTROL is returned as the ack.
+  /// Throws Error when LCM refuses to publish, NoAck when no ack comes (or
+  /// no status names the daemon to send to), SeveralAxes as target(). `what`
+  /// names the command in those messages ("": named by its sequence alone).
   Ack send(clm_lcm::servo_command_t command, double timeout_s, const std::string& what = "");
+  /// TAKE_CONTROL (always sent); Refused when the daemon refuses. `what`
+  /// names the command control is taken for in a NoAck's message.
+  void take_control(double timeout_s, const std::string& what = "TAKE_CONTROL");
+  /// RELEASE_CONTROL; Refused when the daemon refuses.
+  void release_control(double timeout_s);
+  /// True when the latest status of the target shows this client holding
+  /// control with more than `margin_s` [s] of lease left.
+  bool holds_control(double margin_s = 1.0) const;
   /// send(), and Refused ("clm-servod refused WHAT: TEXT") when the daemon
   /// refuses; returns the ack's text.
   std::string command(const std::string& what, clm_lcm::servo_command_t command, double timeout_s);
@@ -144,6 +201,10 @@ class Client {
   /// The first CLM_SERVO_STATUS received since connecting, and the latest.
   std::optional<clm_lcm::servo_status_t> first_status() const;
   std::optional<clm_lcm::servo_status_t> latest_status() const;
+  /// The latest CLM_SERVO_EVENT received.
+  std::optional<clm_lcm::servo_event_t> latest_event() const;
+  /// Messages on the daemon's channels that failed decode_checked.
+  std::int64_t undecodable() const;
   /// CLM_SERVO_STATE messages received (decoded) since connecting.
   std::int64_t states_received() const;
 
@@ -157,8 +218,22 @@ class Client {
   void on_message(const lcm::ReceiveBuffer* buffer, const std::string& channel);
   std::int64_t fresh_sequence();
   std::string fault_text() const;  ///< with mutex_ held
+  /// Publishes `command` for `target` and waits for its ack (send() without
+  /// taking control).
+  Ack send_once(clm_lcm::servo_command_t command, const Target& target, double timeout_s, const std::string& what);
+  /// True when `status` is of the axis this client reports (Options::axis,
+  /// else the target once chosen, else any). With mutex_ held.
+  bool reported(const clm_lcm::servo_status_t& status) const;
+
+  struct AxisStatus {
+    clm_lcm::servo_status_t status;
+    std::int64_t received_utime = 0;  ///< [µs since the UNIX epoch]
+    std::int64_t count = 0;           ///< statuses of the axis received
+  };
 
   Options options_;
+  std::int64_t client_id_ = 0;
+  std::int64_t last_sequence_ = 0;
   std::unique_ptr<lcm::LCM> lcm_;
   std::thread receiver_;
   std::atomic<bool> stop_{false};
@@ -171,10 +246,13 @@ class Client {
   std::optional<clm_lcm::servo_state_t> state_;
   std::optional<clm_lcm::servo_status_t> first_status_;
   std::optional<clm_lcm::servo_status_t> status_;
+  std::optional<clm_lcm::servo_event_t> event_;
+  std::map<std::string, AxisStatus> axes_;  ///< the latest status of each axis heard (at most 64 axes)
+  std::optional<Target> target_;
   std::int64_t states_seen_ = 0;
   std::int64_t statuses_seen_ = 0;
   std::int64_t statuses_returned_ = 0;  ///< statuses_seen_ when wait_for_status last returned
-  std::int64_t undecodable_ = 0;  ///< messages on the daemon's channels that did not decode (other lcmtypes)
+  std::int64_t undecodable_ = 0;  ///< messages on the daemon's channels that failed decode_checked
   bool capturing_ = false;
   std::vector<ReceivedMessage> captured_;
 };

@@ -1,0 +1,260 @@
+#!/usr/bin/env bash
+# Process-level tests of clm-servod's command authority and its handling of
+# untrusted datagrams (docs/servod.md "Command authority", docs/reliability.md
+# "Untrusted input"): the daemon on the real-time clock at 1 kHz without
+# real-time rights, on an LCM port of its own per mode; `clm ctl` as the
+# operator types it; raw datagrams from tests/support/send_lcm_datagram.py.
+#
+#   servod_authority_test.sh MODE CLM_SERVOD CLM SOURCE_DIR WORK_DIR
+#
+# MODE hostile   the two hostile command datagrams and a flood of 1000 random
+#                ones: the daemon keeps cycling, answers, counts them malformed.
+#      ctl       enable, move-to, stop typed one after another; a second client
+#                can stop and disable but not enable or move; release.
+#      presence  a second daemon of the same axis refuses to start; one of
+#                another axis starts, and clm ctl's commands then need --axis; a status
+#                of the same axis from another session disables the axis.
+#      replay    the same MOVE_TO datagram three times runs once; an
+#                lcm-logger log of a clm ctl session replayed onto a restarted
+#                daemon moves nothing.
+set -euo pipefail
+mode=$1 servod=$2 clm=$3 source_dir=$4 work=$5
+# shellcheck source=../support/script_helpers.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../support/script_helpers.sh"
+send="$source_dir/tests/support/send_lcm_datagram.py"
+corpus="$source_dir/tests/fuzz/corpus/lcm_datagram"
+
+# A port of its own per mode (10000..10159; the other LCM tests use 7700..9989,
+# tests/servod/test_axis_presence.cpp 10160..10199).
+case $mode in
+  hostile) base=10000 ;; ctl) base=10040 ;; presence) base=10080 ;; replay) base=10120 ;;
+  *) echo "unknown mode $mode" >&2; exit 2 ;;
+esac
+port=$((base + $$ % 40))
+url="udpm://239.255.76.67:${port}?ttl=0"
+rm -rf "$work"
+mkdir -p "$work"
+trap "cleanup_processes || true" EXIT
+
+fail() {
+  echo "FAIL ($mode): $*" >&2
+  for log in "$work"/*.log; do [ -f "$log" ] && { echo "--- $log:" >&2; tail -n 20 "$log" >&2; }; done
+  exit 1
+}
+
+# config/servod.yaml with an absolute motor file, no real-time rights, our
+# port, overruns tolerated (a loaded test host; as commission_live_test.sh),
+# and EXTRA lines (config_edit).
+make_config() {  # OUT EXTRA...
+  local out=$1
+  shift
+  config_edit "$source_dir/config/servod.yaml" "$out" \
+      "motor_file: $source_dir/config/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
+      "  lcm_url: \"$url\"" "  overrun_limit: 1000" "$@" > /dev/null || fail "config: a line is missing after editing $out"
+}
+
+# Starts a daemon on CONFIG (stderr to LOG) and waits for its status: sets pid.
+up() {  # CONFIG LOG
+  start_daemon "$1" "$2"
+  pid=$servod_pid
+  local rc=0
+  wait_for_status "$pid" 8 || rc=$?
+  [ $rc = 0 ] || fail "clm-servod on $1 did not come up (wait_for_status $rc)"
+}
+
+# The count after NAME in the `commands:` line of STATUS.
+commands() { field commands "$1" | sed -n "s/\(^\|.*[ ,]\)$2 \([0-9]*\).*/\2/p"; }
+# `clm ctl` that may fail: output in `reply`, exit status in `rc`.
+try_ctl() { set +e; reply=$(ctl "$@" 2>&1); rc=$?; set -e; }
+
+make_config "$work/servod.yaml"
+
+case $mode in
+# ---------------------------------------------------------------------------------
+hostile)
+  up "$work/servod.yaml" "$work/servod.log"
+  before=$(ctl status)
+  [ "$(commands "$before" malformed)" = 0 ] || fail "malformed before anything was sent: $(field commands "$before")"
+  # The datagram that crashed the daemon (lcm-gen's decode of a negative
+  # string length) in the earlier layout and in the present one.
+  for f in command-program-length-min-int32-earlier-layout command-program-length-min-int32; do
+    python3 "$send" "$url" CLM_SERVO_COMMAND "$corpus/$f" --skip 1 || fail "sending $f"
+  done
+  # 1000 random datagrams: 500 wholly random, 500 with servo_command_t's hash and a random rest.
+  python3 "$send" "$url" CLM_SERVO_COMMAND "$corpus/command-move-to" --skip 1 --count 500 --random-tail 0 \
+      --pause-every 20 || fail "sending the random datagrams"
+  python3 "$send" "$url" CLM_SERVO_COMMAND "$corpus/command-move-to" --skip 1 --count 500 --random-tail 8 \
+      --pause-every 20 || fail "sending the random datagrams with the hash"
+  sleep 0.5
+  kill -0 "$pid" 2>/dev/null || fail "clm-servod died on the datagrams"
+  first=$(ctl status) || fail "no status after the datagrams"
+  second=$(ctl status) || fail "no second status after the datagrams"
+  [ "$(field cycles "$second")" -gt "$(field cycles "$first")" ] ||
+      fail "cycles do not advance: $(field cycles "$first") then $(field cycles "$second")"
+  [ "$(field cycles "$first")" -gt "$(field cycles "$before")" ] || fail "cycles did not advance over the flood"
+  malformed=$(commands "$second" malformed)
+  [ "$malformed" -ge 990 ] && [ "$malformed" -le 1002 ] ||
+      fail "commands_refused_malformed $malformed after 2 hostile and 1000 random datagrams"
+  [ "$(commands "$second" admitted)" = 0 ] || fail "a random datagram was admitted: $(field commands "$second")"
+  reply=$(ctl enable) || fail "enable after the flood: $reply"
+  [ "$reply" = accepted ] || fail "enable after the flood: '$reply'"
+  echo "hostile datagrams: 2 crafted + 1000 random, $malformed counted malformed, cycles $(field cycles "$first") -> $(field cycles "$second"), enable accepted after"
+  ;;
+# ---------------------------------------------------------------------------------
+ctl)
+  up "$work/servod.yaml" "$work/servod.log"
+  reply=$(ctl enable) || fail "enable: $reply"
+  [ "$reply" = accepted ] || fail "enable: '$reply'"
+  reply=$(ctl move-to --target-m 0.005) || fail "move-to: $reply"
+  [ "$reply" = "program posted" ] || fail "move-to: '$reply'"
+  reply=$(ctl stop) || fail "stop: $reply"
+  [ "$reply" = accepted ] || fail "stop: '$reply'"
+  s=$(ctl status)
+  holder=$(field control_client "$s")
+  [ "$holder" != 0 ] || fail "nobody holds control after enable and move-to"
+  lease=$(field control_lease_remaining_s "$s")
+  [ "$(echo "$lease > 1" | bc)" = 1 ] || fail "lease left $lease s"
+  # Another client: neither enable nor move, but stop and disable.
+  try_ctl --client-id 4242 move-to --target-m 0.0
+  [ $rc = 1 ] || fail "move-to of another client while $holder holds control: exit $rc ($reply)"
+  grep -q "not_in_control" <<< "$reply" || fail "move-to of another client: '$reply'"
+  try_ctl --client-id 4242 enable
+  [ $rc = 1 ] || fail "enable of another client: exit $rc ($reply)"
+  grep -q "not_in_control" <<< "$reply" || fail "enable of another client: '$reply'"
+  reply=$(ctl --client-id 4242 stop) || fail "stop of another client refused: $reply"
+  reply=$(ctl --client-id 4242 disable) || fail "disable of another client refused: $reply"
+  s=$(ctl status)
+  [ "$(field state "$s")" = disabled ] || fail "state after the other client's disable: $(field state "$s")"
+  [ "$(field control_client "$s")" = "$holder" ] || fail "stop/disable moved control to $(field control_client "$s")"
+  # The holder goes on without typing anything more; then releases.
+  reply=$(ctl enable) || fail "enable again: $reply"
+  reply=$(ctl release) || fail "release: $reply"
+  [ "$reply" = "control released" ] || fail "release: '$reply'"
+  reply=$(ctl --client-id 4242 enable) || fail "enable of the other client after the release: $reply"
+  s=$(ctl --client-id 4242 status)
+  [ "$(field control_client "$s")" = 4242 ] || fail "control after the release and enable: $(field control_client "$s")"
+  [ "$(commands "$s" not_in_control)" = 2 ] || fail "not_in_control refusals: $(field commands "$s")"
+  echo "clm ctl: enable, move-to, stop typed in turn; client 4242 refused enable/move, obeyed for stop/disable; release: $(field commands "$s")"
+  ;;
+# ---------------------------------------------------------------------------------
+presence)
+  up "$work/servod.yaml" "$work/servod.log"
+  first_pid=$pid
+  session=$(field session "$(ctl status)")
+  # Same axis, same URL: exit 2, one line naming axis, URL and the session.
+  set +e
+  "$servod" --config "$work/servod.yaml" --duration-s 2 2> "$work/second.err"
+  rc=$?
+  set -e
+  [ $rc = 2 ] || fail "second daemon of axis0: exit $rc, expected 2"
+  [ "$(wc -l < "$work/second.err")" = 1 ] || fail "second daemon: not one line: $(cat "$work/second.err")"
+  for part in "axis 'axis0'" "$url" "session $session"; do
+    grep -qF -- "$part" "$work/second.err" || fail "second daemon's line lacks '$part': $(cat "$work/second.err")"
+  done
+  kill -0 "$first_pid" 2>/dev/null || fail "the first daemon died"
+  # Another axis on the same URL starts; clm ctl then wants --axis.
+  make_config "$work/servod-axis1.yaml"
+  printf 'axis:\n  name: axis1\n' >> "$work/servod-axis1.yaml"
+  start_daemon "$work/servod-axis1.yaml" "$work/axis1.log"
+  axis1_pid=$servod_pid
+  ok=0
+  for _ in $(seq 1 8); do
+    if s=$(ctl --axis axis1 status --timeout-s 1 2>/dev/null); then ok=1; break; fi
+  done
+  [ $ok = 1 ] || fail "no status of axis1"
+  [ "$(field axis "$s")" = axis1 ] || fail "--axis axis1 status names axis $(field axis "$s")"
+  try_ctl enable
+  [ $rc = 2 ] || fail "enable with two axes and no --axis: exit $rc ($reply)"
+  grep -qF "'axis0', 'axis1'" <<< "$reply" || fail "the refusal does not list both axes: $reply"
+  s=$(ctl status) || fail "status without --axis (the first axis heard)"
+  grep -qx "axis: axis[01]" <<< "$s" || fail "status without --axis names $(field axis "$s")"
+  reply=$(ctl --axis axis0 enable) || fail "enable of axis0 with --axis: $reply"
+  s=$(ctl --axis axis0 status)
+  [ "$(field state "$s")" = enabled ] || fail "axis0 not enabled: $(field state "$s")"
+  # At run time: a status of axis0 from another session (a forged one,
+  # session 42) makes the daemon disable the axis and say so in an event.
+  lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_EVENT "$work/events.lcmlog" 2> "$work/logger.log" &
+  pids+=("$!")
+  logger_pid=$!
+  sleep 0.3
+  python3 "$send" "$url" CLM_SERVO_STATUS "$corpus/status-fault" --skip 1 || fail "sending the forged status"
+  ok=0
+  for _ in $(seq 1 20); do
+    s=$(ctl --axis axis0 status)
+    [ "$(field state "$s")" = disabled ] && { ok=1; break; }
+  done
+  [ $ok = 1 ] || fail "axis0 still $(field state "$s") after another session's status"
+  sleep 0.3
+  kill -INT "$logger_pid"; wait "$logger_pid" || true
+  grep -qa "axis axis0 is also driven by session 42" "$work/events.lcmlog" || fail "no error event naming session 42"
+  kill -0 "$first_pid" 2>/dev/null || fail "the first daemon died"
+  kill -0 "$axis1_pid" 2>/dev/null || fail "the axis1 daemon died"
+  echo "presence: second axis0 refused ($(cat "$work/second.err")); axis1 beside it needs --axis; a foreign status disabled axis0"
+  ;;
+# ---------------------------------------------------------------------------------
+replay)
+  up "$work/servod.yaml" "$work/servod.log"
+  # (a) The same MOVE_TO datagram three times: client 77 takes control,
+  # then one datagram with this session, a fresh utime and a sequence above
+  # its earlier ones (wall-clock nanoseconds, as clm ctl counts) is sent thrice.
+  reply=$(ctl --client-id 77 enable) || fail "enable: $reply"
+  session=$(field session "$(ctl status)")
+  before=$(ctl status)
+  python3 "$send" "$url" CLM_SERVO_COMMAND "$corpus/command-move-to" --skip 1 --count 3 \
+      --set-int64 "34=$session" --set-int64 42=77 --set-int64 "16=$(date +%s%N)" --utime-now 8 || fail "sending the MOVE_TO"
+  sleep 0.5
+  after=$(ctl status)
+  admitted=$(( $(commands "$after" admitted) - $(commands "$before" admitted) ))
+  replayed=$(( $(commands "$after" replayed) - $(commands "$before" replayed) ))
+  [ $admitted = 1 ] || fail "the MOVE_TO sent 3 times was admitted $admitted times"
+  [ $replayed = 2 ] || fail "the MOVE_TO sent 3 times: $replayed refused as replayed"
+  for _ in $(seq 1 30); do
+    s=$(ctl status)
+    [ "$(field program_running "$s")" = false ] && break
+  done
+  [ "$(field fault "$s")" = 0 ] || fail "fault after the move: $(field fault_reason "$s")"
+  # (b) A clm ctl session recorded with lcm-logger ...
+  reply=$(ctl release --client-id 77) || fail "release: $reply"
+  lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_COMMAND "$work/session.lcmlog" 2> "$work/logger.log" &
+  logger_pid=$!
+  pids+=("$logger_pid")
+  sleep 0.3
+  reply=$(ctl enable) || fail "enable in the recorded session: $reply"
+  reply=$(ctl move-to --target-m 0.02) || fail "move-to in the recorded session: $reply"
+  sleep 0.5
+  kill -INT "$logger_pid"; wait "$logger_pid" || true
+  [ -s "$work/session.lcmlog" ] || fail "lcm-logger recorded nothing"
+  rc=0; stop_process "$pid" 30 || rc=$?
+  [ $rc = 0 ] || fail "clm-servod exit $rc after SIGTERM"
+  # ... replayed onto a restarted daemon, enabled by client 5, moves nothing:
+  # the setpoint r_m of every state recorded meanwhile stays where it was.
+  up "$work/servod.yaml" "$work/servod2.log"
+  reply=$(ctl --client-id 5 enable) || fail "enable of the restarted daemon: $reply"
+  reply=$(ctl --client-id 5 release) || fail "release of the restarted daemon: $reply"
+  lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_STATE "$work/states.lcmlog" 2> "$work/logger2.log" &
+  logger_pid=$!
+  pids+=("$logger_pid")
+  sleep 0.3
+  lcm-logplayer --lcm-url="$url" "$work/session.lcmlog" > "$work/logplayer.log" 2>&1 || fail "lcm-logplayer failed"
+  sleep 1.0
+  kill -INT "$logger_pid"; wait "$logger_pid" || true
+  s=$(ctl status)
+  [ "$(commands "$s" admitted)" = 3 ] || fail "the restarted daemon admitted more than client 5's three (take, enable, release): $(field commands "$s")"
+  other=$(commands "$s" other_session)
+  [ "$other" -ge 3 ] || fail "the replayed log: $other refused as other_session: $(field commands "$s")"
+  [ "$(field program_running "$s")" = false ] || fail "a program runs after the replay"
+  "$clm" log2csv --log "$work/states.lcmlog" --output "$work/states.csv" --format feedforward > /dev/null ||
+      fail "log2csv of the states"
+  python3 - "$work/states.csv" <<'CHECK' || fail "the position moved during the replay"
+import csv, sys
+rows = list(csv.DictReader(l for l in open(sys.argv[1]) if not l.startswith("#")))
+assert len(rows) > 500, f"only {len(rows)} states recorded"
+r = [float(row["r_m"]) for row in rows]
+assert max(r) == min(r), f"the setpoint moved: {min(r)} .. {max(r)} m"
+CHECK
+  echo "replay: one MOVE_TO datagram sent 3 times admitted once (2 replayed); a recorded clm ctl session replayed on a restarted daemon: $other refused other_session, setpoint unchanged"
+  ;;
+esac
+rc=0
+stop_process "$pid" 30 || rc=$?
+[ $rc = 0 ] || fail "clm-servod exit $rc after SIGTERM"
