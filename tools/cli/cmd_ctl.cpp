@@ -160,6 +160,7 @@ void add_ctl(CLI::App& app) {
   simple("disable", Command::DISABLE, "open the loop, drives off");
   simple("clear-fault", Command::CLEAR_FAULT, "leave the fault state (to disabled)");
   simple("stop", Command::STOP, "stop the running motion (jerk-limited), stay enabled");
+  simple("quick-stop", Command::QUICK_STOP, "stop the running motion within the quick-stop limits, stay enabled");
 
   struct MoveOptions {
     double target_m = 0.0, velocity_m_per_s = 0.1, acceleration_m_per_s2 = 1.0, jerk_m_per_s3 = 1000.0;
