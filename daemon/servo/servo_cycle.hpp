@@ -44,11 +44,11 @@ struct ServoSettings {
   int overrun_limit = 5;                  ///< consecutive overruns → fault
   double standstill_velocity_m_per_s = 2e-3;
   /// Largest velocity, acceleration and jerk a move or program may ask for.
-  control::MotionLimits motion_limits{0.5, 10.0, 1000.0};
+  control::MotionLimits motion_limits{0.5, 10.0, 2000.0};
   /// Limits of a stop (stop command) and of a quick stop (quick-stop command,
   /// approach guard, fault reactions); quick-stop values ≥ the stop's.
-  control::StopLimits stop_limits{10.0, 1000.0};
-  control::StopLimits quick_stop_limits{10.0, 1000.0};
+  control::StopLimits stop_limits{10.0, 2000.0};
+  control::StopLimits quick_stop_limits{10.0, 2000.0};
   /// Restricted mode after kPositionOutOfRange: moves back inside at most at
   /// this share of motion_limits.velocity_m_per_s, enabled only within this
   /// distance beyond a soft limit [m].
