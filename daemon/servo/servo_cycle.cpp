@@ -20,6 +20,21 @@ constexpr double kStopTolerance_m = 1e-9;
 // farther, the measurement is not believed and the setpoints go to zero.
 constexpr double kPlausibleErrorFactor = 10.0;
 
+/// Target of the step of `program` under way at `t_s` (its start before the first).
+double step_target_m(const control::MoveProgram& program, double t_s) noexcept {
+  const auto& steps = program.steps();
+  std::size_t lo = 0, hi = steps.size();  // first step starting after t_s
+  while (lo < hi) {
+    const std::size_t mid = (lo + hi) / 2;
+    if (program.step_start_s(mid) <= t_s) {
+      lo = mid + 1;
+    } else {
+      hi = mid;
+    }
+  }
+  return lo == 0 ? program.start_m() : steps[lo - 1].target_m;
+}
+
 bool valid_limits(const control::StopLimits& limits) noexcept {
   return limits.deceleration_m_per_s2 > 0.0 && std::isfinite(limits.deceleration_m_per_s2) &&
          limits.jerk_m_per_s3 > 0.0 && std::isfinite(limits.jerk_m_per_s3);
@@ -505,6 +520,15 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
     // quick-stopped from this one.
     if (running_ != nullptr && !restricted_.load(std::memory_order_relaxed)) {
       const double reference_stop_m = control::stopping_position_m(next, settings_.quick_stop_limits);
+      // A step whose target lies outside the soft limits (a program no check
+      // let in) is stopped a following-error limit before the soft limit, so
+      // that the axis, within that of its reference, stays inside too.
+      const double t = static_cast<double>(cycle_ - program_start_cycle_) * settings_.period_s;
+      const double target_m = step_target_m(*running_, t);
+      const double band_m = settings_.following_error_limit_m;
+      const bool target_outside = outside_soft_limits(target_m);
+      const bool near_limit = reference_stop_m > settings_.soft_limit_max_m - band_m ||
+                              reference_stop_m < settings_.soft_limit_min_m + band_m;
       // The filtered velocity lags by the filter's time constant: corrected
       // with the reference's acceleration. Within the following-error limit
       // the deviation is the loop's to correct (and kFollowingError's to catch).
@@ -514,7 +538,7 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
       const double axis_stop_m = control::stopping_position_m(measured, settings_.quick_stop_limits);
       const double axis_margin_m = settings_.following_error_limit_m;
       if (reference_stop_m < settings_.soft_limit_min_m - kStopTolerance_m ||
-          reference_stop_m > settings_.soft_limit_max_m + kStopTolerance_m ||
+          reference_stop_m > settings_.soft_limit_max_m + kStopTolerance_m || (target_outside && near_limit) ||
           axis_stop_m < settings_.soft_limit_min_m - axis_margin_m ||
           axis_stop_m > settings_.soft_limit_max_m + axis_margin_m) {
         ++counters_.guard_stops;

@@ -200,6 +200,9 @@ TEST_CASE("the approach guard quick-stops a move whose reference could not stop 
   while (axis.record().program_running || axis.record().stopping || cycles < 2) {
     axis.daemon.run_cycles(1);
     REQUIRE(++cycles < 5000);
+    INFO("cycle " << cycles << ": r = " << axis.record().r_m << " m, v = " << axis.record().r_dot_m_per_s
+                  << " m/s, y = " << axis.motor().truth().position_m << " m, fault "
+                  << servo::describe(axis.daemon.cycle().fault()));
     REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
     REQUIRE(axis.motor().truth().position_m <= s.soft_limit_max_m);
   }

@@ -89,5 +89,6 @@ done
 
 rc=0
 stop_process $pid 20 || rc=$?
+trap - EXIT
 [ $rc = 0 ] || fail "clm-servod exit status $rc after SIGTERM, expected 0"
 echo "clm-servod stop test: refusal beyond the limits, stop and quick stop at 0.3 m/s without a fault"
