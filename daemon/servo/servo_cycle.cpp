@@ -148,7 +148,10 @@ void ServoCycle::begin_stop(const control::StopLimits& limits, bool quick) noexc
 void ServoCycle::latch(Fault fault) noexcept {
   if (state_ == ServoState::kFault) {  // the first reason stays
     // A fault that distrusts the feedback ends a quick stop under way.
-    if (reacting_ && reaction(fault) == FaultReaction::kZeroSetpoints) reacting_ = stopping_ = false;
+    if (reacting_ && reaction(fault) == FaultReaction::kZeroSetpoints) {
+      reacting_ = stopping_ = false;
+      idle_.store(true, std::memory_order_release);
+    }
     return;
   }
   const bool driving = state_ == ServoState::kEnabled;
