@@ -78,6 +78,11 @@ StopProfile StopProfile::plan(const ReferenceSample& start, const StopLimits& li
 
 ReferenceSample StopProfile::sample(double t_s) const noexcept {
   if (!(t_s > 0.0)) return start_;
+  ReferenceSample rest;
+  rest.position_m = rest_position_m_;
+  // From duration_s() on exactly at rest (the segment walk below could leave a
+  // rounding residue of the last segment).
+  if (t_s >= duration_s_) return rest;
   ReferenceSample s = start_;
   for (std::size_t i = 0; i < segment_count_; ++i) {
     const Segment& segment = segments_[i];
@@ -85,8 +90,6 @@ ReferenceSample StopProfile::sample(double t_s) const noexcept {
     s = advance(s, segment.jerk_m_per_s3, segment.duration_s);
     t_s -= segment.duration_s;
   }
-  ReferenceSample rest;
-  rest.position_m = rest_position_m_;
   return rest;
 }
 

@@ -30,10 +30,11 @@ enum class CommandKind : std::int8_t {
   kLoadModel = 9,
   kStop = 10,
   kLoadFeedforward = 11,
-  kTakeControl = 12,
-  kReleaseControl = 13,
+  kTakeControl = 12,     ///< command authority (daemon/servod/command_gate.hpp)
+  kReleaseControl = 13,  ///< command authority (daemon/servod/command_gate.hpp)
+  kQuickStop = 14,       ///< stop within the quick-stop limits (ServoCycle::quick_stop)
 };
-inline constexpr int kCommandKinds = 13;
+inline constexpr int kCommandKinds = 14;
 
 /// True when `code` is a CommandKind value (1..kCommandKinds).
 constexpr bool is_command_kind(int code) noexcept { return code >= 1 && code <= kCommandKinds; }
@@ -67,6 +68,7 @@ inline constexpr std::array<CommandRoute, kCommandKinds> kCommandRoutes{{
     {CommandKind::kLoadFeedforward, "load_feedforward", AnsweredBy::kCycle},
     {CommandKind::kTakeControl, "take_control", AnsweredBy::kAuthority},
     {CommandKind::kReleaseControl, "release_control", AnsweredBy::kAuthority},
+    {CommandKind::kQuickStop, "quick_stop", AnsweredBy::kCycle},
 }};
 
 constexpr bool routes_in_order() noexcept {

@@ -69,6 +69,8 @@ struct CycleRecord {
   // the conversion from servo_state_t leaves them at their defaults.
   Fault fault = Fault::kNone;
   std::uint16_t drive_status_word = 0;
+  bool stopping = false;          ///< a stop, quick stop or fault reaction is under way
+  bool restricted = false;        ///< restricted mode: only a slow move back inside the soft limits
 };
 
 }  // namespace clm::servo

@@ -26,4 +26,12 @@ const char* describe(Fault fault) noexcept {
   return "unknown fault";
 }
 
+const char* name(FaultReaction reaction) noexcept {
+  switch (reaction) {
+    case FaultReaction::kZeroSetpoints: return "zero setpoints at once";
+    case FaultReaction::kQuickStop: return "quick stop under position control, then zero setpoints";
+  }
+  return "unknown";
+}
+
 }  // namespace clm::servo

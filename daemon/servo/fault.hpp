@@ -2,6 +2,8 @@
 // Faults of the servo cycle: one numbered enum in bands, latched with the
 // cycle it happened in until a clear command (style: moteus fault modes).
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 
 namespace clm::servo {
@@ -31,5 +33,53 @@ enum class Fault : std::uint16_t {
 
 /// Short fixed text for logs and telemetry; never allocates.
 const char* describe(Fault fault) noexcept;
+
+/// What the cycle does when a fault latches while it drives the axis (CiA 402
+/// fault reaction codes in spirit; docs/servod.md, "Fault reactions").
+enum class FaultReaction : std::uint8_t {
+  /// Setpoints to zero and enable cleared in the cycle the fault is found:
+  /// the position feedback or the path to the drive cannot be trusted.
+  kZeroSetpoints,
+  /// The position feedback is still trustworthy: the reference stops from its
+  /// present state at the quick-stop limits with the loop closed, then the
+  /// setpoints go to zero. The fault is latched from the start all the same.
+  kQuickStop,
+};
+const char* name(FaultReaction reaction) noexcept;
+
+struct FaultReactionEntry {
+  Fault fault;
+  FaultReaction reaction;
+};
+
+/// Every fault and its reaction, in the order of the enum (docs/servod.md prints it).
+inline constexpr std::array<FaultReactionEntry, 17> kFaultReactions{{
+    {Fault::kEncoderFrameMissing, FaultReaction::kZeroSetpoints},
+    {Fault::kForceFrameMissing, FaultReaction::kQuickStop},
+    {Fault::kEncoderAliveJump, FaultReaction::kZeroSetpoints},
+    {Fault::kForceAliveJump, FaultReaction::kQuickStop},
+    {Fault::kFrameRejected, FaultReaction::kZeroSetpoints},
+    {Fault::kBusOff, FaultReaction::kZeroSetpoints},
+    {Fault::kBusErrorPassive, FaultReaction::kZeroSetpoints},
+    {Fault::kSendFailed, FaultReaction::kZeroSetpoints},
+    {Fault::kMeasurementNotFinite, FaultReaction::kZeroSetpoints},
+    {Fault::kPositionOutOfRange, FaultReaction::kQuickStop},
+    {Fault::kFollowingError, FaultReaction::kQuickStop},
+    {Fault::kForceSaturated, FaultReaction::kQuickStop},
+    {Fault::kRepeatedOverruns, FaultReaction::kQuickStop},
+    {Fault::kDriveFault, FaultReaction::kZeroSetpoints},
+    {Fault::kSetpointOutOfRange, FaultReaction::kZeroSetpoints},
+    {Fault::kCommutationNotFinite, FaultReaction::kZeroSetpoints},
+    {Fault::kFeedbackNotFinite, FaultReaction::kZeroSetpoints},
+}};
+
+/// The reaction to `fault` from kFaultReactions; kZeroSetpoints for any value
+/// not in it.
+constexpr FaultReaction reaction(Fault fault) noexcept {
+  for (const auto& entry : kFaultReactions) {
+    if (entry.fault == fault) return entry.reaction;
+  }
+  return FaultReaction::kZeroSetpoints;
+}
 
 }  // namespace clm::servo

@@ -1,5 +1,6 @@
 #include "daemon/servo/servo_cycle.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -11,6 +12,33 @@ constexpr double kProgramStartTolerance_m = 1e-6;
 // Velocity estimate: first-order filter on the position difference with this
 // time constant [s], enough to tell standstill from motion through encoder noise.
 constexpr double kVelocityFilter_s = 0.01;
+// A planned stop may end this far beyond a soft limit (rounding of the
+// profile's closed form); anything more triggers the approach guard.
+constexpr double kStopTolerance_m = 1e-9;
+// A fault reaction stops under position control only while the measured
+// position lies within this many following-error limits of the reference;
+// farther, the measurement is not believed and the setpoints go to zero.
+constexpr double kPlausibleErrorFactor = 10.0;
+
+/// Target of the step of `program` under way at `t_s` (its start before the first).
+double step_target_m(const control::MoveProgram& program, double t_s) noexcept {
+  const auto& steps = program.steps();
+  std::size_t lo = 0, hi = steps.size();  // first step starting after t_s
+  while (lo < hi) {
+    const std::size_t mid = (lo + hi) / 2;
+    if (program.step_start_s(mid) <= t_s) {
+      lo = mid + 1;
+    } else {
+      hi = mid;
+    }
+  }
+  return lo == 0 ? program.start_m() : steps[lo - 1].target_m;
+}
+
+bool valid_limits(const control::StopLimits& limits) noexcept {
+  return limits.deceleration_m_per_s2 > 0.0 && std::isfinite(limits.deceleration_m_per_s2) &&
+         limits.jerk_m_per_s3 > 0.0 && std::isfinite(limits.jerk_m_per_s3);
+}
 
 }  // namespace
 
@@ -63,6 +91,18 @@ void ServoSettings::validate() const {
   require(missing_frame_limit >= 1, "missing_frame_limit must be at least 1");
   require(overrun_limit >= 1, "overrun_limit must be at least 1");
   require(standstill_velocity_m_per_s > 0.0, "standstill_velocity_m_per_s must be positive");
+  const auto positive = [](double x) { return x > 0.0 && std::isfinite(x); };
+  require(positive(motion_limits.velocity_m_per_s) && positive(motion_limits.acceleration_m_per_s2) &&
+              positive(motion_limits.jerk_m_per_s3),
+          "motion limits must be positive and finite");
+  require(valid_limits(stop_limits), "stop limits must be positive and finite");
+  require(valid_limits(quick_stop_limits), "quick-stop limits must be positive and finite");
+  require(quick_stop_limits.deceleration_m_per_s2 >= stop_limits.deceleration_m_per_s2 &&
+              quick_stop_limits.jerk_m_per_s3 >= stop_limits.jerk_m_per_s3,
+          "quick-stop deceleration and jerk must not be below the stop's");
+  require(recovery_velocity_fraction > 0.0 && recovery_velocity_fraction <= 1.0,
+          "recovery_velocity_fraction must be in (0, 1]");
+  require(recovery_margin_m >= 0.0 && std::isfinite(recovery_margin_m), "recovery_margin_m must not be negative");
 }
 
 ServoCycle::ServoCycle(const ServoSettings& settings)
@@ -83,27 +123,85 @@ Handover<CommutationLaw>& ServoCycle::law_handover(CommutationMode mode) noexcep
 }
 
 bool ServoCycle::at_standstill() const noexcept {
-  return running_ == nullptr && std::abs(velocity_estimate_m_per_s_) < settings_.standstill_velocity_m_per_s;
+  return running_ == nullptr && !stopping_ && std::abs(velocity_estimate_m_per_s_) < settings_.standstill_velocity_m_per_s;
+}
+
+bool ServoCycle::outside_soft_limits(double position_m) const noexcept {
+  return position_m < settings_.soft_limit_min_m || position_m > settings_.soft_limit_max_m;
+}
+
+void ServoCycle::end_program() noexcept {
+  running_ = nullptr;
+  program_.set_current(nullptr);
+}
+
+void ServoCycle::begin_stop(const control::StopLimits& limits, bool quick) noexcept {
+  stop_profile_ = control::StopProfile::plan(reference_, limits);
+  stop_start_cycle_ = reference_cycle_;
+  stopping_ = true;
+  stop_quick_ = quick;
+  end_program();
+  idle_.store(false, std::memory_order_release);
+  ++(quick ? counters_.quick_stops : counters_.stops);
 }
 
 void ServoCycle::latch(Fault fault) noexcept {
-  if (state_ == ServoState::kFault) return;  // the first reason stays
+  if (state_ == ServoState::kFault) {  // the first reason stays
+    // A fault that distrusts the feedback ends a quick stop under way.
+    if (reacting_ && reaction(fault) == FaultReaction::kZeroSetpoints) {
+      reacting_ = stopping_ = false;
+      idle_.store(true, std::memory_order_release);
+    }
+    return;
+  }
+  const bool driving = state_ == ServoState::kEnabled;
   state_ = ServoState::kFault;
   fault_ = fault;
   fault_cycle_ = cycle_;
-  running_ = nullptr;
-  program_.set_current(nullptr);
-  idle_.store(true, std::memory_order_release);
+  restricted_.store(false, std::memory_order_release);
+  const bool moving = running_ != nullptr || stopping_;
+  const bool plausible = have_position_ && std::abs(reference_.position_m - position_m_) <=
+                                               kPlausibleErrorFactor * settings_.following_error_limit_m;
+  reacting_ = false;
+  if (driving && moving && plausible && reaction(fault) == FaultReaction::kQuickStop) {
+    begin_stop(settings_.quick_stop_limits, true);
+    reacting_ = true;
+  } else {
+    stopping_ = false;
+    end_program();
+  }
+  if (!reacting_) idle_.store(true, std::memory_order_release);
 }
 
 CommandStatus ServoCycle::enable() noexcept {
-  if (state_ == ServoState::kFault) return CommandStatus::kRejectedFault;
+  bool recovering = false;
+  if (state_ == ServoState::kFault) {
+    // Restricted mode: kPositionOutOfRange with the axis still outside the
+    // soft limits, near enough to them, and its stop finished.
+    const bool near = have_position_ && std::isfinite(position_m_) &&
+                      position_m_ >= settings_.soft_limit_min_m - settings_.recovery_margin_m &&
+                      position_m_ <= settings_.soft_limit_max_m + settings_.recovery_margin_m;
+    if (fault_ != Fault::kPositionOutOfRange || reacting_ || !near || !outside_soft_limits(position_m_)) {
+      return CommandStatus::kRejectedFault;
+    }
+    recovering = true;
+  }
   if (state_ == ServoState::kEnabled) return CommandStatus::kAccepted;
   if (mode_ != CommutationMode::kExperiment && laws_[static_cast<std::size_t>(mode_)] == nullptr) {
     return CommandStatus::kRejectedNoLaw;
   }
+  if (recovering) {
+    fault_ = Fault::kNone;
+    fault_cycle_ = -1;
+    clear_drive_fault_ = true;
+    restricted_min_m_ = std::min(settings_.soft_limit_min_m, position_m_ - settings_.following_error_limit_m);
+    restricted_max_m_ = std::max(settings_.soft_limit_max_m, position_m_ + settings_.following_error_limit_m);
+  }
+  restricted_.store(recovering, std::memory_order_release);
   // Bumpless: hold where the axis is, fresh integrator.
   state_ = ServoState::kEnabled;
+  stopping_ = reacting_ = false;
+  reference_ = {position_m_, 0.0, 0.0, 0.0};
   hold_m_ = position_m_;
   hold_position_m_.store(hold_m_, std::memory_order_release);
   controller_.reset();
@@ -113,8 +211,9 @@ CommandStatus ServoCycle::enable() noexcept {
 
 CommandStatus ServoCycle::disable() noexcept {
   if (state_ == ServoState::kEnabled) state_ = ServoState::kDisabled;
-  running_ = nullptr;
-  program_.set_current(nullptr);
+  end_program();
+  stopping_ = reacting_ = false;
+  restricted_.store(false, std::memory_order_release);
   idle_.store(true, std::memory_order_release);
   return CommandStatus::kAccepted;
 }
@@ -124,6 +223,8 @@ CommandStatus ServoCycle::clear_fault() noexcept {
   state_ = ServoState::kDisabled;
   fault_ = Fault::kNone;
   fault_cycle_ = -1;
+  stopping_ = reacting_ = false;
+  idle_.store(true, std::memory_order_release);
   clear_drive_fault_ = true;  // one cycle with the clear bit to the drive
   drive_missed_ = force_missed_ = 0;
   drive_unseen_ = force_unseen_ = 0;
@@ -134,13 +235,13 @@ CommandStatus ServoCycle::clear_fault() noexcept {
 }
 
 CommandStatus ServoCycle::stop() noexcept {
-  if (running_ != nullptr) {
-    const double t = static_cast<double>(cycle_ - program_start_cycle_) * settings_.period_s;
-    hold_m_ = running_->sample(t).position_m;
-    hold_position_m_.store(hold_m_, std::memory_order_release);
-    running_ = nullptr;
-    program_.set_current(nullptr);
-    idle_.store(true, std::memory_order_release);
+  if (state_ == ServoState::kEnabled && running_ != nullptr) begin_stop(settings_.stop_limits, false);
+  return CommandStatus::kAccepted;
+}
+
+CommandStatus ServoCycle::quick_stop() noexcept {
+  if (state_ == ServoState::kEnabled && (running_ != nullptr || (stopping_ && !stop_quick_))) {
+    begin_stop(settings_.quick_stop_limits, true);
   }
   return CommandStatus::kAccepted;
 }
@@ -187,7 +288,9 @@ void ServoCycle::adopt_offers() noexcept {
     }
   }
   if (const control::MoveProgram* offered = program_.adopt()) {
-    const bool ready = state_ == ServoState::kEnabled && running_ == nullptr &&
+    // In restricted mode only a program that ends inside the soft limits.
+    const bool allowed = !restricted_.load(std::memory_order_relaxed) || !outside_soft_limits(offered->end_m());
+    const bool ready = state_ == ServoState::kEnabled && running_ == nullptr && !stopping_ && allowed &&
                        std::abs(offered->start_m() - hold_m_) <= kProgramStartTolerance_m;
     if (ready) {
       running_ = offered;
@@ -372,13 +475,21 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
     if ((drive_.status_word & can::kStatusFault) && !clear_drive_fault_) latch(Fault::kDriveFault);
   }
   if (force_fresh_ && !force_.wrench.allFinite()) latch(Fault::kMeasurementNotFinite);
-  if (have_position_ && (position_m_ < settings_.soft_limit_min_m || position_m_ > settings_.soft_limit_max_m)) {
+  if (have_position_ && restricted_.load(std::memory_order_relaxed)) {
+    // Restricted mode: back inside ends it; farther out than where it was
+    // enabled (by more than the following-error limit) latches.
+    if (!outside_soft_limits(position_m_)) {
+      restricted_.store(false, std::memory_order_release);
+    } else if (position_m_ < restricted_min_m_ || position_m_ > restricted_max_m_ || state_ != ServoState::kEnabled) {
+      latch(Fault::kPositionOutOfRange);
+    }
+  } else if (have_position_ && outside_soft_limits(position_m_)) {
     latch(Fault::kPositionOutOfRange);
   }
 
   // 2. Reference and position loop.
   record_.force_limited = false;
-  if (state_ == ServoState::kEnabled) {
+  if (state_ == ServoState::kEnabled || reacting_) {
     control::ReferenceSample now{hold_m_, 0.0, 0.0, 0.0};
     control::ReferenceSample next = now;
     if (running_ != nullptr) {
@@ -389,9 +500,52 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
       if (t >= running_->duration_s()) {
         hold_m_ = running_->end_m();
         hold_position_m_.store(hold_m_, std::memory_order_release);
-        running_ = nullptr;
-        program_.set_current(nullptr);
+        end_program();
         idle_.store(true, std::memory_order_release);
+      }
+    } else if (stopping_) {
+      const double t = static_cast<double>(cycle_ - stop_start_cycle_) * settings_.period_s;
+      now = stop_profile_.sample(t);
+      next = stop_profile_.sample(t + settings_.period_s);
+      if (t >= stop_profile_.duration_s()) {
+        // At rest: hold there; a fault reaction ends with zero setpoints.
+        hold_m_ = stop_profile_.rest_position_m();
+        hold_position_m_.store(hold_m_, std::memory_order_release);
+        stopping_ = false;
+        reacting_ = false;
+        idle_.store(true, std::memory_order_release);
+      }
+    }
+    reference_ = now;
+    reference_cycle_ = cycle_;
+    // Approach guard: a move whose reference could not quick-stop inside the
+    // soft limits from its next sample, or an axis running ahead of it, is
+    // quick-stopped from this one.
+    if (running_ != nullptr && !restricted_.load(std::memory_order_relaxed)) {
+      const double reference_stop_m = control::stopping_position_m(next, settings_.quick_stop_limits);
+      // A step whose target lies outside the soft limits (a program no check
+      // let in) is stopped a following-error limit before the soft limit, so
+      // that the axis, within that of its reference, stays inside too.
+      const double t = static_cast<double>(cycle_ - program_start_cycle_) * settings_.period_s;
+      const double target_m = step_target_m(*running_, t);
+      const double band_m = settings_.following_error_limit_m;
+      const bool target_outside = outside_soft_limits(target_m);
+      const bool near_limit = reference_stop_m > settings_.soft_limit_max_m - band_m ||
+                              reference_stop_m < settings_.soft_limit_min_m + band_m;
+      // The filtered velocity lags by the filter's time constant: corrected
+      // with the reference's acceleration. Within the following-error limit
+      // the deviation is the loop's to correct (and kFollowingError's to catch).
+      const control::ReferenceSample measured{
+          position_m_, velocity_estimate_m_per_s_ + now.acceleration_m_per_s2 * kVelocityFilter_s,
+          now.acceleration_m_per_s2, 0.0};
+      const double axis_stop_m = control::stopping_position_m(measured, settings_.quick_stop_limits);
+      const double axis_margin_m = settings_.following_error_limit_m;
+      if (reference_stop_m < settings_.soft_limit_min_m - kStopTolerance_m ||
+          reference_stop_m > settings_.soft_limit_max_m + kStopTolerance_m || (target_outside && near_limit) ||
+          axis_stop_m < settings_.soft_limit_min_m - axis_margin_m ||
+          axis_stop_m > settings_.soft_limit_max_m + axis_margin_m) {
+        ++counters_.guard_stops;
+        begin_stop(settings_.quick_stop_limits, true);
       }
     }
     double force = controller_.update(now, next, position_m_);
@@ -413,7 +567,7 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
       saturated_time_s_ = 0.0;
     }
     record_.F_star_N = force;
-    if (state_ == ServoState::kEnabled) commutate(position_m_, force);
+    if (state_ == ServoState::kEnabled || reacting_) commutate(position_m_, force);
   } else {
     // Not driving: the reference follows the axis so that enabling is bumpless.
     hold_m_ = position_m_;
@@ -422,13 +576,16 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
     record_.r_dot_m_per_s = record_.r_ddot_m_per_s2 = 0.0;
     record_.e_m = record_.u_fb_N = record_.u_ff_N = record_.F_star_N = 0.0;
     record_.Fy_star_N = record_.Fx_star_N = record_.Tz_star_Nm = 0.0;
+    reference_ = {position_m_, 0.0, 0.0, 0.0};
+    reference_cycle_ = cycle_;
   }
-  if (state_ != ServoState::kEnabled) zero_setpoints();
+  const bool driving = state_ == ServoState::kEnabled || reacting_;
+  if (!driving) zero_setpoints();
 
   // 3. Setpoint frames. A fault found while encoding sends zero at once.
   can::SetpointCommand command;
   command.coil_sets = settings_.protocol.coil_sets;
-  command.enable = state_ == ServoState::kEnabled;
+  command.enable = driving;
   command.clear_fault = clear_drive_fault_;
   command.alive_counter = setpoint_alive_++;
   for (int l = 0; l < command.coil_sets; ++l) {
@@ -439,6 +596,7 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
   std::size_t count = can::encode_setpoints(settings_.protocol, command, frames_, status);
   if (status != can::CodecStatus::kOk) {
     latch(Fault::kSetpointOutOfRange);
+    reacting_ = stopping_ = false;
     zero_setpoints();
     command.enable = false;
     for (auto& setpoint : command.setpoints) setpoint = {};
@@ -462,6 +620,8 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
   record_.program_running = running_ != nullptr;
   if (!record_.program_running) record_.program_time_s = 0.0;
   record_.drive_status_word = drive_.status_word;
+  record_.stopping = stopping_;
+  record_.restricted = restricted_.load(std::memory_order_relaxed);
   return {frames_.data(), count};
 }
 

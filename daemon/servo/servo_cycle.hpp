@@ -18,6 +18,7 @@
 
 #include "commutation/commutator.hpp"
 #include "daemon/control/position_controller.hpp"
+#include "daemon/control/stop_profile.hpp"
 #include "daemon/control/trajectory.hpp"
 #include "daemon/servo/cycle_record.hpp"
 #include "daemon/servo/fault.hpp"
@@ -42,6 +43,17 @@ struct ServoSettings {
   int missing_frame_limit = 3;            ///< consecutive cycles without a timely, valid feedback frame → fault
   int overrun_limit = 5;                  ///< consecutive overruns → fault
   double standstill_velocity_m_per_s = 2e-3;
+  /// Largest velocity, acceleration and jerk a move or program may ask for.
+  control::MotionLimits motion_limits{0.5, 10.0, 2000.0};
+  /// Limits of a stop (stop command) and of a quick stop (quick-stop command,
+  /// approach guard, fault reactions); quick-stop values ≥ the stop's.
+  control::StopLimits stop_limits{10.0, 2000.0};
+  control::StopLimits quick_stop_limits{10.0, 2000.0};
+  /// Restricted mode after kPositionOutOfRange: moves back inside at most at
+  /// this share of motion_limits.velocity_m_per_s, enabled only within this
+  /// distance beyond a soft limit [m].
+  double recovery_velocity_fraction = 0.1;
+  double recovery_margin_m = 0.02;
   /// Throws std::invalid_argument naming the setting.
   void validate() const;
 };
@@ -69,6 +81,9 @@ struct CycleCounters {
   std::int64_t damping_cycles = 0;
   std::int64_t force_limited_cycles = 0;
   std::int64_t programs_rejected = 0;
+  std::int64_t stops = 0;           ///< stops planned (stop command)
+  std::int64_t quick_stops = 0;     ///< quick stops planned (command, approach guard, fault reaction)
+  std::int64_t guard_stops = 0;     ///< of those, by the approach guard
 };
 
 class ServoCycle {
@@ -88,13 +103,23 @@ class ServoCycle {
   /// Position the axis holds when idle [m] (for planning a move from it).
   double hold_position_m() const noexcept { return hold_position_m_.load(std::memory_order_acquire); }
   bool idle() const noexcept { return idle_.load(std::memory_order_acquire); }
+  /// Restricted mode (enabled outside the soft limits after
+  /// kPositionOutOfRange): only a move back inside at reduced speed starts.
+  bool restricted() const noexcept { return restricted_.load(std::memory_order_acquire); }
 
   // --- commands, called on the real-time thread between cycles ---
+  /// Closes the loop at the present position. With kPositionOutOfRange
+  /// latched and the axis outside the soft limits but within
+  /// recovery_margin_m of them, clears it and enables in restricted mode.
   CommandStatus enable() noexcept;
   CommandStatus disable() noexcept;
   CommandStatus clear_fault() noexcept;
-  /// Stop a running program: the reference holds where it is.
+  /// Stop a running program: the reference brakes from its present state
+  /// within settings().stop_limits (control::StopProfile) and then holds.
   CommandStatus stop() noexcept;
+  /// As stop(), within settings().quick_stop_limits; also shortens a stop
+  /// under way.
+  CommandStatus quick_stop() noexcept;
   /// Switch the commutation law (deferred to standstill). For kExperiment,
   /// `coil_set` (1-based) and `delta_rad` select the experiment.
   CommandStatus request_mode(CommutationMode mode, int coil_set = 0, double delta_rad = 0.0) noexcept;
@@ -130,6 +155,10 @@ class ServoCycle {
   const CycleCounters& counters() const noexcept { return counters_; }
   const ServoSettings& settings() const noexcept { return settings_; }
   bool at_standstill() const noexcept;
+  /// A stop (command, guard or fault reaction) is under way.
+  bool stopping() const noexcept { return stopping_; }
+  /// The axis is still driven along a quick stop after a fault latched.
+  bool fault_reaction_running() const noexcept { return reacting_; }
 
  private:
   void latch(Fault fault) noexcept;
@@ -138,6 +167,10 @@ class ServoCycle {
   void adopt_offers() noexcept;
   void commutate(double position_m, double force_N) noexcept;
   void zero_setpoints() noexcept;
+  /// Plans a stop from the present reference and follows it from the next sample.
+  void begin_stop(const control::StopLimits& limits, bool quick) noexcept;
+  void end_program() noexcept;
+  bool outside_soft_limits(double position_m) const noexcept;
 
   ServoSettings settings_;
   control::PositionController controller_;
@@ -174,6 +207,14 @@ class ServoCycle {
   double velocity_estimate_m_per_s_ = 0.0;
 
   // Reference and loop.
+  control::ReferenceSample reference_{};  // the reference of cycle reference_cycle_
+  std::int64_t reference_cycle_ = 0;
+  control::StopProfile stop_profile_;
+  std::int64_t stop_start_cycle_ = 0;
+  bool stopping_ = false, stop_quick_ = false;
+  bool reacting_ = false;  // driven along a quick stop while a fault is latched
+  std::atomic<bool> restricted_{false};
+  double restricted_min_m_ = 0.0, restricted_max_m_ = 0.0;
   double hold_m_ = 0.0;
   std::atomic<double> hold_position_m_{0.0};
   std::atomic<bool> idle_{true};

@@ -22,6 +22,7 @@ bool own_command(const CommandReply& reply) { return reply.client == 0 && reply.
 CommandClass command_class(servo::CommandKind kind) noexcept {
   switch (kind) {
     case servo::CommandKind::kStop:
+    case servo::CommandKind::kQuickStop:
     case servo::CommandKind::kDisable: return CommandClass::kSafety;
     case servo::CommandKind::kTakeControl: return CommandClass::kTakeControl;
     case servo::CommandKind::kReleaseControl: return CommandClass::kReleaseControl;

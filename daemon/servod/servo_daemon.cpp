@@ -202,21 +202,45 @@ CommandReply ServoDaemon::post_program(const servo::Command& command, const Prog
   if (!cycle_->idle()) return {command.sequence, false, "rejected: a program is running"};
   if (cycle_->program_handover().pending()) return {command.sequence, false, "rejected: a program is waiting to start"};
   const double hold = cycle_->hold_position_m();
+  const servo::ServoSettings& settings = config_.servo;
+  const auto refuse = [&](const std::string& reason) { return CommandReply{command.sequence, false, "rejected: " + reason}; };
+  // Restricted mode (after kPositionOutOfRange): only a slow move back inside.
+  const bool restricted = cycle_->restricted();
   std::unique_ptr<control::MoveProgram> move;
   if (command.kind == servo::CommandKind::kMoveTo) {
-    if (!(command.target_m >= config_.servo.soft_limit_min_m && command.target_m <= config_.servo.soft_limit_max_m)) {
-      return {command.sequence, false, "rejected: target outside the soft limits"};
+    if (!(command.target_m >= settings.soft_limit_min_m && command.target_m <= settings.soft_limit_max_m)) {
+      return refuse(restricted ? "restricted mode: the target must lie inside the soft limits"
+                               : "target outside the soft limits");
+    }
+    control::MotionLimits max = settings.motion_limits;
+    if (restricted) max.velocity_m_per_s *= settings.recovery_velocity_fraction;
+    if (auto reason = check_motion_limits(restricted ? "move_to (restricted mode)" : "move_to", command.limits, max);
+        !reason.empty()) {
+      return refuse(reason);
     }
     move = std::make_unique<control::MoveProgram>(
         hold, std::vector<control::ProgramStep>{{command.target_m, command.limits, 0.0}});
+    // In restricted mode the move starts outside; it only goes back inside.
+    if (!restricted) {
+      if (auto reason = check_stopping("move_to", *move, settings); !reason.empty()) return refuse(reason);
+    }
   } else {
-    if (program == nullptr) return {command.sequence, false, "rejected: no program"};
-    for (const auto& step : program->steps) {
-      if (step.target_m < config_.servo.soft_limit_min_m || step.target_m > config_.servo.soft_limit_max_m) {
-        return {command.sequence, false, "rejected: a program target lies outside the soft limits"};
+    if (restricted) return refuse("restricted mode: only a move_to back inside the soft limits is accepted");
+    if (program == nullptr) return refuse("no program");
+    const ProgramFile& file = *program;
+    for (std::size_t i = 0; i < file.steps.size(); ++i) {
+      const auto& step = file.steps[i];
+      if (step.target_m < settings.soft_limit_min_m || step.target_m > settings.soft_limit_max_m) {
+        return refuse("a program target lies outside the soft limits");
+      }
+      if (auto reason = check_motion_limits("run_program: step " + std::to_string(i + 1), step.limits,
+                                            settings.motion_limits);
+          !reason.empty()) {
+        return refuse(reason);
       }
     }
-    move = std::make_unique<control::MoveProgram>(program_from(*program, hold));
+    move = std::make_unique<control::MoveProgram>(program_from(file, hold));
+    if (auto reason = check_stopping("run_program", *move, settings); !reason.empty()) return refuse(reason);
   }
   if (!cycle_->program_handover().post(move.get())) return {command.sequence, false, "rejected: busy"};
   programs_.push_back(std::move(move));
@@ -476,6 +500,7 @@ void ServoDaemon::drain_commands() noexcept {
       case Kind::kDisable: status = cycle_->disable(); break;
       case Kind::kClearFault: status = cycle_->clear_fault(); break;
       case Kind::kStop: status = cycle_->stop(); break;
+      case Kind::kQuickStop: status = cycle_->quick_stop(); break;
       case Kind::kSetCommutation: status = cycle_->request_mode(command.commutation); break;
       case Kind::kSetExperiment:
         status = cycle_->request_mode(servo::CommutationMode::kExperiment, command.coil_set, command.delta_rad);

@@ -69,7 +69,8 @@ std::string canonical_directory(const yaml::Node& node, const std::string& path)
 }  // namespace
 
 ServodConfig parse_servod_config(const yaml::Node& root, const std::string& directory) {
-  root.expect_keys({"motor_file", "axis", "loop", "can", "control", "commutation", "faults", "telemetry", "commands"});
+  root.expect_keys({"motor_file", "axis", "loop", "can", "control", "commutation", "faults", "telemetry", "commands",
+                    "motion"});
   ServodConfig config;
   config.origin = root.file();
   if (const auto axis = root.optional("axis")) {
@@ -216,6 +217,37 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     if (config.commutation.mode == servo::CommutationMode::kOracle && config.can.interface != "sim") {
       (*commutation)["mode"].fail("the oracle commutation exists only with can.interface: sim");
     }
+  }
+
+  if (const auto motion = root.optional("motion")) {
+    motion->expect_keys({"velocity_m_per_s", "acceleration_m_per_s2", "jerk_m_per_s3", "stop_deceleration_m_per_s2",
+                         "stop_jerk_m_per_s3", "quick_stop_deceleration_m_per_s2", "quick_stop_jerk_m_per_s3",
+                         "recovery_velocity_fraction", "recovery_margin_m"});
+    auto& limits = config.servo.motion_limits;
+    if (const auto v = motion->optional("velocity_m_per_s")) limits.velocity_m_per_s = v->as_double_in(1e-6, 100.0);
+    if (const auto v = motion->optional("acceleration_m_per_s2")) limits.acceleration_m_per_s2 = v->as_double_in(1e-6, 1e4);
+    if (const auto v = motion->optional("jerk_m_per_s3")) limits.jerk_m_per_s3 = v->as_double_in(1e-6, 1e8);
+    // The stop limits default to the move limits, the quick stop's to the stop's.
+    auto& stop = config.servo.stop_limits;
+    stop = {limits.acceleration_m_per_s2, limits.jerk_m_per_s3};
+    if (const auto v = motion->optional("stop_deceleration_m_per_s2")) stop.deceleration_m_per_s2 = v->as_double_in(1e-6, 1e4);
+    if (const auto v = motion->optional("stop_jerk_m_per_s3")) stop.jerk_m_per_s3 = v->as_double_in(1e-6, 1e8);
+    auto& quick = config.servo.quick_stop_limits;
+    quick = stop;
+    if (const auto v = motion->optional("quick_stop_deceleration_m_per_s2")) {
+      quick.deceleration_m_per_s2 = v->as_double_in(1e-6, 1e4);
+      if (quick.deceleration_m_per_s2 < stop.deceleration_m_per_s2) {
+        v->fail("must not be below the stop deceleration " + std::to_string(stop.deceleration_m_per_s2) + " m/s^2");
+      }
+    }
+    if (const auto v = motion->optional("quick_stop_jerk_m_per_s3")) {
+      quick.jerk_m_per_s3 = v->as_double_in(1e-6, 1e8);
+      if (quick.jerk_m_per_s3 < stop.jerk_m_per_s3) {
+        v->fail("must not be below the stop jerk " + std::to_string(stop.jerk_m_per_s3) + " m/s^3");
+      }
+    }
+    if (const auto v = motion->optional("recovery_velocity_fraction")) config.servo.recovery_velocity_fraction = v->as_double_in(0.001, 1.0);
+    if (const auto v = motion->optional("recovery_margin_m")) config.servo.recovery_margin_m = v->as_double_in(0.0, 1.0);
   }
 
   if (const auto faults = root.optional("faults")) {

@@ -132,6 +132,36 @@ TEST_CASE("configuration errors are refused naming file, line and key path", "[d
     lines[2] = "  rate_hz: 4000";
     CHECK(load_error(dir, lines).empty());
   }
+  SECTION("motion limits: defaults, stop limits default to the move limits") {
+    lines.push_back("motion:");
+    lines.push_back("  acceleration_m_per_s2: 4.0");
+    lines.push_back("  jerk_m_per_s3: 800.0");
+    REQUIRE(load_error(dir, lines).empty());
+    const auto config = servod::load_servod_config(file);
+    CHECK(config.servo.motion_limits.velocity_m_per_s == 0.5);
+    CHECK(config.servo.stop_limits.deceleration_m_per_s2 == 4.0);
+    CHECK(config.servo.stop_limits.jerk_m_per_s3 == 800.0);
+    CHECK(config.servo.quick_stop_limits.deceleration_m_per_s2 == 4.0);
+    CHECK(config.servo.quick_stop_limits.jerk_m_per_s3 == 800.0);
+  }
+  SECTION("motion limit out of range") {
+    lines.push_back("motion:");
+    lines.push_back("  velocity_m_per_s: -1");
+    CHECK_THAT(load_error(dir, lines), Catch::StartsWith(file + ":18: motion.velocity_m_per_s: value -1 outside ["));
+  }
+  SECTION("quick-stop deceleration below the stop's") {
+    lines.push_back("motion:");
+    lines.push_back("  stop_deceleration_m_per_s2: 8.0");
+    lines.push_back("  quick_stop_deceleration_m_per_s2: 5.0");
+    CHECK_THAT(load_error(dir, lines),
+               Catch::StartsWith(file + ":19: motion.quick_stop_deceleration_m_per_s2: must not be below the stop"));
+  }
+  SECTION("quick-stop jerk below the stop's") {
+    lines.push_back("motion:");
+    lines.push_back("  quick_stop_jerk_m_per_s3: 10.0");
+    CHECK_THAT(load_error(dir, lines),
+               Catch::StartsWith(file + ":18: motion.quick_stop_jerk_m_per_s3: must not be below the stop"));
+  }
   SECTION("soft limits the wrong way round") {
     lines.insert(lines.begin() + 10, "  soft_limit_min_m: 0.05");
     lines.insert(lines.begin() + 11, "  soft_limit_max_m: -0.05");

@@ -2,7 +2,10 @@
 // through the bus-side injection or the configuration. Each must latch with
 // the right reason and put zero magnitudes with enable cleared on the bus in
 // the cycle the fault was found (faults reported between cycles: the next
-// cycle's frames), and in every cycle after until clear_fault; then
+// cycle's frames), and in every cycle after until clear_fault; a fault whose
+// reaction is a quick stop (servo::kFaultReactions), found while the axis
+// moves, first brakes it under position control and is safe from the end of
+// that stop on (test_stops.cpp covers every kind at full speed); then
 // clear_fault → disabled → enable drives again. The expectations are checked
 // on what the drive received (the frames decoded with the protocol's
 // decoder, the simulated drive's status and currents), never on the cycle's
@@ -10,6 +13,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
+#include "daemon/control/stop_profile.hpp"
 #include "daemon/servod/servo_daemon.hpp"
 #include "drivers/sim/in_process_bus.hpp"
 #include "drivers/sim/motor.hpp"
@@ -57,6 +61,33 @@ struct EnabledAxis {
       REQUIRE(daemon.cycle().fault() == expected);
       test::require_safe_output(wired);
     }
+  }
+
+  /// The fault latched as `expected` while the axis moved, and its reaction
+  /// (servo::kFaultReactions) is a quick stop: the cycle of the fault still
+  /// drives, the reference brakes within the quick-stop limits and comes to
+  /// rest in the planned time, the fault stays `expected` throughout; then the
+  /// output is safe (require_latched).
+  void require_quick_stop_reaction(Fault expected) {
+    REQUIRE(servo::reaction(expected) == servo::FaultReaction::kQuickStop);
+    REQUIRE(daemon.cycle().state() == ServoState::kFault);
+    REQUIRE(daemon.cycle().fault() == expected);
+    REQUIRE(daemon.cycle().fault_reaction_running());
+    test::require_driving_output(wired);
+    const auto& s = daemon.config().servo;
+    const auto& r = daemon.cycle().record();
+    const auto planned = control::StopProfile::plan({r.r_m, r.r_dot_m_per_s, r.r_ddot_m_per_s2, 0.0},
+                                                    s.quick_stop_limits);
+    const auto max_cycles = static_cast<int>(std::ceil(planned.duration_s() / s.period_s)) + 2;
+    int cycles = 0;
+    while (daemon.cycle().fault_reaction_running()) {
+      daemon.run_cycles(1);
+      REQUIRE(++cycles <= max_cycles);
+      REQUIRE(daemon.cycle().state() == ServoState::kFault);
+      REQUIRE(daemon.cycle().fault() == expected);
+      CHECK(std::abs(daemon.cycle().record().r_ddot_m_per_s2) <= s.quick_stop_limits.deceleration_m_per_s2 + 1e-9);
+    }
+    CHECK(daemon.cycle().record().r_dot_m_per_s == 0.0);
   }
 
   /// clear_fault → disabled (one cycle asks the drive to clear too) → enable
@@ -263,6 +294,7 @@ TEST_CASE("a following error above the configured limit latches kFollowingError 
   INFO("error at the fault " << error_m << " m, one cycle before " << previous_error_m << " m");
   CHECK(std::abs(error_m) > 50e-6 - 1e-7);
   CHECK(std::abs(previous_error_m) <= 50e-6 + 1e-7);
+  axis.require_quick_stop_reaction(Fault::kFollowingError);
   axis.require_latched(Fault::kFollowingError);
   axis.require_recovers();
 }
@@ -312,13 +344,14 @@ TEST_CASE("a force demand saturated longer than the limit latches kForceSaturate
     max_saturated_run = std::max(max_saturated_run, saturated_cycles);
     REQUIRE(axis.daemon.cycle().counters().cycles < 5000);
   }
-  // The fault cycle is the one whose saturation reaches the time limit (its
-  // own frames are already zero): the limit in cycles, give or take the
-  // rounding of the accumulated time.
+  // The fault cycle is the one whose saturation reaches the time limit (the
+  // quick stop of its reaction starts there): the limit in cycles, give or
+  // take the rounding of the accumulated time.
   const double limit_cycles = config.servo.saturation_time_limit_s / config.servo.period_s;
   INFO("saturated for " << saturated_cycles << " cycles before the fault");
   CHECK(saturated_cycles + 1 >= limit_cycles);
   CHECK(saturated_cycles + 1 <= limit_cycles + 1);
+  axis.require_quick_stop_reaction(Fault::kForceSaturated);
   axis.require_latched(Fault::kForceSaturated);
   axis.require_recovers();
 }

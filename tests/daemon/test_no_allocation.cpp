@@ -80,6 +80,66 @@ TEST_CASE("10^5 cycles with a program running allocate nothing, in every commuta
   CHECK(daemon.take_replies().size() == 3);
 }
 
+TEST_CASE("stops, quick stops, the approach guard and fault reactions allocate nothing in the cycle",
+          "[daemon][allocation]") {
+  // Moves are posted between the counted stretches (planning them allocates,
+  // on the command thread); everything the cycle does with them is counted:
+  // adopting the move, planning and following a stop or quick stop from the
+  // command queue, a quick stop as the reaction to a fault, and the approach
+  // guard's prediction in every cycle of a move.
+  servod::WiredAxis axis(test::virtual_config());
+  servod::ServoDaemon& daemon = axis.daemon;
+  const auto& s = daemon.config().servo;
+  daemon.run_cycles(10);
+  test::command(daemon, Kind::kEnable, 10);
+  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  std::size_t allocations = 0;
+  std::size_t malloc_calls = 0;
+  const auto counted = [&](std::int64_t cycles) {
+    const std::size_t malloc_before = test::malloc_calls();
+    test::AllocationScope scope;
+    daemon.run_cycles(cycles);
+    allocations += scope.allocations();
+    malloc_calls += test::malloc_calls() - malloc_before;
+  };
+  const auto before = daemon.cycle().counters();
+  for (int round = 0; round < 20; ++round) {
+    servo::Command move;
+    move.kind = Kind::kMoveTo;
+    move.target_m = round % 2 == 0 ? 0.1 : -0.1;
+    move.limits = s.motion_limits;
+    REQUIRE(daemon.submit(move).accepted);
+    counted(100 + 7 * round);
+    servo::Command stop;
+    stop.kind = round % 3 == 0 ? Kind::kStop : Kind::kQuickStop;
+    REQUIRE(daemon.submit(stop).accepted);
+    counted(400);
+    REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+    REQUIRE(daemon.cycle().idle());
+    (void)daemon.take_replies();
+  }
+  // A fault reaction: overruns reported while moving.
+  servo::Command move;
+  move.kind = Kind::kMoveTo;
+  move.target_m = daemon.cycle().hold_position_m() > 0.0 ? -0.1 : 0.1;
+  move.limits = s.motion_limits;
+  REQUIRE(daemon.submit(move).accepted);
+  counted(100);
+  {
+    test::AllocationScope scope;
+    for (int k = 0; k < s.overrun_limit; ++k) daemon.cycle().report_overrun(true);
+    allocations += scope.allocations();
+  }
+  REQUIRE(daemon.cycle().fault_reaction_running());
+  counted(500);
+  CHECK_FALSE(daemon.cycle().fault_reaction_running());
+  CHECK(allocations == 0);
+  CHECK(malloc_calls == 0);
+  const auto& after = daemon.cycle().counters();
+  CHECK(after.stops - before.stops == 7);
+  CHECK(after.quick_stops - before.quick_stops == 13 + 1);
+}
+
 TEST_CASE("the heap counters see operator new and Eigen's malloc", "[daemon][allocation]") {
   volatile int size = 64;  // a size the compiler cannot see
   const std::size_t malloc_before = test::malloc_calls();

@@ -400,7 +400,9 @@ TEST_CASE("With command authority, the server admits through the gate, answers t
   CHECK_THAT(all.find(8)->second.text, Catch::StartsWith("refused other_axis"));
   CHECK_THAT(all.find(9)->second.text, Catch::StartsWith("refused no_client"));
   CHECK_THAT(all.find(10)->second.text, Catch::StartsWith("refused stale"));
-  CHECK(all.find(11)->second.text == "rejected: target outside the soft limits");
+  // Admitted by the authority, refused by the daemon: the axis was disabled by
+  // the other client's DISABLE above, which the daemon checks first.
+  CHECK(all.find(11)->second.text == "rejected: the axis is disabled, enable first");
   CHECK_THAT(all.find(12)->second.text, Catch::StartsWith("refused not_in_control"));
   CHECK(all.find(13)->second.text == "control released");
   CHECK(all.count(6) == 2);  // the disable, and its replay's refusal

@@ -194,6 +194,7 @@ void add_ctl(CLI::App& app) {
   simple("stop", Command::STOP, "stop the running motion (jerk-limited), stay enabled");
   simple("take-control", Command::TAKE_CONTROL, "become the client that commands the axis (other commands do it themselves)");
   simple("release", Command::RELEASE_CONTROL, "give up control of the axis");
+  simple("quick-stop", Command::QUICK_STOP, "stop the running motion within the quick-stop limits, stay enabled");
 
   struct MoveOptions {
     double target_m = 0.0, velocity_m_per_s = 0.1, acceleration_m_per_s2 = 1.0, jerk_m_per_s3 = 1000.0;
