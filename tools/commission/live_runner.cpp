@@ -16,14 +16,9 @@ using clm_lcm::servo_state_t;
 using clm_lcm::servo_status_t;
 using servod_client::decode;
 using servod_client::make_command;
+using servod_client::seconds;
 
 constexpr std::int8_t kStateEnabled = servo_status_t::STATE_ENABLED;
-
-std::string seconds(double value_s) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%g s", value_s);
-  return text;
-}
 
 /// `options`, or std::invalid_argument naming the one out of range.
 LiveOptions checked(LiveOptions options) {

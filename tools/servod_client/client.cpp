@@ -18,15 +18,15 @@ using clm_lcm::servo_status_t;
 
 constexpr std::int8_t kStateFault = servo_status_t::STATE_FAULT;
 
+std::chrono::duration<double> duration(double value_s) { return std::chrono::duration<double>(value_s); }
+
+}  // namespace
+
 std::string seconds(double value_s) {
   char text[32];
   std::snprintf(text, sizeof(text), "%g s", value_s);
   return text;
 }
-
-std::chrono::duration<double> duration(double value_s) { return std::chrono::duration<double>(value_s); }
-
-}  // namespace
 
 clm_lcm::servo_command_t make_command(std::int8_t kind) {
   clm_lcm::servo_command_t command{};
@@ -185,15 +185,20 @@ bool Client::holds_control(double margin_s) const {
   return status.control_lease_remaining_s - since_s > margin_s;
 }
 
-void Client::take_control(double timeout_s, const std::string& what) {
-  Target to;
+Target Client::target_for(double timeout_s, const std::string& what) {
   try {
-    to = target(timeout_s);
+    return target(timeout_s);
   } catch (const SeveralAxes&) {
     throw;
   } catch (const Timeout& e) {
-    throw NoAck(std::string("no ") + telemetry::kCommandAckChannel + " for " + what + ": " + e.what(), 0);
+    throw NoAck(std::string("no ") + telemetry::kCommandAckChannel + (what.empty() ? "" : " for " + what) + ": " +
+                    e.what(),
+                0);
   }
+}
+
+void Client::take_control(double timeout_s, const std::string& what) {
+  const Target to = target_for(timeout_s, what);
   Ack ack = send_once(make_command(clm_lcm::servo_command_t::TAKE_CONTROL), to, timeout_s,
                       what == "TAKE_CONTROL" ? what : "TAKE_CONTROL (for " + what + ")");
   if (!ack.accepted) throw Refused("clm-servod refused TAKE_CONTROL: " + ack.text, std::move(ack));
@@ -204,16 +209,7 @@ void Client::release_control(double timeout_s) {
 }
 
 Ack Client::send(clm_lcm::servo_command_t command, double timeout_s, const std::string& what) {
-  Target to;
-  try {
-    to = target(timeout_s);
-  } catch (const SeveralAxes&) {
-    throw;
-  } catch (const Timeout& e) {
-    throw NoAck(std::string("no ") + telemetry::kCommandAckChannel + (what.empty() ? "" : " for " + what) + ": " +
-                    e.what(),
-                0);
-  }
+  const Target to = target_for(timeout_s, what);
   if (needs_control(command.command) && !holds_control()) {
     const std::string name = what.empty() ? "the command" : what;
     Ack taken = send_once(make_command(clm_lcm::servo_command_t::TAKE_CONTROL), to, timeout_s,

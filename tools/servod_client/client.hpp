@@ -41,6 +41,9 @@ struct ReceiveBuffer;
 
 namespace clm::servod_client {
 
+/// A duration for a message: "%g s".
+std::string seconds(double value_s);
+
 /// One LCM message as received: channel, receive time [µs since the UNIX epoch], bytes.
 struct ReceivedMessage {
   std::string channel;
@@ -160,6 +163,8 @@ class Client {
   /// SeveralAxes (listing them) when several axes were heard, Options::axis
   /// is empty and `only_axis` is set. Without `only_axis`: the first axis heard.
   Target target(double timeout_s, bool only_axis = true);
+  /// target(timeout_s), its timeout reported as NoAck for the command `what`.
+  Target target_for(double timeout_s, const std::string& what);
 
   /// Publishes `command` on CLM_SERVO_COMMAND for target() (its axis and
   /// session), as client_id(), with a fresh sequence and the wall-clock
