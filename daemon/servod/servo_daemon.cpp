@@ -1,7 +1,5 @@
 #include "daemon/servod/servo_daemon.hpp"
 
-#include <time.h>
-
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -11,26 +9,10 @@
 #include "config/sha256.hpp"
 #include "daemon/servod/command_check.hpp"
 #include "daemon/servod/feedforward_file.hpp"
-#include "daemon/servod/wakeup_schedule.hpp"
 
 namespace clm::servod {
 namespace {
 
-std::int64_t monotonic_ns() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
-void sleep_until(std::int64_t time_ns) noexcept {
-  timespec ts{};
-  ts.tv_sec = time_ns / 1'000'000'000;
-  ts.tv_nsec = time_ns % 1'000'000'000;
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-  }
-}
-
-/// The kinds whose file the loader reads (load_feedforward only with a path).
 bool reads_file(const servo::Command& command) noexcept {
   using Kind = servo::CommandKind;
   switch (command.kind) {
@@ -522,78 +504,6 @@ void ServoDaemon::drain_commands() noexcept {
     replies_->try_push({command.sequence, command.client, status});
   }
   honour_disable_request();
-}
-
-void ServoDaemon::honour_disable_request() noexcept {
-  if (!disable_requested_.load(std::memory_order_acquire)) return;
-  cycle_->disable();
-  if (disabled_after_cycles_.load(std::memory_order_relaxed) < 0) {
-    disabled_at_ns_.store(monotonic_ns(), std::memory_order_release);
-    disabled_after_cycles_.store(cycles_done_.load(std::memory_order_relaxed), std::memory_order_release);
-  }
-}
-
-void ServoDaemon::one_cycle(std::int64_t sync_time_ns, std::int64_t deadline_ns, double time_s,
-                            std::int64_t next_sync_ns, bool realtime) noexcept {
-  drain_commands();
-  clock_->advance_to(sync_time_ns);
-  const can::Frame sync = cycle_->begin_cycle(sync_time_ns);
-  bool send_failed = !bus_->send(sync);
-  drivers::ReceivedFrame received;
-  while (!cycle_->feedback_complete() && bus_->receive(received, deadline_ns)) cycle_->on_frame(received);
-  // A bus fault known before the setpoints are built already zeroes this
-  // cycle's setpoints; a failing setpoint send is reported after them.
-  cycle_->report_bus(bus_->state(), send_failed);
-  const auto frames = cycle_->end_cycle(time_s);
-  // Setpoints never outlive their cycle: past the next SYNC they are dropped.
-  if (realtime && monotonic_ns() >= next_sync_ns) {
-    ++timing_.late_setpoints;
-  } else {
-    for (const auto& frame : frames) send_failed = !bus_->send(frame) || send_failed;
-  }
-  cycle_->report_bus(bus_->state(), send_failed);
-  mirror_state();
-  if (observer_ != nullptr) observer_->on_cycle(*cycle_, timing_);
-  cycles_done_.fetch_add(1, std::memory_order_release);
-}
-
-void ServoDaemon::run_cycles(std::int64_t cycles) {
-  const auto period_ns = static_cast<std::int64_t>(config_.servo.period_s * 1e9);
-  for (std::int64_t k = 0; k < cycles; ++k) {
-    virtual_time_ns_ += period_ns;
-    one_cycle(virtual_time_ns_, virtual_time_ns_ + period_ns / 2, static_cast<double>(virtual_time_ns_) * 1e-9,
-              virtual_time_ns_ + period_ns, false);
-  }
-}
-
-std::int64_t ServoDaemon::run_until_idle(std::int64_t max_cycles) {
-  std::int64_t done = 0;
-  // One cycle first so a freshly posted program is adopted.
-  while (done < max_cycles) {
-    run_cycles(1);
-    ++done;
-    if (cycle_->idle() && !cycle_->program_handover().pending()) break;
-  }
-  return done;
-}
-
-void ServoDaemon::run_realtime(const std::atomic<bool>& stop) {
-  const auto period_ns = static_cast<std::int64_t>(config_.servo.period_s * 1e9);
-  const auto window_ns = static_cast<std::int64_t>(config_.loop.receive_window_fraction * static_cast<double>(period_ns));
-  const std::int64_t start_ns = monotonic_ns();
-  WakeupSchedule schedule(start_ns + period_ns, period_ns);
-  while (!stop.load(std::memory_order_acquire)) {
-    const std::int64_t planned = schedule.next_ns();
-    sleep_until(planned);
-    const std::int64_t wake = monotonic_ns();
-    timing_.wakeup_latency.add(static_cast<double>(wake - planned) * 1e-9);
-    one_cycle(wake, planned + window_ns, static_cast<double>(planned - start_ns) * 1e-9, planned + period_ns, true);
-    const std::int64_t done = monotonic_ns();
-    timing_.compute_time.add(static_cast<double>(done - wake) * 1e-9);
-    const std::int64_t missed = schedule.advance(done);
-    timing_.missed_deadlines += missed;
-    cycle_->report_overrun(missed > 0);
-  }
 }
 
 }  // namespace clm::servod
