@@ -93,9 +93,26 @@ wait_for_status $pid 5 || rc=$?
 
 out="$work/out"
 start=$(date +%s.%N)
-"$clm" commission --live --lcm-url "$url" --config "$work/servod.yaml" --program "$work/program.yaml" \
-    --validation-program none --out "$out" --no-plots > "$work/commission.out" 2> "$work/commission.err" ||
-    fail "clm commission --live failed: $(tail -n 1 "$work/commission.err")"
+commission() {
+  rm -rf "$out"
+  "$clm" commission --live --lcm-url "$url" --config "$work/servod.yaml" --program "$work/program.yaml" \
+      --validation-program none --out "$out" --no-plots > "$work/commission.out" 2> "$work/commission.err"
+}
+# On the real-time clock a loop stall of the shared host can latch a fault in
+# one of the 14 runs (seen: 203, 207 beside other tests at load 3-8). That is
+# the daemon doing its job, not the LCM path this test is about: the fault is
+# cleared and the whole commissioning runs once more; any other failure, or a
+# second one, fails the test. The first attempt's error stays on stderr.
+if ! commission; then
+  first=$(tail -n 1 "$work/commission.err")
+  case "$first" in
+    *"latched fault"*) ;;
+    *) fail "clm commission --live failed: $first" ;;
+  esac
+  echo "commission_live: first attempt: $first; clearing the fault and running once more" >&2
+  ctl clear-fault > /dev/null || fail "clear-fault after the first attempt failed"
+  commission || fail "clm commission --live failed twice: $first; then: $(tail -n 1 "$work/commission.err")"
+fi
 elapsed=$(echo "$(date +%s.%N) - $start" | bc)
 cat "$work/commission.out"
 
