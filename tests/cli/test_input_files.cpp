@@ -25,6 +25,7 @@
 #include "commutation/model_file.hpp"
 #include "tools/data/csv_table.hpp"
 #include "tools/lcmlog/servo_log.hpp"
+#include "support/bound_socket.hpp"
 
 extern char** environ;
 
@@ -134,24 +135,7 @@ std::vector<std::vector<std::string>> data_readers(const std::string& out, const
           {"log2csv", "--log", data, "--output", out + "/log.csv", "--format", "full"}};
 }
 
-/// A Unix socket bound at `path`; closed (the file stays) on destruction.
-class BoundSocket {
- public:
-  explicit BoundSocket(const std::string& path) : fd_(::socket(AF_UNIX, SOCK_STREAM, 0)) {
-    REQUIRE(fd_ >= 0);
-    sockaddr_un address{};
-    address.sun_family = AF_UNIX;
-    REQUIRE(path.size() < sizeof(address.sun_path));
-    std::copy(path.begin(), path.end(), address.sun_path);
-    REQUIRE(::bind(fd_, reinterpret_cast<const sockaddr*>(&address), sizeof(address)) == 0);
-  }
-  ~BoundSocket() { ::close(fd_); }
-  BoundSocket(const BoundSocket&) = delete;
-  BoundSocket& operator=(const BoundSocket&) = delete;
-
- private:
-  int fd_;
-};
+using clm::test::BoundSocket;
 
 /// Runs clm with `args` (output to /dev/null) and returns its exit status and
 /// its peak resident memory, VmHWM of /proc/<pid>/status read every 2 ms until

@@ -19,6 +19,7 @@
 #include <string>
 
 #include "config/regular_file.hpp"
+#include "support/bound_socket.hpp"
 #include "config/yaml_reader.hpp"
 #include "tools/data/csv_table.hpp"
 #include "config/sha256.hpp"
@@ -61,24 +62,7 @@ void write_sparse_file(const std::string& path, std::uint64_t bytes) {
   fs::resize_file(path, bytes);
 }
 
-/// A Unix socket bound at `path`; closed (the file stays) on destruction.
-class BoundSocket {
- public:
-  explicit BoundSocket(const std::string& path) : fd_(::socket(AF_UNIX, SOCK_STREAM, 0)) {
-    REQUIRE(fd_ >= 0);
-    sockaddr_un address{};
-    address.sun_family = AF_UNIX;
-    REQUIRE(path.size() < sizeof(address.sun_path));
-    std::copy(path.begin(), path.end(), address.sun_path);
-    REQUIRE(::bind(fd_, reinterpret_cast<const sockaddr*>(&address), sizeof(address)) == 0);
-  }
-  ~BoundSocket() { ::close(fd_); }
-  BoundSocket(const BoundSocket&) = delete;
-  BoundSocket& operator=(const BoundSocket&) = delete;
-
- private:
-  int fd_;
-};
+using clm::test::BoundSocket;
 
 /// Runs `read` on `path` and checks it throws, within 5 s, a message that
 /// starts with "<path>: not a regular file (<kind>)". A reader that blocked
