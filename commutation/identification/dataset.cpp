@@ -31,6 +31,20 @@ CoilSetDataset CoilSetDataset::subset(const std::vector<Eigen::Index>& indices) 
   return out;
 }
 
+CoilSetDataset joined(const CoilSetDataset& first, const CoilSetDataset& second) {
+  CoilSetDataset out;
+  const Eigen::Index n = first.size() + second.size();
+  out.position_m.resize(n);
+  out.position_m << first.position_m, second.position_m;
+  out.currents_A.resize(2, n);
+  out.currents_A << first.currents_A, second.currents_A;
+  out.wrench.resize(3, n);
+  out.wrench << first.wrench, second.wrench;
+  out.group = first.group;
+  out.group.insert(out.group.end(), second.group.begin(), second.group.end());
+  return out;
+}
+
 DataSplit split_contiguous_blocks(const CoilSetDataset& data, double validation_fraction, int blocks_per_group) {
   if (!(validation_fraction >= 0.0 && validation_fraction < 1.0)) {
     throw std::invalid_argument("validation fraction must lie in [0, 1), got " + std::to_string(validation_fraction));

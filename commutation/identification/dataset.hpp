@@ -19,6 +19,9 @@ struct CoilSetDataset {
   CoilSetDataset subset(const std::vector<Eigen::Index>& indices) const;
 };
 
+/// The samples of `first`, then those of `second`.
+CoilSetDataset joined(const CoilSetDataset& first, const CoilSetDataset& second);
+
 /// Throws std::invalid_argument "<what> data has fewer than 10 samples" or
 /// "<what> data columns have different lengths"; the check every fit makes first.
 void check_dataset(const CoilSetDataset& data, const char* what);

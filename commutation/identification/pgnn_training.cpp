@@ -317,6 +317,13 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
   fit_physics_only(training, pole_pitch_m, physics_a, physics_b);
   const PgnnLayout layout{options.column_hidden, options.cogging_hidden};
   const auto solve = options.solver == PgnnSolver::kVariableProjection ? variable_projection : levenberg_marquardt;
+  const bool held_out = validation.size() > 0;
+  // The model of parameters (θ_NL, θ_L) as ElectromagneticModel evaluates it.
+  const auto model_of = [&](const std::vector<double>& nonlinear, const Eigen::Matrix<double, Eigen::Dynamic, 3>& linear) {
+    CoilSetModel part;
+    unpack_parameters(layout, nonlinear.data(), linear, part);
+    return single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, part);
+  };
 
   const CoilSetDataset coarse = decimate(training, options.restart_decimation);
   const PgnnFeatures coarse_features = features_of(coarse, pole_pitch_m, normalisation);
@@ -327,7 +334,7 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
   std::mt19937_64 rng(options.seed);
   std::uniform_real_distribution<double> slope(-4.0, 4.0);
   std::uniform_real_distribution<double> centre(-1.0, 1.0);
-  double best_cost = std::numeric_limits<double>::infinity();
+  double best_score = std::numeric_limits<double>::infinity();
   std::vector<double> best_nonlinear;
   Eigen::Matrix<double, Eigen::Dynamic, 3> best_linear;
   report.iterations = 0;
@@ -351,8 +358,12 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
                  linear);
     const double cost = solve(coarse, coarse_features, layout, physics_a, physics_b, options.regularisation,
                               options.restart_iterations, options.threads, nonlinear, linear, report.iterations);
-    if (cost < best_cost) {
-      best_cost = cost;
+    // With held-out data the restart that predicts them best is kept: a low
+    // training cost alone also rewards networks that swing wildly between
+    // the training blocks (docs/commutation.md, "Identification").
+    const double score = held_out ? coil_set_cost(model_of(nonlinear, linear), 0, validation).sum() : cost;
+    if (score < best_score) {
+      best_score = score;
       best_nonlinear = nonlinear;
       best_linear = linear;
       report.best_restart = restart;
@@ -368,24 +379,46 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
                best_linear);
   if (progress) progress({options.restarts, options.restarts, final_cost});
 
-  CoilSetModel result;
-  unpack_parameters(layout, best_nonlinear.data(), best_linear, result);
   CoilSetModel physics;
   physics.a_N_per_A = physics_a;
   physics.b_N_per_A = physics_b;
   physics.column_a = Network::zeros({layout.column_hidden});
   physics.column_b = Network::zeros({layout.column_hidden});
   physics.cogging = Network::zeros({layout.cogging_hidden});
-  const auto model = single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, result);
   const auto physics_model = single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, physics);
-  fill_report_costs(model, physics_model, training, validation, report);
+  // Training and validation costs are those of the model fit without the
+  // validation blocks: the held-out estimate of how it predicts.
+  fill_report_costs(model_of(best_nonlinear, best_linear), physics_model, training, validation, report);
+
+  // The model put to use has seen every sample: with held-out data, the
+  // chosen parameters are polished once more on training and validation
+  // together, so that no stretch of the stroke is left to extrapolation.
+  CoilSetDataset all;
+  if (held_out) all = joined(training, validation);
+  const CoilSetDataset& fitted = held_out ? all : training;
+  if (held_out) {
+    fit_physics_only(all, pole_pitch_m, physics_a, physics_b);
+    const CoilSetDataset all_polish = decimate(all, options.final_decimation);
+    solve(all_polish, features_of(all_polish, pole_pitch_m, normalisation), layout, physics_a, physics_b,
+          options.regularisation, options.final_iterations, options.threads, best_nonlinear, best_linear,
+          report.iterations);
+    ridge_linear(all, features_of(all, pole_pitch_m, normalisation), layout, best_nonlinear.data(), physics_a,
+                 physics_b, options.regularisation, best_linear);
+    physics.a_N_per_A = physics_a;
+    physics.b_N_per_A = physics_b;
+  }
+  report.refit_on_all_data = held_out;
+  CoilSetModel result;
+  unpack_parameters(layout, best_nonlinear.data(), best_linear, result);
+  fill_fit_costs(model_of(best_nonlinear, best_linear),
+                 single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, physics), fitted, report);
   Eigen::Vector4d deviation;
   double prior = 0.0;
   for (int q = 0; q < 3; ++q) {
     deviation = physics_target(result.a_N_per_A, result.b_N_per_A, q) - physics_target(physics_a, physics_b, q);
     prior += options.regularisation * options.regularisation * deviation.squaredNorm();
   }
-  report.regularised_cost = report.model_training.sum() + prior;
+  report.regularised_cost = report.model_fit.sum() + prior;
   return result;
 }
 

@@ -34,8 +34,14 @@ void fill_report_costs(const ElectromagneticModel& model, const ElectromagneticM
     report.model_validation = coil_set_cost(model, 0, validation);
     report.physics_validation = coil_set_cost(physics, 0, validation);
   }
+}
+
+void fill_fit_costs(const ElectromagneticModel& model, const ElectromagneticModel& physics, const CoilSetDataset& fitted,
+                    IdentificationReport& report) {
+  report.model_fit = coil_set_cost(model, 0, fitted);
+  report.physics_fit = coil_set_cost(physics, 0, fitted);
   for (int q = 0; q < 3; ++q) {
-    report.proposition_holds[q] = report.model_training[q] <= report.physics_training[q] * (1.0 + 1e-9) + 1e-12;
+    report.proposition_holds[q] = report.model_fit[q] <= report.physics_fit[q] * (1.0 + 1e-9) + 1e-12;
   }
 }
 

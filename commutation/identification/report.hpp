@@ -1,7 +1,9 @@
 #pragma once
-// What an identification reports: the data-term costs of the identified model
-// and of the physics-only fit on training and validation data, and whether
-// Proposition 4.1 (eq. 32) holds. Shared by the PGNN and the spline fits. No I/O.
+// What an identification reports: the data-term costs of the model fit on the
+// training data alone and of the physics-only fit, on training and held-out
+// validation data; those of the model put to use, fit on every sample; and
+// whether Proposition 4.1 (eq. 32) holds for it. Shared by the PGNN and the
+// spline fits. No I/O.
 
 #include "commutation/identification/dataset.hpp"
 #include "commutation/model.hpp"
@@ -9,15 +11,25 @@
 namespace clm::identification {
 
 struct IdentificationReport {
+  // The model and the physics-only fit identified on the training data alone:
+  // on them, and on the held-out validation data (the estimate of how the
+  // model predicts what it has not seen).
   DirectionCost physics_training = DirectionCost::Zero();
   DirectionCost model_training = DirectionCost::Zero();
   DirectionCost physics_validation = DirectionCost::Zero();
   DirectionCost model_validation = DirectionCost::Zero();
-  double regularised_cost = 0.0;  ///< eq. (26) of the final model on training data
+  /// The model put to use: with validation data it is fit once more on
+  /// training and validation data together (refit_on_all_data), else it is
+  /// the training-only model. Its data terms, and the physics-only fit's, on
+  /// the data it was fit on.
+  bool refit_on_all_data = false;
+  DirectionCost physics_fit = DirectionCost::Zero();
+  DirectionCost model_fit = DirectionCost::Zero();
+  double regularised_cost = 0.0;  ///< eq. (26) of the model put to use, on the data it was fit on
   int best_restart = -1;
   int iterations = 0;             ///< LM iterations over all steps
-  /// Proposition 4.1 per direction: the model's training data term does not
-  /// exceed the physics-only one (eq. 32).
+  /// Proposition 4.1 per direction for the model put to use: its data term
+  /// does not exceed the physics-only one on the data both were fit on (eq. 32).
   bool proposition_holds[3] = {false, false, false};
 };
 
@@ -32,10 +44,15 @@ ElectromagneticModel single_coil_set_model(ModelKind kind, double pole_pitch_m,
                                            const PositionNormalisation& normalisation,
                                            const UniformCubicBasis& basis, const CoilSetModel& coil_set);
 
-/// Fills the four costs of `report` (validation ones only for non-empty
-/// `validation`) and proposition_holds, from the single-coil-set `model` and
-/// the physics-only `physics` model.
+/// Fills the training and validation costs of `report` (validation ones only
+/// for non-empty `validation`) from the single-coil-set `model` and the
+/// physics-only `physics` model, both fit on `training` alone.
 void fill_report_costs(const ElectromagneticModel& model, const ElectromagneticModel& physics,
                        const CoilSetDataset& training, const CoilSetDataset& validation, IdentificationReport& report);
+
+/// Fills model_fit, physics_fit and proposition_holds from the model put to
+/// use and the physics-only model, both fit on `fitted`.
+void fill_fit_costs(const ElectromagneticModel& model, const ElectromagneticModel& physics, const CoilSetDataset& fitted,
+                    IdentificationReport& report);
 
 }  // namespace clm::identification

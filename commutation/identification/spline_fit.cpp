@@ -19,25 +19,28 @@ UniformCubicBasis spline_basis_for(const Eigen::VectorXd& position_m, double pol
   return {centre - half, centre + half, intervals};
 }
 
-CoilSetModel identify_spline_coil_set(const CoilSetDataset& training, const CoilSetDataset& validation,
-                                      double pole_pitch_m, const UniformCubicBasis& basis,
-                                      const SplineOptions& options, IdentificationReport& report) {
-  check_dataset(training, "training");
-  if (!(options.smoothing >= 0.0) || !(options.regularisation >= 0.0)) {
-    throw std::invalid_argument("spline smoothing and regularisation must be non-negative");
-  }
+namespace {
+
+struct SplineFit {
+  CoilSetModel model;
+  CoilSetModel physics;  ///< the physics-only fit the model is pulled towards
+};
+
+// One regularised linear least-squares problem per direction on `data`.
+SplineFit fit_spline(const CoilSetDataset& data, double pole_pitch_m, const UniformCubicBasis& basis,
+                     const SplineOptions& options) {
   CoilGain physics_a, physics_b;
-  fit_physics_only(training, pole_pitch_m, physics_a, physics_b);
+  fit_physics_only(data, pole_pitch_m, physics_a, physics_b);
   const int n = basis.size();
   const int p = 4 + 3 * n;  // [A_q, B_q, C_a (n), C_b (n), G (n)]
   Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(p, p);
   Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(p, 3);
-  const double inv_n = 1.0 / static_cast<double>(training.size());
-  for (Eigen::Index t = 0; t < training.size(); ++t) {
-    const double y = training.position_m[t];
+  const double inv_n = 1.0 / static_cast<double>(data.size());
+  for (Eigen::Index t = 0; t < data.size(); ++t) {
+    const double y = data.position_m[t];
     const double theta = electrical_angle_rad(y, pole_pitch_m);
     const double c = std::cos(theta), s = std::sin(theta);
-    const double ia = training.currents_A(0, t), ib = training.currents_A(1, t);
+    const double ia = data.currents_A(0, t), ib = data.currents_A(1, t);
     const auto span = basis.evaluate(y);
     int index[16];
     double value[16];
@@ -54,7 +57,7 @@ CoilSetModel identify_spline_coil_set(const CoilSetDataset& training, const Coil
     }
     for (int r = 0; r < 16; ++r) {
       for (int k = 0; k < 16; ++k) gram(index[r], index[k]) += inv_n * value[r] * value[k];
-      for (int q = 0; q < 3; ++q) rhs(index[r], q) += inv_n * value[r] * training.wrench(q, t);
+      for (int q = 0; q < 3; ++q) rhs(index[r], q) += inv_n * value[r] * data.wrench(q, t);
     }
   }
   // Roughness penalty: squared second differences of each coefficient row.
@@ -75,7 +78,8 @@ CoilSetModel identify_spline_coil_set(const CoilSetDataset& training, const Coil
   const Eigen::MatrixXd solution = gram.ldlt().solve(rhs);
   if (!solution.allFinite()) throw std::invalid_argument("spline least-squares problem is singular");
 
-  CoilSetModel result;
+  SplineFit fit;
+  CoilSetModel& result = fit.model;
   result.column_a_spline.resize(3, n);
   result.column_b_spline.resize(3, n);
   result.cogging_spline.resize(3, n);
@@ -90,19 +94,41 @@ CoilSetModel identify_spline_coil_set(const CoilSetDataset& training, const Coil
       result.cogging_spline(q, j) = solution(4 + 2 * n + j, q);
     }
   }
-  CoilSetModel physics;
+  CoilSetModel& physics = fit.physics;
   physics.a_N_per_A = physics_a;
   physics.b_N_per_A = physics_b;
   physics.column_a_spline = SplineCoefficients::Zero(3, n);
   physics.column_b_spline = SplineCoefficients::Zero(3, n);
   physics.cogging_spline = SplineCoefficients::Zero(3, n);
-  const auto model = single_coil_set_model(ModelKind::kSpline, pole_pitch_m, {}, basis, result);
-  const auto physics_model = single_coil_set_model(ModelKind::kSpline, pole_pitch_m, {}, basis, physics);
-  fill_report_costs(model, physics_model, training, validation, report);
-  report.regularised_cost = report.model_training.sum();
+  return fit;
+}
+
+}  // namespace
+
+CoilSetModel identify_spline_coil_set(const CoilSetDataset& training, const CoilSetDataset& validation,
+                                      double pole_pitch_m, const UniformCubicBasis& basis,
+                                      const SplineOptions& options, IdentificationReport& report) {
+  check_dataset(training, "training");
+  if (!(options.smoothing >= 0.0) || !(options.regularisation >= 0.0)) {
+    throw std::invalid_argument("spline smoothing and regularisation must be non-negative");
+  }
+  const auto as_model = [&](const CoilSetModel& part) {
+    return single_coil_set_model(ModelKind::kSpline, pole_pitch_m, {}, basis, part);
+  };
+  // Fit on the training data alone for the held-out estimate; the model put
+  // to use is fit on every sample, as the PGNN's is.
+  SplineFit fit = fit_spline(training, pole_pitch_m, basis, options);
+  fill_report_costs(as_model(fit.model), as_model(fit.physics), training, validation, report);
+  report.refit_on_all_data = validation.size() > 0;
+  CoilSetDataset all;
+  if (report.refit_on_all_data) all = joined(training, validation);
+  const CoilSetDataset& fitted = report.refit_on_all_data ? all : training;
+  if (report.refit_on_all_data) fit = fit_spline(fitted, pole_pitch_m, basis, options);
+  fill_fit_costs(as_model(fit.model), as_model(fit.physics), fitted, report);
+  report.regularised_cost = report.model_fit.sum();
   report.best_restart = 0;
   report.iterations = 0;
-  return result;
+  return fit.model;
 }
 
 }  // namespace clm::identification

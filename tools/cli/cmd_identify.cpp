@@ -75,12 +75,16 @@ void add_identify(CLI::App& app) {
     for (std::size_t l = 0; l < reports.size(); ++l) {
       const auto& r = reports[l].report;
       const bool holds = r.proposition_holds[0] && r.proposition_holds[1] && r.proposition_holds[2];
-      std::printf("%-9zu training    %9.4g %9.4g %9.4g      %9.4g %9.4g %9.4g      %s (%d LM iterations, best restart %d)\n",
-                  l + 1, r.physics_training[0], r.physics_training[1], r.physics_training[2], r.model_training[0],
-                  r.model_training[1], r.model_training[2], holds ? "holds" : "VIOLATED", r.iterations, r.best_restart + 1);
+      std::printf("%-9zu training    %9.4g %9.4g %9.4g      %9.4g %9.4g %9.4g\n", l + 1, r.physics_training[0],
+                  r.physics_training[1], r.physics_training[2], r.model_training[0], r.model_training[1],
+                  r.model_training[2]);
       std::printf("%-9s validation  %9.4g %9.4g %9.4g      %9.4g %9.4g %9.4g\n", "", r.physics_validation[0],
                   r.physics_validation[1], r.physics_validation[2], r.model_validation[0], r.model_validation[1],
                   r.model_validation[2]);
+      std::printf("%-9s %-11s %9.4g %9.4g %9.4g      %9.4g %9.4g %9.4g      %s (%d LM iterations, best restart %d)\n",
+                  "", r.refit_on_all_data ? "all, in use" : "in use", r.physics_fit[0], r.physics_fit[1],
+                  r.physics_fit[2], r.model_fit[0], r.model_fit[1], r.model_fit[2], holds ? "holds" : "VIOLATED",
+                  r.iterations, r.best_restart + 1);
     }
     std::printf("wrote %s\n", options->output.c_str());
   });

@@ -65,6 +65,8 @@ void identification_json(std::ostringstream& out, const std::vector<data::CoilSe
         << ", \"model_training_N2\": " << triple(r.model_training)
         << ", \"physics_validation_N2\": " << triple(r.physics_validation)
         << ", \"model_validation_N2\": " << triple(r.model_validation)
+        << ", \"refit_on_all_data\": " << (r.refit_on_all_data ? "true" : "false")
+        << ", \"physics_fit_N2\": " << triple(r.physics_fit) << ", \"model_fit_N2\": " << triple(r.model_fit)
         << ", \"regularised_cost\": " << number(r.regularised_cost) << ", \"best_restart\": " << r.best_restart
         << ", \"proposition_4_1_holds\": "
         << ((r.proposition_holds[0] && r.proposition_holds[1] && r.proposition_holds[2]) ? "true" : "false") << "}";
@@ -266,15 +268,18 @@ std::string report_markdown(const Report& report) {
   }
   const auto identification = [&](const char* title, const std::vector<data::CoilSetIdentification>& entries) {
     out << "\n## Identification: " << title << "\n\nData-term cost (mean squared error) per direction y/x/z, physics-only "
-           "model vs identified model, on training and held-out validation data.\n\n"
-           "| coil set | physics train | model train | physics valid | model valid | Prop. 4.1 |\n|---|---|---|---|---|---|\n";
+           "model vs identified model, fit on the training data, on them and on held-out validation data; then the "
+           "model put to use, fit on every sample (docs/commutation.md, \"Identification\").\n\n"
+           "| coil set | physics train | model train | physics valid | model valid | physics all | model put to use, all "
+           "| Prop. 4.1 |\n|---|---|---|---|---|---|---|---|\n";
     for (std::size_t l = 0; l < entries.size(); ++l) {
       const auto& r = entries[l].report;
       const auto cell = [&](const identification::DirectionCost& c) {
         return fixed(c[0]) + " / " + fixed(c[1]) + " / " + fixed(c[2]);
       };
       out << "| " << l + 1 << " | " << cell(r.physics_training) << " | " << cell(r.model_training) << " | "
-          << cell(r.physics_validation) << " | " << cell(r.model_validation) << " | "
+          << cell(r.physics_validation) << " | " << cell(r.model_validation) << " | " << cell(r.physics_fit)
+          << " | " << cell(r.model_fit) << " | "
           << ((r.proposition_holds[0] && r.proposition_holds[1] && r.proposition_holds[2]) ? "holds" : "violated") << " |\n";
     }
   };
