@@ -46,6 +46,7 @@ void TelemetryBridge::fill_status(const servo::ServoCycle& cycle, const LoopTimi
   out.damping_cycles = c.damping_cycles;
   out.program_running = cycle.record().program_running;
   out.program_time_s = cycle.record().program_time_s;
+  out.restricted = cycle.record().restricted;
   daemon_->loaded_file(LoadedFileSlot::kCalibration, out.calibration);
   daemon_->loaded_file(LoadedFileSlot::kPgnnModel, out.pgnn_model);
   daemon_->loaded_file(LoadedFileSlot::kSplineModel, out.spline_model);

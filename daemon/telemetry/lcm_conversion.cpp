@@ -76,6 +76,7 @@ clm_lcm::servo_state_t to_message(const servo::CycleRecord& record) {
   m.state = static_cast<std::int8_t>(record.state);
   m.program_running = record.program_running;
   m.program_time_s = record.program_time_s;
+  m.restricted = record.restricted;
   return m;
 }
 
@@ -130,6 +131,7 @@ servo::CycleRecord to_record(const clm_lcm::servo_state_t& m) {
   r.state = static_cast<servo::ServoState>(m.state);
   r.program_running = m.program_running;
   r.program_time_s = m.program_time_s;
+  r.restricted = m.restricted;
   return r;
 }
 
@@ -171,6 +173,7 @@ clm_lcm::servo_status_t to_message(const ServoStatusSample& sample, std::int64_t
   m.damping_cycles = sample.damping_cycles;
   m.program_running = sample.program_running;
   m.program_time_s = sample.program_time_s;
+  m.restricted = sample.restricted;
   const CommandAuthorityStatus& c = sample.commands;
   m.control_client = c.control_client;
   m.control_lease_remaining_s = c.control_lease_remaining_s;

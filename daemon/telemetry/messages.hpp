@@ -80,6 +80,7 @@ struct ServoStatusSample {
   std::int64_t damping_cycles = 0;
   bool program_running = false;
   double program_time_s = 0.0;
+  bool restricted = false;  ///< restricted mode after fault 202
   CommandAuthorityStatus commands;
 };
 

@@ -62,7 +62,7 @@ constexpr std::array kStatusFields{
     finite("compute_time_p50_s"), finite("compute_time_p99_s"), finite("compute_time_max_s"),
     i64("overruns"), i64("cycles"), i64("frames_sent"), i64("frames_received"), i64("frames_missing"),
     i64("frames_late"), i64("frames_rejected"), i64("telemetry_dropped"), i8("bus_state", -1, 3),
-    i64("damping_cycles"), boolean("program_running"), finite("program_time_s"),
+    i64("damping_cycles"), boolean("program_running"), finite("program_time_s"), boolean("restricted"),
     i64("control_client"), finite("control_lease_remaining_s"), i64("commands_admitted"),
     i64("commands_refused_malformed"), i64("commands_refused_other_axis"), i64("commands_refused_other_session"),
     i64("commands_refused_no_client"), i64("commands_refused_replayed"), i64("commands_refused_stale"),
@@ -81,7 +81,7 @@ constexpr std::array kStateFields{
     doubles("magnitude_N", kStateCoilSets), doubles("setpoint_delta_rad", kStateCoilSets),
     doubles("ia_A", kStateCoilSets), doubles("ib_A", kStateCoilSets),
     boolean("damping_engaged"), finite("current_square_sum_A2"), boolean("force_limited"),
-    i8("state", 0, 2), boolean("program_running"), finite("program_time_s"),
+    i8("state", 0, 2), boolean("program_running"), finite("program_time_s"), boolean("restricted"),
 };
 static_assert(kStateFields[kStateCoilSets].kind == WireKind::kInt8);
 

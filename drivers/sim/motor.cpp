@@ -43,6 +43,7 @@ void SimulatedMotor::reset(double position_m, double velocity_m_per_s) {
   time_s_ = 0.0;
   position_m_ = position_m;
   velocity_m_per_s_ = velocity_m_per_s;
+  disturbance_force_N_ = 0.0;
   in_contact_ = position_m == mechanics.end_stop_min_m || position_m == mechanics.end_stop_max_m;
   setpoints_.fill(DriveSetpoint{});
   enable_requested_ = false;
@@ -141,7 +142,7 @@ StepResult SimulatedMotor::step(double period_s) noexcept {
     const double driving_force_N = truth_.driving_force_N(position_m_, velocity_m_per_s_, currents_A_);
     // Semi-implicit (symplectic) Euler: velocity first, then the position
     // with the new velocity.
-    velocity_m_per_s_ += h * inverse_mass * (driving_force_N - friction_N(velocity_m_per_s_));
+    velocity_m_per_s_ += h * inverse_mass * (driving_force_N + disturbance_force_N_ - friction_N(velocity_m_per_s_));
     position_m_ += h * velocity_m_per_s_;
 
     // Hard end stops: the translator stops dead (inelastic); the first impact

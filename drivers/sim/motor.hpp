@@ -6,6 +6,7 @@
 // One control period is: command(setpoints, enable) → step(period_s) →
 // sense(). command(), step() and sense() do not allocate, lock or throw.
 
+#include <cmath>
 #include <cstdint>
 #include <span>
 
@@ -120,6 +121,14 @@ class SimulatedMotor {
 
   TruthState truth() const noexcept;
 
+  /// An external force along y on the translator [N] from now on (a hand, a
+  /// cable, an obstacle), until set again; 0 removes it. Not seen by the
+  /// force sensor, which measures the coils' wrench. Non-finite values are
+  /// taken as 0. reset() removes it.
+  void set_disturbance_force_N(double force_N) noexcept {
+    disturbance_force_N_ = std::isfinite(force_N) ? force_N : 0.0;
+  }
+
   /// Restarts at time 0 at `position_m` with `velocity_m_per_s`, drive
   /// disabled, faults and counters cleared. The measurement noise stream is
   /// not rewound (a new SimulatedMotor reproduces a run bit for bit). Throws
@@ -157,6 +166,7 @@ class SimulatedMotor {
   double time_s_ = 0.0;
   double position_m_ = 0.0;
   double velocity_m_per_s_ = 0.0;
+  double disturbance_force_N_ = 0.0;
   bool in_contact_ = false;
 
   // Drive state.

@@ -13,6 +13,7 @@
 
 #include "daemon/control/stop_profile.hpp"
 #include "daemon/servod/servo_daemon.hpp"
+#include "daemon/telemetry/lcm_conversion.hpp"
 #include "drivers/sim/in_process_bus.hpp"
 #include "drivers/sim/motor.hpp"
 #include "tests/daemon/daemon_support.hpp"
@@ -219,12 +220,16 @@ TEST_CASE("every fault injected at full speed gets the reaction of the table and
           "stops",
           "[daemon][stops][faults]") {
   enum class How { kDropDrive, kDropForce, kSkipDriveAlive, kSkipForceAlive, kWrongDlc, kBusOff, kErrorPassive,
-                   kFailSends, kFollowingError, kOverruns, kDriveFault, kSoftLimit };
+                   kFailSends, kFollowingError, kForceSaturated, kOverruns, kDriveFault, kSoftLimit };
   const How how = GENERATE(How::kDropDrive, How::kDropForce, How::kSkipDriveAlive, How::kSkipForceAlive,
                            How::kWrongDlc, How::kBusOff, How::kErrorPassive, How::kFailSends, How::kFollowingError,
-                           How::kOverruns, How::kDriveFault, How::kSoftLimit);
+                           How::kForceSaturated, How::kOverruns, How::kDriveFault, How::kSoftLimit);
   INFO("injection " << static_cast<int>(how));
-  servod::WiredAxis wired(test::virtual_config());
+  auto config = test::virtual_config();
+  // A push the loop cannot hold at its force limit trips the following error
+  // first at the default 2 mm; for fault 204 alone the limit is 20 mm.
+  if (how == How::kForceSaturated) config.servo.following_error_limit_m = 0.02;
+  servod::WiredAxis wired(config);
   auto& daemon = wired.daemon;
   auto& injection = wired.in_process_bus()->injection();
   const auto& s = daemon.config().servo;
@@ -268,6 +273,11 @@ TEST_CASE("every fault injected at full speed gets the reaction of the table and
       expected = Fault::kFollowingError;
       break;
     }
+    case How::kForceSaturated:
+      // Against the motion, 100 N more than the force limit, until the fault.
+      wired.simulated_motor()->set_disturbance_force_N(-(s.force_limit_N + 100.0));
+      expected = Fault::kForceSaturated;
+      break;
     case How::kOverruns:
       for (int k = 0; k < s.overrun_limit; ++k) daemon.cycle().report_overrun(true);
       expected = Fault::kRepeatedOverruns;
@@ -285,6 +295,7 @@ TEST_CASE("every fault injected at full speed gets the reaction of the table and
   if (daemon.cycle().state() != ServoState::kFault) cycles = test::run_until_fault(daemon, 200);
   REQUIRE(cycles <= 200);
   REQUIRE(daemon.cycle().fault() == expected);
+  wired.simulated_motor()->set_disturbance_force_N(0.0);
   injection.fail_sends = false;
   injection.bus_state = drivers::BusState::kActive;
   // The fault cycle's output (faults found between cycles: the next cycle's).
@@ -327,6 +338,52 @@ TEST_CASE("every fault injected at full speed gets the reaction of the table and
   CHECK(wired.simulated_motor()->truth().end_stop_collisions == 0);
 }
 
+TEST_CASE("a fault that distrusts the feedback, during a quick-stop reaction, zeroes the setpoints at once",
+          "[daemon][stops][faults]") {
+  // Following error at full speed starts a quick stop under position
+  // control; encoder frames then stop coming: the stop must not go on
+  // with a position it can no longer see.
+  servod::WiredAxis wired(test::virtual_config());
+  auto& daemon = wired.daemon;
+  auto& injection = wired.in_process_bus()->injection();
+  const auto& s = daemon.config().servo;
+  daemon.run_cycles(10);
+  test::command(daemon, Kind::kEnable, 20);
+  servo::Command move;
+  move.kind = Kind::kMoveTo;
+  move.target_m = 0.1;
+  move.limits = s.motion_limits;
+  REQUIRE(daemon.submit(move).accepted);
+  while (daemon.cycle().record().r_dot_m_per_s < s.motion_limits.velocity_m_per_s - 1e-9) daemon.run_cycles(1);
+  auto& motor = *wired.simulated_motor();
+  motor.reset(motor.truth().position_m - 0.003, motor.truth().velocity_m_per_s);
+  REQUIRE(test::run_until_fault(daemon, 200) <= 200);
+  REQUIRE(daemon.cycle().fault() == Fault::kFollowingError);
+  REQUIRE(daemon.cycle().fault_reaction_running());
+  daemon.run_cycles(5);
+  REQUIRE(daemon.cycle().fault_reaction_running());  // still braking under position control
+  REQUIRE(test::sent_setpoints(wired).command.enable);
+  injection.drop_drive_frames = s.missing_frame_limit;
+  int k = 0;
+  while (daemon.cycle().fault_reaction_running()) {
+    daemon.run_cycles(1);
+    REQUIRE(++k <= s.missing_frame_limit);
+  }
+  const auto sent = test::sent_setpoints(wired);
+  REQUIRE(sent.complete);
+  CHECK_FALSE(sent.command.enable);
+  CHECK(sent.all_magnitudes_zero());
+  CHECK(daemon.cycle().fault() == Fault::kFollowingError);  // the first reason stays
+  injection = sim::Injection{};
+  for (int n = 0; n < 1500; ++n) {
+    daemon.run_cycles(1);
+    test::require_safe_output(wired, true);
+    const auto& mechanics = motor.parameters().mechanics;
+    REQUIRE(motor.truth().position_m > mechanics.end_stop_min_m);
+    REQUIRE(motor.truth().position_m < mechanics.end_stop_max_m);
+  }
+}
+
 TEST_CASE("after fault 202 the axis is enabled in restricted mode and only a slow move back inside is accepted",
           "[daemon][stops][faults]") {
   Axis axis;
@@ -347,6 +404,7 @@ TEST_CASE("after fault 202 the axis is enabled in restricted mode and only a slo
   REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
   CHECK(axis.daemon.cycle().restricted());
   CHECK(axis.record().restricted);
+  CHECK(telemetry::to_message(axis.record()).restricted);  // CLM_SERVO_STATE says so too
   test::require_driving_output(axis.wired);
   // Refused: a program, a move at more than 10 % of the velocity limit, a target outside.
   servod::ProgramFile program;

@@ -103,6 +103,7 @@ void print_status(const clm_lcm::servo_status_t& s) {
   file("feedforward_file", s.feedforward_file, s.feedforward_sha256);
   std::printf("program_running: %s\n", s.program_running ? "true" : "false");
   std::printf("program_time_s: %.3f\n", s.program_time_s);
+  std::printf("restricted: %s\n", s.restricted ? "true" : "false");
   std::printf("cycles: %lld\n", static_cast<long long>(s.cycles));
   std::printf("overruns: %lld\n", static_cast<long long>(s.overruns));
   std::printf("wakeup_latency_s: p50 %.1e, p99 %.1e, max %.1e\n", s.wakeup_latency_p50_s, s.wakeup_latency_p99_s,
