@@ -26,6 +26,7 @@ AxisWiring wire_axis(const ServodConfig& config) {
     wiring.nodes = std::make_unique<sim::SimulatedNodes>(*wiring.motor, protocol, config.servo.period_s);
     auto bus = std::make_unique<sim::InProcessBus>(*wiring.nodes);
     wiring.in_process_bus = bus.get();
+    bus->set_plan(config.can.sim_fault_plan);
     wiring.clock = bus.get();
     wiring.bus = std::move(bus);
     wiring.oracle = std::make_unique<sim::OracleCommutator>(wiring.motor->electromagnetics(), config.motor.drive,

@@ -109,11 +109,19 @@ bool wait_for(Done done, double timeout_s) {
 
 /// Sleeps until a stop signal (blocked in every thread), the deadline, or
 /// `loop_exited`. Returns the signal number, or 0.
-int wait_for_stop(const sigset_t& signals, std::optional<Clock::time_point> deadline, const std::atomic<bool>& loop_exited) {
+// Returns the stop signal, or 0 at the deadline or when the loop has exited.
+// SIGUSR1, when in `signals`, fires the next step of the simulated motor's
+// fault-injection plan and the wait goes on.
+int wait_for_stop(const sigset_t& signals, std::optional<Clock::time_point> deadline, const std::atomic<bool>& loop_exited,
+                  sim::InProcessBus* injection_bus) {
   while (!loop_exited.load(std::memory_order_acquire)) {
     if (deadline && Clock::now() >= *deadline) return 0;
     const timespec timeout{0, 20'000'000};  // 20 ms: bounds how late the deadline and a dead loop are seen
     const int signal = ::sigtimedwait(&signals, nullptr, &timeout);
+    if (signal == SIGUSR1 && injection_bus != nullptr) {
+      injection_bus->request_next_step();
+      continue;
+    }
     if (signal > 0) return signal;
   }
   return 0;
@@ -134,6 +142,8 @@ int run(const std::string& config_path, double duration_s) {
   sigset_t stop_signals;
   sigemptyset(&stop_signals);
   for (const int signal : {SIGINT, SIGTERM, SIGHUP, SIGQUIT}) sigaddset(&stop_signals, signal);
+  // With can.sim_fault_plan, SIGUSR1 fires its next step (taken here too).
+  if (!config.can.sim_fault_plan.empty()) sigaddset(&stop_signals, SIGUSR1);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
   const servod::SystemdNotifier notifier = servod::SystemdNotifier::from_environment();
@@ -244,13 +254,17 @@ int run(const std::string& config_path, double duration_s) {
   note(std::string("running: ") + std::to_string(static_cast<int>(config.loop.rate_hz)) + " Hz on the " +
        (realtime_clock ? "real-time" : "virtual") + " clock, CAN " + config.can.interface + ", telemetry " +
        (config.telemetry.enabled ? config.telemetry.lcm_url : std::string("off")) +
-       (watchdog_period_s > 0.0 ? ", systemd watchdog every " + format_seconds(0.5 * watchdog_period_s) : ""));
+       (watchdog_period_s > 0.0 ? ", systemd watchdog every " + format_seconds(0.5 * watchdog_period_s) : "") +
+       (config.can.sim_fault_plan.empty() ? ""
+                                          : ", fault injection: " + std::to_string(config.can.sim_fault_plan.size()) +
+                                                " steps, one per SIGUSR1"));
 
   std::optional<Clock::time_point> deadline;
   if (duration_s > 0.0) {
     deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(duration_s));
   }
-  const int signal = wait_for_stop(stop_signals, deadline, loop_exited);
+  const int signal = wait_for_stop(stop_signals, deadline, loop_exited,
+                                   config.can.sim_fault_plan.empty() ? nullptr : axis.in_process_bus());
 
   // ---- shutdown: disable first, then join -----------------------------------
   const std::int64_t cycles_at_stop = daemon.cycles_done();

@@ -112,7 +112,8 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
   config.servo.soft_limit_max_m = config.motor.stroke_max_m;
 
   if (const auto can = root.optional("can")) {
-    can->expect_keys({"interface", "bitrate_bps", "drive_node_id", "force_sensor_node_id", "bus_load_limit"});
+    can->expect_keys({"interface", "bitrate_bps", "drive_node_id", "force_sensor_node_id", "bus_load_limit",
+                      "sim_fault_plan"});
     if (const auto v = can->optional("interface")) {
       config.can.interface = v->as_string();
       if (config.can.interface.empty() || config.can.interface.size() > 15) v->fail("interface name must have 1..15 characters");
@@ -121,6 +122,14 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     if (const auto v = can->optional("drive_node_id")) config.servo.protocol.drive_node_id = static_cast<std::uint8_t>(v->as_integer_in(1, 127));
     if (const auto v = can->optional("force_sensor_node_id")) config.servo.protocol.force_sensor_node_id = static_cast<std::uint8_t>(v->as_integer_in(1, 127));
     if (const auto v = can->optional("bus_load_limit")) config.can.bus_load_limit = v->as_double_in(0.01, 0.7);
+    if (const auto v = can->optional("sim_fault_plan")) {
+      if (config.can.interface != "sim") v->fail("fault injection needs the embedded simulated motor (interface: sim)");
+      try {
+        config.can.sim_fault_plan = sim::parse_planned_faults(v->as_string());
+      } catch (const std::invalid_argument& e) {
+        v->fail(e.what());
+      }
+    }
   }
   try {
     config.servo.protocol.validate();

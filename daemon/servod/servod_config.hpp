@@ -10,6 +10,7 @@
 #include "commutation/commutator.hpp"
 #include "commutation/model_file.hpp"
 #include "daemon/servo/servo_cycle.hpp"
+#include "drivers/sim/in_process_bus.hpp"
 
 namespace clm::servod {
 
@@ -30,6 +31,9 @@ struct CanConfig {
   double bitrate_bps = 1e6;
   double bus_load_limit = 0.7;
   double bus_load = 0.0;              ///< computed worst-case load of the cycle's schedule [-]
+  /// interface sim only: fault injection fired step by step by SIGUSR1
+  /// (docs/reliability.md, "Fault injection on the embedded simulated motor").
+  std::vector<sim::PlannedStep> sim_fault_plan;
 };
 
 struct CommutationConfig {

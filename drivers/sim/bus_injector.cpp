@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "drivers/sim/injection_plan.hpp"
+
 namespace clm::sim {
 namespace {
 
@@ -35,37 +37,10 @@ const char* name(InjectionKind kind) noexcept {
 
 std::vector<InjectionStep> parse_injection_plan(const std::string& plan) {
   std::vector<InjectionStep> steps;
-  std::size_t begin = 0;
-  while (begin <= plan.size()) {
-    const std::size_t end = std::min(plan.find(',', begin), plan.size());
-    const std::string item = plan.substr(begin, end - begin);
-    const std::size_t colon = item.find(':');
-    const std::string kind_text = item.substr(0, colon);
-    InjectionStep step;
-    bool known = false;
-    for (InjectionKind kind : kKinds) {
-      if (kind_text == name(kind)) {
-        step.kind = kind;
-        known = true;
-      }
-    }
-    if (!known) throw std::invalid_argument("injection plan: unknown step '" + item + "'");
-    if (colon != std::string::npos) {
-      const std::string count = item.substr(colon + 1);
-      std::size_t used = 0;
-      int frames = 0;
-      try {
-        frames = std::stoi(count, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used != count.size() || count.empty() || frames < 1 || frames > 1000) {
-        throw std::invalid_argument("injection plan: step '" + item + "': the count must be 1 … 1000");
-      }
-      step.frames = frames;
-    }
-    steps.push_back(step);
-    begin = end + 1;
+  for (const PlanItem& item : parse_plan_items(plan)) {
+    const auto kind = std::find_if(kKinds.begin(), kKinds.end(), [&](InjectionKind k) { return item.name == name(k); });
+    if (kind == kKinds.end() || item.has_value) throw std::invalid_argument("injection plan: unknown step '" + item.text + "'");
+    steps.push_back({*kind, item.count});
   }
   return steps;
 }

@@ -6,8 +6,11 @@
 // bus-side injector would.
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <span>
+#include <string>
+#include <vector>
 
 #include "drivers/bus_clock.hpp"
 #include "drivers/can_bus.hpp"
@@ -30,6 +33,37 @@ struct Injection {
   bool fail_sends = false;
 };
 
+/// A step of the in-process bus's injection plan (servod config
+/// can.sim_fault_plan, docs/reliability.md), fired on request at the next SYNC.
+enum class PlannedFault {
+  kDropDrive,          ///< "drop-drive:N": the next N drive frames are lost
+  kDropForce,          ///< "drop-force:N"
+  kLateDrive,          ///< "late-drive:N": the next N drive frames arrive a cycle late
+  kDuplicate,          ///< "duplicate:N": the next N drive frames arrive twice
+  kWrongDlc,           ///< "wrong-dlc:N": the next N drive frames with DLC 5
+  kCorruptAlive,       ///< "corrupt-alive": the drive's alive counter jumps by 7
+  kCorruptForceAlive,  ///< "corrupt-force-alive": the force sensor's alive counter jumps by 7
+  kCorruptPosition,    ///< "corrupt-position:N": position bytes 0x7fffffff in the next N drive frames
+  kDropSetpoints,      ///< "drop-setpoints:N": the next N setpoint frames are lost (the drive watchdog)
+  kDriveFault,         ///< "drive-fault": the drive latches a fault of its own
+  kBusOff,             ///< "bus-off:N": the controller reports bus-off for N cycles
+  kErrorPassive,       ///< "error-passive:N"
+  kFailSends,          ///< "fail-sends:N": no frame can be queued for N cycles
+  kPush,               ///< "push:N:F": F newtons against the motion on the translator for N cycles
+  kStall,              ///< "stall:N:S": each of N cycles is held S seconds inside the bus (overruns)
+};
+
+struct PlannedStep {
+  PlannedFault fault = PlannedFault::kDropDrive;
+  int cycles = 1;      ///< frames or cycles, 1 … 1000
+  double value = 0.0;  ///< push: force [N] > 0; stall: seconds, 0 < S <= 0.1
+};
+
+/// Parses a plan of the names above (":N" defaults to 1; push and stall need
+/// their value, the others take none). Throws std::invalid_argument naming
+/// the step.
+std::vector<PlannedStep> parse_planned_faults(const std::string& plan);
+
 class InProcessBus final : public drivers::CanBus, public drivers::BusClock {
  public:
   explicit InProcessBus(SimulatedNodes& nodes);
@@ -37,6 +71,14 @@ class InProcessBus final : public drivers::CanBus, public drivers::BusClock {
   /// Time stamped on replies [ns]; the loop sets it to the SYNC time.
   void advance_to(std::int64_t time_ns) noexcept override { time_ns_ = time_ns; }
   Injection& injection() noexcept { return injection_; }
+
+  /// The plan whose steps request_next_step() fires; set before the loop runs.
+  void set_plan(std::vector<PlannedStep> plan) { plan_ = std::move(plan); }
+  /// Fires the next step of the plan at the next SYNC. Any thread (lock-free);
+  /// requests beyond the plan are ignored.
+  void request_next_step() noexcept { requested_.fetch_add(1, std::memory_order_relaxed); }
+  /// Steps of the plan fired so far.
+  int steps_fired() const noexcept { return fired_.load(std::memory_order_relaxed); }
 
   bool send(const can::Frame& frame) noexcept override;
   /// Returns a waiting reply at once, or false: nothing else can arrive in-process.
@@ -52,9 +94,16 @@ class InProcessBus final : public drivers::CanBus, public drivers::BusClock {
 
  private:
   void enqueue(const can::Frame& frame, std::int64_t stamp_ns) noexcept;
+  /// At a SYNC: ends a timed step whose cycles are over, fires a requested one.
+  void run_plan() noexcept;
   SimulatedNodes* nodes_;
   std::int64_t time_ns_ = 0;
   Injection injection_;
+  std::vector<PlannedStep> plan_;
+  std::atomic<int> requested_{0};
+  std::atomic<int> fired_{0};
+  const PlannedStep* timed_ = nullptr;  ///< the bus-off, error-passive, fail-sends, push or stall step under way
+  int timed_left_ = 0;                  ///< its cycles still to come, this one included
   static constexpr std::size_t kCapacity = 64;
   std::array<drivers::ReceivedFrame, kCapacity> ring_{};
   std::size_t head_ = 0, tail_ = 0;

@@ -95,6 +95,7 @@ for velocity in 0.25 0.5; do
         log="$work/case-$cases-$attempt.lcmlog"
         lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_STATE "$log" 2> "$work/logger.log" &
         logger=$!
+        pids+=("$logger")
         sleep 0.3
         reply=$(ctl move-to --target-m 0.1 --velocity-m-per-s "$velocity" --acceleration-m-per-s2 10 \
                 --jerk-m-per-s3 2000) || fail "$name: move-to refused: $reply"
