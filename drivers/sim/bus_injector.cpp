@@ -8,10 +8,11 @@
 namespace clm::sim {
 namespace {
 
-constexpr std::array<InjectionKind, 9> kKinds{
+constexpr std::array<InjectionKind, 10> kKinds{
     InjectionKind::kDropDrive,   InjectionKind::kDropForce,       InjectionKind::kLateDrive,
     InjectionKind::kCorruptReserved, InjectionKind::kCorruptAlive, InjectionKind::kCorruptPosition,
-    InjectionKind::kWrongDlc,    InjectionKind::kDuplicate,       InjectionKind::kDriveFault};
+    InjectionKind::kWrongDlc,    InjectionKind::kDuplicate,       InjectionKind::kDriveFault,
+    InjectionKind::kPush};
 
 // Byte offsets in the drive's TPDO1 (docs/can-protocol.md).
 constexpr std::size_t kPositionTopByte = 3;
@@ -31,6 +32,7 @@ const char* name(InjectionKind kind) noexcept {
     case InjectionKind::kWrongDlc: return "wrong-dlc";
     case InjectionKind::kDuplicate: return "duplicate";
     case InjectionKind::kDriveFault: return "drive-fault";
+    case InjectionKind::kPush: return "push";
   }
   return "unknown";
 }
@@ -39,8 +41,13 @@ std::vector<InjectionStep> parse_injection_plan(const std::string& plan) {
   std::vector<InjectionStep> steps;
   for (const PlanItem& item : parse_plan_items(plan)) {
     const auto kind = std::find_if(kKinds.begin(), kKinds.end(), [&](InjectionKind k) { return item.name == name(k); });
-    if (kind == kKinds.end() || item.has_value) throw std::invalid_argument("injection plan: unknown step '" + item.text + "'");
-    steps.push_back({*kind, item.count});
+    if (kind == kKinds.end()) throw std::invalid_argument("injection plan: unknown step '" + item.text + "'");
+    const bool push = *kind == InjectionKind::kPush;
+    if (push != item.has_value || (push && !(item.value > 0.0))) {
+      throw std::invalid_argument("injection plan: step '" + item.text + "': " +
+                                  (push ? "a push is push:N:F with a force F > 0 N" : "takes no value"));
+    }
+    steps.push_back({*kind, item.count, item.value});
   }
   return steps;
 }
@@ -76,6 +83,10 @@ const InjectionStep* BusInjector::on_sync() noexcept {
   remaining_ = step.frames - 1;
   acting_ = true;
   return &step;
+}
+
+bool BusInjector::push_active() const noexcept {
+  return acting_ && fired_ > 0 && plan_[static_cast<std::size_t>(fired_ - 1)].kind == InjectionKind::kPush;
 }
 
 void BusInjector::transform(std::span<const can::Frame> replies, Replies& out) const noexcept {
@@ -122,6 +133,7 @@ void BusInjector::transform(std::span<const can::Frame> replies, Replies& out) c
         break;
       case InjectionKind::kDropForce:
       case InjectionKind::kDriveFault:
+      case InjectionKind::kPush:
         break;  // the drive's frame as the nodes made it (a drive fault is in its status word)
     }
     push_now(frame);

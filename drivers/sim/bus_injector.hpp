@@ -31,20 +31,23 @@ enum class InjectionKind {
   kWrongDlc,         ///< the drive's TPDO1 goes out with DLC 6 instead of 7
   kDuplicate,        ///< the drive's TPDO1 is sent twice
   kDriveFault,       ///< the drive latches a fault of its own (the current stops)
+  kPush,             ///< `value` newtons against the translator's motion for `frames` SYNCs (no frame is touched)
 };
 
 /// Name in a plan: "drop-drive", "drop-force", "late-drive", "corrupt-reserved",
-/// "corrupt-alive", "corrupt-position", "wrong-dlc", "duplicate", "drive-fault".
+/// "corrupt-alive", "corrupt-position", "wrong-dlc", "duplicate", "drive-fault",
+/// "push" (written push:N:F, F newtons > 0).
 const char* name(InjectionKind kind) noexcept;
 
 struct InjectionStep {
   InjectionKind kind = InjectionKind::kDropDrive;
   int frames = 1;  ///< consecutive SYNCs the step acts on, 1 … 1000
+  double value = 0.0;  ///< push: the force [N]
 };
 
-/// Parses "drop-drive:3,late-drive:1,drive-fault" (":N" defaults to 1).
-/// Throws std::invalid_argument naming the item for an unknown kind or a
-/// count outside 1 … 1000.
+/// Parses "drop-drive:3,late-drive:1,drive-fault,push:30:700" (":N" defaults
+/// to 1). Throws std::invalid_argument naming the item for an unknown kind, a
+/// count outside 1 … 1000, a push without a force > 0 or a value on another kind.
 std::vector<InjectionStep> parse_injection_plan(const std::string& plan);
 
 class BusInjector {
@@ -61,7 +64,9 @@ class BusInjector {
 
   /// Called on a SYNC before the nodes reply: returns the step that fires at
   /// this SYNC, or nullptr. For kDriveFault the caller latches the drive's
-  /// fault before the nodes reply, so this SYNC's feedback already shows it.
+  /// fault before the nodes reply, so this SYNC's feedback already shows it;
+  /// for kPush the caller sets the motor's disturbance force and removes it
+  /// when push_active() turns false.
   const InjectionStep* on_sync() noexcept;
 
   struct Replies {
@@ -75,6 +80,8 @@ class BusInjector {
 
   /// Index (0-based) of the step that acts now or acted last; −1 before the first.
   int step_index() const noexcept { return fired_ - 1; }
+  /// A push step acts on this SYNC.
+  bool push_active() const noexcept;
   int steps_fired() const noexcept { return fired_; }
   int requests_ignored() const noexcept { return requests_ignored_; }
   bool axis_enabled() const noexcept { return axis_enabled_; }

@@ -12,7 +12,9 @@
 // seen_on_bus: the injected defect is on the bus in cycles n … n+frames−1
 // (the frame absent, late past the receive window, with a reserved bit, the
 // wrong DLC, twice, with an alive jump, with a position jump, with the fault
-// bit); zero_after_cycles: the first cycle c ≥ n whose setpoints are all zero
+// bit; for a push, the translator's speed from the drive's positions falling
+// by at least kPushEvidence_m_per_s against the motion within the push's
+// first 10 cycles); zero_after_cycles: the first cycle c ≥ n whose setpoints are all zero
 // with ControlEnable cleared, as c − n + 1 (0: none within 2000 cycles);
 // enabled_after_cycles: consecutive cycles from n on with ControlEnable set.
 // For every watchdog expiry in the event log: whether the daemon's last RPDO1
@@ -182,6 +184,18 @@ std::int32_t position_raw(const Frame& f) {
                                    (static_cast<std::uint32_t>(f.data[3]) << 24));
 }
 
+/// The speed the drive's positions show over cycles k−5 … k [m/s], NaN when a frame is missing.
+double measured_velocity_m_per_s(const Bus& bus, int k) {
+  const auto last = bus.frames(k, bus.drive_id());
+  const auto first = bus.frames(k - 5, bus.drive_id());
+  if (k < 6 || last.empty() || first.empty() || last.front()->frame.dlc != 7 || first.front()->frame.dlc != 7) return NAN;
+  const double seconds = bus.cycle(k).sync_time_s - bus.cycle(k - 5).sync_time_s;
+  return (static_cast<double>(position_raw(last.front()->frame)) - position_raw(first.front()->frame)) * 1e-9 / seconds;
+}
+
+// A push must change the speed by at least this, against the motion, within 10 cycles.
+constexpr double kPushEvidence_m_per_s = 0.02;
+
 /// The injected defect in cycle k.
 bool defect_in_cycle(const Bus& bus, const std::string& kind, int k) {
   const auto drive = bus.frames(k, bus.drive_id());
@@ -214,7 +228,14 @@ void report_step(const Bus& bus, const std::map<std::string, std::string>& event
   // Defects that act once (alive jump, fault bit) are checked in their first cycle.
   const int defect_cycles = (kind == "corrupt-alive" || kind == "drive-fault") ? 1 : frames;
   bool seen = n >= 2 && n + defect_cycles - 1 <= bus.cycles();
-  for (int k = n; seen && k < n + defect_cycles; ++k) seen = defect_in_cycle(bus, kind, k);
+  if (kind == "push") {
+    // The defect is in the motion, not in a frame: the speed before and 10 cycles in.
+    const double before = measured_velocity_m_per_s(bus, n - 1);
+    const double during = n + std::min(frames, 10) - 1 <= bus.cycles() ? measured_velocity_m_per_s(bus, n + std::min(frames, 10) - 1) : NAN;
+    seen = std::isfinite(before) && std::isfinite(during) && before != 0.0 &&
+           (before - during) * (before > 0.0 ? 1.0 : -1.0) >= kPushEvidence_m_per_s;
+  }
+  for (int k = n; kind != "push" && seen && k < n + defect_cycles; ++k) seen = defect_in_cycle(bus, kind, k);
   if (kind == "drive-fault" && seen) seen = !defect_in_cycle(bus, kind, n - 1);
   double before_N = 0.0;
   for (int k = std::max(1, n - 20); k < n; ++k) before_N = std::max(before_N, bus.max_magnitude_N(k));

@@ -34,25 +34,30 @@ priority=${HIL_PRIORITY:-$(config_value "$source_dir/config/servod-vcan.yaml" " 
 # the latched fault code and the most cycles from the first affected cycle to
 # zero setpoints on the bus, that cycle counted.
 steps=(drop-drive:1 drop-drive:3 drop-drive:10 drop-force:3 late-drive:1 late-drive:3 corrupt-reserved:1
-       corrupt-reserved:3 wrong-dlc:1 wrong-dlc:3 duplicate:1 corrupt-alive:1 corrupt-position:1 drive-fault:1)
+       corrupt-reserved:3 wrong-dlc:1 wrong-dlc:3 duplicate:1 corrupt-alive:1 corrupt-position:1 drive-fault:1
+       push:30:700)
 declare -A expected_fault=(
   [drop-drive:1]=ride [drop-drive:3]=101 [drop-drive:10]=101 [drop-force:3]=102 [late-drive:1]=ride
   [late-drive:3]=101 [corrupt-reserved:1]=ride [corrupt-reserved:3]=105 [wrong-dlc:1]=ride [wrong-dlc:3]=105
-  [duplicate:1]=ride [corrupt-alive:1]=103 [corrupt-position:1]=202 [drive-fault:1]=206)
+  [duplicate:1]=ride [corrupt-alive:1]=103 [corrupt-position:1]=202 [drive-fault:1]=206 [push:30:700]=203)
 # Fault 102's reaction is a quick stop (docs/servod.md, "Fault reactions"):
 # from at most 0.1 m/s and 1 m/s² (the move below) at the default quick-stop
 # limits of servod-vcan.yaml, 10 m/s² and 2000 m/s³, it takes at most 16
 # cycles after the 3 without a frame (one more for rounding), then zero
 # setpoints. The position jump of corrupt-position (0.537 m) is not
-# believed: zero at once.
+# believed: zero at once. A push of 700 N against the motion, 100 N beyond
+# the loop's force limit of 600 N, opens the 2 mm following error in at most
+# about 30 cycles (at 6.7 m/s² or more), fault 203 quick-stops from at most
+# 0.1 m/s in 16: at most 50 cycles with rounding. It fires 0.2 s into the
+# move, when the axis cruises (a push needs motion to act against).
 declare -A expected_cycles=(
   [drop-drive:3]=3 [drop-drive:10]=3 [drop-force:3]=20 [late-drive:3]=3 [corrupt-reserved:3]=3 [wrong-dlc:3]=3
-  [corrupt-alive:1]=1 [corrupt-position:1]=1 [drive-fault:1]=1)
+  [corrupt-alive:1]=1 [corrupt-position:1]=1 [drive-fault:1]=1 [push:30:700]=50)
 # The reasons as docs/servod.md names them (CLM_SERVO_STATUS fault_reason).
 declare -A reason=(
   [101]="encoder frame missing" [102]="force-sensor frame missing" [103]="drive alive counter jumped"
   [105]="feedback frame rejected (length or content)" [202]="position outside soft limits"
-  [206]="drive reported a fault")
+  [206]="drive reported a fault" [203]="following error above limit")
 # A ride-through must keep the axis enabled at least this many cycles from
 # the injection on (the next step comes later than that).
 ride_cycles=200
@@ -139,6 +144,7 @@ for step in "${steps[@]}"; do
     continue
   fi
   before=$(ctl status)
+  [ "${step%%:*}" = push ] && sleep 0.2
   kill -USR1 "$sim_pid"
   fired=""
   for _ in $(seq 1 100); do
@@ -272,7 +278,8 @@ coil_sets=$(config_value "$source_dir/config/motor-sim.yaml" "  coil_sets")
 sed 's/^/HIL:   /' "$run/bus.txt"
 grep -q "^cycles=" "$run/bus.txt" || fail "hil_fault_check: $(head -1 "$run/bus.err")"
 for step in "${steps[@]}"; do
-  kind=${step%%:*} frames=${step##*:}
+  kind=${step%%:*} rest=${step#*:}
+  frames=${rest%%:*}
   line=$(grep "^step=[0-9]* kind=$kind frames=$frames " "$run/bus.txt" | head -1)
   if [ -z "$line" ]; then
     fail "$step: not on the bus record (not fired)"

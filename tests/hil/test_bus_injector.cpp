@@ -71,6 +71,31 @@ TEST_CASE("injection plans parse by name and count, and refuse anything else", "
   CHECK_THROWS(clm::sim::parse_injection_plan(""));
 }
 
+TEST_CASE("a push step carries its force and is active for exactly its SYNCs", "[injector]") {
+  const auto plan = clm::sim::parse_injection_plan("push:3:700,drop-drive");
+  REQUIRE(plan.size() == 2);
+  CHECK(plan[0].kind == InjectionKind::kPush);
+  CHECK(plan[0].frames == 3);
+  CHECK(plan[0].value == 700.0);
+  CHECK_THROWS_WITH(clm::sim::parse_injection_plan("push:3"), Catch::Contains("force F > 0 N"));
+  CHECK_THROWS_WITH(clm::sim::parse_injection_plan("push:3:-1"), Catch::Contains("force F > 0 N"));
+  CHECK_THROWS_WITH(clm::sim::parse_injection_plan("drop-drive:3:1"), Catch::Contains("takes no value"));
+  BusInjector injector(protocol(), plan);
+  injector.observe(rpdo1(true));
+  injector.request_next();
+  const clm::sim::InjectionStep* fired = nullptr;
+  CHECK(drive_frames(sync(injector, 1, &fired)) == 1);  // a push touches no frame
+  REQUIRE(fired != nullptr);
+  CHECK(fired->kind == InjectionKind::kPush);
+  CHECK(injector.push_active());
+  sync(injector, 2, &fired);
+  CHECK(injector.push_active());
+  sync(injector, 3, &fired);
+  CHECK(injector.push_active());
+  sync(injector, 4, &fired);
+  CHECK_FALSE(injector.push_active());
+}
+
 TEST_CASE("a requested step fires only at a SYNC with the axis enabled and acts on exactly its frames", "[injector]") {
   BusInjector injector(protocol(), clm::sim::parse_injection_plan("drop-drive:3,duplicate"));
   injector.request_next();

@@ -127,6 +127,7 @@ void run_sim(const SimOptions& options) {
   std::int64_t free_run_steps = 0;
   bool watchdog_before = false;
   int requests_seen = 0;
+  bool pushing = false;  // a push step has set the motor's disturbance force
   const auto send = [&](const can::Frame& frame) {
     if (bus.send(frame)) {
       ++replies_sent;
@@ -188,6 +189,13 @@ void run_sim(const SimOptions& options) {
     const bool sync = received.frame.id == can::kSyncId;
     const sim::InjectionStep* fired = sync ? injector.on_sync() : nullptr;
     if (fired != nullptr && fired->kind == sim::InjectionKind::kDriveFault) motor.latch_internal_fault();
+    if (fired != nullptr && fired->kind == sim::InjectionKind::kPush) {
+      motor.set_disturbance_force_N(motor.truth().velocity_m_per_s > 0.0 ? -fired->value : fired->value);
+      pushing = true;
+    } else if (sync && pushing && !injector.push_active()) {
+      motor.set_disturbance_force_N(0.0);
+      pushing = false;
+    }
     const std::int64_t applied_before = nodes.counters().setpoints_applied;
     const std::size_t count = nodes.on_frame(received.frame, replies);
     if (nodes.counters().setpoints_applied != applied_before) last_setpoints_ns = now_ns;
@@ -205,9 +213,9 @@ void run_sim(const SimOptions& options) {
                          : INT64_MAX;
       note_watchdog(last_step_ns, now_ns);
       if (fired != nullptr && events != nullptr) {
-        std::fprintf(events, "event=inject sync=%lld step=%d kind=%s frames=%d\n",
+        std::fprintf(events, "event=inject sync=%lld step=%d kind=%s frames=%d value=%g\n",
                      static_cast<long long>(nodes.counters().syncs), injector.step_index() + 1, sim::name(fired->kind),
-                     fired->frames);
+                     fired->frames, fired->value);
         std::fflush(events);
       }
     } else {
