@@ -24,6 +24,8 @@ int main(int argc, char** argv) {
   clm::cli::add_sim(app);
   try {
     app.parse(argc, argv);
+  } catch (const CLI::RuntimeError& e) {
+    return e.get_exit_code();  // a subcommand that has said why on its own (a refusal, several axes)
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);  // --help, --version
     // A bad command line is bad input too: one line (CLI11 would add a second).
