@@ -31,7 +31,8 @@ enum class InjectionKind {
   kWrongDlc,         ///< the drive's TPDO1 goes out with DLC 6 instead of 7
   kDuplicate,        ///< the drive's TPDO1 is sent twice
   kDriveFault,       ///< the drive latches a fault of its own (the current stops)
-  kPush,             ///< `value` newtons against the translator's motion for `frames` SYNCs (no frame is touched)
+  kPush,             ///< `value` newtons against the translator's motion for `frames` SYNCs, ended early
+                     ///< when the drive is disabled (the fixture lets go); no frame is touched
 };
 
 /// Name in a plan: "drop-drive", "drop-force", "late-drive", "corrupt-reserved",
@@ -66,7 +67,7 @@ class BusInjector {
   /// this SYNC, or nullptr. For kDriveFault the caller latches the drive's
   /// fault before the nodes reply, so this SYNC's feedback already shows it;
   /// for kPush the caller sets the motor's disturbance force and removes it
-  /// when push_active() turns false.
+  /// when push_active() turns false or the drive is disabled.
   const InjectionStep* on_sync() noexcept;
 
   struct Replies {

@@ -72,7 +72,10 @@ void InProcessBus::enqueue(const can::Frame& frame, std::int64_t stamp_ns) noexc
 }
 
 void InProcessBus::run_plan() noexcept {
-  if (timed_ != nullptr && --timed_left_ < 0) {
+  // A push lets go once the drive is disabled: it tests the reaction, it
+  // does not throw the translator into an end stop.
+  const bool let_go = timed_ != nullptr && timed_->fault == PlannedFault::kPush && !nodes_->motor().status().enabled();
+  if (timed_ != nullptr && (--timed_left_ < 0 || let_go)) {
     switch (timed_->fault) {
       case PlannedFault::kBusOff:
       case PlannedFault::kErrorPassive: injection_.bus_state = drivers::BusState::kActive; break;

@@ -49,7 +49,8 @@ enum class PlannedFault {
   kBusOff,             ///< "bus-off:N": the controller reports bus-off for N cycles
   kErrorPassive,       ///< "error-passive:N"
   kFailSends,          ///< "fail-sends:N": no frame can be queued for N cycles
-  kPush,               ///< "push:N:F": F newtons against the motion on the translator for N cycles
+  kPush,               ///< "push:N:F": F newtons against the motion on the translator for N cycles,
+                       ///< ended early when the drive is disabled (the fixture lets go)
   kStall,              ///< "stall:N:S": each of N cycles is held S seconds inside the bus (overruns)
 };
 

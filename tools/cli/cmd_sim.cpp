@@ -192,7 +192,7 @@ void run_sim(const SimOptions& options) {
     if (fired != nullptr && fired->kind == sim::InjectionKind::kPush) {
       motor.set_disturbance_force_N(motor.truth().velocity_m_per_s > 0.0 ? -fired->value : fired->value);
       pushing = true;
-    } else if (sync && pushing && !injector.push_active()) {
+    } else if (sync && pushing && (!injector.push_active() || !motor.status().enabled())) {
       motor.set_disturbance_force_N(0.0);
       pushing = false;
     }

@@ -91,22 +91,37 @@ TEST_CASE("a requested step fires at the next SYNC and acts on exactly its frame
   CHECK(bench.bus.steps_fired() == 3);
 }
 
-TEST_CASE("a push acts against the motion for its cycles, then ends", "[sim][injection]") {
-  // The drive stays disabled: only the push and friction act on the translator.
+TEST_CASE("a push acts against the motion for its cycles while the drive is enabled, then ends", "[sim][injection]") {
+  // Zero setpoints with the drive enabled: only the push, cogging and
+  // friction act on the translator.
   Bench bench;
   bench.motor.reset(0.0, 0.2);
-  bench.bus.set_plan(clm::sim::parse_planned_faults("push:50:300"));
+  bench.bus.set_plan(clm::sim::parse_planned_faults("push:50:300,push:50:300"));
+  const std::vector<clm::DriveSetpoint> zero(static_cast<std::size_t>(bench.motor.coil_sets()));
+  const auto enabled_sync = [&] {
+    bench.motor.command(zero, true);
+    bench.sync();
+  };
   bench.bus.request_next_step();
   const double v0 = bench.motor.truth().velocity_m_per_s;
-  for (int k = 0; k < 50; ++k) bench.sync();
+  for (int k = 0; k < 50; ++k) enabled_sync();
   const double v1 = bench.motor.truth().velocity_m_per_s;
-  // 300 N against +y on the translator for 50 ms, friction on top.
+  // 300 N against +y on the 15 kg translator for 50 ms: 1 m/s less.
   const double mass_kg = bench.motor.parameters().mechanics.translator_mass_kg;
   CHECK(v1 < v0 - 0.9 * 300.0 / mass_kg * 0.05);
-  for (int k = 0; k < 20; ++k) bench.sync();
+  for (int k = 0; k < 20; ++k) enabled_sync();
   const double v2 = bench.motor.truth().velocity_m_per_s;
-  // Afterwards only friction: far less change than the push made.
+  // Afterwards no push: far less change than the push made.
   CHECK(std::abs(v2 - v1) < 0.2 * std::abs(v1 - v0));
+
+  // With the drive disabled the fixture lets go at once.
+  bench.motor.command(zero, false);
+  bench.bus.request_next_step();
+  bench.sync();
+  const double v3 = bench.motor.truth().velocity_m_per_s;
+  for (int k = 0; k < 20; ++k) bench.sync();
+  CHECK(std::abs(bench.motor.truth().velocity_m_per_s - v3) < 0.2 * std::abs(v1 - v0));
+  CHECK(bench.bus.steps_fired() == 2);
 }
 
 TEST_CASE("the motor's disturbance force accelerates the translator and reset removes it", "[sim]") {
