@@ -228,21 +228,26 @@ void report_step(const Bus& bus, const std::map<std::string, std::string>& event
   // Defects that act once (alive jump, fault bit) are checked in their first cycle.
   const int defect_cycles = (kind == "corrupt-alive" || kind == "drive-fault") ? 1 : frames;
   bool seen = n >= 2 && n + defect_cycles - 1 <= bus.cycles();
+  double push_change = NAN;  // the largest fall of the speed against the motion [m/s]
   if (kind == "push") {
-    // The defect is in the motion, not in a frame: the speed before and 10 cycles in.
+    // The defect is in the motion, not in a frame: the speed before, and in
+    // the push's first 10 cycles.
     const double before = measured_velocity_m_per_s(bus, n - 1);
-    const double during = n + std::min(frames, 10) - 1 <= bus.cycles() ? measured_velocity_m_per_s(bus, n + std::min(frames, 10) - 1) : NAN;
-    seen = std::isfinite(before) && std::isfinite(during) && before != 0.0 &&
-           (before - during) * (before > 0.0 ? 1.0 : -1.0) >= kPushEvidence_m_per_s;
+    for (int k = n + 1; std::isfinite(before) && before != 0.0 && k < n + std::min(frames, 10) && k <= bus.cycles(); ++k) {
+      const double change = (before - measured_velocity_m_per_s(bus, k)) * (before > 0.0 ? 1.0 : -1.0);
+      if (std::isfinite(change) && !(change <= push_change)) push_change = change;
+    }
+    seen = push_change >= kPushEvidence_m_per_s;
   }
   for (int k = n; kind != "push" && seen && k < n + defect_cycles; ++k) seen = defect_in_cycle(bus, kind, k);
   if (kind == "drive-fault" && seen) seen = !defect_in_cycle(bus, kind, n - 1);
   double before_N = 0.0;
   for (int k = std::max(1, n - 20); k < n; ++k) before_N = std::max(before_N, bus.max_magnitude_N(k));
   std::printf("step=%s kind=%s frames=%d sync=%d seen_on_bus=%d enabled_before=%d max_setpoint_before_N=%.3f "
-              "zero_after_cycles=%d enabled_after_cycles=%d\n",
+              "zero_after_cycles=%d enabled_after_cycles=%d%s\n",
               event.at("step").c_str(), kind.c_str(), frames, n, seen ? 1 : 0, bus.enabled(n - 1) == 1 ? 1 : 0, before_N,
-              bus.first_zero_from(n), bus.enabled_run_from(n));
+              bus.first_zero_from(n), bus.enabled_run_from(n),
+              kind == "push" ? (" speed_change_m_per_s=" + std::to_string(push_change)).c_str() : "");
 }
 
 void report_watchdog(const Bus& bus, const std::map<std::string, std::string>& event) {
