@@ -8,9 +8,10 @@
 namespace clm::sim {
 namespace {
 
-constexpr std::array<InjectionKind, 10> kKinds{
+constexpr std::array<InjectionKind, 11> kKinds{
     InjectionKind::kDropDrive,   InjectionKind::kDropForce,       InjectionKind::kLateDrive,
-    InjectionKind::kCorruptReserved, InjectionKind::kCorruptAlive, InjectionKind::kCorruptPosition,
+    InjectionKind::kCorruptReserved, InjectionKind::kCorruptAlive, InjectionKind::kCorruptForceAlive,
+    InjectionKind::kCorruptPosition,
     InjectionKind::kWrongDlc,    InjectionKind::kDuplicate,       InjectionKind::kDriveFault,
     InjectionKind::kPush};
 
@@ -18,6 +19,8 @@ constexpr std::array<InjectionKind, 10> kKinds{
 constexpr std::size_t kPositionTopByte = 3;
 constexpr std::size_t kStatusLowByte = 4;   // status bits 0..7
 constexpr std::size_t kAliveByte = 6;
+// And in the force sensor's TPDO1.
+constexpr std::size_t kForceAliveByte = 7;
 
 }  // namespace
 
@@ -28,6 +31,7 @@ const char* name(InjectionKind kind) noexcept {
     case InjectionKind::kLateDrive: return "late-drive";
     case InjectionKind::kCorruptReserved: return "corrupt-reserved";
     case InjectionKind::kCorruptAlive: return "corrupt-alive";
+    case InjectionKind::kCorruptForceAlive: return "corrupt-force-alive";
     case InjectionKind::kCorruptPosition: return "corrupt-position";
     case InjectionKind::kWrongDlc: return "wrong-dlc";
     case InjectionKind::kDuplicate: return "duplicate";
@@ -105,7 +109,12 @@ void BusInjector::transform(std::span<const can::Frame> replies, Replies& out) c
       continue;
     }
     if (force) {
-      if (kind != InjectionKind::kDropForce) push_now(reply);
+      if (kind == InjectionKind::kDropForce) continue;
+      can::Frame frame = reply;
+      if (kind == InjectionKind::kCorruptForceAlive && first) {
+        frame.data[kForceAliveByte] = static_cast<std::uint8_t>(frame.data[kForceAliveByte] + 7);
+      }
+      push_now(frame);
       continue;
     }
     can::Frame frame = reply;
@@ -132,6 +141,7 @@ void BusInjector::transform(std::span<const can::Frame> replies, Replies& out) c
         push_now(frame);
         break;
       case InjectionKind::kDropForce:
+      case InjectionKind::kCorruptForceAlive:
       case InjectionKind::kDriveFault:
       case InjectionKind::kPush:
         break;  // the drive's frame as the nodes made it (a drive fault is in its status word)

@@ -27,6 +27,7 @@ enum class InjectionKind {
   kLateDrive,        ///< the drive's TPDO1 is sent `late_fraction` of a period after SYNC
   kCorruptReserved,  ///< a reserved status bit (bit 5) is set in the drive's TPDO1
   kCorruptAlive,     ///< the drive's alive counter is advanced by 7 (one frame)
+  kCorruptForceAlive,  ///< the force sensor's alive counter is advanced by 7 (one frame)
   kCorruptPosition,  ///< bit 29 of the drive's position is flipped (a 0.537 m jump)
   kWrongDlc,         ///< the drive's TPDO1 goes out with DLC 6 instead of 7
   kDuplicate,        ///< the drive's TPDO1 is sent twice
@@ -36,7 +37,8 @@ enum class InjectionKind {
 };
 
 /// Name in a plan: "drop-drive", "drop-force", "late-drive", "corrupt-reserved",
-/// "corrupt-alive", "corrupt-position", "wrong-dlc", "duplicate", "drive-fault",
+/// "corrupt-alive", "corrupt-force-alive", "corrupt-position", "wrong-dlc",
+/// "duplicate", "drive-fault",
 /// "push" (written push:N:F, F newtons > 0).
 const char* name(InjectionKind kind) noexcept;
 

@@ -11,7 +11,7 @@
 //
 // seen_on_bus: the injected defect is on the bus in cycles n … n+frames−1
 // (the frame absent, late past the receive window, with a reserved bit, the
-// wrong DLC, twice, with an alive jump, with a position jump, with the fault
+// wrong DLC, twice, with an alive jump of the drive or the force sensor, with a position jump, with the fault
 // bit; for a push, the translator's speed from the drive's positions falling
 // by at least kPushEvidence_m_per_s against the motion within the push's
 // first 10 cycles); zero_after_cycles: the first cycle c ≥ n whose setpoints are all zero
@@ -202,6 +202,12 @@ bool defect_in_cycle(const Bus& bus, const std::string& kind, int k) {
   const auto previous = bus.frames(k - 1, bus.drive_id());
   if (kind == "drop-drive") return drive.empty();
   if (kind == "drop-force") return bus.frames(k, bus.force_id()).empty();
+  if (kind == "corrupt-force-alive") {
+    const auto force = bus.frames(k, bus.force_id());
+    const auto before = bus.frames(k - 1, bus.force_id());
+    return !force.empty() && !before.empty() && force.front()->frame.dlc == 8 && before.front()->frame.dlc == 8 &&
+           static_cast<std::uint8_t>(force.front()->frame.data[7] - before.front()->frame.data[7]) != 1;
+  }
   if (drive.empty()) return false;
   const Frame& f = drive.front()->frame;
   if (kind == "late-drive") {
@@ -226,7 +232,7 @@ void report_step(const Bus& bus, const std::map<std::string, std::string>& event
   const int n = std::atoi(event.at("sync").c_str());
   const int frames = std::atoi(event.at("frames").c_str());
   // Defects that act once (alive jump, fault bit) are checked in their first cycle.
-  const int defect_cycles = (kind == "corrupt-alive" || kind == "drive-fault") ? 1 : frames;
+  const int defect_cycles = (kind == "corrupt-alive" || kind == "corrupt-force-alive" || kind == "drive-fault") ? 1 : frames;
   bool seen = n >= 2 && n + defect_cycles - 1 <= bus.cycles();
   double push_change = NAN;  // the largest fall of the speed against the motion [m/s]
   if (kind == "push") {

@@ -34,17 +34,18 @@ priority=${HIL_PRIORITY:-$(config_value "$source_dir/config/servod-vcan.yaml" " 
 # the latched fault code and the most cycles from the first affected cycle to
 # zero setpoints on the bus, that cycle counted.
 steps=(drop-drive:1 drop-drive:3 drop-drive:10 drop-force:3 late-drive:1 late-drive:3 corrupt-reserved:1
-       corrupt-reserved:3 wrong-dlc:1 wrong-dlc:3 duplicate:1 corrupt-alive:1 corrupt-position:1 drive-fault:1
-       push:30:700)
+       corrupt-reserved:3 wrong-dlc:1 wrong-dlc:3 duplicate:1 corrupt-alive:1 corrupt-force-alive:1 corrupt-position:1
+       drive-fault:1 push:30:700)
 declare -A expected_fault=(
   [drop-drive:1]=ride [drop-drive:3]=101 [drop-drive:10]=101 [drop-force:3]=102 [late-drive:1]=ride
   [late-drive:3]=101 [corrupt-reserved:1]=ride [corrupt-reserved:3]=105 [wrong-dlc:1]=ride [wrong-dlc:3]=105
-  [duplicate:1]=ride [corrupt-alive:1]=103 [corrupt-position:1]=202 [drive-fault:1]=206 [push:30:700]=203)
+  [duplicate:1]=ride [corrupt-alive:1]=103 [corrupt-force-alive:1]=104 [corrupt-position:1]=202 [drive-fault:1]=206 [push:30:700]=203)
 # Fault 102's reaction is a quick stop (docs/servod.md, "Fault reactions"):
 # from at most 0.1 m/s and 1 m/s² (the move below) at the default quick-stop
 # limits of servod-vcan.yaml, 10 m/s² and 2000 m/s³, it takes at most 16
 # cycles after the 3 without a frame (one more for rounding), then zero
-# setpoints. The position jump of corrupt-position (0.537 m) is not
+# setpoints; so does 104 (the force sensor's alive counter jumps), from its
+# cycle on. The position jump of corrupt-position (0.537 m) is not
 # believed: zero at once. A push of 700 N against the motion, 100 N beyond
 # the loop's force limit of 600 N, opens the 2 mm following error in at most
 # about 30 cycles (at 6.7 m/s² or more), fault 203 quick-stops from at most
@@ -52,10 +53,11 @@ declare -A expected_fault=(
 # move, when the axis cruises (a push needs motion to act against).
 declare -A expected_cycles=(
   [drop-drive:3]=3 [drop-drive:10]=3 [drop-force:3]=20 [late-drive:3]=3 [corrupt-reserved:3]=3 [wrong-dlc:3]=3
-  [corrupt-alive:1]=1 [corrupt-position:1]=1 [drive-fault:1]=1 [push:30:700]=50)
+  [corrupt-alive:1]=1 [corrupt-force-alive:1]=20 [corrupt-position:1]=1 [drive-fault:1]=1 [push:30:700]=50)
 # The reasons as docs/servod.md names them (CLM_SERVO_STATUS fault_reason).
 declare -A reason=(
   [101]="encoder frame missing" [102]="force-sensor frame missing" [103]="drive alive counter jumped"
+  [104]="force-sensor alive counter jumped"
   [105]="feedback frame rejected (length or content)" [202]="position outside soft limits"
   [206]="drive reported a fault" [203]="following error above limit")
 # A ride-through must keep the axis enabled at least this many cycles from

@@ -71,6 +71,23 @@ TEST_CASE("injection plans parse by name and count, and refuse anything else", "
   CHECK_THROWS(clm::sim::parse_injection_plan(""));
 }
 
+TEST_CASE("corrupt-force-alive advances the force sensor's alive counter in one frame only", "[injector]") {
+  BusInjector injector(protocol(), clm::sim::parse_injection_plan("corrupt-force-alive"));
+  injector.observe(rpdo1(true));
+  injector.request_next();
+  const auto alive = [](const BusInjector::Replies& out) {
+    clm::can::ForceFeedback force;
+    for (std::size_t k = 0; k < out.now_count; ++k) {
+      if (out.now[k].id != clm::can::force_feedback_id(protocol())) continue;
+      REQUIRE(clm::can::decode_force_feedback(protocol(), out.now[k], force) == CodecStatus::kOk);
+      return static_cast<int>(force.alive_counter);
+    }
+    return -1;
+  };
+  CHECK(alive(sync(injector, 5)) == 5 + 7);
+  CHECK(alive(sync(injector, 6)) == 6);
+}
+
 TEST_CASE("a push step carries its force and is active for exactly its SYNCs", "[injector]") {
   const auto plan = clm::sim::parse_injection_plan("push:3:700,drop-drive");
   REQUIRE(plan.size() == 2);
