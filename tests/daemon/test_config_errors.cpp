@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "daemon/control/stop_profile.hpp"
 #include "daemon/servod/servo_daemon.hpp"
 #include "daemon/servod/servod_config.hpp"
 #include "tests/daemon/daemon_support.hpp"
@@ -63,6 +64,30 @@ TEST_CASE("the valid test configuration loads and runs", "[daemon][config]") {
   servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
   CHECK(daemon.cycle().state() == servo::ServoState::kDisabled);
+}
+
+TEST_CASE("the real-axis template loads, needs real-time rights, and stops inside the end stops from its limits",
+          "[daemon][config]") {
+  // config/servod-real.yaml (docs/bring-up.md): loading reads it and its
+  // motor file, not the bus.
+  const auto config = servod::load_servod_config(test::source_path("config/servod-real.yaml"));
+  CHECK(config.can.interface == "can0");
+  CHECK(config.loop.require_realtime);
+  CHECK(config.motor.stroke_min_m < config.servo.soft_limit_min_m);
+  CHECK(config.servo.soft_limit_max_m < config.motor.stroke_max_m);
+  // The worst case the limits allow: at a soft limit, outward at the largest
+  // velocity and acceleration, then a quick stop (a fault reaction).
+  const auto& m = config.servo.motion_limits;
+  for (const double direction : {1.0, -1.0}) {
+    const double limit_m = direction > 0 ? config.servo.soft_limit_max_m : config.servo.soft_limit_min_m;
+    const auto stop = control::StopProfile::plan(
+        {limit_m, direction * m.velocity_m_per_s, direction * m.acceleration_m_per_s2, 0.0},
+        config.servo.quick_stop_limits);
+    REQUIRE(stop.valid());
+    INFO("quick stop from the soft limit " << limit_m << " m rests at " << stop.rest_position_m() << " m");
+    if (direction > 0) CHECK(stop.rest_position_m() < config.motor.stroke_max_m);
+    if (direction < 0) CHECK(stop.rest_position_m() > config.motor.stroke_min_m);
+  }
 }
 
 TEST_CASE("configuration errors are refused naming file, line and key path", "[daemon][config]") {
