@@ -4,7 +4,7 @@
 set -euo pipefail
 
 packages=(
-  build-essential cmake pkg-config git
+  build-essential cmake pkg-config git dpkg-dev
   libeigen3-dev libyaml-cpp-dev
   liblcm-dev liblcm-bin liblcm-java default-jdk-headless
   catch2 libceres-dev libcli11-dev libbenchmark-dev

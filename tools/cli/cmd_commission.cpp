@@ -1,6 +1,11 @@
 // clm commission: calibrate, identify and evaluate every commutation on the
 // embedded simulated motor (or, with --live, on a running clm-servod over
 // LCM), and write the report.
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -13,13 +18,35 @@ namespace clm::cli {
 
 namespace {
 
-// Plots by Debian's python3-matplotlib; the report says when they are missing.
+// Where the package installs the default configuration (docs/packaging.md).
+constexpr const char* kDefaultConfig = "/etc/clm-servo/servod.yaml";
+
+// The report plotter: share/clm-servo/plot_report.py beside this
+// executable's bin/ (the build tree mirrors the installed layout).
+std::filesystem::path plot_script() {
+  std::error_code error;
+  const auto exe = std::filesystem::read_symlink("/proc/self/exe", error);
+  if (error) return {};
+  return exe.parent_path().parent_path() / "share" / "clm-servo" / "plot_report.py";
+}
+
+// Plots by Debian's python3-matplotlib; the report says when they are
+// missing. Run without a shell: the output directory is passed as it is.
 bool make_plots(const std::string& out_dir) {
-  const std::string script = std::string(CLM_SOURCE_DIR) + "/tools/commission/plot_report.py";
+  const std::filesystem::path script = plot_script();
+  if (script.empty() || !std::filesystem::is_regular_file(script)) return false;
   // Debian's interpreter, which has python3-matplotlib; another python3 may come first on PATH.
   const std::string python = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-  const std::string command = python + " '" + script + "' '" + out_dir + "'";
-  return std::system(command.c_str()) == 0;
+  const std::string script_text = script.string();
+  char* argv[] = {const_cast<char*>(python.c_str()), const_cast<char*>(script_text.c_str()),
+                  const_cast<char*>(out_dir.c_str()), nullptr};
+  pid_t pid = 0;
+  if (posix_spawnp(&pid, python.c_str(), nullptr, nullptr, argv, environ) != 0) return false;
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) return false;
+  }
+  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
 }
 
 std::string cell(double value) {
@@ -39,8 +66,10 @@ void add_commission(CLI::App& app) {
     bool plots = true;
   };
   auto options = std::make_shared<Options>();
-  options->run.config_path = std::string(CLM_SOURCE_DIR) + "/config/servod.yaml";
-  sub->add_option("--config", options->run.config_path, "daemon configuration (YAML)")->check(CLI::ExistingFile)->capture_default_str();
+  options->run.config_path = kDefaultConfig;
+  sub->add_option("--config", options->run.config_path, "daemon configuration (YAML); the default is where the package installs it")
+      ->check(CLI::ExistingFile)
+      ->capture_default_str();
   sub->add_option("--out", options->run.out_dir, "output directory")->required();
   sub->add_option("--program", options->run.program_path, "reference program (default: programs/fig8.yaml beside the config)")
       ->check(CLI::ExistingFile);
