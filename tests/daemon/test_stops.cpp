@@ -52,6 +52,14 @@ struct Axis {
     daemon.run_cycles(300);
     REQUIRE(daemon.cycle().state() == ServoState::kEnabled);
   }
+  /// A move to `target_m` at the motion limits, run until it cruises at the largest velocity.
+  void at_full_speed(double target_m) {
+    REQUIRE(move_to(target_m, settings().motion_limits).accepted);
+    while (std::abs(record().r_dot_m_per_s) < settings().motion_limits.velocity_m_per_s - 1e-9) {
+      daemon.run_cycles(1);
+      REQUIRE(record().program_running);
+    }
+  }
   /// The truth is inside the end stops of the motor.
 
   servod::WiredAxis wired;
@@ -229,27 +237,13 @@ TEST_CASE("every fault injected at full speed gets the reaction of the table and
   // A push the loop cannot hold at its force limit trips the following error
   // first at the default 2 mm; for fault 204 alone the limit is 20 mm.
   if (how == How::kForceSaturated) config.servo.following_error_limit_m = 0.02;
-  servod::WiredAxis wired(config);
-  auto& daemon = wired.daemon;
-  auto& injection = wired.in_process_bus()->injection();
-  const auto& s = daemon.config().servo;
-  daemon.run_cycles(10);
-  test::command(daemon, Kind::kEnable, 20);
-  servo::Command move;
-  move.kind = Kind::kMoveTo;
-  move.target_m = -0.1;
-  move.limits = {0.1, 1.0, 1000.0};
-  REQUIRE(daemon.submit(move).accepted);
-  daemon.run_until_idle(20000);
-  daemon.run_cycles(300);
-  // At full speed towards the other end.
-  move.target_m = 0.1;
-  move.limits = s.motion_limits;
-  REQUIRE(daemon.submit(move).accepted);
-  while (daemon.cycle().record().r_dot_m_per_s < s.motion_limits.velocity_m_per_s - 1e-9) {
-    daemon.run_cycles(1);
-    REQUIRE(daemon.cycle().record().program_running);
-  }
+  Axis axis(config);
+  auto& wired = axis.wired;
+  auto& daemon = axis.daemon;
+  auto& injection = axis.injection();
+  const auto& s = axis.settings();
+  axis.go_to(-0.1);
+  axis.at_full_speed(0.1);  // towards the other end
   if (how == How::kSoftLimit) {
     // Braking towards 0.1 m, the translator is pushed 15 mm ahead, past the
     // soft limit (a measurement still believed: within 10 following-error limits).
@@ -343,19 +337,13 @@ TEST_CASE("a fault that distrusts the feedback, during a quick-stop reaction, ze
   // Following error at full speed starts a quick stop under position
   // control; encoder frames then stop coming: the stop must not go on
   // with a position it can no longer see.
-  servod::WiredAxis wired(test::virtual_config());
-  auto& daemon = wired.daemon;
-  auto& injection = wired.in_process_bus()->injection();
-  const auto& s = daemon.config().servo;
-  daemon.run_cycles(10);
-  test::command(daemon, Kind::kEnable, 20);
-  servo::Command move;
-  move.kind = Kind::kMoveTo;
-  move.target_m = 0.1;
-  move.limits = s.motion_limits;
-  REQUIRE(daemon.submit(move).accepted);
-  while (daemon.cycle().record().r_dot_m_per_s < s.motion_limits.velocity_m_per_s - 1e-9) daemon.run_cycles(1);
-  auto& motor = *wired.simulated_motor();
+  Axis axis;
+  auto& wired = axis.wired;
+  auto& daemon = axis.daemon;
+  auto& injection = axis.injection();
+  const auto& s = axis.settings();
+  axis.at_full_speed(0.1);
+  auto& motor = axis.motor();
   motor.reset(motor.truth().position_m - 0.003, motor.truth().velocity_m_per_s);
   REQUIRE(test::run_until_fault(daemon, 200) <= 200);
   REQUIRE(daemon.cycle().fault() == Fault::kFollowingError);

@@ -35,13 +35,7 @@ rm -rf "$work"
 mkdir -p "$work"
 trap cleanup_processes EXIT
 
-fail() {
-  echo "FAIL: $*" >&2
-  ctl status 2>/dev/null | grep -E "^(state|fault|fault_reason|fault_cycle):" >&2 || true
-  echo "--- clm-servod stderr:" >&2
-  cat "$work"/servod-*.log >&2 || true
-  exit 1
-}
+fail() { fail_with_status "$*" "$work"/servod-*.log; }
 
 # Each case: plan step, expected fault, reaction (zero | quick).
 phase1=(

@@ -19,13 +19,7 @@ rm -rf "$work"
 mkdir -p "$work"
 trap cleanup_processes EXIT
 
-fail() {
-  echo "FAIL: $*" >&2
-  ctl status 2>/dev/null | grep -E "^(state|fault|fault_reason|fault_cycle):" >&2 || true
-  echo "--- clm-servod stderr:" >&2
-  cat "$work/servod.log" >&2 || true
-  exit 1
-}
+fail() { fail_with_status "$*" "$work/servod.log"; }
 
 # The simulated drive's watchdog at 0.1 s instead of 5 ms: without real-time
 # rights on a shared machine a wake-up can come several periods late, and this

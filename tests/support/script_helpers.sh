@@ -23,6 +23,18 @@ absolute() { echo "$(cd "$(dirname "$1")" && pwd)/$(basename "$1")"; }
 # `clm ctl` of the daemon at $url; waits 2 s for a status or an ack unless --timeout-s.
 ctl() { "$clm" ctl --lcm-url "$url" "$@"; }
 
+# Prints "FAIL: MESSAGE", the fault lines of the daemon's status (when one
+# answers on $url) and the clm-servod stderr LOG files, then exits 1.
+fail_with_status() {
+  local message=$1
+  shift
+  echo "FAIL: $message" >&2
+  ctl status 2>/dev/null | grep -E "^(state|fault|fault_reason|fault_cycle):" >&2 || true
+  echo "--- clm-servod stderr:" >&2
+  cat "$@" >&2 2>/dev/null || true
+  exit 1
+}
+
 # The value of `name: value` line NAME in TEXT (a `clm ctl status`).
 field() { sed -n "s/^$1: //p" <<< "$2"; }
 
