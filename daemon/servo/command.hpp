@@ -33,8 +33,9 @@ enum class CommandKind : std::int8_t {
   kTakeControl = 12,     ///< command authority (daemon/servod/command_gate.hpp)
   kReleaseControl = 13,  ///< command authority (daemon/servod/command_gate.hpp)
   kQuickStop = 14,       ///< stop within the quick-stop limits (ServoCycle::quick_stop)
+  kJog = 15,             ///< move at a velocity while repeated (ServoCycle::post_jog, renew_jog)
 };
-inline constexpr int kCommandKinds = 14;
+inline constexpr int kCommandKinds = 15;
 
 /// True when `code` is a CommandKind value (1..kCommandKinds).
 constexpr bool is_command_kind(int code) noexcept { return code >= 1 && code <= kCommandKinds; }
@@ -69,6 +70,7 @@ inline constexpr std::array<CommandRoute, kCommandKinds> kCommandRoutes{{
     {CommandKind::kTakeControl, "take_control", AnsweredBy::kAuthority},
     {CommandKind::kReleaseControl, "release_control", AnsweredBy::kAuthority},
     {CommandKind::kQuickStop, "quick_stop", AnsweredBy::kCycle},
+    {CommandKind::kJog, "jog", AnsweredBy::kDaemon},
 }};
 
 constexpr bool routes_in_order() noexcept {
@@ -96,7 +98,8 @@ struct Command {
   std::int64_t client = 0;    ///< the sender; echoed in the reply
   CommandKind kind = CommandKind::kStop;
   double target_m = 0.0;                                  ///< kMoveTo [m]
-  control::MotionLimits limits{0.1, 1.0, 1000.0};         ///< kMoveTo
+  control::MotionLimits limits{0.1, 1.0, 1000.0};         ///< kMoveTo, kJog (velocity: its size)
+  double jog_velocity_m_per_s = 0.0;                      ///< kJog: signed velocity [m/s], + towards soft_limit_max_m
   PathText program;                                       ///< kRunProgram: program file
   /// kSetCommutation: the law; kSetExperiment: kExperiment; kLoadModel: the
   /// law it loads into (pgnn or spline; any other value: the model file's

@@ -82,6 +82,7 @@ void ServoSettings::validate() const {
   require(recovery_velocity_fraction > 0.0 && recovery_velocity_fraction <= 1.0,
           "recovery_velocity_fraction must be in (0, 1]");
   require(recovery_margin_m >= 0.0 && std::isfinite(recovery_margin_m), "recovery_margin_m must not be negative");
+  require(jog_timeout_s > 0.0 && std::isfinite(jog_timeout_s), "jog_timeout_s must be positive");
 }
 
 ServoCycle::ServoCycle(const ServoSettings& settings)
@@ -112,6 +113,26 @@ bool ServoCycle::outside_soft_limits(double position_m) const noexcept {
 void ServoCycle::end_program() noexcept {
   running_ = nullptr;
   program_.set_current(nullptr);
+  if (jogging_.load(std::memory_order_relaxed)) {
+    jog_token_.store(kJogStopped, std::memory_order_release);
+    jogging_.store(false, std::memory_order_release);
+  }
+}
+
+bool ServoCycle::post_jog(const control::MoveProgram* jog) noexcept {
+  if (program_.pending()) return false;
+  jog_offer_.store(jog, std::memory_order_release);
+  jog_token_.store(0, std::memory_order_release);
+  return program_.post(jog);
+}
+
+bool ServoCycle::renew_jog() noexcept {
+  if (!jogging_.load(std::memory_order_acquire)) return false;
+  std::int64_t token = jog_token_.load(std::memory_order_acquire);
+  while (token != kJogStopped) {
+    if (jog_token_.compare_exchange_weak(token, token + 1, std::memory_order_acq_rel)) return true;
+  }
+  return false;
 }
 
 void ServoCycle::begin_stop(const control::StopLimits& limits, bool quick) noexcept {
@@ -271,10 +292,17 @@ void ServoCycle::adopt_offers() noexcept {
     const bool allowed = !restricted_.load(std::memory_order_relaxed) || !outside_soft_limits(offered->end_m());
     const bool ready = state_ == ServoState::kEnabled && running_ == nullptr && !stopping_ && allowed &&
                        std::abs(offered->start_m() - hold_m_) <= kProgramStartTolerance_m;
+    // Taken once: a later program at a reused address is never a jog.
+    const bool jog = offered == jog_offer_.exchange(nullptr, std::memory_order_acq_rel);
     if (ready) {
       running_ = offered;
       program_start_cycle_ = cycle_;
       idle_.store(false, std::memory_order_release);
+      if (jog) {
+        jog_token_seen_ = jog_token_.load(std::memory_order_acquire);
+        jog_renewed_cycle_ = cycle_;
+        jogging_.store(true, std::memory_order_release);
+      }
     } else {
       program_.set_current(running_);
       ++counters_.programs_rejected;
@@ -393,6 +421,19 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
   if (state_ == ServoState::kEnabled || reacting_) {
     control::ReferenceSample now{hold_m_, 0.0, 0.0, 0.0};
     control::ReferenceSample next = now;
+    if (running_ != nullptr && jogging_.load(std::memory_order_relaxed)) {
+      // A jog without renewal for jog_timeout_s stops; a renewal that comes
+      // while the cycle decides wins (the exchange fails) and is seen next cycle.
+      std::int64_t token = jog_token_.load(std::memory_order_acquire);
+      if (token != jog_token_seen_) {
+        jog_token_seen_ = token;
+        jog_renewed_cycle_ = cycle_;
+      } else if (static_cast<double>(cycle_ - jog_renewed_cycle_) * settings_.period_s > settings_.jog_timeout_s &&
+                 jog_token_.compare_exchange_strong(token, kJogStopped, std::memory_order_acq_rel)) {
+        ++counters_.jog_timeouts;
+        begin_stop(settings_.stop_limits, false);
+      }
+    }
     if (running_ != nullptr) {
       const double t = static_cast<double>(cycle_ - program_start_cycle_) * settings_.period_s;
       now = running_->sample(t);

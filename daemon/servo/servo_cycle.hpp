@@ -54,6 +54,8 @@ struct ServoSettings {
   /// distance beyond a soft limit [m].
   double recovery_velocity_fraction = 0.1;
   double recovery_margin_m = 0.02;
+  /// A jog stops (stop_limits) when no repeat renewed it for this long [s].
+  double jog_timeout_s = 0.25;
   /// Throws std::invalid_argument naming the setting.
   void validate() const;
 };
@@ -84,6 +86,7 @@ struct CycleCounters {
   std::int64_t stops = 0;           ///< stops planned (stop command)
   std::int64_t quick_stops = 0;     ///< quick stops planned (command, approach guard, fault reaction)
   std::int64_t guard_stops = 0;     ///< of those, by the approach guard
+  std::int64_t jog_timeouts = 0;    ///< jogs stopped because no renewal came within jog_timeout_s
 };
 
 class ServoCycle {
@@ -100,6 +103,15 @@ class ServoCycle {
   /// enabled, idle and at the program's start (within 1 µm), else drops it and
   /// counts it in programs_rejected.
   Handover<control::MoveProgram>& program_handover() noexcept { return program_; }
+  /// Offer a jog: a move program the cycle runs like any other (program_handover)
+  /// but stops along stop_limits when renew_jog() has not been called for
+  /// settings().jog_timeout_s. False if an earlier offer is still pending.
+  bool post_jog(const control::MoveProgram* jog) noexcept;
+  /// Keeps the running jog going; false when no jog runs or the cycle has
+  /// already begun its stop (then the jog is over: post a new one).
+  bool renew_jog() noexcept;
+  /// A jog runs and has not been stopped.
+  bool jogging() const noexcept { return jogging_.load(std::memory_order_acquire); }
   /// Position the axis holds when idle [m] (for planning a move from it).
   double hold_position_m() const noexcept { return hold_position_m_.load(std::memory_order_acquire); }
   bool idle() const noexcept { return idle_.load(std::memory_order_acquire); }
@@ -179,6 +191,13 @@ class ServoCycle {
   Handover<control::MoveProgram> program_;
   const control::MoveProgram* running_ = nullptr;
   std::int64_t program_start_cycle_ = 0;
+  // Jog: renewals counted in jog_token_ (kJogStopped once the cycle stops
+  // it), so that a renewal and the cycle's decision to stop never cross.
+  static constexpr std::int64_t kJogStopped = -1;
+  std::atomic<const control::MoveProgram*> jog_offer_{nullptr};
+  std::atomic<std::int64_t> jog_token_{kJogStopped};
+  std::atomic<bool> jogging_{false};
+  std::int64_t jog_token_seen_ = 0, jog_renewed_cycle_ = 0;
 
   ServoState state_ = ServoState::kDisabled;
   Fault fault_ = Fault::kNone;

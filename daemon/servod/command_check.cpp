@@ -68,6 +68,9 @@ std::string check_stopping(const std::string& what, const control::MoveProgram& 
 
 std::string check_command(servo::Command& command) {
   switch (command.kind) {
+    case CommandKind::kJog:
+      if (command.jog_velocity_m_per_s == 0.0) return "jog: velocity_m_per_s must not be 0 (its sign is the direction)";
+      [[fallthrough]];
     case CommandKind::kMoveTo:
       for (const auto& reason : {check_positive("velocity_m_per_s", command.limits.velocity_m_per_s),
                                  check_positive("acceleration_m_per_s2", command.limits.acceleration_m_per_s2),

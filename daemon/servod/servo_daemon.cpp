@@ -229,6 +229,41 @@ CommandReply ServoDaemon::post_program(const servo::Command& command, const Prog
   return {command.sequence, true, "program posted"};
 }
 
+CommandReply ServoDaemon::jog(const servo::Command& command) {
+  const auto refuse = [&](const std::string& reason) { return CommandReply{command.sequence, false, "rejected: " + reason}; };
+  const servo::ServoState state = state_seen_.load(std::memory_order_acquire);
+  if (state == servo::ServoState::kFault) return refuse("a fault is latched, clear it first");
+  if (state != servo::ServoState::kEnabled) return refuse("the axis is disabled, enable first");
+  if (cycle_->restricted()) return refuse("restricted mode: only a move_to back inside the soft limits is accepted");
+  const servo::ServoSettings& settings = config_.servo;
+  if (auto reason = check_motion_limits("jog", command.limits, settings.motion_limits); !reason.empty()) return refuse(reason);
+  const auto& l = command.limits;
+  const bool same = command.jog_velocity_m_per_s == jog_velocity_m_per_s_ &&
+                    l.acceleration_m_per_s2 == jog_limits_.acceleration_m_per_s2 && l.jerk_m_per_s3 == jog_limits_.jerk_m_per_s3;
+  if (cycle_->jogging()) {
+    // A repeat keeps the running jog going; anything else waits for it to end.
+    if (!same) return refuse("another jog runs: repeat it unchanged, or stop it first");
+    if (cycle_->renew_jog()) return {command.sequence, true, "jogging"};
+    return refuse("the jog has timed out and is stopping; send it again once the axis is at rest");
+  }
+  if (!cycle_->idle()) return refuse("a program is running");
+  if (cycle_->program_handover().pending()) return refuse("a program is waiting to start");
+  // Towards the soft limit, a following-error limit short of it so that the
+  // axis, within that of its reference, stays inside.
+  const double hold = cycle_->hold_position_m();
+  const bool up = command.jog_velocity_m_per_s > 0.0;
+  const double band = settings.following_error_limit_m;
+  const double target_m = up ? settings.soft_limit_max_m - band : settings.soft_limit_min_m + band;
+  if (up ? target_m <= hold : target_m >= hold) return refuse("jog: at the soft limit in that direction already");
+  auto move = std::make_unique<control::MoveProgram>(hold, std::vector<control::ProgramStep>{{target_m, l, 0.0}});
+  if (auto reason = check_stopping("jog", *move, settings); !reason.empty()) return refuse(reason);
+  if (!cycle_->post_jog(move.get())) return refuse("busy");
+  programs_.push_back(std::move(move));
+  jog_velocity_m_per_s_ = command.jog_velocity_m_per_s;
+  jog_limits_ = l;
+  return {command.sequence, true, "jog started"};
+}
+
 CommandReply ServoDaemon::submit_program(const ProgramFile& program, std::int64_t sequence) {
   collect_garbage();
   servo::Command command;
@@ -384,6 +419,7 @@ CommandReply ServoDaemon::answer(const servo::Command& received) {
     if (!reason.empty()) return {command.sequence, false, "rejected: " + reason};
     if (servo::answered_by_cycle(command.kind)) return queue(command);
     if (command.kind == Kind::kMoveTo) return post_program(command, nullptr);
+    if (command.kind == Kind::kJog) return jog(command);
   } catch (const std::exception& e) {
     return {command.sequence, false, std::string("rejected: ") + e.what()};
   }

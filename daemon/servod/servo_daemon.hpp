@@ -174,6 +174,9 @@ class ServoDaemon {
   CommandReply answer(const servo::Command& received);
   CommandReply queue(const servo::Command& command);
   CommandReply post_program(const servo::Command& command, const ProgramFile* program);
+  /// kJog: starts a jog (a move towards the soft limit in the velocity's
+  /// direction, a following-error limit short of it) or renews the running one.
+  CommandReply jog(const servo::Command& command);
 
   ServodConfig config_;
   drivers::CanBus* bus_;
@@ -182,6 +185,8 @@ class ServoDaemon {
   std::unique_ptr<servo::ServoCycle> cycle_;
   std::vector<std::unique_ptr<OwnedLaw>> laws_;
   std::vector<std::unique_ptr<control::MoveProgram>> programs_;
+  double jog_velocity_m_per_s_ = 0.0;       ///< of the last jog started (command thread)
+  control::MotionLimits jog_limits_{};      ///< of the last jog started
   std::unique_ptr<telemetry::SpscQueue<servo::Command>> commands_;
   std::unique_ptr<telemetry::SpscQueue<RtReply>> replies_;
   LoopTiming timing_;

@@ -231,7 +231,7 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
   if (const auto motion = root.optional("motion")) {
     motion->expect_keys({"velocity_m_per_s", "acceleration_m_per_s2", "jerk_m_per_s3", "stop_deceleration_m_per_s2",
                          "stop_jerk_m_per_s3", "quick_stop_deceleration_m_per_s2", "quick_stop_jerk_m_per_s3",
-                         "recovery_velocity_fraction", "recovery_margin_m"});
+                         "recovery_velocity_fraction", "recovery_margin_m", "jog_timeout_s"});
     auto& limits = config.servo.motion_limits;
     if (const auto v = motion->optional("velocity_m_per_s")) limits.velocity_m_per_s = v->as_double_in(1e-6, 100.0);
     if (const auto v = motion->optional("acceleration_m_per_s2")) limits.acceleration_m_per_s2 = v->as_double_in(1e-6, 1e4);
@@ -257,6 +257,7 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     }
     if (const auto v = motion->optional("recovery_velocity_fraction")) config.servo.recovery_velocity_fraction = v->as_double_in(0.001, 1.0);
     if (const auto v = motion->optional("recovery_margin_m")) config.servo.recovery_margin_m = v->as_double_in(0.0, 1.0);
+    if (const auto v = motion->optional("jog_timeout_s")) config.servo.jog_timeout_s = v->as_double_in(0.01, 10.0);
   }
 
   if (const auto faults = root.optional("faults")) {

@@ -24,7 +24,8 @@ static_assert(static_cast<int>(CommandKind::kLoadFeedforward) == servo_command_t
 static_assert(static_cast<int>(CommandKind::kTakeControl) == servo_command_t::TAKE_CONTROL);
 static_assert(static_cast<int>(CommandKind::kReleaseControl) == servo_command_t::RELEASE_CONTROL);
 static_assert(static_cast<int>(CommandKind::kQuickStop) == servo_command_t::QUICK_STOP);
-static_assert(servo::kCommandKinds == servo_command_t::QUICK_STOP);
+static_assert(static_cast<int>(CommandKind::kJog) == servo_command_t::JOG);
+static_assert(servo::kCommandKinds == servo_command_t::JOG);
 static_assert(static_cast<int>(servo::CommutationMode::kOriginal) == servo_state_t::COMMUTATION_ORIGINAL);
 static_assert(static_cast<int>(servo::CommutationMode::kClassical) == servo_state_t::COMMUTATION_CLASSICAL);
 static_assert(static_cast<int>(servo::CommutationMode::kPgnn) == servo_state_t::COMMUTATION_PGNN);
@@ -262,6 +263,15 @@ std::string to_command(const clm_lcm::servo_command_t& message, servo::Command& 
       }
       command.target_m = message.target_m;
       command.limits = {message.velocity_m_per_s, message.acceleration_m_per_s2, message.jerk_m_per_s3};
+      break;
+    case CommandKind::kJog:
+      for (const auto& [field, value] : {std::pair{"velocity_m_per_s", message.velocity_m_per_s},
+                                         std::pair{"acceleration_m_per_s2", message.acceleration_m_per_s2},
+                                         std::pair{"jerk_m_per_s3", message.jerk_m_per_s3}}) {
+        if (reason.empty()) reason = check_finite(field, value);
+      }
+      command.jog_velocity_m_per_s = message.velocity_m_per_s;
+      command.limits = {std::abs(message.velocity_m_per_s), message.acceleration_m_per_s2, message.jerk_m_per_s3};
       break;
     case CommandKind::kRunProgram:
       reason = copy_path("program", message.program, command.program);

@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "commutation/types.hpp"
+#include "daemon/servo/command.hpp"
 
 namespace clm::telemetry {
 namespace {
@@ -39,7 +40,7 @@ constexpr double kCommutationMax = 5;  // servo_state_t.COMMUTATION_EXPERIMENT
 constexpr double kMaxAxisBytes = 32;
 
 constexpr std::array kCommandFields{
-    i64("utime"), i64("sequence"), text("axis", kMaxAxisBytes), i64("session"), i64("client"), i8("command", 1, 14),
+    i64("utime"), i64("sequence"), text("axis", kMaxAxisBytes), i64("session"), i64("client"), i8("command", 1, servo::kCommandKinds),
     finite("target_m"), finite("velocity_m_per_s"), finite("acceleration_m_per_s2"), finite("jerk_m_per_s3"),
     text("program", kMaxPathBytes), i8("commutation", 0, kCommutationMax), i8("coil_set", 0, kMaxCoilSetCount),
     finite("delta_rad"), text("path", kMaxPathBytes),

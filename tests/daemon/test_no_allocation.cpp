@@ -80,7 +80,7 @@ TEST_CASE("10^5 cycles with a program running allocate nothing, in every commuta
   CHECK(daemon.take_replies().size() == 3);
 }
 
-TEST_CASE("stops, quick stops, the approach guard and fault reactions allocate nothing in the cycle",
+TEST_CASE("stops, quick stops, a jog, the approach guard and fault reactions allocate nothing in the cycle",
           "[daemon][allocation]") {
   // Moves are posted between the counted stretches (planning them allocates,
   // on the command thread); everything the cycle does with them is counted:
@@ -118,6 +118,20 @@ TEST_CASE("stops, quick stops, the approach guard and fault reactions allocate n
     REQUIRE(daemon.cycle().idle());
     (void)daemon.take_replies();
   }
+  // A jog: renewed three times (renew_jog itself is lock-free and runs on
+  // the command thread), then stopped by its timeout in the cycle.
+  servo::Command jog;
+  jog.kind = Kind::kJog;
+  jog.jog_velocity_m_per_s = daemon.cycle().hold_position_m() > 0.0 ? -0.1 : 0.1;
+  jog.limits = {0.1, 1.0, 1000.0};
+  REQUIRE(daemon.submit(jog).text == "jog started");
+  for (int k = 0; k < 3; ++k) {
+    counted(100);
+    REQUIRE(daemon.submit(jog).text == "jogging");
+  }
+  counted(600);
+  REQUIRE(daemon.cycle().idle());
+  CHECK(daemon.cycle().counters().jog_timeouts == 1);
   // A fault reaction: overruns reported while moving.
   servo::Command move;
   move.kind = Kind::kMoveTo;
@@ -136,7 +150,7 @@ TEST_CASE("stops, quick stops, the approach guard and fault reactions allocate n
   CHECK(allocations == 0);
   CHECK(malloc_calls == 0);
   const auto& after = daemon.cycle().counters();
-  CHECK(after.stops - before.stops == 7);
+  CHECK(after.stops - before.stops == 7 + 1);  // and the jog's
   CHECK(after.quick_stops - before.quick_stops == 13 + 1);
 }
 

@@ -372,6 +372,95 @@ TEST_CASE("a fault that distrusts the feedback, during a quick-stop reaction, ze
   }
 }
 
+TEST_CASE("a jog moves at its velocity while repeated and stops along the stop limits when the repeats stop",
+          "[daemon][stops][jog]") {
+  Axis axis;
+  auto& daemon = axis.daemon;
+  const auto& s = axis.settings();
+  axis.go_to(0.05);  // 0.5 s of jog and its timeout stay well inside the lower soft limit
+  servo::Command jog;
+  jog.kind = Kind::kJog;
+  jog.jog_velocity_m_per_s = -0.1;
+  jog.limits = {0.1, 5.0, 1000.0};
+  auto reply = daemon.submit(jog);
+  REQUIRE(reply.accepted);
+  CHECK(reply.text == "jog started");
+  // Repeated every 0.1 s for 0.5 s: at the velocity, towards the lower limit.
+  for (int k = 0; k < 5; ++k) {
+    daemon.run_cycles(100);
+    CHECK(daemon.cycle().jogging());
+    reply = daemon.submit(jog);
+    REQUIRE(reply.accepted);
+    CHECK(reply.text == "jogging");
+  }
+  CHECK(axis.record().r_dot_m_per_s == Approx(-0.1));
+  // Another velocity while it runs is refused; the jog goes on.
+  servo::Command faster = jog;
+  faster.jog_velocity_m_per_s = -0.2;
+  faster.limits.velocity_m_per_s = 0.2;
+  CHECK_THAT(daemon.submit(faster).text, Catch::Contains("another jog runs"));
+  // No more repeats: after jog_timeout_s the stop profile from the reference
+  // of that cycle, within the stop limits, then at rest; no fault.
+  const auto timeout_cycles = static_cast<int>(std::ceil(s.jog_timeout_s / s.period_s));
+  int k = 0;
+  while (daemon.cycle().jogging()) {
+    daemon.run_cycles(1);
+    REQUIRE(++k <= timeout_cycles + 2);
+  }
+  CHECK(k >= timeout_cycles - 1);
+  const control::StopProfile planned = control::StopProfile::plan(reference_of(axis.record()), s.stop_limits);
+  const int stop_cycles = static_cast<int>(std::ceil(planned.duration_s() / s.period_s)) + 2;
+  for (int n = 0; n < stop_cycles; ++n) {
+    daemon.run_cycles(1);
+    CHECK(std::abs(axis.record().r_ddot_m_per_s2) <= s.stop_limits.deceleration_m_per_s2 + 1e-9);
+  }
+  CHECK(axis.record().r_dot_m_per_s == 0.0);
+  CHECK(daemon.cycle().idle());
+  CHECK(daemon.cycle().state() == ServoState::kEnabled);
+  CHECK(daemon.cycle().counters().jog_timeouts == 1);
+  // A repeat after the stop starts a new jog.
+  reply = daemon.submit(jog);
+  CHECK(reply.text == "jog started");
+}
+
+TEST_CASE("a repeated jog ends a following-error limit short of the soft limit; jogs beyond the limits are refused",
+          "[daemon][stops][jog]") {
+  Axis axis;
+  auto& daemon = axis.daemon;
+  const auto& s = axis.settings();
+  servo::Command jog;
+  jog.kind = Kind::kJog;
+  jog.jog_velocity_m_per_s = 0.5;
+  jog.limits = s.motion_limits;
+  REQUIRE(daemon.submit(jog).accepted);
+  double highest_m = -1.0;
+  for (int k = 0; k < 100 && (daemon.cycle().jogging() || k == 0); ++k) {
+    daemon.run_cycles(50);
+    daemon.submit(jog);  // refused once the jog has ended at the limit
+    highest_m = std::max(highest_m, axis.motor().truth().position_m);
+  }
+  CHECK_FALSE(daemon.cycle().jogging());
+  CHECK(axis.record().r_m == Approx(s.soft_limit_max_m - s.following_error_limit_m));
+  CHECK(highest_m < s.soft_limit_max_m);
+  CHECK(daemon.cycle().state() == ServoState::kEnabled);
+  CHECK_THAT(daemon.submit(jog).text, Catch::Contains("at the soft limit in that direction already"));
+
+  servo::Command bad = jog;
+  bad.jog_velocity_m_per_s = -1.0;
+  bad.limits.velocity_m_per_s = 1.0;
+  CHECK_THAT(daemon.submit(bad).text, Catch::Contains("velocity_m_per_s 1 m/s exceeds the limit 0.5 m/s"));
+  bad = jog;
+  bad.jog_velocity_m_per_s = 0.0;
+  bad.limits.velocity_m_per_s = 0.0;
+  CHECK_THAT(daemon.submit(bad).text, Catch::Contains("must not be 0"));
+  // Not while a move runs.
+  REQUIRE(axis.move_to(0.0, {0.1, 1.0, 1000.0}).accepted);
+  daemon.run_cycles(5);
+  jog.jog_velocity_m_per_s = -0.1;
+  jog.limits.velocity_m_per_s = 0.1;
+  CHECK_THAT(daemon.submit(jog).text, Catch::Contains("a program is running"));
+}
+
 TEST_CASE("after fault 202 the axis is enabled in restricted mode and only a slow move back inside is accepted",
           "[daemon][stops][faults]") {
   Axis axis;

@@ -156,8 +156,60 @@ CHECK
 done
 [ $cases = 8 ] || fail "$cases cases, expected 8"
 
+# Jog through clm ctl: it moves while repeated (every 0.1 s for 0.6 s), and
+# the daemon stops it along the stop limits once the repeats stop (after
+# motion.jog_timeout_s, 0.25 s by default), judged from the state log.
+log="$work/jog.lcmlog"
+lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_STATE "$log" 2> "$work/logger.log" &
+logger=$!
+pids+=("$logger")
+sleep 0.3
+reply=$(ctl jog --velocity-m-per-s 0.1 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 --duration-s 0.6) ||
+    fail "jog: $reply"
+[[ "$reply" == "jog started"* ]] || fail "jog: '$reply'"
+wait_idle "jog"
+sleep 0.1
+kill -INT $logger; wait $logger || true
+"$clm" log2csv --log "$log" --format full --output "$log.csv" > /dev/null || fail "jog: log2csv"
+verdict=$(python3 - "$log.csv" "$stop_dec" "$stop_jerk" <<'CHECK'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+dec, jerk = map(float, sys.argv[2:4])
+f = lambda r, k: float(r[k])
+moving = [k for k, r in enumerate(rows) if f(r, "r_dot_m_per_s") != 0.0]
+assert moving, "the jog did not move"
+first, last = moving[0], moving[-1]
+cruise = sum(1 for r in rows if abs(f(r, "r_dot_m_per_s") - 0.1) < 1e-9) * 1e-3
+took = (last - first + 1) * 1e-3
+# 0.6 s of repeats (the last ack may come up to a repeat later), the timeout, the stop.
+assert cruise >= 0.5, f"at 0.1 m/s for {cruise:.3f} s only"
+assert took <= 0.6 + 0.1 + 0.25 + 0.02 + 0.15, f"moved for {took:.3f} s"
+for k in range(first, last + 2):
+    a = f(rows[k], "r_ddot_m_per_s2")
+    assert abs(a) <= max(dec, 10.0) + 1e-6, f"cycle {rows[k]['cycle']}: {a} m/s^2"
+assert all(int(f(r, "state")) == 1 for r in rows), "the state left enabled"
+print(f"jogged at 0.1 m/s for {cruise:.3f} s, moving {took:.3f} s in all, {f(rows[last], 'r_m') - f(rows[first], 'r_m'):.4f} m")
+CHECK
+) || fail "jog: $verdict"
+echo "jog: $verdict"
+
+# A client that freezes while jogging (SIGSTOP): the daemon stops the axis
+# by itself within the timeout and the stop.
+ctl jog --velocity-m-per-s -0.1 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 --duration-s 10 > "$work/jog2.out" &
+jogger=$!
+pids+=("$jogger")
+sleep 0.5
+kill -STOP $jogger
+frozen=$(date +%s.%N)
+wait_idle "frozen jog"
+stopped_s=$(echo "$(date +%s.%N) - $frozen" | bc)
+kill -KILL $jogger 2>/dev/null || true
+wait $jogger 2>/dev/null || true
+[ "$(echo "$stopped_s < 1.0" | bc)" = 1 ] || fail "frozen jog: the axis still moved $stopped_s s after the client froze"
+echo "jog: a frozen client's jog stopped by the daemon, at rest within $stopped_s s (status polled every 0.05 s)"
+
 rc=0
 stop_process $pid 20 || rc=$?
 trap - EXIT
 [ $rc = 0 ] || fail "clm-servod exit status $rc after SIGTERM, expected 0"
-echo "clm-servod stop test: refusal beyond the limits; stop and quick stop at 0.25 and 0.5 m/s at two points of the move, within the limits and the profile time"
+echo "clm-servod stop test: refusal beyond the limits; stop and quick stop at 0.25 and 0.5 m/s at two points of the move, within the limits and the profile time; jog while repeated, stopped when the repeats stop or the client freezes"

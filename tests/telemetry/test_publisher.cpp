@@ -305,8 +305,8 @@ TEST_CASE("An ill-formed command is refused with an ack naming the field, and ne
     edit(m);
     cases.push_back({m, std::move(reason)});
   };
-  add(15, [](M&) {}, "unknown command 15 (1..14)");
-  add(0, [](M&) {}, "unknown command 0 (1..14)");
+  add(M::JOG + 1, [](M&) {}, "unknown command 16 (1..15)");  // one past the last kind
+  add(0, [](M&) {}, "unknown command 0 (1..15)");
   add(M::LOAD_FEEDFORWARD, [](M& m) { m.path = ""; }, "path is empty");
   add(M::LOAD_CALIBRATION, [](M& m) { m.path = std::string(300, 'c'); },
       "path is 300 characters long, at most 255 fit");

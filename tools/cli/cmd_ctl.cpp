@@ -13,6 +13,7 @@
 // Exit status: 0 status received / command accepted; 1 timeout or command
 // refused (the ack's text says why); 2 bad arguments, no LCM, or several
 // axes answering without --axis.
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -20,6 +21,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include "clm_lcm/servo_command_t.hpp"
 #include "clm_lcm/servo_status_t.hpp"
@@ -217,6 +219,59 @@ void add_ctl(CLI::App& app) {
     command.acceleration_m_per_s2 = move->acceleration_m_per_s2;
     command.jerk_m_per_s3 = move->jerk_m_per_s3;
     send_command(*options, command);
+  });
+
+  struct JogOptions {
+    double velocity_m_per_s = 0.0, acceleration_m_per_s2 = 1.0, jerk_m_per_s3 = 1000.0, duration_s = 1.0, repeat_s = 0.1;
+  };
+  auto jog = std::make_shared<JogOptions>();
+  auto* jog_sub = ctl->add_subcommand(
+      "jog", "move at a velocity for --duration-s by repeating JOG every --repeat-s; the daemon stops the axis when the "
+             "repeats stop (motion.jog_timeout_s)");
+  jog_sub->add_option("--velocity-m-per-s", jog->velocity_m_per_s, "velocity [m/s], signed: + towards the upper soft limit")
+      ->required();
+  jog_sub->add_option("--acceleration-m-per-s2", jog->acceleration_m_per_s2, "acceleration limit [m/s^2]")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  jog_sub->add_option("--jerk-m-per-s3", jog->jerk_m_per_s3, "jerk limit [m/s^3]")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  jog_sub->add_option("--duration-s", jog->duration_s, "how long to keep repeating [s]")
+      ->check(CLI::Range(0.01, 3600.0))->capture_default_str();
+  jog_sub->add_option("--repeat-s", jog->repeat_s, "time between repeats [s]; below the daemon's jog_timeout_s")
+      ->check(CLI::Range(0.01, 1.0))->capture_default_str();
+  jog_sub->callback([options, jog] {
+    if (!std::isfinite(jog->velocity_m_per_s) || jog->velocity_m_per_s == 0.0) {
+      throw std::runtime_error("--velocity-m-per-s must be finite and not 0 (its sign is the direction)");
+    }
+    servod_client::Client client(client_options(
+        *options, std::string("(") + telemetry::kStatusChannel + "|" + telemetry::kCommandAckChannel + ")"));
+    const auto start = std::chrono::steady_clock::now();
+    const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(jog->repeat_s));
+    int repeats = 0;
+    for (auto next = start; std::chrono::steady_clock::now() - start < std::chrono::duration<double>(jog->duration_s);
+         next += period) {
+      Command command = make_command(Command::JOG);
+      command.velocity_m_per_s = jog->velocity_m_per_s;
+      command.acceleration_m_per_s2 = jog->acceleration_m_per_s2;
+      command.jerk_m_per_s3 = jog->jerk_m_per_s3;
+      servod_client::Ack ack;
+      try {
+        ack = client.send(command, options->timeout_s, "JOG");
+      } catch (const servod_client::SeveralAxes& e) {
+        several_axes(e);
+      } catch (const servod_client::NoAck& e) {
+        std::fprintf(stderr, "clm ctl: %s\n", e.what());
+        fail_quietly();
+      }
+      if (!ack.accepted) {
+        std::printf("%s\n", ack.text.c_str());
+        fail_quietly();
+      }
+      if (repeats++ == 0) std::printf("%s\n", ack.text.c_str());
+      std::this_thread::sleep_until(next + period);
+    }
+    std::printf("jogged: %d repeats in %.2f s; the daemon stops the axis once no repeat has come for its jog_timeout_s\n",
+                repeats, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   });
 
   const auto with_file = [&](const char* name, std::int8_t kind, const char* help, const char* what) {
