@@ -1,9 +1,11 @@
 #include "daemon/servod/servo_daemon.hpp"
 
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <stdexcept>
+#include <type_traits>
 
 #include "config/regular_file.hpp"
 #include "config/sha256.hpp"
@@ -466,28 +468,55 @@ void ServoDaemon::collect_garbage() {
   });
 }
 
+namespace {
+
+// A seqlock's payload is read while it may be written: every byte goes
+// through std::atomic_ref (relaxed), so the race is on atomics, not UB; the
+// generation counter says whether the copy is whole.
+static_assert(std::is_trivially_copyable_v<telemetry::LoadedFileText>);
+void atomic_copy(unsigned char* to, const unsigned char* from, std::size_t bytes, bool to_shared) noexcept {
+  for (std::size_t i = 0; i < bytes; ++i) {
+    if (to_shared) {
+      std::atomic_ref<unsigned char>(to[i]).store(from[i], std::memory_order_relaxed);
+    } else {
+      to[i] = std::atomic_ref<unsigned char>(const_cast<unsigned char&>(from[i])).load(std::memory_order_relaxed);
+    }
+  }
+}
+
+}  // namespace
+
 void ServoDaemon::set_loaded_file(LoadedFileSlot slot, const std::string& path, const std::string& sha256) noexcept {
   FileSlot& file = files_[static_cast<std::size_t>(slot)];
-  if (file.text.path.view() == path && file.text.sha256.view() == sha256) return;
+  telemetry::LoadedFileText text;  // this thread is the only writer: its own reads need no care
+  text.path.assign(path);
+  text.sha256.assign(sha256);
+  telemetry::LoadedFileText current;
+  atomic_copy(reinterpret_cast<unsigned char*>(&current), reinterpret_cast<const unsigned char*>(&file.text),
+              sizeof current, false);
+  if (current.path.view() == text.path.view() && current.sha256.view() == text.sha256.view()) return;
   const std::uint64_t generation = file.generation.load(std::memory_order_relaxed);
-  file.generation.store(generation + 1, std::memory_order_release);  // odd: being written
+  file.generation.store(generation + 1, std::memory_order_relaxed);  // odd: being written
   std::atomic_thread_fence(std::memory_order_release);
-  file.text.path.assign(path);
-  file.text.sha256.assign(sha256);
+  atomic_copy(reinterpret_cast<unsigned char*>(&file.text), reinterpret_cast<const unsigned char*>(&text), sizeof text,
+              true);
   file.generation.store(generation + 2, std::memory_order_release);
 }
 
 std::uint64_t ServoDaemon::loaded_file(LoadedFileSlot slot, telemetry::LoadedFileText& out) const noexcept {
   const FileSlot& file = files_[static_cast<std::size_t>(slot)];
-  std::uint64_t before = 0;
   for (int attempt = 0; attempt < 8; ++attempt) {
-    before = file.generation.load(std::memory_order_acquire);
+    const std::uint64_t before = file.generation.load(std::memory_order_acquire);
     if (before % 2 != 0) continue;
-    out = file.text;
+    atomic_copy(reinterpret_cast<unsigned char*>(&out), reinterpret_cast<const unsigned char*>(&file.text), sizeof out,
+                false);
     std::atomic_thread_fence(std::memory_order_acquire);
     if (file.generation.load(std::memory_order_relaxed) == before) return before;
   }
-  return before;
+  // Being rewritten on every look: say so rather than report a torn name.
+  out.path.assign("(changing)");
+  out.sha256.assign("");
+  return 0;
 }
 
 void ServoDaemon::update_law_files() noexcept {

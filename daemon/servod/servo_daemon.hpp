@@ -122,8 +122,10 @@ class ServoDaemon {
   /// -1 and 0 until then.
   std::int64_t disabled_after_cycles() const noexcept { return disabled_after_cycles_.load(std::memory_order_acquire); }
   std::int64_t disabled_at_ns() const noexcept { return disabled_at_ns_.load(std::memory_order_acquire); }
-  /// Any thread: copies the file now in use for `slot` (empty when none) and
-  /// returns its generation, which changes with every new file.
+  /// Any thread, lock-free (a seqlock read byte by byte through atomics):
+  /// copies the file now in use for `slot` (empty when none) and returns its
+  /// generation, which changes with every new file; when the slot was being
+  /// rewritten on each of 8 looks, the path "(changing)" and 0.
   std::uint64_t loaded_file(LoadedFileSlot slot, telemetry::LoadedFileText& out) const noexcept;
   /// Commands the daemon refused (by submit, the cycle or the loader).
   std::int64_t commands_refused() const noexcept { return refused_.load(std::memory_order_relaxed); }
