@@ -60,15 +60,7 @@ grep -q "running: 1000 Hz" "$work/servod.err" || fail "the staged clm-servod did
 echo "staged clm-servod: $(grep "running:" "$work/servod.err")"
 
 # ---- 3. the tools find their files through the installed layout -----------------------
-cat > "$etc/short.yaml" <<'PROGRAM'
-format: clm-servo-program
-format_version: 1
-description: "package test: the stroke once out and back"
-start_m: -0.1
-steps:
-  - {target_m: 0.1, velocity_m_per_s: 0.1, acceleration_m_per_s2: 1.0, jerk_m_per_s3: 1000.0, dwell_s: 0.25}
-  - {target_m: -0.1, velocity_m_per_s: 0.1, acceleration_m_per_s2: 1.0, jerk_m_per_s3: 1000.0, dwell_s: 0.25}
-PROGRAM
+cp "$(dirname "$0")/../support/one_stroke_program.yaml" "$etc/short.yaml"
 "$stage/usr/bin/clm" commission --config "$etc/servod-test.yaml" --program "$etc/short.yaml" --validation-program none \
     --restarts 1 --out "$work/commission" > "$work/commission.out" 2> "$work/commission.err" ||
     fail "the staged clm commission: $(tail -1 "$work/commission.err")"

@@ -71,17 +71,9 @@ missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" "moto
           config_require "$work/servod.yaml" "  rate_hz: 1000" "  state_decimation: 1") ||
     fail "config: no line '$missing' after editing"
 
-# The Fig. 8 stroke (-0.1 .. 0.1 m) once out and back at 0.1 m/s: about 4.6 s
-# a run instead of Fig. 8's 26 s, so the 14 runs fit in about two minutes.
-cat > "$work/program.yaml" <<'PROGRAM'
-format: clm-servo-program
-format_version: 1
-description: "live commissioning test: the Fig. 8 stroke once out and back"
-start_m: -0.1
-steps:
-  - {target_m: 0.1, velocity_m_per_s: 0.1, acceleration_m_per_s2: 1.0, jerk_m_per_s3: 1000.0, dwell_s: 0.25}
-  - {target_m: -0.1, velocity_m_per_s: 0.1, acceleration_m_per_s2: 1.0, jerk_m_per_s3: 1000.0, dwell_s: 0.25}
-PROGRAM
+# The Fig. 8 stroke once out and back (4.6 s a run instead of Fig. 8's 26 s),
+# so the 14 runs fit in about two minutes.
+cp "$source_dir/tests/support/one_stroke_program.yaml" "$work/program.yaml"
 
 start_daemon "$work/servod.yaml" "$work/servod.log"
 pid=$servod_pid
