@@ -97,8 +97,8 @@ need_artifacts() {
   return 1
 }
 if need_artifacts; then
-  echo "HIL: commissioning the embedded default into $artifacts (clm commission --no-plots)"
-  if ! "$clm" commission --out "$artifacts" --no-plots > "$work/commission.log" 2>&1; then
+  echo "HIL: commissioning the embedded default into $artifacts (clm commission --config config/servod.yaml --no-plots)"
+  if ! "$clm" commission --config "$source_dir/config/servod.yaml" --out "$artifacts" --no-plots > "$work/commission.log" 2>&1; then
     tail -5 "$work/commission.log"
     fail "commission: clm commission failed"
     finish

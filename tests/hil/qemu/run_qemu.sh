@@ -49,7 +49,7 @@ artifacts=${HIL_ARTIFACTS:-$work/commission}
 if [ "$suite" = fig8 ] && { [ ! -f "$artifacts/report.json" ] || [ "$clm" -nt "$artifacts/report.json" ]; }; then
   echo "HIL: commissioning the embedded default on the host into $artifacts"
   commission_start=$(date +%s)
-  if ! "$clm" commission --out "$artifacts" --no-plots > "$work/commission.log" 2>&1; then
+  if ! "$clm" commission --config "$source_dir/config/servod.yaml" --out "$artifacts" --no-plots > "$work/commission.log" 2>&1; then
     tail -5 "$work/commission.log"
     echo "HIL: 0 passed, 1 failed (clm commission on the host)"
     exit 1
