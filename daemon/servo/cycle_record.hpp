@@ -47,6 +47,7 @@ struct CycleRecord {
   double Fy_star_N = 0.0;         ///< desired driving force [N]
   double Fx_star_N = 0.0;         ///< desired out-of-plane force [N]
   double Tz_star_Nm = 0.0;        ///< desired torque about z [N m]
+  bool force_measured = false;    ///< Fy_N, Fx_N, Tz_Nm are this cycle's force-sensor frame (else 0)
   double Fy_N = 0.0;              ///< measured driving force (force sensor) [N]
   double Fx_N = 0.0;              ///< measured out-of-plane force [N]
   double Tz_Nm = 0.0;             ///< measured torque about z [N m]

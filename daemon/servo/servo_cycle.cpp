@@ -9,9 +9,6 @@ namespace clm::servo {
 namespace {
 
 constexpr double kProgramStartTolerance_m = 1e-6;
-// Velocity estimate: first-order filter on the position difference with this
-// time constant [s], enough to tell standstill from motion through encoder noise.
-constexpr double kVelocityFilter_s = 0.01;
 // A planned stop may end this far beyond a soft limit (rounding of the
 // profile's closed form); anything more triggers the approach guard.
 constexpr double kStopTolerance_m = 1e-9;
@@ -51,6 +48,8 @@ const char* describe(CommandStatus status) noexcept {
     case CommandStatus::kRejectedNoLaw: return "rejected: no calibration or model loaded for that commutation";
     case CommandStatus::kRejectedBusy: return "rejected: a program is running";
     case CommandStatus::kRejectedInvalid: return "rejected: argument out of range";
+    case CommandStatus::kRejectedNoForceSensor:
+      return "rejected: an experiment needs the force sensor, and this axis has none or has lost it";
   }
   return "unknown";
 }
@@ -252,6 +251,9 @@ CommandStatus ServoCycle::request_mode(CommutationMode mode, int coil_set, doubl
         std::abs(delta_rad) > kPi) {
       return CommandStatus::kRejectedInvalid;
     }
+    if (!can::has_force_sensor(settings_.protocol) || force_warning_ != Fault::kNone) {
+      return CommandStatus::kRejectedNoForceSensor;
+    }
   } else if (laws_[static_cast<std::size_t>(mode)] == nullptr &&
              !law_offers_[static_cast<std::size_t>(mode)].pending()) {
     return CommandStatus::kRejectedNoLaw;
@@ -369,41 +371,8 @@ void ServoCycle::commutate(double position_m, double force_N) noexcept {
 }
 
 std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
-  // 1. Feedback bookkeeping: ride through missing frames up to the limit.
-  // A cycle whose frame came late or was rejected counts as one without it;
-  // when rejected frames were part of the run, that is the reason given.
-  if (drive_fresh_) {
-    drive_missed_ = 0;
-    drive_rejected_ = false;
-  } else {
-    ++counters_.frames_missing;
-    ++drive_unseen_;
-    if (++drive_missed_ >= settings_.missing_frame_limit && have_position_) {
-      latch(drive_rejected_ ? Fault::kFrameRejected : Fault::kEncoderFrameMissing);
-    }
-  }
-  if (force_fresh_) {
-    force_missed_ = 0;
-    force_rejected_ = false;
-  } else {
-    ++counters_.frames_missing;
-    ++force_unseen_;
-    if (++force_missed_ >= settings_.missing_frame_limit && have_position_) {
-      latch(force_rejected_ ? Fault::kFrameRejected : Fault::kForceFrameMissing);
-    }
-  }
-  if (drive_fresh_) {
-    if (!std::isfinite(drive_.position_m)) latch(Fault::kMeasurementNotFinite);
-    previous_position_m_ = have_position_ ? position_m_ : drive_.position_m;
-    position_m_ = drive_.position_m;
-    have_position_ = true;
-    const double raw_velocity = (position_m_ - previous_position_m_) / settings_.period_s;
-    const double alpha = settings_.period_s / (kVelocityFilter_s + settings_.period_s);
-    velocity_estimate_m_per_s_ += alpha * (raw_velocity - velocity_estimate_m_per_s_);
-    // The feedback of the cycle that carries the clear request predates it.
-    if ((drive_.status_word & can::kStatusFault) && !clear_drive_fault_) latch(Fault::kDriveFault);
-  }
-  if (force_fresh_ && !force_.wrench.allFinite()) latch(Fault::kMeasurementNotFinite);
+  // 1. Feedback bookkeeping (servo_cycle_feedback.cpp).
+  account_feedback();
   if (have_position_ && restricted_.load(std::memory_order_relaxed)) {
     // Restricted mode: back inside ends it; farther out than where it was
     // enabled (by more than the following-error limit) latches.
@@ -556,9 +525,6 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
   record_.coil_set = mode_ == CommutationMode::kExperiment ? experiment_coil_set_ : 0;
   record_.delta_rad = mode_ == CommutationMode::kExperiment ? experiment_delta_rad_ : 0.0;
   record_.y_m = position_m_;
-  record_.Fy_N = force_.wrench.x();
-  record_.Fx_N = force_.wrench.y();
-  record_.Tz_Nm = force_.wrench.z();
   record_.program_running = running_ != nullptr;
   if (!record_.program_running) record_.program_time_s = 0.0;
   record_.drive_status_word = drive_.status_word;

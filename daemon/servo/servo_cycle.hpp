@@ -68,6 +68,7 @@ enum class CommandStatus : std::uint8_t {
   kRejectedNoLaw,     ///< no calibration/model loaded for that mode
   kRejectedBusy,      ///< a program is running
   kRejectedInvalid,   ///< argument out of range
+  kRejectedNoForceSensor,  ///< an experiment, and the axis has no force sensor or has lost it
 };
 const char* describe(CommandStatus status) noexcept;
 
@@ -87,6 +88,7 @@ struct CycleCounters {
   std::int64_t quick_stops = 0;     ///< quick stops planned (command, approach guard, fault reaction)
   std::int64_t guard_stops = 0;     ///< of those, by the approach guard
   std::int64_t jog_timeouts = 0;    ///< jogs stopped because no renewal came within jog_timeout_s
+  std::int64_t force_sensor_losses = 0;  ///< times the force sensor was lost in service (a warning, not a fault)
 };
 
 class ServoCycle {
@@ -144,8 +146,12 @@ class ServoCycle {
   can::Frame begin_cycle(std::int64_t sync_time_ns) noexcept;
   /// A frame received during the cycle.
   void on_frame(const drivers::ReceivedFrame& frame) noexcept;
-  /// Both feedback frames of this cycle are in.
-  bool feedback_complete() const noexcept { return drive_fresh_ && force_fresh_; }
+  /// The feedback frames of this cycle are in: the drive's, and the force
+  /// sensor's when the axis has one (also while it is lost: its frame, when it
+  /// comes again, must not be left for the next cycle as a late one).
+  bool feedback_complete() const noexcept {
+    return drive_fresh_ && (force_fresh_ || !can::has_force_sensor(settings_.protocol));
+  }
   /// Checks, position loop, commutation, setpoint frames. `time_s` is the
   /// cycle's time for the record.
   std::span<const can::Frame> end_cycle(double time_s) noexcept;
@@ -171,11 +177,21 @@ class ServoCycle {
   bool stopping() const noexcept { return stopping_; }
   /// The axis is still driven along a quick stop after a fault latched.
   bool fault_reaction_running() const noexcept { return reacting_; }
+  /// The force sensor's warning: kNone while it is healthy (or the axis has
+  /// none), else why it was lost in service (kForceFrameMissing,
+  /// kForceAliveJump, kFrameRejected, kMeasurementNotFinite). In an experiment
+  /// the same latches as a fault. Clears after missing_frame_limit good cycles.
+  Fault force_sensor_warning() const noexcept { return force_warning_; }
 
  private:
   void latch(Fault fault) noexcept;
-  void track_alive(std::uint8_t counter, std::uint8_t& last, bool& known, int& unseen, bool late,
-                   Fault jump_fault) noexcept;
+  /// Whether `counter` follows the stream's last one (frames owed: `unseen`).
+  bool track_alive(std::uint8_t counter, std::uint8_t& last, bool& known, int& unseen, bool late) noexcept;
+  /// Missing frames, the position and velocity estimate, the drive's fault bit.
+  void account_feedback() noexcept;
+  void account_force_feedback() noexcept;
+  /// A fault in an experiment, else the force sensor's warning.
+  void force_sensor_trouble(Fault reason) noexcept;
   void adopt_offers() noexcept;
   void commutate(double position_m, double force_N) noexcept;
   void zero_setpoints() noexcept;
@@ -194,6 +210,9 @@ class ServoCycle {
   // Jog: renewals counted in jog_token_ (kJogStopped once the cycle stops
   // it), so that a renewal and the cycle's decision to stop never cross.
   static constexpr std::int64_t kJogStopped = -1;
+  // Velocity estimate: first-order filter on the position difference with this
+  // time constant [s], enough to tell standstill from motion through encoder noise.
+  static constexpr double kVelocityFilter_s = 0.01;
   std::atomic<const control::MoveProgram*> jog_offer_{nullptr};
   std::atomic<std::int64_t> jog_token_{kJogStopped};
   std::atomic<bool> jogging_{false};
@@ -221,6 +240,8 @@ class ServoCycle {
   int drive_missed_ = 0, force_missed_ = 0;  // consecutive cycles without a timely, valid frame
   int drive_unseen_ = 0, force_unseen_ = 0;  // frames owed since the last one received (alive-counter gap)
   bool drive_rejected_ = false, force_rejected_ = false;  // a frame was rejected since the last timely one
+  Fault force_warning_ = Fault::kNone;  // see force_sensor_warning()
+  int force_good_ = 0;                    // good force cycles in a row while warned
   bool have_position_ = false;
   double position_m_ = 0.0, previous_position_m_ = 0.0;
   double velocity_estimate_m_per_s_ = 0.0;

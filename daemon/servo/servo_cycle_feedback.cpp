@@ -1,25 +1,99 @@
 // The feedback half of the servo cycle: frames received during a cycle
-// (alive counters, lateness, duplicates, rejected frames), overruns and the
-// bus state reported by the loop. The reference, the position loop and the
-// setpoints are in servo_cycle.cpp.
+// (alive counters, lateness, duplicates, rejected frames), what the cycle
+// makes of them (missing frames, the force sensor's warning), overruns and
+// the bus state reported by the loop. The reference, the position loop and
+// the setpoints are in servo_cycle.cpp.
+#include <cmath>
+
 #include "daemon/servo/servo_cycle.hpp"
 
 namespace clm::servo {
 
-void ServoCycle::track_alive(std::uint8_t counter, std::uint8_t& last, bool& known, int& unseen, bool late,
-                             Fault jump_fault) noexcept {
+bool ServoCycle::track_alive(std::uint8_t counter, std::uint8_t& last, bool& known, int& unseen,
+                             bool late) noexcept {
   // `unseen` frames of the stream are owed since `last`: a timely frame must
   // be the one after them, a late one must be one of them.
+  bool in_sequence = true;
   if (known) {
     const int step = static_cast<std::uint8_t>(counter - last);
-    const bool in_sequence = late ? (step >= 1 && step <= unseen) : step == unseen + 1;
-    if (!in_sequence) latch(jump_fault);
+    in_sequence = late ? (step >= 1 && step <= unseen) : step == unseen + 1;
     unseen = in_sequence && late ? unseen - step : 0;
   } else {
     unseen = 0;
   }
   last = counter;
   known = true;
+  return in_sequence;
+}
+
+void ServoCycle::force_sensor_trouble(Fault reason) noexcept {
+  // An experiment measures with the sensor: losing it there is a fault. In
+  // service the loop does not use it: a warning, until it is healthy again.
+  if (mode_ == CommutationMode::kExperiment) {
+    latch(reason);
+    return;
+  }
+  force_good_ = 0;
+  if (force_warning_ == Fault::kNone) {
+    force_warning_ = reason;
+    ++counters_.force_sensor_losses;
+  }
+}
+
+void ServoCycle::account_feedback() noexcept {
+  // Ride through missing frames up to the limit. A cycle whose frame came
+  // late or was rejected counts as one without it; when rejected frames were
+  // part of the run, that is the reason given.
+  if (drive_fresh_) {
+    drive_missed_ = 0;
+    drive_rejected_ = false;
+  } else {
+    ++counters_.frames_missing;
+    ++drive_unseen_;
+    if (++drive_missed_ >= settings_.missing_frame_limit && have_position_) {
+      latch(drive_rejected_ ? Fault::kFrameRejected : Fault::kEncoderFrameMissing);
+    }
+  }
+  account_force_feedback();
+  if (drive_fresh_) {
+    if (!std::isfinite(drive_.position_m)) latch(Fault::kMeasurementNotFinite);
+    previous_position_m_ = have_position_ ? position_m_ : drive_.position_m;
+    position_m_ = drive_.position_m;
+    have_position_ = true;
+    const double raw_velocity = (position_m_ - previous_position_m_) / settings_.period_s;
+    const double alpha = settings_.period_s / (kVelocityFilter_s + settings_.period_s);
+    velocity_estimate_m_per_s_ += alpha * (raw_velocity - velocity_estimate_m_per_s_);
+    // The feedback of the cycle that carries the clear request predates it.
+    if ((drive_.status_word & can::kStatusFault) && !clear_drive_fault_) latch(Fault::kDriveFault);
+  }
+}
+
+void ServoCycle::account_force_feedback() noexcept {
+  // The record carries this cycle's measurement, or zero and force_measured false.
+  const bool measured = force_fresh_ && force_.wrench.allFinite();
+  record_.force_measured = measured;
+  record_.Fy_N = measured ? force_.wrench.x() : 0.0;
+  record_.Fx_N = measured ? force_.wrench.y() : 0.0;
+  record_.Tz_Nm = measured ? force_.wrench.z() : 0.0;
+  if (!can::has_force_sensor(settings_.protocol)) return;
+  if (measured) {
+    force_missed_ = 0;
+    force_rejected_ = false;
+    // Healthy again after missing_frame_limit good cycles in a row.
+    if (force_warning_ != Fault::kNone && ++force_good_ >= settings_.missing_frame_limit) {
+      force_warning_ = Fault::kNone;
+    }
+    return;
+  }
+  if (force_fresh_) {
+    force_sensor_trouble(Fault::kMeasurementNotFinite);
+    return;
+  }
+  ++counters_.frames_missing;
+  ++force_unseen_;
+  if (++force_missed_ >= settings_.missing_frame_limit && have_position_) {
+    force_sensor_trouble(force_rejected_ ? Fault::kFrameRejected : Fault::kForceFrameMissing);
+  }
 }
 
 void ServoCycle::on_frame(const drivers::ReceivedFrame& received) noexcept {
@@ -37,7 +111,9 @@ void ServoCycle::on_frame(const drivers::ReceivedFrame& received) noexcept {
       ++counters_.frames_duplicate;
       return;
     }
-    track_alive(feedback.alive_counter, drive_alive_, drive_alive_known_, drive_unseen_, late, Fault::kEncoderAliveJump);
+    if (!track_alive(feedback.alive_counter, drive_alive_, drive_alive_known_, drive_unseen_, late)) {
+      latch(Fault::kEncoderAliveJump);
+    }
     if (late) {
       // Belongs to an earlier cycle, which counted it missing; it does not
       // end the run of cycles without a timely frame either.
@@ -46,7 +122,7 @@ void ServoCycle::on_frame(const drivers::ReceivedFrame& received) noexcept {
     }
     drive_ = feedback;
     drive_fresh_ = true;
-  } else if (frame.id == can::force_feedback_id(settings_.protocol)) {
+  } else if (can::has_force_sensor(settings_.protocol) && frame.id == can::force_feedback_id(settings_.protocol)) {
     can::ForceFeedback feedback;
     if (can::decode_force_feedback(settings_.protocol, frame, feedback) != can::CodecStatus::kOk) {
       ++counters_.frames_rejected;
@@ -57,7 +133,9 @@ void ServoCycle::on_frame(const drivers::ReceivedFrame& received) noexcept {
       ++counters_.frames_duplicate;
       return;
     }
-    track_alive(feedback.alive_counter, force_alive_, force_alive_known_, force_unseen_, late, Fault::kForceAliveJump);
+    if (!track_alive(feedback.alive_counter, force_alive_, force_alive_known_, force_unseen_, late)) {
+      force_sensor_trouble(Fault::kForceAliveJump);
+    }
     if (late) {
       ++counters_.frames_late;
       return;

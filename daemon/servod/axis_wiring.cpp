@@ -34,7 +34,7 @@ AxisWiring wire_axis(const ServodConfig& config) {
   } else {
     const auto ids = can::daemon_receive_ids(protocol);
     wiring.bus = std::make_unique<drivers::SocketCanBus>(config.can.interface,
-                                                         std::vector<std::uint32_t>(ids.begin(), ids.end()));
+                                                         std::vector<std::uint32_t>(ids.view().begin(), ids.view().end()));
   }
   return wiring;
 }

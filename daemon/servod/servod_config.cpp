@@ -111,6 +111,8 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
   config.servo.soft_limit_min_m = config.motor.stroke_min_m;
   config.servo.soft_limit_max_m = config.motor.stroke_max_m;
 
+  // No force_sensor_node_id: the axis has no force sensor (docs/servod.md, "Service without a force sensor").
+  config.servo.protocol.force_sensor_node_id = can::kNoForceSensor;
   if (const auto can = root.optional("can")) {
     can->expect_keys({"interface", "bitrate_bps", "drive_node_id", "force_sensor_node_id", "bus_load_limit",
                       "sim_fault_plan"});

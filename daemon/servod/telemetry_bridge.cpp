@@ -47,6 +47,12 @@ void TelemetryBridge::fill_status(const servo::ServoCycle& cycle, const LoopTimi
   out.program_running = cycle.record().program_running;
   out.program_time_s = cycle.record().program_time_s;
   out.restricted = cycle.record().restricted;
+  const servo::Fault force_warning = cycle.force_sensor_warning();
+  out.force_sensor = !can::has_force_sensor(cycle.settings().protocol) ? telemetry::kForceSensorNone
+                     : force_warning == servo::Fault::kNone          ? telemetry::kForceSensorOk
+                                                                     : telemetry::kForceSensorLost;
+  out.force_sensor_warning = static_cast<std::int16_t>(force_warning);
+  out.force_sensor_losses = c.force_sensor_losses;
   daemon_->loaded_file(LoadedFileSlot::kCalibration, out.calibration);
   daemon_->loaded_file(LoadedFileSlot::kPgnnModel, out.pgnn_model);
   daemon_->loaded_file(LoadedFileSlot::kSplineModel, out.spline_model);
@@ -90,7 +96,18 @@ void TelemetryBridge::events(const servo::ServoCycle& cycle, std::int64_t n) noe
     for (std::size_t i = 0; i < kLoadedFileSlots; ++i) last_files_[i] = daemon_->loaded_file(slots[i], file);
     last_program_running_ = cycle.record().program_running;
     last_superseded_ = daemon_->superseded().count;
+    last_force_warning_ = cycle.force_sensor_warning();
     return;
+  }
+  if (cycle.force_sensor_warning() != last_force_warning_) {
+    last_force_warning_ = cycle.force_sensor_warning();
+    if (last_force_warning_ == servo::Fault::kNone) {
+      emit(n, EventCode::kForceSensorBack, 0, "force sensor back: its frames come again");
+    } else {
+      std::snprintf(text, sizeof text, "force sensor lost in service (%d: %s): a warning, a fault only in an experiment",
+                    static_cast<int>(last_force_warning_), servo::describe(last_force_warning_));
+      emit(n, EventCode::kForceSensorLost, 1, text);
+    }
   }
   if (cycle.mode() != last_mode_) {
     std::snprintf(text, sizeof text, "commutation %s (was %s)", servo::name(cycle.mode()), servo::name(last_mode_));

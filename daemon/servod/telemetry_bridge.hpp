@@ -23,6 +23,8 @@ enum class EventCode : std::int16_t {
   kProgramStarted = 303,
   kProgramEnded = 304,
   kRequestSuperseded = 305,   ///< a deferred law request was replaced before it took effect
+  kForceSensorLost = 306,     ///< the force sensor was lost in service (a warning, not a fault)
+  kForceSensorBack = 307,     ///< its frames come again
 };
 
 /// Who reports the command authority's part of the status (the command
@@ -65,6 +67,7 @@ class TelemetryBridge final : public CycleObserver {
   std::array<std::uint64_t, kLoadedFileSlots> last_files_{};
   bool last_program_running_ = false;
   std::int64_t last_superseded_ = 0;
+  servo::Fault last_force_warning_ = servo::Fault::kNone;
   void emit(std::int64_t cycle, EventCode code, std::int8_t severity, const char* text) noexcept;
   void publish_event() noexcept;
   void events(const servo::ServoCycle& cycle, std::int64_t n) noexcept;

@@ -78,6 +78,7 @@ clm_lcm::servo_state_t to_message(const servo::CycleRecord& record) {
   m.program_running = record.program_running;
   m.program_time_s = record.program_time_s;
   m.restricted = record.restricted;
+  m.force_measured = record.force_measured;
   return m;
 }
 
@@ -133,6 +134,7 @@ servo::CycleRecord to_record(const clm_lcm::servo_state_t& m) {
   r.program_running = m.program_running;
   r.program_time_s = m.program_time_s;
   r.restricted = m.restricted;
+  r.force_measured = m.force_measured;
   return r;
 }
 
@@ -175,6 +177,9 @@ clm_lcm::servo_status_t to_message(const ServoStatusSample& sample, std::int64_t
   m.program_running = sample.program_running;
   m.program_time_s = sample.program_time_s;
   m.restricted = sample.restricted;
+  m.force_sensor = sample.force_sensor;
+  m.force_sensor_warning = sample.force_sensor_warning;
+  m.force_sensor_losses = sample.force_sensor_losses;
   const CommandAuthorityStatus& c = sample.commands;
   m.control_client = c.control_client;
   m.control_lease_remaining_s = c.control_lease_remaining_s;

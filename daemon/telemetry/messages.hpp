@@ -81,8 +81,16 @@ struct ServoStatusSample {
   bool program_running = false;
   double program_time_s = 0.0;
   bool restricted = false;  ///< restricted mode after fault 202
+  std::int8_t force_sensor = 0;           ///< clm_lcm::servo_status_t::FORCE_SENSOR_*
+  std::int16_t force_sensor_warning = 0;  ///< while lost: the fault an experiment would latch, else 0
+  std::int64_t force_sensor_losses = 0;
   CommandAuthorityStatus commands;
 };
+
+/// ServoStatusSample::force_sensor, as clm_lcm::servo_status_t::FORCE_SENSOR_*.
+inline constexpr std::int8_t kForceSensorNone = 0;
+inline constexpr std::int8_t kForceSensorOk = 1;
+inline constexpr std::int8_t kForceSensorLost = 2;
 
 /// Something that happened once, as servo_event_t.
 struct ServoEventSample {

@@ -114,7 +114,8 @@ const char* to_string(CodecStatus status) noexcept {
 }
 
 bool ProtocolConfig::is_valid() const noexcept {
-  return node_id_valid(drive_node_id) && node_id_valid(force_sensor_node_id) &&
+  return node_id_valid(drive_node_id) &&
+         (force_sensor_node_id == kNoForceSensor || node_id_valid(force_sensor_node_id)) &&
          drive_node_id != force_sensor_node_id && coil_sets >= 1 && coil_sets <= kMaxProtocolCoilSets;
 }
 
@@ -123,8 +124,9 @@ void ProtocolConfig::validate() const {
     throw std::invalid_argument("can protocol: drive_node_id must be a CANopen node ID 1..127, got " +
                                 std::to_string(drive_node_id));
   }
-  if (!node_id_valid(force_sensor_node_id)) {
-    throw std::invalid_argument("can protocol: force_sensor_node_id must be a CANopen node ID 1..127, got " +
+  if (force_sensor_node_id != kNoForceSensor && !node_id_valid(force_sensor_node_id)) {
+    throw std::invalid_argument("can protocol: force_sensor_node_id must be a CANopen node ID 1..127 (or absent: "
+                                "no force sensor), got " +
                                 std::to_string(force_sensor_node_id));
   }
   if (drive_node_id == force_sensor_node_id) {
@@ -195,7 +197,7 @@ CodecStatus decode_drive_feedback(const ProtocolConfig& config, const Frame& fra
 // bytes 0..2 F_y int24 [mN], 3..4 F_x int16 [10 mN], 5..6 T_z int16 [mN·m], 7 alive counter.
 
 CodecStatus encode_force_feedback(const ProtocolConfig& config, const ForceFeedback& feedback, Frame& out) noexcept {
-  if (!config.is_valid()) return CodecStatus::kOutOfRange;
+  if (!config.is_valid() || !has_force_sensor(config)) return CodecStatus::kOutOfRange;
   std::int64_t force_y = 0;
   std::int64_t force_x = 0;
   std::int64_t torque_z = 0;
@@ -217,7 +219,7 @@ CodecStatus encode_force_feedback(const ProtocolConfig& config, const ForceFeedb
 }
 
 CodecStatus decode_force_feedback(const ProtocolConfig& config, const Frame& frame, ForceFeedback& feedback) noexcept {
-  if (!config.is_valid()) return CodecStatus::kOutOfRange;
+  if (!config.is_valid() || !has_force_sensor(config)) return CodecStatus::kOutOfRange;
   const CodecStatus status = check_frame(frame, force_feedback_id(config), kForceFeedbackDlc);
   if (status != CodecStatus::kOk) return status;
   feedback.wrench[0] = static_cast<double>(get_signed_le(frame.data, 0, 3)) / kForceYRawPerNewton;
@@ -315,8 +317,8 @@ CodecStatus decode_setpoint_frame(const ProtocolConfig& config, const Frame& fra
 
 std::uint32_t cycle_bits(const ProtocolConfig& config) {
   config.validate();
-  std::uint32_t bits = worst_case_frame_bits(kSyncDlc) + worst_case_frame_bits(kDriveFeedbackDlc) +
-                       worst_case_frame_bits(kForceFeedbackDlc);
+  std::uint32_t bits = worst_case_frame_bits(kSyncDlc) + worst_case_frame_bits(kDriveFeedbackDlc);
+  if (has_force_sensor(config)) bits += worst_case_frame_bits(kForceFeedbackDlc);
   constexpr std::array<std::uint8_t, kMaxSetpointFrames> dlcs{kRpdo1Dlc, kRpdo2Dlc, kRpdo3Dlc};
   for (std::size_t i = 0; i < setpoint_frame_count(config.coil_sets); ++i) bits += worst_case_frame_bits(dlcs[i]);
   return bits;

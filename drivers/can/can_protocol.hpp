@@ -69,14 +69,21 @@ inline constexpr std::uint8_t kRpdo1Dlc = 6;
 inline constexpr std::uint8_t kRpdo2Dlc = 8;
 inline constexpr std::uint8_t kRpdo3Dlc = 4;
 
+/// ProtocolConfig::force_sensor_node_id of an axis without a force sensor
+/// (CANopen node 0 is no node: nothing sends a TPDO from it).
+inline constexpr std::uint8_t kNoForceSensor = 0;
+
 /// Node IDs and number of coil sets L shared by the daemon and the nodes.
 struct ProtocolConfig {
   std::uint8_t drive_node_id = 1;         ///< CANopen node ID of the drive, 1..127
-  std::uint8_t force_sensor_node_id = 2;  ///< CANopen node ID of the force sensor, 1..127, not the drive's
+  /// CANopen node ID of the force sensor, 1..127, not the drive's; kNoForceSensor:
+  /// the axis has none (service without a sensor, docs/servod.md).
+  std::uint8_t force_sensor_node_id = 2;
   int coil_sets = 3;                      ///< L, 1..kMaxProtocolCoilSets
 
   /// Throws std::invalid_argument "can protocol: <field> ..., got <value>" if a
-  /// node ID is outside 1..127, both node IDs are equal, or coil_sets is outside 1..4.
+  /// node ID is outside 1..127 (the force sensor's may be kNoForceSensor), both
+  /// node IDs are equal, or coil_sets is outside 1..4.
   void validate() const;
   /// The same checks without throwing.
   bool is_valid() const noexcept;
@@ -86,7 +93,11 @@ struct ProtocolConfig {
 constexpr std::uint32_t drive_feedback_id(const ProtocolConfig& config) noexcept {
   return kTpdo1Base + config.drive_node_id;
 }
-/// TPDO1 of the force sensor, 0x180 + force_sensor_node_id.
+/// The axis has a force sensor (force_sensor_node_id is not kNoForceSensor).
+constexpr bool has_force_sensor(const ProtocolConfig& config) noexcept {
+  return config.force_sensor_node_id != kNoForceSensor;
+}
+/// TPDO1 of the force sensor, 0x180 + force_sensor_node_id (meaningless without one).
 constexpr std::uint32_t force_feedback_id(const ProtocolConfig& config) noexcept {
   return kTpdo1Base + config.force_sensor_node_id;
 }
@@ -100,9 +111,16 @@ constexpr std::size_t setpoint_frame_count(int coil_sets) noexcept {
   if (coil_sets < 1 || coil_sets > kMaxProtocolCoilSets) return 0;
   return coil_sets == 1 ? 1 : (coil_sets <= 3 ? 2 : 3);
 }
-/// The identifiers the daemon receives: drive feedback, force feedback.
-constexpr std::array<std::uint32_t, 2> daemon_receive_ids(const ProtocolConfig& config) noexcept {
-  return {drive_feedback_id(config), force_feedback_id(config)};
+/// The identifiers the daemon receives: drive feedback, and force feedback
+/// when the axis has a sensor.
+struct ReceiveIds {
+  std::array<std::uint32_t, 2> ids{};
+  std::size_t count = 0;
+  std::span<const std::uint32_t> view() const noexcept { return {ids.data(), count}; }
+};
+constexpr ReceiveIds daemon_receive_ids(const ProtocolConfig& config) noexcept {
+  if (!has_force_sensor(config)) return {{drive_feedback_id(config), 0}, 1};
+  return {{drive_feedback_id(config), force_feedback_id(config)}, 2};
 }
 
 // ---------------------------------------------------------------------------
@@ -173,7 +191,7 @@ CodecStatus decode_sync(const Frame& frame, std::uint8_t& sync_counter) noexcept
 CodecStatus encode_drive_feedback(const ProtocolConfig& config, const DriveFeedback& feedback, Frame& out) noexcept;
 CodecStatus decode_drive_feedback(const ProtocolConfig& config, const Frame& frame, DriveFeedback& feedback) noexcept;
 
-/// Force-sensor TPDO1, DLC 8.
+/// Force-sensor TPDO1, DLC 8. kOutOfRange when the config has no force sensor.
 CodecStatus encode_force_feedback(const ProtocolConfig& config, const ForceFeedback& feedback, Frame& out) noexcept;
 CodecStatus decode_force_feedback(const ProtocolConfig& config, const Frame& frame, ForceFeedback& feedback) noexcept;
 
@@ -205,7 +223,7 @@ constexpr std::uint32_t worst_case_frame_bits(std::uint8_t dlc) noexcept {
 }
 
 /// Worst-case bits of one cycle's schedule: SYNC, drive feedback, force
-/// feedback and the RPDOs for L. Throws std::invalid_argument if the config is invalid.
+/// feedback (when the axis has a sensor) and the RPDOs for L. Throws std::invalid_argument if the config is invalid.
 std::uint32_t cycle_bits(const ProtocolConfig& config);
 
 /// Worst-case bus load of the cycle schedule as a fraction (0.575 = 57.5 %):

@@ -38,11 +38,13 @@ std::size_t SimulatedNodes::on_frame(const can::Frame& frame, std::span<can::Fra
     } else {
       ++counters_.feedback_not_encoded;
     }
-    const can::ForceFeedback force{sensed.wrench, force_alive_++};
-    if (can::encode_force_feedback(protocol_, force, replies[count]) == can::CodecStatus::kOk) {
-      ++count;
-    } else {
-      ++counters_.feedback_not_encoded;
+    if (can::has_force_sensor(protocol_)) {  // an axis without one gets no force frame
+      const can::ForceFeedback force{sensed.wrench, force_alive_++};
+      if (can::encode_force_feedback(protocol_, force, replies[count]) == can::CodecStatus::kOk) {
+        ++count;
+      } else {
+        ++counters_.feedback_not_encoded;
+      }
     }
     return count;
   }

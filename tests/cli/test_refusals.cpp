@@ -354,3 +354,24 @@ TEST_CASE("a bad command line (a missing option, a --data that does not exist) i
     CHECK(listing(dir.path()) == before);
   }
 }
+
+TEST_CASE("commission refuses a configuration without a force sensor before it writes or moves anything",
+          "[cli][force_sensor]") {
+  TemporaryDirectory temporary("clm-commission-no-sensor");
+  const fs::path dir = temporary.path();
+  std::string text = read_file(source_path("config/servod.yaml"));
+  const auto at = text.find("  force_sensor_node_id:");
+  REQUIRE(at != std::string::npos);
+  text.erase(at, text.find('\n', at) + 1 - at);
+  const std::string relative = "motor_file: motor-sim.yaml";
+  text.replace(text.find(relative), relative.size(), "motor_file: " + kMotor);
+  write_file((dir / "servod.yaml").string(), text);
+  const std::string out = (dir / "out").string();
+  const ProcessResult result = run_clm({"commission", "--config", (dir / "servod.yaml").string(), "--out", out});
+  INFO("stderr: " << result.err);
+  CHECK(result.exit_code == 2);
+  const auto lines = result.err_lines();
+  REQUIRE(lines.size() == 1);
+  CHECK(lines[0].find("can.force_sensor_node_id: absent") != std::string::npos);
+  CHECK_FALSE(fs::exists(out));
+}

@@ -35,6 +35,15 @@ struct EnabledAxis {
     REQUIRE(daemon.cycle().state() == ServoState::kEnabled);
     test::require_driving_output(wired);
   }
+  /// Algorithms 1 and 2's mode at standstill: coil set 1 at Δ = 0.
+  void start_experiment() {
+    servo::Command experiment;
+    experiment.kind = Kind::kSetExperiment;
+    experiment.coil_set = 1;
+    REQUIRE(daemon.submit(experiment).accepted);
+    daemon.run_cycles(2);
+    REQUIRE(daemon.cycle().mode() == servo::CommutationMode::kExperiment);
+  }
   sim::Injection& injection() { return wired.in_process_bus()->injection(); }
   sim::SimulatedMotor& motor() { return *wired.simulated_motor(); }
   const servo::CycleCounters& counters() { return daemon.cycle().counters(); }
@@ -154,9 +163,10 @@ TEST_CASE("encoder frames missing: one and limit-1 ride through, the limit latch
   axis.require_recovers();
 }
 
-TEST_CASE("force-sensor frames missing: limit-1 ride through, the limit latches kForceFrameMissing",
+TEST_CASE("force-sensor frames missing in an experiment: limit-1 ride through, the limit latches kForceFrameMissing",
           "[daemon][faults]") {
   EnabledAxis axis;
+  axis.start_experiment();
   const int limit = axis.limit();
   for (const int n : {1, limit - 1}) {
     const auto missing = axis.counters().frames_missing;
@@ -171,6 +181,48 @@ TEST_CASE("force-sensor frames missing: limit-1 ride through, the limit latches 
   CHECK(test::run_until_fault(axis.daemon, 50) == limit);
   axis.require_latched(Fault::kForceFrameMissing);
   axis.require_recovers();
+}
+
+TEST_CASE("force-sensor frames missing in service: a warning with its reason, never a fault, that clears after "
+          "missing_frame_limit good cycles",
+          "[daemon][faults][force_sensor]") {
+  EnabledAxis axis;
+  const int limit = axis.limit();
+  axis.injection().drop_force_frames = 1000;
+  for (int k = 0; k < limit + 5; ++k) {
+    axis.daemon.run_cycles(1);
+    REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+    test::require_driving_output(axis.wired);
+    // No measurement, no numbers: the record says so and carries zero.
+    CHECK_FALSE(axis.daemon.cycle().record().force_measured);
+    CHECK(axis.daemon.cycle().record().Fy_N == 0.0);
+    CHECK(axis.daemon.cycle().force_sensor_warning() == (k + 1 >= limit ? Fault::kForceFrameMissing : Fault::kNone));
+  }
+  CHECK(axis.counters().force_sensor_losses == 1);
+  // An experiment measures with the sensor: refused while it is lost.
+  servo::Command experiment;
+  experiment.kind = Kind::kSetExperiment;
+  experiment.coil_set = 1;
+  (void)axis.daemon.take_replies();
+  REQUIRE(axis.daemon.submit(experiment).accepted);
+  axis.daemon.run_cycles(1);
+  const auto replies = axis.daemon.take_replies();
+  REQUIRE(replies.size() == 1);
+  CHECK_FALSE(replies[0].accepted);
+  CHECK(replies[0].text == servo::describe(servo::CommandStatus::kRejectedNoForceSensor));
+  // Frames again: measured at once, healthy after `limit` good cycles.
+  axis.injection().drop_force_frames = 0;
+  int good = 0;
+  for (int k = 0; k < limit + 3 && good < limit; ++k) {
+    axis.daemon.run_cycles(1);
+    if (!axis.daemon.cycle().record().force_measured) continue;
+    ++good;
+    CHECK(axis.daemon.cycle().force_sensor_warning() == (good >= limit ? Fault::kNone : Fault::kForceFrameMissing));
+  }
+  CHECK(good == limit);
+  CHECK(axis.daemon.cycle().force_sensor_warning() == Fault::kNone);
+  CHECK(axis.counters().force_sensor_losses == 1);
+  CHECK(axis.daemon.cycle().state() == ServoState::kEnabled);
 }
 
 TEST_CASE("late encoder frames are counted and ride through below the limit, late at the limit latches",
@@ -221,12 +273,28 @@ TEST_CASE("a drive alive-counter jump latches kEncoderAliveJump at once", "[daem
   axis.require_recovers();
 }
 
-TEST_CASE("a force-sensor alive-counter jump latches kForceAliveJump at once", "[daemon][faults]") {
-  EnabledAxis axis;
-  axis.injection().skip_force_alive = 3;
-  CHECK(test::run_until_fault(axis.daemon, 5) == 1);
-  axis.require_latched(Fault::kForceAliveJump);
-  axis.require_recovers();
+TEST_CASE("a force-sensor alive-counter jump latches kForceAliveJump at once in an experiment, and is a warning in "
+          "service",
+          "[daemon][faults][force_sensor]") {
+  SECTION("experiment") {
+    EnabledAxis axis;
+    axis.start_experiment();
+    axis.injection().skip_force_alive = 3;
+    CHECK(test::run_until_fault(axis.daemon, 5) == 1);
+    axis.require_latched(Fault::kForceAliveJump);
+    axis.require_recovers();
+  }
+  SECTION("service") {
+    EnabledAxis axis;
+    axis.injection().skip_force_alive = 3;
+    axis.daemon.run_cycles(1);
+    CHECK(axis.daemon.cycle().force_sensor_warning() == Fault::kForceAliveJump);
+    axis.daemon.run_cycles(axis.limit());
+    CHECK(axis.daemon.cycle().force_sensor_warning() == Fault::kNone);
+    CHECK(axis.daemon.cycle().state() == ServoState::kEnabled);
+    CHECK(axis.counters().force_sensor_losses == 1);
+    test::require_driving_output(axis.wired);
+  }
 }
 
 TEST_CASE("alive counters that skip exactly the frames missed are no jump", "[daemon][faults]") {

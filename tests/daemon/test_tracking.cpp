@@ -89,3 +89,44 @@ TEST_CASE("the daemon runs the Fig. 8 program in every commutation mode and trac
   CHECK(std::abs(tracking.final_position_m - (-0.1)) < 10e-6);
   CHECK(daemon.cycle().counters().frames_missing == 0);
 }
+
+TEST_CASE("without a force sensor the axis tracks Fig. 8 with the PGNN law exactly as with one, nothing waits for "
+          "force frames and an experiment is refused",
+          "[daemon][tracking][force_sensor]") {
+  test::TemporaryDirectory dir("clm-daemon-no-sensor");
+  const auto files = test::write_truth_laws(dir, test::source_path("config/motor-sim.yaml"));
+  auto with_sensor = test::config_with_laws(files, CommutationMode::kPgnn);
+  REQUIRE(can::has_force_sensor(with_sensor.servo.protocol));
+  auto without = with_sensor;
+  without.servo.protocol.force_sensor_node_id = can::kNoForceSensor;
+
+  servod::WiredAxis sensed(with_sensor);
+  const Tracking reference = run_fig8(sensed);
+  servod::WiredAxis bare(without);
+  const Tracking tracking = run_fig8(bare);
+  INFO("rms |r - y| " << reference.rms_error_m << " m with the sensor, " << tracking.rms_error_m << " m without");
+  // The loop never uses the sensor: the same motion to the last bit.
+  CHECK(tracking.cycles == reference.cycles);
+  CHECK(tracking.rms_error_m == reference.rms_error_m);
+  CHECK(tracking.max_error_m == reference.max_error_m);
+  const auto& counters = bare.daemon.cycle().counters();
+  CHECK(counters.frames_missing == 0);
+  CHECK(counters.force_sensor_losses == 0);
+  CHECK(bare.daemon.cycle().force_sensor_warning() == servo::Fault::kNone);
+  CHECK_FALSE(bare.daemon.cycle().record().force_measured);
+  CHECK(sensed.daemon.cycle().record().force_measured);
+  // Per cycle the bus carries SYNC, one feedback frame and the setpoints.
+  CHECK(counters.frames_received == counters.cycles);
+
+  servo::Command experiment;
+  experiment.kind = Kind::kSetExperiment;
+  experiment.coil_set = 1;
+  (void)bare.daemon.take_replies();
+  REQUIRE(bare.daemon.submit(experiment).accepted);
+  bare.daemon.run_cycles(1);
+  const auto replies = bare.daemon.take_replies();
+  REQUIRE(replies.size() == 1);
+  CHECK_FALSE(replies[0].accepted);
+  CHECK(replies[0].text == servo::describe(servo::CommandStatus::kRejectedNoForceSensor));
+  CHECK(bare.daemon.cycle().mode() == CommutationMode::kPgnn);
+}

@@ -226,3 +226,55 @@ TEST_CASE("every change of state, commutation, law, file and program, and a supe
   CHECK(file.sha256.view() == sha256_file(dir.file("spline-2.yaml")));
   daemon.set_observer(nullptr);
 }
+
+TEST_CASE("the force sensor lost in service is a warning event and a status field, and its return is an event too",
+          "[daemon][events][force_sensor]") {
+  servod::WiredAxis axis(test::virtual_config());
+  servod::ServoDaemon& daemon = axis.daemon;
+  telemetry::MemorySink sink;
+  servod::TelemetryBridge bridge(sink, daemon, 1000);
+  daemon.set_observer(&bridge);
+  daemon.run_cycles(10);
+  test::command(daemon, Kind::kEnable, 20);
+  const auto events = [&] { return sink.decode<clm_lcm::servo_event_t>(telemetry::kEventChannel); };
+  const auto last_status = [&] { return sink.decode<clm_lcm::servo_status_t>(telemetry::kStatusChannel).back(); };
+  daemon.run_cycles(100);
+  CHECK(last_status().force_sensor == clm_lcm::servo_status_t::FORCE_SENSOR_OK);
+  CHECK(last_status().force_sensor_warning == 0);
+
+  const std::size_t before = events().size();
+  axis.in_process_bus()->injection().drop_force_frames = 1000;
+  daemon.run_cycles(200);
+  auto now = events();
+  REQUIRE(now.size() == before + 1);
+  CHECK(now.back().code == static_cast<std::int16_t>(servod::EventCode::kForceSensorLost));
+  CHECK(now.back().severity == 1);
+  CHECK(now.back().text.find("102") != std::string::npos);
+  const auto lost = last_status();
+  CHECK(lost.force_sensor == clm_lcm::servo_status_t::FORCE_SENSOR_LOST);
+  CHECK(lost.force_sensor_warning == static_cast<std::int16_t>(servo::Fault::kForceFrameMissing));
+  CHECK(lost.force_sensor_losses == 1);
+  CHECK(lost.state == clm_lcm::servo_status_t::STATE_ENABLED);
+  CHECK(lost.fault == 0);
+
+  axis.in_process_bus()->injection().drop_force_frames = 0;
+  daemon.run_cycles(200);
+  now = events();
+  REQUIRE(now.size() == before + 2);
+  CHECK(now.back().code == static_cast<std::int16_t>(servod::EventCode::kForceSensorBack));
+  CHECK(last_status().force_sensor == clm_lcm::servo_status_t::FORCE_SENSOR_OK);
+  CHECK(last_status().force_sensor_losses == 1);
+  daemon.set_observer(nullptr);
+
+  auto bare_config = test::virtual_config();
+  bare_config.servo.protocol.force_sensor_node_id = can::kNoForceSensor;
+  servod::WiredAxis bare(bare_config);
+  telemetry::MemorySink bare_sink;
+  servod::TelemetryBridge bare_bridge(bare_sink, bare.daemon, 1000);
+  bare.daemon.set_observer(&bare_bridge);
+  bare.daemon.run_cycles(200);
+  const auto none = bare_sink.decode<clm_lcm::servo_status_t>(telemetry::kStatusChannel).back();
+  CHECK(none.force_sensor == clm_lcm::servo_status_t::FORCE_SENSOR_NONE);
+  CHECK(none.frames_missing == 0);
+  bare.daemon.set_observer(nullptr);
+}

@@ -45,6 +45,17 @@ TEST_CASE("cycle schedule bits for L = 1..4 match the hand count", "[can][bus_lo
   CHECK(can::cycle_bits(config_with(4)) == 670);
 }
 
+TEST_CASE("without a force sensor the cycle schedule is one DLC-8 frame (135 bits) shorter", "[can][bus_load]") {
+  for (int l = 1; l <= 4; ++l) {
+    can::ProtocolConfig none = config_with(l);
+    none.force_sensor_node_id = can::kNoForceSensor;
+    CHECK(can::cycle_bits(none) == can::cycle_bits(config_with(l)) - 135);
+  }
+  can::ProtocolConfig none = config_with(3);
+  none.force_sensor_node_id = can::kNoForceSensor;
+  CHECK(can::bus_load(none, 1e6, 1000.0) == Approx(0.440).epsilon(1e-12));  // (575 - 135) bits at 1 kHz
+}
+
 TEST_CASE("bus load at 1 kHz on 1 Mbit/s is 44.0 / 57.5 / 57.5 / 67.0 percent for L = 1..4", "[can][bus_load]") {
   CHECK(can::bus_load(config_with(1), 1e6, 1000.0) == Approx(0.440).epsilon(1e-12));
   CHECK(can::bus_load(config_with(2), 1e6, 1000.0) == Approx(0.575).epsilon(1e-12));

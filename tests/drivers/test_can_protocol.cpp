@@ -94,7 +94,10 @@ TEST_CASE("COB-IDs are CANopen SYNC and TPDO1 and RPDO1-3 plus the configured no
   CHECK(can::setpoint_id(defaults, 0) == 0x201);
   CHECK(can::setpoint_id(defaults, 1) == 0x301);
   CHECK(can::setpoint_id(defaults, 2) == 0x401);
-  CHECK(can::daemon_receive_ids(defaults) == std::array<std::uint32_t, 2>{0x181, 0x182});
+  const auto receive = can::daemon_receive_ids(defaults);
+  REQUIRE(receive.view().size() == 2);
+  CHECK(receive.view()[0] == 0x181);
+  CHECK(receive.view()[1] == 0x182);
 
   can::ProtocolConfig other;
   other.drive_node_id = 0x7F;
@@ -104,6 +107,28 @@ TEST_CASE("COB-IDs are CANopen SYNC and TPDO1 and RPDO1-3 plus the configured no
   CHECK(can::setpoint_id(other, 0) == 0x27F);
   CHECK(can::setpoint_id(other, 1) == 0x37F);
   CHECK(can::setpoint_id(other, 2) == 0x47F);
+}
+
+TEST_CASE("an axis without a force sensor receives the drive's TPDO1 alone and has no force frame", "[can]") {
+  can::ProtocolConfig none;
+  none.force_sensor_node_id = can::kNoForceSensor;
+  CHECK_NOTHROW(none.validate());
+  CHECK(none.is_valid());
+  CHECK_FALSE(can::has_force_sensor(none));
+  CHECK(can::has_force_sensor(can::ProtocolConfig{}));
+  const auto receive = can::daemon_receive_ids(none);
+  REQUIRE(receive.view().size() == 1);
+  CHECK(receive.view()[0] == can::drive_feedback_id(none));
+  // Node 0 is no node: no force frame is encoded, and a frame at 0x180 is not one.
+  can::Frame frame;
+  CHECK(can::encode_force_feedback(none, can::ForceFeedback{}, frame) == CodecStatus::kOutOfRange);
+  can::Frame at_base;
+  at_base.id = can::kTpdo1Base;
+  at_base.dlc = can::kForceFeedbackDlc;
+  can::ForceFeedback decoded;
+  decoded.alive_counter = 42;
+  CHECK(can::decode_force_feedback(none, at_base, decoded) == CodecStatus::kOutOfRange);
+  CHECK(decoded.alive_counter == 42);
 }
 
 TEST_CASE("L coil sets need one RPDO for L=1 and two for L=2..3 and three for L=4", "[can]") {

@@ -6,6 +6,7 @@
 
 #include "config/yaml_reader.hpp"
 #include "daemon/servod/servod_config.hpp"
+#include "drivers/can/can_protocol.hpp"
 
 using namespace clm;
 
@@ -60,4 +61,16 @@ TEST_CASE("a ttl above 0 needs telemetry.allow_network", "[config][commands]") {
   CHECK(servod::lcm_url_ttl("udpm://239.255.76.67:7667") == 0);
   CHECK(servod::lcm_url_ttl("udpm://239.255.76.67:7667?recv_buf_size=4194304&ttl=3") == 3);
   CHECK(servod::lcm_url_ttl("file:///tmp/x.lcm") == -1);
+}
+
+TEST_CASE("can.force_sensor_node_id absent means no force sensor, and when present it must be a node 1..127 other than the "
+          "drive's",
+          "[config][force_sensor]") {
+  CHECK_FALSE(can::has_force_sensor(parse("").servo.protocol));
+  CHECK_FALSE(can::has_force_sensor(parse("can:\n  drive_node_id: 3\n").servo.protocol));
+  const auto with = parse("can:\n  force_sensor_node_id: 5\n");
+  CHECK(with.servo.protocol.force_sensor_node_id == 5);
+  CHECK_THROWS_WITH(parse("can:\n  force_sensor_node_id: 0\n"),
+                    Catch::Contains("test.yaml:") && Catch::Contains("force_sensor_node_id"));
+  CHECK_THROWS_WITH(parse("can:\n  force_sensor_node_id: 1\n"), Catch::Contains("force_sensor_node_id"));
 }

@@ -106,6 +106,10 @@ void print_status(const clm_lcm::servo_status_t& s) {
   std::printf("program_running: %s\n", s.program_running ? "true" : "false");
   std::printf("program_time_s: %.3f\n", s.program_time_s);
   std::printf("restricted: %s\n", s.restricted ? "true" : "false");
+  static constexpr const char* kForceSensor[] = {"none", "ok", "lost"};
+  std::printf("force_sensor: %s", kForceSensor[s.force_sensor]);
+  if (s.force_sensor == clm_lcm::servo_status_t::FORCE_SENSOR_LOST) std::printf(" (%d)", s.force_sensor_warning);
+  std::printf(", losses %lld\n", static_cast<long long>(s.force_sensor_losses));
   std::printf("cycles: %lld\n", static_cast<long long>(s.cycles));
   std::printf("overruns: %lld\n", static_cast<long long>(s.overruns));
   std::printf("wakeup_latency_s: p50 %.1e, p99 %.1e, max %.1e\n", s.wakeup_latency_p50_s, s.wakeup_latency_p99_s,

@@ -141,6 +141,11 @@ CommutationResult evaluate(const Recording& run, double period_s) {
 
 Report run(const Options& options, const std::function<void(const Progress&)>& progress) {
   const servod::ServodConfig config = servod::load_servod_config(options.config_path);
+  // Calibration and identification measure forces (docs/bring-up.md: commissioning with a borrowed sensor).
+  if (!can::has_force_sensor(config.servo.protocol)) {
+    throw std::runtime_error(options.config_path + ": can.force_sensor_node_id: absent, so the axis has no force "
+                             "sensor; commissioning measures forces: mount one and name its node");
+  }
   if (options.live) {
     LiveOptions live = options.live_options;
     LcmRunner runner(config, live);

@@ -89,6 +89,16 @@ void LcmRunner::wait_cycles(std::int64_t cycles, const std::string& what) {
 }
 
 void LcmRunner::enable() {
+  // Commissioning measures forces: a daemon without a working sensor is refused before anything moves.
+  const clm_lcm::servo_status_t status = client_.wait_for_status(options_.ack_timeout_s);
+  if (status.force_sensor == servo_status_t::FORCE_SENSOR_NONE) {
+    throw std::runtime_error("clm-servod's axis '" + status.axis + "' has no force sensor (can.force_sensor_node_id "
+                             "absent in its configuration); commissioning measures forces");
+  }
+  if (status.force_sensor == servo_status_t::FORCE_SENSOR_LOST) {
+    throw std::runtime_error("clm-servod's axis '" + status.axis + "' has lost its force sensor (warning " +
+                             std::to_string(status.force_sensor_warning) + "); commissioning measures forces");
+  }
   // The first command of commissioning: take control for all of it.
   client_.take_control(options_.ack_timeout_s, "ENABLE");
   took_control_ = true;
@@ -229,10 +239,13 @@ Recording LcmRunner::attempt(const servod::ProgramFile& program, const std::stri
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error("run '" + name + "': CLM_SERVO_STATE of cycle " + std::to_string(s.cycle) + ": " + e.what());
     }
+    if (!s.force_measured) ++gaps.force_unmeasured;
     if (s.damping_engaged) ++recording.damping_cycles;
     if (s.force_limited) ++recording.force_limited_cycles;
   }
+  const std::int64_t force_unmeasured = gaps.force_unmeasured;
   gaps = find_state_gaps(cycles);
+  gaps.force_unmeasured = force_unmeasured;
   if (recording.samples.empty()) throw std::runtime_error("run '" + name + "': no CLM_SERVO_STATE of the running program");
   return recording;
 }
@@ -246,7 +259,7 @@ Recording LcmRunner::run_program(const servod::ProgramFile& program, const std::
     std::int64_t states = 0;
     Recording recording = attempt(program, program_path, name, messages, gaps, states);
     summary_.states_received += states;
-    if (gaps.missing == 0 && gaps.out_of_order == 0) {
+    if (gaps.missing == 0 && gaps.out_of_order == 0 && gaps.force_unmeasured == 0) {
       summary_.states_recorded += static_cast<std::int64_t>(recording.samples.size());
       if (log_) {
         // The program's states, and every other message of the run.
@@ -262,7 +275,10 @@ Recording LcmRunner::run_program(const servod::ProgramFile& program, const std::
     }
     const std::string problem = std::to_string(gaps.missing) + " CLM_SERVO_STATE messages missing" +
                                 (gaps.ranges.empty() ? "" : " (cycles " + gaps.ranges + ")") +
-                                (gaps.out_of_order > 0 ? ", " + std::to_string(gaps.out_of_order) + " out of order" : "");
+                                (gaps.out_of_order > 0 ? ", " + std::to_string(gaps.out_of_order) + " out of order" : "") +
+                                (gaps.force_unmeasured > 0 ? ", " + std::to_string(gaps.force_unmeasured) +
+                                                                 " without a force measurement"
+                                                           : "");
     summary_.states_missing_discarded += gaps.missing;
     if (k >= options_.attempts_per_run) {
       throw std::runtime_error("run '" + name + "': " + problem + " in attempt " + std::to_string(k) + " of " +

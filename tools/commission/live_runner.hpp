@@ -34,6 +34,7 @@ using servod_client::ReceivedMessage;
 struct StateGaps {
   std::int64_t missing = 0;
   std::int64_t out_of_order = 0;  ///< a counter not above its predecessor
+  std::int64_t force_unmeasured = 0;  ///< states of the running program without a force-sensor frame
   std::string ranges;
 };
 StateGaps find_state_gaps(const std::vector<std::int64_t>& cycles, int max_ranges = 5);
