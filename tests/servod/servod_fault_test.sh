@@ -14,7 +14,11 @@
 #   - quick stop: the loop closed and the reference braking within the
 #     quick-stop deceleration to rest, then every magnitude zero;
 #   - the measured position inside the end stops throughout.
-# Then clear-fault, enable, back to the start. Fault 204 needs a following
+# Then clear-fault, enable, back to the start. The force sensor's faults
+# (102, 104) latch only in an experiment; in service they are a warning: the
+# move ends at its target without a fault, the status counts one more loss
+# and is back to ok, and the log marks exactly the dropped frames' cycles as
+# unmeasured (force_measured 0). Fault 204 needs a following
 # error limit wider than the push makes in the saturation time (20 mm instead
 # of 2 mm, a second daemon): 650 N against the motion, 50 N beyond the force
 # limit (the original commutation delivers about 550 N of a 600 N demand),
@@ -37,9 +41,9 @@ trap cleanup_processes EXIT
 
 fail() { fail_with_status "$*" "$work"/servod-*.log; }
 
-# Each case: plan step, expected fault, reaction (zero | quick).
+# Each case: plan step, expected fault, reaction (zero | quick | warn: no fault).
 phase1=(
-  "drop-drive:3 101 zero" "drop-force:3 102 quick" "corrupt-alive 103 zero" "corrupt-force-alive 104 quick"
+  "drop-drive:3 101 zero" "drop-force:3 102 warn" "corrupt-alive 103 zero" "corrupt-force-alive 104 warn"
   "wrong-dlc:3 105 zero" "bus-off:5 106 zero" "error-passive:5 107 zero" "fail-sends:3 108 zero"
   "push:30:700 203 quick" "stall:30:0.0015 205 quick" "drive-fault 206 zero"
 )
@@ -109,6 +113,39 @@ run_phase() {
     ctl move-to --target-m 0.1 --velocity-m-per-s 0.5 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 > /dev/null ||
         fail "$step: move-to refused"
     sleep 0.12  # cruising at 0.5 m/s (the move takes 0.45 s)
+    if [ "$reaction" = warn ]; then
+      local losses
+      losses=$(ctl status | sed -n 's/^force_sensor: .*losses \([0-9]*\)$/\1/p')
+      [ -n "$losses" ] || fail "$step: no force_sensor line in the status"
+      kill -USR1 "$pid"
+      wait_state "$step: the move's end" program_running false
+      sleep 0.3
+      kill -INT $logger; wait $logger || true
+      status=$(ctl status) || fail "$step: no status"
+      [ "$(field fault "$status")" = 0 ] || fail "$step: fault $(field fault "$status") in service, expected a warning"
+      [ "$(field force_sensor "$status")" = "ok, losses $((losses + 1))" ] ||
+          fail "$step: force_sensor '$(field force_sensor "$status")', expected 'ok, losses $((losses + 1))'"
+      "$clm" log2csv --log "$log" --format full --output "$log.csv" > /dev/null || fail "$step: log2csv"
+      local dropped=0
+      [[ $step == drop-force:* ]] && dropped=${step#drop-force:}
+      verdict=$(python3 - "$log.csv" "$dropped" <<'CHECK'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+dropped = int(sys.argv[2])
+f = lambda r, k: float(r[k])
+assert all(int(f(r, "state")) == 1 for r in rows), "the axis left the enabled state"
+assert max(f(r, "r_dot_m_per_s") for r in rows) > 0.4, "never at speed"
+unmeasured = sum(1 for r in rows if f(r, "force_measured") == 0.0)
+assert unmeasured == dropped, f"{unmeasured} cycles without a force measurement, {dropped} frames were dropped"
+assert abs(f(rows[-1], "y_m") - 0.1) < 1e-4, f"the move ended at {rows[-1]['y_m']} m, not at 0.1 m"
+print(f"no fault, {unmeasured} unmeasured cycle(s), the move ended at {f(rows[-1], 'y_m'):.5f} m")
+CHECK
+) || fail "$step: $verdict"
+      echo "$step: warning $code in service, $verdict"
+      to_start "$step"
+      k=$((k + 1))
+      continue
+    fi
     kill -USR1 "$pid"
     wait_state "$step" fault "$code"
     local reason
@@ -167,4 +204,4 @@ CHECK
 run_phase default 0.002 "${phase1[@]}"
 run_phase wide 0.02 "${phase2[@]}"
 trap - EXIT
-echo "clm-servod fault test: ${#phase1[@]} + ${#phase2[@]} fault kinds injected at 0.5 m/s through the plan, each with the table's reaction"
+echo "clm-servod fault test: ${#phase1[@]} + ${#phase2[@]} fault kinds injected at 0.5 m/s through the plan, each with the table's reaction (the force sensor's a warning in service)"
