@@ -1,0 +1,145 @@
+#!/usr/bin/env bash
+# Process-level test of service without a force sensor (labels lcm, slow;
+# docs/servod.md "Service without a force sensor"): two clm-servod processes
+# on the embedded simulated motor at 1 kHz on the real-time clock, on LCM
+# ports of their own, one with the force sensor of config/servod.yaml and one
+# without (can.force_sensor_node_id deleted). Both load the PGNN model and
+# feedforward of a short in-process commissioning (`clm commission`, about 5
+# s) and run the paper's Fig. 8 program at the same time (about 30 s). From
+# each daemon's own CLM_SERVO_STATE log (lcm-logger, clm log2csv):
+#   - the RMS and the largest tracking error e_m of the program: without the
+#     sensor within 5 % (RMS) of the run with it;
+#   - no state of the sensorless run carries a force measurement, every state
+#     of the other does (force_measured);
+#   - no fault, no gap in the cycles, the program ends at its last target.
+# And from the sensorless daemon's status and acks: force_sensor none, no
+# frame missing, an experiment refused with the reason.
+#
+#   servod_no_sensor_test.sh CLM_SERVOD CLM SOURCE_DIR WORK_DIR
+set -euo pipefail
+servod=$1 clm=$2 source_dir=$3 work=$4
+# shellcheck source=../support/script_helpers.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../support/script_helpers.sh"
+
+# Two ports of their own in 9750..9797.
+base=$((9750 + 2 * ($$ % 24)))
+rm -rf "$work"
+mkdir -p "$work"
+trap cleanup_processes EXIT
+fail() { fail_with_status "$*" "$work"/servod-*.log; }
+
+# A PGNN model and its feedforward from a short commissioning in process.
+"$clm" commission --config "$source_dir/config/servod.yaml" --program "$source_dir/tests/support/one_stroke_program.yaml" \
+    --validation-program none --out "$work/commission" --no-plots > "$work/commission.log" 2>&1 ||
+    { tail -3 "$work/commission.log"; fail "clm commission"; }
+
+# The simulated drive's watchdog at 0.1 s and 1000 overruns before fault 205,
+# as the other process tests: this test is about the sensor, not about the
+# loop's timing without real-time rights on a loaded host.
+missing=$(config_edit "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "  watchdog_timeout_s: 0.1") ||
+    fail "motor: no line '$missing' after editing"
+write_config() {  # write_config OUT PORT
+  missing=$(config_edit "$source_dir/config/servod.yaml" "$1" \
+            "motor_file: $work/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
+            "  lcm_url: \"udpm://239.255.76.67:$2?ttl=0\"" "  interface: sim" "  overrun_limit: 1000" &&
+            config_require "$1" "  force_sensor_node_id: 2" "  rate_hz: 1000" "  state_decimation: 1") ||
+      fail "config: no line '$missing' after editing"
+  grep -q "^commands:" "$1" && fail "config/servod.yaml has a commands: section; edit it instead"
+  printf 'commands:\n  file_directories: ["%s", "%s"]\n' "$work/commission" "$source_dir/config/programs" >> "$1"
+}
+write_config "$work/servod-sensor.yaml" "$base"
+write_config "$work/servod-none.yaml" "$((base + 1))"
+sed -i '/^  force_sensor_node_id:/d' "$work/servod-none.yaml"
+
+declare -A daemon logger
+port_of() { [ "$1" = none ] && echo $((base + 1)) || echo "$base"; }
+
+for run in sensor none; do
+  url="udpm://239.255.76.67:$(port_of $run)?ttl=0"
+  start_daemon "$work/servod-$run.yaml" "$work/servod-$run.log"
+  daemon[$run]=$servod_pid
+  rc=0
+  wait_for_status "$servod_pid" 5 || rc=$?
+  [ $rc = 0 ] || fail "$run: no status from clm-servod (wait_for_status: $rc)"
+  ctl load-model "$work/commission/model-pgnn.yaml" > /dev/null || fail "$run: load-model refused"
+  ctl load-feedforward "$work/commission/feedforward-pgnn.yaml" > /dev/null || fail "$run: load-feedforward refused"
+  ctl commutation pgnn > /dev/null || fail "$run: commutation pgnn refused"
+  ctl enable > /dev/null || fail "$run: enable refused"
+  ctl move-to --target-m -0.1 --velocity-m-per-s 0.1 --acceleration-m-per-s2 1 --jerk-m-per-s3 1000 > /dev/null ||
+      fail "$run: move-to the start refused"
+done
+
+# The sensorless daemon's own account, and an experiment refused.
+url="udpm://239.255.76.67:$(port_of none)?ttl=0"
+status=$(ctl status) || fail "none: no status"
+[ "$(field force_sensor "$status")" = "none, losses 0" ] || fail "none: force_sensor '$(field force_sensor "$status")'"
+reply=$(ctl experiment --coil-set 1 --delta-rad 0 2>&1) && fail "none: an experiment was accepted: $reply"
+[[ $reply == *"an experiment needs the force sensor"* ]] || fail "none: experiment refused with '$reply'"
+
+for run in sensor none; do
+  url="udpm://239.255.76.67:$(port_of $run)?ttl=0"
+  for _ in $(seq 1 100); do
+    status=$(ctl status) || fail "$run: no status"
+    [ "$(field program_running "$status")" = false ] && break
+    sleep 0.1
+  done
+  [ "$(field program_running "$status")" = false ] || fail "$run: the move to the start did not end"
+  lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_STATE "$work/$run.lcmlog" 2> "$work/logger-$run.log" &
+  logger[$run]=$!
+  pids+=("${logger[$run]}")
+done
+sleep 0.5
+for run in sensor none; do
+  url="udpm://239.255.76.67:$(port_of $run)?ttl=0"
+  reply=$(ctl run-program "$source_dir/config/programs/fig8.yaml" 2>&1) || fail "$run: run-program refused: $reply"
+done
+sleep 1
+for run in sensor none; do
+  url="udpm://239.255.76.67:$(port_of $run)?ttl=0"
+  for _ in $(seq 1 600); do
+    status=$(ctl status) || fail "$run: no status"
+    [ "$(field program_running "$status")" = false ] && break
+    sleep 0.1
+  done
+  [ "$(field program_running "$status")" = false ] || fail "$run: Fig. 8 did not end within 60 s"
+  [ "$(field fault "$status")" = 0 ] || fail "$run: fault $(field fault "$status") ($(field fault_reason "$status"))"
+  if [ $run = none ]; then
+    [ "$(counter "$status" missing)" = 0 ] || fail "none: $(counter "$status" missing) frames missing"
+  fi
+done
+sleep 0.3
+for run in sensor none; do
+  kill -INT "${logger[$run]}"; wait "${logger[$run]}" || true
+  "$clm" log2csv --log "$work/$run.lcmlog" --format full --output "$work/$run.csv" > /dev/null || fail "$run: log2csv"
+done
+
+verdict=$(python3 - "$work/sensor.csv" "$work/none.csv" <<'CHECK'
+import csv, math, sys
+def run(path, measured):
+    rows = list(csv.DictReader(open(path)))
+    f = lambda r, k: float(r[k])
+    cycles = [int(f(r, "cycle")) for r in rows]
+    assert all(b - a == 1 for a, b in zip(cycles, cycles[1:])), f"{path}: a gap in the log's cycles"
+    assert all(int(f(r, "state")) == 1 for r in rows), f"{path}: the axis left the enabled state"
+    program = [r for r in rows if f(r, "program_running") == 1.0]
+    assert len(program) > 25000, f"{path}: {len(program)} states of the program, Fig. 8 has more than 25000"
+    assert all(f(r, "commutation") == 2 for r in program), f"{path}: not the PGNN law throughout"
+    assert all(f(r, "force_measured") == measured for r in rows), f"{path}: force_measured not {measured} throughout"
+    assert abs(f(rows[-1], "y_m") - (-0.1)) < 1e-4, f"{path}: ended at {rows[-1]['y_m']} m, not -0.1 m"
+    e = [f(r, "e_m") for r in program]
+    return math.sqrt(sum(x * x for x in e) / len(e)), max(abs(x) for x in e)
+rms_sensor, max_sensor = run(sys.argv[1], 1.0)
+rms_none, max_none = run(sys.argv[2], 0.0)
+ratio = rms_none / rms_sensor
+assert abs(ratio - 1.0) < 0.05, f"RMS tracking error {rms_none:.3e} m without the sensor, {rms_sensor:.3e} m with it"
+print(f"RMS tracking error {rms_sensor * 1e6:.3f} um with the sensor, {rms_none * 1e6:.3f} um without "
+      f"(ratio {ratio:.4f}); largest {max_sensor * 1e6:.2f} / {max_none * 1e6:.2f} um")
+CHECK
+) || fail "$verdict"
+for run in sensor none; do
+  rc=0
+  stop_process "${daemon[$run]}" 20 || rc=$?
+  [ $rc = 0 ] || fail "$run: clm-servod exit status $rc after SIGTERM, expected 0"
+done
+trap - EXIT
+echo "clm-servod without a force sensor, Fig. 8 with the PGNN law: $verdict"
