@@ -56,11 +56,16 @@ PidController::PidController(const PidGains& gains, double period_s)
   require_non_negative_finite(kContext, "derivative_N_s_per_m", gains.derivative_N_s_per_m);
   detail::require_positive_finite(kContext, "lowpass_hz", gains.lowpass_hz);
   detail::require_positive_finite(kContext, "period_s", period_s);
+  set_gains(gains);
+}
+
+void PidController::set_gains(const PidGains& gains) noexcept {
+  gains_ = gains;
   // Tustin image of 1/(s/ω_lp + 1): (z+1)/((α+1)z − (α−1)), α = 2/(ω_lp T_s).
-  const double alpha = 2.0 / (kTwoPi * gains.lowpass_hz * period_s);
+  const double alpha = 2.0 / (kTwoPi * gains.lowpass_hz * period_s_);
   pole_ = (alpha - 1.0) / (alpha + 1.0);
   input_scale_ = 1.0 / (alpha + 1.0);
-  derivative_scale_ = 2.0 * gains.derivative_N_s_per_m / period_s / (alpha + 1.0);
+  derivative_scale_ = 2.0 * gains.derivative_N_s_per_m / period_s_ / (alpha + 1.0);
 }
 
 void PidController::set_integrator_limit_N(double limit_N) {

@@ -69,6 +69,11 @@ class PidController {
   /// Clears all state (integrator, filters, previous error).
   void reset() noexcept;
 
+  /// New gains from the next update on. The integrator's force I_k and the
+  /// filters' states (all in N) are kept, so the output does not jump at rest.
+  /// The caller guarantees gains the constructor would accept.
+  void set_gains(const PidGains& gains) noexcept;
+
   /// Anti-windup: clamps the integrator contribution I_k to ±limit [N]
   /// (before the low-pass). Default: no limit (infinity). Throws
   /// std::invalid_argument unless limit_N > 0 (infinity allowed).
@@ -166,6 +171,8 @@ class PositionController {
   /// Clears the PID state and the last outputs.
   void reset() noexcept;
 
+  /// New PID gains, see PidController::set_gains.
+  void set_gains(const PidGains& gains) noexcept { pid_.set_gains(gains); }
   /// Anti-windup of the PID integrator, see PidController::set_integrator_limit_N.
   void set_integrator_limit_N(double limit_N) { pid_.set_integrator_limit_N(limit_N); }
 

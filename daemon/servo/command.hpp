@@ -14,6 +14,7 @@
 #include "daemon/control/trajectory.hpp"
 #include "daemon/servo/cycle_record.hpp"
 #include "daemon/servo/fixed_text.hpp"
+#include "daemon/servo/tuning.hpp"
 
 namespace clm::servo {
 
@@ -34,8 +35,10 @@ enum class CommandKind : std::int8_t {
   kReleaseControl = 13,  ///< command authority (daemon/servod/command_gate.hpp)
   kQuickStop = 14,       ///< stop within the quick-stop limits (ServoCycle::quick_stop)
   kJog = 15,             ///< move at a velocity while repeated (ServoCycle::post_jog, renew_jog)
+  kGetParameter = 16,    ///< the value of a run-time parameter (daemon/servod/parameters.hpp)
+  kSetParameter = 17,    ///< change a run-time parameter at standstill (ServoCycle::apply_tuning)
 };
-inline constexpr int kCommandKinds = 15;
+inline constexpr int kCommandKinds = 17;
 
 /// True when `code` is a CommandKind value (1..kCommandKinds).
 constexpr bool is_command_kind(int code) noexcept { return code >= 1 && code <= kCommandKinds; }
@@ -54,7 +57,8 @@ struct CommandRoute {
 };
 
 /// Every kind, in the order of its value. load_feedforward reads its file on
-/// the caller's thread, but its parameters go through the cycle's queue.
+/// the caller's thread, but its parameters go through the cycle's queue;
+/// set_parameter is validated on the caller's thread, then goes there too.
 inline constexpr std::array<CommandRoute, kCommandKinds> kCommandRoutes{{
     {CommandKind::kEnable, "enable", AnsweredBy::kCycle},
     {CommandKind::kDisable, "disable", AnsweredBy::kCycle},
@@ -71,6 +75,8 @@ inline constexpr std::array<CommandRoute, kCommandKinds> kCommandRoutes{{
     {CommandKind::kReleaseControl, "release_control", AnsweredBy::kAuthority},
     {CommandKind::kQuickStop, "quick_stop", AnsweredBy::kCycle},
     {CommandKind::kJog, "jog", AnsweredBy::kDaemon},
+    {CommandKind::kGetParameter, "get_parameter", AnsweredBy::kDaemon},
+    {CommandKind::kSetParameter, "set_parameter", AnsweredBy::kCycle},
 }};
 
 constexpr bool routes_in_order() noexcept {
@@ -111,6 +117,11 @@ struct Command {
   /// kLoadFeedforward: read from `path` by ServoDaemon::submit; with an empty
   /// path (in-process callers only) used as given.
   control::FeedforwardParameters feedforward{};
+  FixedText<48> parameter;  ///< kGetParameter, kSetParameter: its name, e.g. "control.bandwidth_hz"
+  double value = 0.0;       ///< kSetParameter: the new value, in the parameter's unit
+  /// kSetParameter: every run-time setting with the change, made by
+  /// ServoDaemon::submit from `parameter` and `value`.
+  Tuning tuning{};
 };
 
 }  // namespace clm::servo

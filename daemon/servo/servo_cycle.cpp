@@ -84,6 +84,22 @@ void ServoSettings::validate() const {
   require(jog_timeout_s > 0.0 && std::isfinite(jog_timeout_s), "jog_timeout_s must be positive");
 }
 
+Tuning ServoSettings::tuning() const noexcept {
+  return {pid, feedforward, following_error_limit_m, force_limit_N, saturation_time_limit_s,
+          motion_limits, stop_limits, quick_stop_limits};
+}
+
+void ServoSettings::apply(const Tuning& tuning) noexcept {
+  pid = tuning.pid;
+  feedforward = tuning.feedforward;
+  following_error_limit_m = tuning.following_error_limit_m;
+  force_limit_N = tuning.force_limit_N;
+  saturation_time_limit_s = tuning.saturation_time_limit_s;
+  motion_limits = tuning.motion_limits;
+  stop_limits = tuning.stop_limits;
+  quick_stop_limits = tuning.quick_stop_limits;
+}
+
 ServoCycle::ServoCycle(const ServoSettings& settings)
     : settings_((settings.validate(), settings)),
       controller_(settings.pid, settings.feedforward, settings.period_s) {
@@ -274,6 +290,16 @@ CommandStatus ServoCycle::request_mode(CommutationMode mode, int coil_set, doubl
 
 void ServoCycle::set_feedforward(const control::FeedforwardParameters& parameters) noexcept {
   controller_.set_feedforward(parameters);
+  settings_.feedforward = parameters;
+}
+
+CommandStatus ServoCycle::apply_tuning(const Tuning& tuning) noexcept {
+  // At standstill only: no reference is under way whose limits would change.
+  if (running_ != nullptr || stopping_ || program_.pending()) return CommandStatus::kRejectedBusy;
+  settings_.apply(tuning);
+  controller_.set_gains(tuning.pid);  // the integrator keeps its force: no bump at rest
+  controller_.set_feedforward(tuning.feedforward);
+  return CommandStatus::kAccepted;
 }
 
 void ServoCycle::adopt_offers() noexcept {

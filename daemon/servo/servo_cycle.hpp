@@ -23,6 +23,7 @@
 #include "daemon/servo/cycle_record.hpp"
 #include "daemon/servo/fault.hpp"
 #include "daemon/servo/handover.hpp"
+#include "daemon/servo/tuning.hpp"
 #include "drivers/can_bus.hpp"
 #include "drivers/can/can_protocol.hpp"
 
@@ -58,6 +59,9 @@ struct ServoSettings {
   double jog_timeout_s = 0.25;
   /// Throws std::invalid_argument naming the setting.
   void validate() const;
+  /// The settings that may change at run time, and these settings with `tuning`'s.
+  Tuning tuning() const noexcept;
+  void apply(const Tuning& tuning) noexcept;
 };
 
 enum class CommandStatus : std::uint8_t {
@@ -139,6 +143,10 @@ class ServoCycle {
   CommandStatus request_mode(CommutationMode mode, int coil_set = 0, double delta_rad = 0.0) noexcept;
   /// Replace the feedforward parameters (takes effect at once).
   void set_feedforward(const control::FeedforwardParameters& parameters) noexcept;
+  /// Replace the run-time settings (gains, feedforward, limits) when no
+  /// program or stop runs (kRejectedBusy otherwise). The caller has
+  /// validated them (ServoSettings::validate on settings().apply(tuning)).
+  CommandStatus apply_tuning(const Tuning& tuning) noexcept;
 
   // --- the cycle ---
   /// Starts a cycle whose SYNC leaves at `sync_time_ns` (CLOCK_MONOTONIC or

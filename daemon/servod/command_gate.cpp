@@ -88,7 +88,8 @@ GateDecision CommandGate::admit(const CommandOrigin& origin, CommandClass comman
   const std::int64_t holder_now = holder(now_us);
   const bool holds = holder_now == origin.client;
   switch (command_class) {
-    case CommandClass::kSafety: break;
+    case CommandClass::kSafety:
+    case CommandClass::kRead: break;
     case CommandClass::kTakeControl:
       if (holder_now != 0 && !holds) {
         return refuse(GateRefusal::kNotInControl,

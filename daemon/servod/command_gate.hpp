@@ -30,6 +30,7 @@ namespace clm::servod {
 /// What a command asks of the gate.
 enum class CommandClass : std::uint8_t {
   kSafety,          ///< stop, quick stop, disable: obeyed from any client
+  kRead,            ///< get_parameter: changes nothing, answered for any client
   kTakeControl,
   kReleaseControl,
   kControlled,      ///< everything else: the sender must hold control

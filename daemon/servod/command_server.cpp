@@ -24,6 +24,7 @@ CommandClass command_class(servo::CommandKind kind) noexcept {
     case servo::CommandKind::kStop:
     case servo::CommandKind::kQuickStop:
     case servo::CommandKind::kDisable: return CommandClass::kSafety;
+    case servo::CommandKind::kGetParameter: return CommandClass::kRead;
     case servo::CommandKind::kTakeControl: return CommandClass::kTakeControl;
     case servo::CommandKind::kReleaseControl: return CommandClass::kReleaseControl;
     default: return CommandClass::kControlled;

@@ -70,12 +70,6 @@ struct ServoDaemon::Loaded {
   ProgramFile program;
 };
 
-struct ServoDaemon::RtReply {
-  std::int64_t sequence = 0;
-  std::int64_t client = 0;
-  servo::CommandStatus status = servo::CommandStatus::kAccepted;
-};
-
 // A law with the files it was built from; the law refers into them.
 struct ServoDaemon::OwnedLaw {
   servo::CommutationMode mode = servo::CommutationMode::kOriginal;
@@ -91,6 +85,7 @@ ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drive
                          std::vector<ExtraLaw> extra_laws)
     : config_(config), bus_(&bus), clock_(&clock), extra_laws_(std::move(extra_laws)) {
   cycle_ = std::make_unique<servo::ServoCycle>(config_.servo);
+  runtime_ = {config_.servo.tuning(), config_.control_mass_kg, config_.control_bandwidth_hz};
 
   // The drive's own law, always available.
   auto original = std::make_unique<OwnedLaw>();
@@ -176,6 +171,11 @@ std::unique_ptr<ServoDaemon::OwnedLaw> ServoDaemon::build_law(servo::Commutation
 
 CommandReply ServoDaemon::queue(const servo::Command& command) {
   if (!commands_->try_push(command)) return {command.sequence, false, "command queue full"};
+  if (command.kind == servo::CommandKind::kLoadFeedforward) {
+    // The cycle takes it without condition: the run-time values follow now.
+    std::lock_guard lock(runtime_mutex_);
+    runtime_.tuning.feedforward = command.feedforward;
+  }
   return {command.sequence, true, "queued"};
 }
 
@@ -186,8 +186,9 @@ CommandReply ServoDaemon::post_program(const servo::Command& command, const Prog
   if (!cycle_->idle()) return {command.sequence, false, "rejected: a program is running"};
   if (cycle_->program_handover().pending()) return {command.sequence, false, "rejected: a program is waiting to start"};
   const double hold = cycle_->hold_position_m();
-  const servo::ServoSettings& settings = config_.servo;
   const auto refuse = [&](const std::string& reason) { return CommandReply{command.sequence, false, "rejected: " + reason}; };
+  if (parameter_change_pending()) return refuse("a parameter change is being applied; send the move again");
+  const servo::ServoSettings settings = planning_settings();
   // Restricted mode (after kPositionOutOfRange): only a slow move back inside.
   const bool restricted = cycle_->restricted();
   std::unique_ptr<control::MoveProgram> move;
@@ -237,7 +238,8 @@ CommandReply ServoDaemon::jog(const servo::Command& command) {
   if (state == servo::ServoState::kFault) return refuse("a fault is latched, clear it first");
   if (state != servo::ServoState::kEnabled) return refuse("the axis is disabled, enable first");
   if (cycle_->restricted()) return refuse("restricted mode: only a move_to back inside the soft limits is accepted");
-  const servo::ServoSettings& settings = config_.servo;
+  if (parameter_change_pending()) return refuse("a parameter change is being applied; send the jog again");
+  const servo::ServoSettings settings = planning_settings();
   if (auto reason = check_motion_limits("jog", command.limits, settings.motion_limits); !reason.empty()) return refuse(reason);
   const auto& l = command.limits;
   const bool same = command.jog_velocity_m_per_s == jog_velocity_m_per_s_ &&
@@ -419,9 +421,11 @@ CommandReply ServoDaemon::answer(const servo::Command& received) {
     }
     const std::string reason = check_command(command);
     if (!reason.empty()) return {command.sequence, false, "rejected: " + reason};
+    if (command.kind == Kind::kSetParameter) return set_parameter(command);
     if (servo::answered_by_cycle(command.kind)) return queue(command);
     if (command.kind == Kind::kMoveTo) return post_program(command, nullptr);
     if (command.kind == Kind::kJog) return jog(command);
+    if (command.kind == Kind::kGetParameter) return get_parameter(command);
   } catch (const std::exception& e) {
     return {command.sequence, false, std::string("rejected: ") + e.what()};
   }
@@ -434,6 +438,7 @@ std::vector<CommandReply> ServoDaemon::take_replies() {
   while (replies_->try_pop(reply)) {
     const bool ok = reply.status == servo::CommandStatus::kAccepted || reply.status == servo::CommandStatus::kDeferred;
     if (!ok) refused_.fetch_add(1, std::memory_order_relaxed);
+    settle_parameter_change(reply);
     out.push_back({reply.sequence, ok, servo::describe(reply.status), reply.client});
   }
   std::unique_ptr<Loaded> loaded;
@@ -553,6 +558,7 @@ void ServoDaemon::drain_commands() noexcept {
         status = cycle_->request_mode(servo::CommutationMode::kExperiment, command.coil_set, command.delta_rad);
         break;
       case Kind::kLoadFeedforward: cycle_->set_feedforward(command.feedforward); break;
+      case Kind::kSetParameter: status = cycle_->apply_tuning(command.tuning); break;
       default: status = servo::CommandStatus::kRejectedInvalid; break;  // not a kind the cycle answers
     }
     if (command.kind == Kind::kSetCommutation || command.kind == Kind::kSetExperiment) {

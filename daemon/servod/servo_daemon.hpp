@@ -21,6 +21,7 @@
 #include "daemon/servo/timing.hpp"
 #include "daemon/servod/file_loader.hpp"
 #include "daemon/servod/file_policy.hpp"
+#include "daemon/servod/parameters.hpp"
 #include "daemon/servod/program_file.hpp"
 #include "daemon/servod/servod_config.hpp"
 #include "daemon/telemetry/messages.hpp"
@@ -129,6 +130,8 @@ class ServoDaemon {
   std::uint64_t loaded_file(LoadedFileSlot slot, telemetry::LoadedFileText& out) const noexcept;
   /// Commands the daemon refused (by submit, the cycle or the loader).
   std::int64_t commands_refused() const noexcept { return refused_.load(std::memory_order_relaxed); }
+  /// Command thread: the run-time parameters the cycle uses now (parameters.hpp).
+  RuntimeValues runtime_values() const;
   /// Loop thread (observers): the last deferred law request superseded.
   const Superseded& superseded() const noexcept { return superseded_; }
   /// Frees programs and laws the cycle no longer uses. Non-real-time.
@@ -152,7 +155,11 @@ class ServoDaemon {
   drivers::BusState bus_state() const noexcept { return bus_->state(); }
 
  private:
-  struct RtReply;
+  struct RtReply {
+    std::int64_t sequence = 0;
+    std::int64_t client = 0;
+    servo::CommandStatus status = servo::CommandStatus::kAccepted;
+  };
   struct OwnedLaw;
   struct Loaded;
   struct FileSlot {
@@ -176,6 +183,16 @@ class ServoDaemon {
   CommandReply answer(const servo::Command& received);
   CommandReply queue(const servo::Command& command);
   CommandReply post_program(const servo::Command& command, const ProgramFile* program);
+  /// kGetParameter: the value the cycle uses, "key = value unit".
+  CommandReply get_parameter(const servo::Command& command) const;
+  /// kSetParameter: validates (change_parameter), refuses while a program
+  /// runs or another change is pending, queues the whole tuning for the cycle.
+  CommandReply set_parameter(servo::Command& command);
+  /// Command thread: the cycle's answer to a pending set_parameter commits or drops it.
+  void settle_parameter_change(const RtReply& reply);
+  bool parameter_change_pending() const;
+  /// config().servo with the run-time values the cycle uses: what moves are planned and checked against.
+  servo::ServoSettings planning_settings() const;
   /// kJog: starts a jog (a move towards the soft limit in the velocity's
   /// direction, a following-error limit short of it) or renews the running one.
   CommandReply jog(const servo::Command& command);
@@ -208,6 +225,10 @@ class ServoDaemon {
   void honour_disable_request() noexcept;
   std::atomic<servo::ServoState> state_seen_{servo::ServoState::kDisabled};  // the cycle's, after each command and cycle
   std::atomic<std::int64_t> refused_{0};
+  mutable std::mutex runtime_mutex_;  // guards the three below
+  RuntimeValues runtime_;                       // what the cycle uses
+  std::optional<RuntimeValues> runtime_pending_;  // queued for the cycle, not yet answered
+  RtReply runtime_pending_command_;             // its sequence and client
   std::int64_t deferred_sequence_ = 0;  // loop thread: the deferred law request waiting for standstill
   Superseded superseded_;               // loop thread
 };

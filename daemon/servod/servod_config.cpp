@@ -2,15 +2,23 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 
 #include "daemon/control/position_controller.hpp"
 #include "drivers/can/can_protocol.hpp"
 #include "daemon/servod/feedforward_file.hpp"
+#include "daemon/servod/parameters.hpp"
 
 namespace clm::servod {
 namespace {
+
+/// A run-time parameter read with its range (parameters.hpp), capped at `max` too.
+double in_range(const yaml::Node& node, const char* key, double max = std::numeric_limits<double>::infinity()) {
+  const RuntimeParameter* parameter = find_runtime_parameter(key);
+  return node.as_double_in(parameter->min, std::min(parameter->max, max));
+}
 
 std::string resolve(const std::string& directory, const std::string& path) {
   if (path.empty()) return path;
@@ -155,13 +163,13 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     control->expect_keys({"bandwidth_hz", "mass_kg", "feedforward", "feedforward_file", "soft_limit_min_m",
                           "soft_limit_max_m", "following_error_limit_m", "force_limit_N", "saturation_time_limit_s",
                           "standstill_velocity_m_per_s"});
-    if (const auto v = control->optional("bandwidth_hz")) config.control_bandwidth_hz = v->as_double_in(1.0, config.loop.rate_hz / 6.0);
+    if (const auto v = control->optional("bandwidth_hz")) config.control_bandwidth_hz = in_range(*v, "control.bandwidth_hz", config.loop.rate_hz / 6.0);
     mass_kg = (*control)["mass_kg"].as_positive();
     if (const auto ff = control->optional("feedforward")) {
       ff->expect_keys({"mass_kg", "viscous_N_s_per_m", "coulomb_N"});
-      if (const auto v = ff->optional("mass_kg")) config.servo.feedforward.mass_kg = v->as_double_in(0.0, 1e4);
-      if (const auto v = ff->optional("viscous_N_s_per_m")) config.servo.feedforward.viscous_N_s_per_m = v->as_double_in(0.0, 1e5);
-      if (const auto v = ff->optional("coulomb_N")) config.servo.feedforward.coulomb_N = v->as_double_in(0.0, 1e4);
+      if (const auto v = ff->optional("mass_kg")) config.servo.feedforward.mass_kg = in_range(*v, "control.feedforward.mass_kg");
+      if (const auto v = ff->optional("viscous_N_s_per_m")) config.servo.feedforward.viscous_N_s_per_m = in_range(*v, "control.feedforward.viscous_N_s_per_m");
+      if (const auto v = ff->optional("coulomb_N")) config.servo.feedforward.coulomb_N = in_range(*v, "control.feedforward.coulomb_N");
     }
     config.feedforward_file = optional_path(*control, "feedforward_file", directory);
     require_file(*control, "feedforward_file", config.feedforward_file);
@@ -174,9 +182,9 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     if (!(config.servo.soft_limit_max_m > config.servo.soft_limit_min_m)) {
       (*control)["soft_limit_max_m"].fail("must be above soft_limit_min_m");
     }
-    if (const auto v = control->optional("following_error_limit_m")) config.servo.following_error_limit_m = v->as_double_in(1e-7, 1.0);
-    if (const auto v = control->optional("force_limit_N")) config.servo.force_limit_N = v->as_double_in(1.0, 819.0);
-    if (const auto v = control->optional("saturation_time_limit_s")) config.servo.saturation_time_limit_s = v->as_double_in(0.0, 10.0);
+    if (const auto v = control->optional("following_error_limit_m")) config.servo.following_error_limit_m = in_range(*v, "control.following_error_limit_m");
+    if (const auto v = control->optional("force_limit_N")) config.servo.force_limit_N = in_range(*v, "control.force_limit_N");
+    if (const auto v = control->optional("saturation_time_limit_s")) config.servo.saturation_time_limit_s = in_range(*v, "control.saturation_time_limit_s");
     if (const auto v = control->optional("standstill_velocity_m_per_s")) config.servo.standstill_velocity_m_per_s = v->as_double_in(1e-6, 1.0);
   } else {
     root["control"];  // throws "missing key 'control'": mass_kg has no default
@@ -235,24 +243,24 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
                          "stop_jerk_m_per_s3", "quick_stop_deceleration_m_per_s2", "quick_stop_jerk_m_per_s3",
                          "recovery_velocity_fraction", "recovery_margin_m", "jog_timeout_s"});
     auto& limits = config.servo.motion_limits;
-    if (const auto v = motion->optional("velocity_m_per_s")) limits.velocity_m_per_s = v->as_double_in(1e-6, 100.0);
-    if (const auto v = motion->optional("acceleration_m_per_s2")) limits.acceleration_m_per_s2 = v->as_double_in(1e-6, 1e4);
-    if (const auto v = motion->optional("jerk_m_per_s3")) limits.jerk_m_per_s3 = v->as_double_in(1e-6, 1e8);
+    if (const auto v = motion->optional("velocity_m_per_s")) limits.velocity_m_per_s = in_range(*v, "motion.velocity_m_per_s");
+    if (const auto v = motion->optional("acceleration_m_per_s2")) limits.acceleration_m_per_s2 = in_range(*v, "motion.acceleration_m_per_s2");
+    if (const auto v = motion->optional("jerk_m_per_s3")) limits.jerk_m_per_s3 = in_range(*v, "motion.jerk_m_per_s3");
     // The stop limits default to the move limits, the quick stop's to the stop's.
     auto& stop = config.servo.stop_limits;
     stop = {limits.acceleration_m_per_s2, limits.jerk_m_per_s3};
-    if (const auto v = motion->optional("stop_deceleration_m_per_s2")) stop.deceleration_m_per_s2 = v->as_double_in(1e-6, 1e4);
-    if (const auto v = motion->optional("stop_jerk_m_per_s3")) stop.jerk_m_per_s3 = v->as_double_in(1e-6, 1e8);
+    if (const auto v = motion->optional("stop_deceleration_m_per_s2")) stop.deceleration_m_per_s2 = in_range(*v, "motion.stop_deceleration_m_per_s2");
+    if (const auto v = motion->optional("stop_jerk_m_per_s3")) stop.jerk_m_per_s3 = in_range(*v, "motion.stop_jerk_m_per_s3");
     auto& quick = config.servo.quick_stop_limits;
     quick = stop;
     if (const auto v = motion->optional("quick_stop_deceleration_m_per_s2")) {
-      quick.deceleration_m_per_s2 = v->as_double_in(1e-6, 1e4);
+      quick.deceleration_m_per_s2 = in_range(*v, "motion.quick_stop_deceleration_m_per_s2");
       if (quick.deceleration_m_per_s2 < stop.deceleration_m_per_s2) {
         v->fail("must not be below the stop deceleration " + std::to_string(stop.deceleration_m_per_s2) + " m/s^2");
       }
     }
     if (const auto v = motion->optional("quick_stop_jerk_m_per_s3")) {
-      quick.jerk_m_per_s3 = v->as_double_in(1e-6, 1e8);
+      quick.jerk_m_per_s3 = in_range(*v, "motion.quick_stop_jerk_m_per_s3");
       if (quick.jerk_m_per_s3 < stop.jerk_m_per_s3) {
         v->fail("must not be below the stop jerk " + std::to_string(stop.jerk_m_per_s3) + " m/s^3");
       }

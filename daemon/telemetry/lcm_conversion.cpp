@@ -25,7 +25,9 @@ static_assert(static_cast<int>(CommandKind::kTakeControl) == servo_command_t::TA
 static_assert(static_cast<int>(CommandKind::kReleaseControl) == servo_command_t::RELEASE_CONTROL);
 static_assert(static_cast<int>(CommandKind::kQuickStop) == servo_command_t::QUICK_STOP);
 static_assert(static_cast<int>(CommandKind::kJog) == servo_command_t::JOG);
-static_assert(servo::kCommandKinds == servo_command_t::JOG);
+static_assert(static_cast<int>(CommandKind::kGetParameter) == servo_command_t::GET_PARAMETER);
+static_assert(static_cast<int>(CommandKind::kSetParameter) == servo_command_t::SET_PARAMETER);
+static_assert(servo::kCommandKinds == servo_command_t::SET_PARAMETER);
 static_assert(static_cast<int>(servo::CommutationMode::kOriginal) == servo_state_t::COMMUTATION_ORIGINAL);
 static_assert(static_cast<int>(servo::CommutationMode::kClassical) == servo_state_t::COMMUTATION_CLASSICAL);
 static_assert(static_cast<int>(servo::CommutationMode::kPgnn) == servo_state_t::COMMUTATION_PGNN);
@@ -303,6 +305,15 @@ std::string to_command(const clm_lcm::servo_command_t& message, servo::Command& 
     case CommandKind::kLoadModel:
     case CommandKind::kLoadFeedforward:
       reason = copy_path("path", message.path, command.path);
+      break;
+    case CommandKind::kSetParameter:
+      reason = check_finite("value", message.value);
+      command.value = message.value;
+      [[fallthrough]];
+    case CommandKind::kGetParameter:
+      if (reason.empty() && (message.parameter.empty() || !command.parameter.assign(message.parameter))) {
+        reason = "parameter must have 1.." + std::to_string(decltype(command.parameter)::kMaxChars) + " characters";
+      }
       break;
   }
   if (reason.empty()) out = command;

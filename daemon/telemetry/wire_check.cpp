@@ -16,6 +16,7 @@ constexpr double kAny = std::numeric_limits<double>::infinity();
 constexpr double kMaxCoilSetCount = kMaxCoilSets;
 /// Paths and program names in commands: PathText holds 255 characters.
 constexpr double kMaxPathBytes = 255;
+constexpr double kMaxParameterBytes = 47;  // servo::Command::parameter
 /// Texts and paths the daemon sends; generous, but bounded.
 constexpr double kMaxTextBytes = 4095;
 
@@ -43,7 +44,7 @@ constexpr std::array kCommandFields{
     i64("utime"), i64("sequence"), text("axis", kMaxAxisBytes), i64("session"), i64("client"), i8("command", 1, servo::kCommandKinds),
     finite("target_m"), finite("velocity_m_per_s"), finite("acceleration_m_per_s2"), finite("jerk_m_per_s3"),
     text("program", kMaxPathBytes), i8("commutation", 0, kCommutationMax), i8("coil_set", 0, kMaxCoilSetCount),
-    finite("delta_rad"), text("path", kMaxPathBytes),
+    finite("delta_rad"), text("path", kMaxPathBytes), text("parameter", kMaxParameterBytes), finite("value"),
 };
 
 constexpr std::array kAckFields{i64("utime"),   i64("sequence"),        text("axis", kMaxAxisBytes),

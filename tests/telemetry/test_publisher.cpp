@@ -305,8 +305,15 @@ TEST_CASE("An ill-formed command is refused with an ack naming the field, and ne
     edit(m);
     cases.push_back({m, std::move(reason)});
   };
-  add(M::JOG + 1, [](M&) {}, "unknown command 16 (1..15)");  // one past the last kind
-  add(0, [](M&) {}, "unknown command 0 (1..15)");
+  add(M::SET_PARAMETER + 1, [](M&) {}, "unknown command 18 (1..17)");  // one past the last kind
+  add(0, [](M&) {}, "unknown command 0 (1..17)");
+  add(M::GET_PARAMETER, [](M& m) { m.parameter = ""; }, "parameter must have 1..47 characters");
+  add(M::SET_PARAMETER, [](M& m) { m.parameter = std::string(48, 'k'); }, "parameter must have 1..47 characters");
+  add(M::SET_PARAMETER, [](M& m) {
+        m.parameter = "control.bandwidth_hz";
+        m.value = std::numeric_limits<double>::quiet_NaN();
+      },
+      "value is not a finite number");
   add(M::LOAD_FEEDFORWARD, [](M& m) { m.path = ""; }, "path is empty");
   add(M::LOAD_CALIBRATION, [](M& m) { m.path = std::string(300, 'c'); },
       "path is 300 characters long, at most 255 fit");

@@ -27,39 +27,14 @@
 #include "clm_lcm/servo_status_t.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 #include "tools/cli/commands.hpp"
+#include "tools/cli/ctl_support.hpp"
 #include "tools/servod_client/client.hpp"
 
 namespace clm::cli {
 namespace {
 
-using Command = clm_lcm::servo_command_t;
 using servod_client::make_command;
 
-struct CtlOptions {
-  std::string lcm_url = telemetry::kDefaultLcmUrl;
-  double timeout_s = 2.0;
-  std::string axis;            ///< empty: the only axis answering
-  std::int64_t client_id = 0;  ///< 0: servod_client::default_client_id()
-};
-
-/// Exits `clm` with status 1 without a further message (CLI11 prints nothing for it).
-[[noreturn]] void fail_quietly() { throw CLI::RuntimeError(1); }
-
-/// The client of one subcommand: receives `channels` alone (an LCM regular expression).
-servod_client::Options client_options(const CtlOptions& options, const std::string& channels) {
-  servod_client::Options client;
-  client.lcm_url = options.lcm_url;
-  client.channels = channels;
-  client.axis = options.axis;
-  client.client_id = options.client_id;
-  return client;
-}
-
-/// Several axes answer and --axis does not choose: exit status 2 with the list.
-[[noreturn]] void several_axes(const servod_client::SeveralAxes& e) {
-  std::fprintf(stderr, "clm ctl: %s\n", e.what());
-  throw CLI::RuntimeError(2);
-}
 
 const char* state_name(int state) {
   switch (state) {
@@ -151,26 +126,6 @@ void run_status(const CtlOptions& options) {
   print_status(status);
 }
 
-void send_command(const CtlOptions& options, const Command& command) {
-  // The status names axis, session and the control holder; the ack answers.
-  servod_client::Client client(client_options(
-      options, std::string("(") + telemetry::kStatusChannel + "|" + telemetry::kCommandAckChannel + ")"));  // no LCM: exit status 2
-  servod_client::Ack ack;
-  try {
-    ack = client.send(command, options.timeout_s);
-  } catch (const servod_client::SeveralAxes& e) {
-    several_axes(e);
-  } catch (const servod_client::NoAck& e) {
-    std::fprintf(stderr, "clm ctl: %s\n", e.what());
-    fail_quietly();
-  }
-  std::printf("%s\n", ack.text.c_str());
-  if (!ack.accepted) fail_quietly();
-}
-
-/// The daemon opens files itself, from its own working directory: send absolute paths.
-std::string absolute_path(const std::string& path) { return std::filesystem::absolute(path).lexically_normal().string(); }
-
 }  // namespace
 
 void add_ctl(CLI::App& app) {
@@ -178,6 +133,7 @@ void add_ctl(CLI::App& app) {
   ctl->require_subcommand(1);
   ctl->fallthrough();  // --lcm-url and --timeout-s also after the subcommand
   auto options = std::make_shared<CtlOptions>();
+  options->lcm_url = telemetry::kDefaultLcmUrl;
   ctl->add_option("--lcm-url", options->lcm_url, "LCM URL of the daemon (its telemetry.lcm_url)")->capture_default_str();
   ctl->add_option("--timeout-s", options->timeout_s, "how long to wait for the status or the ack [s]")
       ->check(CLI::PositiveNumber)
@@ -246,8 +202,7 @@ void add_ctl(CLI::App& app) {
     if (!std::isfinite(jog->velocity_m_per_s) || jog->velocity_m_per_s == 0.0) {
       throw std::runtime_error("--velocity-m-per-s must be finite and not 0 (its sign is the direction)");
     }
-    servod_client::Client client(client_options(
-        *options, std::string("(") + telemetry::kStatusChannel + "|" + telemetry::kCommandAckChannel + ")"));
+    servod_client::Client client(command_client_options(*options));
     const auto start = std::chrono::steady_clock::now();
     const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
         std::chrono::duration<double>(jog->repeat_s));
@@ -258,15 +213,7 @@ void add_ctl(CLI::App& app) {
       command.velocity_m_per_s = jog->velocity_m_per_s;
       command.acceleration_m_per_s2 = jog->acceleration_m_per_s2;
       command.jerk_m_per_s3 = jog->jerk_m_per_s3;
-      servod_client::Ack ack;
-      try {
-        ack = client.send(command, options->timeout_s, "JOG");
-      } catch (const servod_client::SeveralAxes& e) {
-        several_axes(e);
-      } catch (const servod_client::NoAck& e) {
-        std::fprintf(stderr, "clm ctl: %s\n", e.what());
-        fail_quietly();
-      }
+      const servod_client::Ack ack = send(client, *options, command);
       if (!ack.accepted) {
         std::printf("%s\n", ack.text.c_str());
         fail_quietly();
@@ -327,6 +274,7 @@ void add_ctl(CLI::App& app) {
     command.delta_rad = experiment->delta_rad;
     send_command(*options, command);
   });
+  add_ctl_parameters(*ctl, options);
 }
 
 }  // namespace clm::cli

@@ -36,7 +36,8 @@ clm_lcm::servo_command_t make_command(std::int8_t kind) {
 
 bool needs_control(std::int8_t kind) {
   using C = clm_lcm::servo_command_t;
-  return kind != C::STOP && kind != C::QUICK_STOP && kind != C::DISABLE && kind != C::TAKE_CONTROL && kind != C::RELEASE_CONTROL;
+  return kind != C::STOP && kind != C::QUICK_STOP && kind != C::DISABLE && kind != C::TAKE_CONTROL &&
+         kind != C::RELEASE_CONTROL && kind != C::GET_PARAMETER;
 }
 
 std::int64_t default_client_id() {

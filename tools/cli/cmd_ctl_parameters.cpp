@@ -1,0 +1,156 @@
+// clm ctl get, set and save (docs/servod.md, "Run-time parameters"):
+//   get [KEY]        the value the daemon's cycle uses, of KEY or of every run-time parameter
+//   set KEY VALUE    change it at standstill; the daemon checks it as the configuration would
+//   save --config F  write the running parameters, law and loaded files into F (F.bak keeps the old)
+// Exit status as the other ctl subcommands: 1 refused or no answer, 2 bad arguments.
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "clm_lcm/servo_status_t.hpp"
+#include "config/yaml_edit.hpp"
+#include "daemon/servod/parameters.hpp"
+#include "daemon/servod/servod_config.hpp"
+#include "tools/cli/ctl_support.hpp"
+#include "tools/servod_client/config_update.hpp"
+
+namespace clm::cli {
+namespace {
+
+using servod_client::make_command;
+
+/// The value of a get_parameter ack, "key = value unit".
+double value_of(const std::string& key, const std::string& text) {
+  const std::string prefix = key + " = ";
+  double value = 0.0;
+  if (text.compare(0, prefix.size(), prefix) == 0) {
+    const char* first = text.data() + prefix.size();
+    const auto result = std::from_chars(first, text.data() + text.size(), value);
+    if (result.ec == std::errc() && result.ptr != first) return value;
+  }
+  throw std::runtime_error("the daemon answered get_parameter " + key + " with '" + text + "'");
+}
+
+/// Every run-time parameter the daemon reports, in the table's order.
+std::vector<std::pair<const servod::RuntimeParameter*, double>> get_all(servod_client::Client& client,
+                                                                       const CtlOptions& options) {
+  std::vector<std::pair<const servod::RuntimeParameter*, double>> out;
+  for (const auto& parameter : servod::runtime_parameters()) {
+    Command command = make_command(Command::GET_PARAMETER);
+    command.parameter = parameter.key;
+    const servod_client::Ack ack = send(client, options, command);
+    if (!ack.accepted) throw std::runtime_error("get_parameter " + std::string(parameter.key) + ": " + ack.text);
+    out.emplace_back(&parameter, value_of(parameter.key, ack.text));
+  }
+  return out;
+}
+
+std::string number(double value) {
+  char text[32];
+  const auto result = std::to_chars(text, text + sizeof text, value);
+  return std::string(text, result.ptr);
+}
+
+void run_save(const CtlOptions& options, const std::string& config_path) {
+  // What the file must say: the daemon's own configuration, for its axis.
+  const servod::ServodConfig config = servod::load_servod_config(config_path);
+  servod_client::Client client(command_client_options(options));  // no LCM: exit status 2
+  clm_lcm::servo_status_t status;
+  try {
+    status = client.wait_for_status(options.timeout_s);
+  } catch (const servod_client::Timeout& e) {
+    std::fprintf(stderr, "clm ctl: %s\n", e.what());
+    fail_quietly();
+  }
+  if (status.axis != config.axis_name) {
+    throw std::runtime_error(config_path + ": axis.name is '" + config.axis_name + "', the daemon answering drives '" +
+                             status.axis + "': give the configuration of that daemon");
+  }
+  static const char* const kModes[] = {"original", "classical", "pgnn", "spline", "oracle"};
+  if (status.commutation < 0 || status.commutation > 4) {
+    throw std::runtime_error("the daemon runs an identification experiment: save once it commutates with a law");
+  }
+  std::vector<servod_client::ConfigEdit> edits;
+  double ff_mass = 0, ff_viscous = 0, ff_coulomb = 0;
+  for (const auto& [parameter, value] : get_all(client, options)) {
+    const std::string key = parameter->key;
+    if (key == "control.feedforward.mass_kg") {
+      ff_mass = value;
+    } else if (key == "control.feedforward.viscous_N_s_per_m") {
+      ff_viscous = value;
+    } else if (key == "control.feedforward.coulomb_N") {
+      ff_coulomb = value;
+    } else if (parameter->max > 0.0) {  // control.mass_kg is fixed at start-up: the file's already
+      edits.push_back({key, number(value)});
+    }
+  }
+  // The feedforward: the file the daemon loaded while its parameters are in
+  // use (the status names it only then), else the numbers.
+  if (!status.feedforward_file.empty()) {
+    edits.push_back({"control.feedforward_file", yaml::quoted(status.feedforward_file)});
+    edits.push_back({"control.feedforward", std::nullopt});
+  } else {
+    edits.push_back({"control.feedforward", "{mass_kg: " + number(ff_mass) + ", viscous_N_s_per_m: " +
+                                                number(ff_viscous) + ", coulomb_N: " + number(ff_coulomb) + "}"});
+    edits.push_back({"control.feedforward_file", std::nullopt});
+  }
+  for (const auto& [key, file] : {std::pair{"commutation.calibration_file", status.calibration_file},
+                                  std::pair{"commutation.pgnn_model_file", status.pgnn_model_file},
+                                  std::pair{"commutation.spline_model_file", status.spline_model_file}}) {
+    if (!file.empty()) edits.push_back({key, yaml::quoted(file)});
+  }
+  edits.push_back({"commutation.mode", kModes[status.commutation]});
+  const auto update = servod_client::update_config_file(config_path, edits);
+  std::printf("saved the running configuration of axis '%s' to %s (the previous one is %s)\n", status.axis.c_str(),
+              update.path.c_str(), update.backup_path.c_str());
+}
+
+}  // namespace
+
+void add_ctl_parameters(CLI::App& ctl, const std::shared_ptr<CtlOptions>& options) {
+  auto key = std::make_shared<std::string>();
+  auto* get = ctl.add_subcommand("get", "print run-time parameters as the daemon's cycle uses them (all without KEY)");
+  get->add_option("KEY", *key, "a run-time parameter, e.g. control.bandwidth_hz (docs/servod.md)");
+  get->callback([options, key] {
+    servod_client::Client client(command_client_options(*options));  // no LCM: exit status 2
+    if (!key->empty()) {
+      Command command = make_command(Command::GET_PARAMETER);
+      command.parameter = *key;
+      const servod_client::Ack ack = send(client, *options, command);
+      std::printf("%s\n", ack.text.c_str());
+      if (!ack.accepted) fail_quietly();
+      return;
+    }
+    for (const auto& [parameter, value] : get_all(client, *options)) {
+      std::printf("%s\n", servod::describe_parameter(*parameter, value).c_str());
+    }
+  });
+
+  struct SetOptions {
+    std::string key;
+    double value = 0.0;
+  };
+  auto set = std::make_shared<SetOptions>();
+  auto* set_sub = ctl.add_subcommand("set", "change a run-time parameter; the daemon applies it at standstill");
+  set_sub->add_option("KEY", set->key, "a run-time parameter, e.g. motion.velocity_m_per_s (docs/servod.md)")->required();
+  set_sub->add_option("VALUE", set->value, "the new value, in the parameter's SI unit")->required();
+  set_sub->callback([options, set] {
+    if (!std::isfinite(set->value)) throw std::runtime_error("VALUE must be finite");
+    Command command = make_command(Command::SET_PARAMETER);
+    command.parameter = set->key;
+    command.value = set->value;
+    send_command(*options, command);
+  });
+
+  auto config = std::make_shared<std::string>("/etc/clm-servo/servod.yaml");
+  auto* save = ctl.add_subcommand(
+      "save", "write the running parameters, commutation law and loaded files into the daemon's configuration file, "
+              "keeping the previous one as FILE.bak");
+  save->add_option("--config", *config, "the daemon's configuration file")->capture_default_str()->check(CLI::ExistingFile);
+  save->callback([options, config] { run_save(*options, *config); });
+}
+
+}  // namespace clm::cli

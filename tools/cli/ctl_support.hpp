@@ -1,0 +1,44 @@
+#pragma once
+// What the subcommands of `clm ctl` share (cmd_ctl.cpp, cmd_ctl_parameters.cpp):
+// the global options, the client built from them, and the exit conventions
+// (1: timeout or refused, 2: bad arguments or several axes without --axis).
+
+#include <CLI/CLI.hpp>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "clm_lcm/servo_command_t.hpp"
+#include "tools/servod_client/client.hpp"
+
+namespace clm::cli {
+
+using Command = clm_lcm::servo_command_t;
+
+struct CtlOptions {
+  std::string lcm_url;
+  double timeout_s = 2.0;
+  std::string axis;            ///< empty: the only axis answering
+  std::int64_t client_id = 0;  ///< 0: servod_client::default_client_id()
+};
+
+/// Exits `clm` with status 1 without a further message (CLI11 prints nothing for it).
+[[noreturn]] void fail_quietly();
+/// Several axes answer and --axis does not choose: exit status 2 with the list.
+[[noreturn]] void several_axes(const servod_client::SeveralAxes& e);
+/// The client of one subcommand: receives `channels` alone (an LCM regular expression).
+servod_client::Options client_options(const CtlOptions& options, const std::string& channels);
+/// A client that hears the status and the acks (what sending a command needs).
+servod_client::Options command_client_options(const CtlOptions& options);
+/// Sends `command` through `client` and returns its ack; no ack: one stderr
+/// line and exit status 1; several axes: exit status 2.
+servod_client::Ack send(servod_client::Client& client, const CtlOptions& options, const Command& command);
+/// Sends `command`, prints the ack's text; exit status 1 when it is refused.
+void send_command(const CtlOptions& options, const Command& command);
+/// The daemon opens files itself, from its own working directory: send absolute paths.
+std::string absolute_path(const std::string& path);
+
+/// clm ctl get, set and save (docs/servod.md, "Run-time parameters").
+void add_ctl_parameters(CLI::App& ctl, const std::shared_ptr<CtlOptions>& options);
+
+}  // namespace clm::cli
