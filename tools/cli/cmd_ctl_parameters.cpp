@@ -6,6 +6,8 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <tuple>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -73,39 +75,57 @@ void run_save(const CtlOptions& options, const std::string& config_path) {
   if (status.commutation < 0 || status.commutation > 4) {
     throw std::runtime_error("the daemon runs an identification experiment: save once it commutates with a law");
   }
+  // Only what differs from the file is written: the rest of it stays as it is.
+  const servod::RuntimeValues in_file{config.servo.tuning(), config.control_mass_kg, config.control_bandwidth_hz};
   std::vector<servod_client::ConfigEdit> edits;
-  double ff_mass = 0, ff_viscous = 0, ff_coulomb = 0;
+  servod::RuntimeValues running = in_file;
   for (const auto& [parameter, value] : get_all(client, options)) {
     const std::string key = parameter->key;
-    if (key == "control.feedforward.mass_kg") {
-      ff_mass = value;
-    } else if (key == "control.feedforward.viscous_N_s_per_m") {
-      ff_viscous = value;
-    } else if (key == "control.feedforward.coulomb_N") {
-      ff_coulomb = value;
-    } else if (parameter->max > 0.0) {  // control.mass_kg is fixed at start-up: the file's already
-      edits.push_back({key, number(value)});
+    if (key.rfind("control.feedforward.", 0) == 0) {
+      // Below, as a whole.
+    } else if (parameter->max > 0.0 && value != servod::parameter_value(in_file, *parameter)) {
+      edits.push_back({key, number(value)});  // control.mass_kg (max 0) is fixed at start-up: the file's
     }
+    if (key == "control.feedforward.mass_kg") running.tuning.feedforward.mass_kg = value;
+    if (key == "control.feedforward.viscous_N_s_per_m") running.tuning.feedforward.viscous_N_s_per_m = value;
+    if (key == "control.feedforward.coulomb_N") running.tuning.feedforward.coulomb_N = value;
   }
+  const auto same_file = [](const std::string& a, const std::string& b) {
+    std::error_code error;
+    return !a.empty() && !b.empty() && std::filesystem::equivalent(a, b, error) && !error;
+  };
   // The feedforward: the file the daemon loaded while its parameters are in
   // use (the status names it only then), else the numbers.
+  const auto& ff = running.tuning.feedforward;
+  const auto& ff_file = in_file.tuning.feedforward;
   if (!status.feedforward_file.empty()) {
-    edits.push_back({"control.feedforward_file", yaml::quoted(status.feedforward_file)});
-    edits.push_back({"control.feedforward", std::nullopt});
-  } else {
-    edits.push_back({"control.feedforward", "{mass_kg: " + number(ff_mass) + ", viscous_N_s_per_m: " +
-                                                number(ff_viscous) + ", coulomb_N: " + number(ff_coulomb) + "}"});
+    if (!same_file(status.feedforward_file, config.feedforward_file)) {
+      edits.push_back({"control.feedforward_file", yaml::quoted(status.feedforward_file)});
+      edits.push_back({"control.feedforward", std::nullopt});
+    }
+  } else if (!config.feedforward_file.empty() || ff.mass_kg != ff_file.mass_kg ||
+             ff.viscous_N_s_per_m != ff_file.viscous_N_s_per_m || ff.coulomb_N != ff_file.coulomb_N) {
+    edits.push_back({"control.feedforward", "{mass_kg: " + number(ff.mass_kg) + ", viscous_N_s_per_m: " +
+                                                number(ff.viscous_N_s_per_m) + ", coulomb_N: " + number(ff.coulomb_N) + "}"});
     edits.push_back({"control.feedforward_file", std::nullopt});
   }
-  for (const auto& [key, file] : {std::pair{"commutation.calibration_file", status.calibration_file},
-                                  std::pair{"commutation.pgnn_model_file", status.pgnn_model_file},
-                                  std::pair{"commutation.spline_model_file", status.spline_model_file}}) {
-    if (!file.empty()) edits.push_back({key, yaml::quoted(file)});
+  for (const auto& [key, running_file, file] :
+       {std::tuple{"commutation.calibration_file", status.calibration_file, config.commutation.calibration_file},
+        std::tuple{"commutation.pgnn_model_file", status.pgnn_model_file, config.commutation.pgnn_model_file},
+        std::tuple{"commutation.spline_model_file", status.spline_model_file, config.commutation.spline_model_file}}) {
+    if (!running_file.empty() && !same_file(running_file, file)) edits.push_back({key, yaml::quoted(running_file)});
   }
-  edits.push_back({"commutation.mode", kModes[status.commutation]});
+  if (static_cast<int>(config.commutation.mode) != status.commutation) {
+    edits.push_back({"commutation.mode", kModes[status.commutation]});
+  }
+  if (edits.empty()) {
+    std::printf("%s already holds the running configuration of axis '%s': nothing written\n", config_path.c_str(),
+                status.axis.c_str());
+    return;
+  }
   const auto update = servod_client::update_config_file(config_path, edits);
-  std::printf("saved the running configuration of axis '%s' to %s (the previous one is %s)\n", status.axis.c_str(),
-              update.path.c_str(), update.backup_path.c_str());
+  std::printf("saved the running configuration of axis '%s' to %s, %zu change(s) (the previous file is %s)\n",
+              status.axis.c_str(), update.path.c_str(), edits.size(), update.backup_path.c_str());
 }
 
 }  // namespace

@@ -1,0 +1,97 @@
+#!/usr/bin/env bash
+# Process-level test of the run-time parameters through `clm ctl` (labels
+# unit, lcm; docs/servod.md "Run-time parameters"): clm-servod on
+# config/servod.yaml (the embedded simulated motor, real-time clock, no
+# real-time rights) on an LCM port of its own.
+#   - get lists every parameter with the configuration's values;
+#   - set changes one, get reads it back, a move beyond a new limit is
+#     refused naming it, a value outside the configuration's range is refused;
+#   - save writes the running values into the configuration file: the old
+#     file is kept byte for byte as FILE.bak, the comments stay, and a second
+#     daemon started on the saved file reports the set values;
+#   - save refuses a configuration of another axis and leaves it unchanged.
+# About 10 s.
+#
+#   servod_parameters_test.sh CLM_SERVOD CLM SOURCE_DIR WORK_DIR
+set -euo pipefail
+servod=$1 clm=$2 source_dir=$3 work=$4
+# shellcheck source=../support/script_helpers.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../support/script_helpers.sh"
+
+# A port of its own (10200..10249), apart from the other LCM tests.
+port=$((10200 + $$ % 50))
+url="udpm://239.255.76.67:${port}?ttl=0"
+rm -rf "$work"
+mkdir -p "$work"
+trap cleanup_processes EXIT
+fail() { fail_with_status "$*" "$work"/servod*.log; }
+
+missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" \
+          "motor_file: $source_dir/config/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
+          "  lcm_url: \"$url\"" && config_require "$work/servod.yaml" "  bandwidth_hz: 40.0" "  velocity_m_per_s: 0.5") ||
+    fail "config: no line '$missing' after editing"
+cp "$work/servod.yaml" "$work/servod.original.yaml"
+
+start() {  # start LOG
+  start_daemon "$work/servod.yaml" "$1"
+  pid=$servod_pid
+  local rc=0
+  wait_for_status "$pid" 5 || rc=$?
+  [ $rc = 0 ] || fail "no status from clm-servod (wait_for_status: $rc)"
+}
+start "$work/servod.log"
+
+# get: every parameter, the configuration's values.
+listing=$(ctl get) || fail "get refused"
+[ "$(wc -l <<< "$listing")" = 15 ] || fail "get listed $(wc -l <<< "$listing") parameters, expected 15: $listing"
+grep -qx "control.bandwidth_hz = 40 Hz" <<< "$listing" || fail "get: no 'control.bandwidth_hz = 40 Hz' in: $listing"
+grep -qx "motion.velocity_m_per_s = 0.5 m/s" <<< "$listing" || fail "get: velocity not 0.5 m/s: $listing"
+
+# set, get, and the new limit at work.
+ctl set motion.velocity_m_per_s 0.3 > /dev/null || fail "set motion.velocity_m_per_s 0.3 refused"
+ctl set control.bandwidth_hz 30 > /dev/null || fail "set control.bandwidth_hz 30 refused"
+ctl set control.feedforward.coulomb_N 4.5 > /dev/null || fail "set control.feedforward.coulomb_N 4.5 refused"
+[ "$(ctl get motion.velocity_m_per_s)" = "motion.velocity_m_per_s = 0.3 m/s" ] || fail "get after set: $(ctl get motion.velocity_m_per_s)"
+ctl enable > /dev/null || fail "enable refused"
+if reply=$(ctl move-to --target-m 0.05 --velocity-m-per-s 0.4 2>&1); then fail "a move at 0.4 m/s was accepted: $reply"; fi
+[[ $reply == *"0.3"* ]] || fail "the refusal of a move at 0.4 m/s does not name the 0.3 m/s limit: $reply"
+if reply=$(ctl set control.force_limit_N 900 2>&1); then fail "force_limit_N 900 was accepted: $reply"; fi
+[ "$reply" = "rejected: control.force_limit_N: expected a number in [1, 819] N, got 900" ] || fail "refusal: $reply"
+ctl disable > /dev/null || fail "disable refused"
+
+# save: the values in the file, the comments kept, the old file as .bak.
+ctl save --config "$work/servod.yaml" > "$work/save.out" || fail "save failed: $(cat "$work/save.out")"
+cmp -s "$work/servod.yaml.bak" "$work/servod.original.yaml" || fail "servod.yaml.bak is not the previous file"
+grep -q "^  velocity_m_per_s: 0.3 *# move-to and programs may not ask for more" "$work/servod.yaml" ||
+    fail "saved file: no velocity 0.3 with its comment: $(grep velocity_m_per_s "$work/servod.yaml")"
+grep -q "^  bandwidth_hz: 30 *# position-loop crossover" "$work/servod.yaml" || fail "saved file: no bandwidth 30"
+grep -q "^  feedforward: {mass_kg: 0, viscous_N_s_per_m: 0, coulomb_N: 4.5}" "$work/servod.yaml" ||
+    fail "saved file: feedforward: $(grep feedforward "$work/servod.yaml")"
+# Only the three changed lines differ.
+changed=$(diff "$work/servod.original.yaml" "$work/servod.yaml" | grep -c '^>' || true)
+[ "$changed" = 3 ] || fail "save rewrote $changed lines: $(diff "$work/servod.original.yaml" "$work/servod.yaml")"
+ctl save --config "$work/servod.yaml" > "$work/save-again.out" || fail "a second save failed"
+grep -q "nothing written" "$work/save-again.out" || fail "a second save wrote again: $(cat "$work/save-again.out")"
+
+# Another axis's configuration: refused, untouched.
+sed 's/^  name: .*/  name: other-axis/' "$work/servod.original.yaml" > "$work/other.yaml"
+grep -q "^  name: other-axis" "$work/other.yaml" || printf 'axis:\n  name: other-axis\n' >> "$work/other.yaml"
+cp "$work/other.yaml" "$work/other.before.yaml"
+if reply=$(ctl save --config "$work/other.yaml" 2>&1); then fail "save into another axis's file succeeded: $reply"; fi
+[[ $reply == *"other-axis"* ]] || fail "save into another axis's file: $reply"
+cmp -s "$work/other.yaml" "$work/other.before.yaml" || fail "another axis's file was changed"
+[ ! -e "$work/other.yaml.bak" ] || fail "a backup of another axis's file was written"
+
+# A daemon started on the saved file runs with the saved values.
+rc=0
+stop_process "$pid" 10 || rc=$?
+[ $rc = 0 ] || fail "clm-servod exit status $rc after SIGTERM"
+start "$work/servod-2.log"
+[ "$(ctl get motion.velocity_m_per_s)" = "motion.velocity_m_per_s = 0.3 m/s" ] || fail "restarted: $(ctl get motion.velocity_m_per_s)"
+[ "$(ctl get control.bandwidth_hz)" = "control.bandwidth_hz = 30 Hz" ] || fail "restarted: $(ctl get control.bandwidth_hz)"
+[ "$(ctl get control.feedforward.coulomb_N)" = "control.feedforward.coulomb_N = 4.5 N" ] || fail "restarted: coulomb"
+rc=0
+stop_process "$pid" 10 || rc=$?
+[ $rc = 0 ] || fail "clm-servod exit status $rc after SIGTERM"
+trap - EXIT
+echo "clm ctl get/set/save: 3 parameters set, refused beyond their ranges, saved with comments and a backup, read back by a restarted daemon"
