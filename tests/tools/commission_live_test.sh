@@ -4,8 +4,10 @@
 #
 #   commission_live_test.sh run      CLM_SERVOD CLM SOURCE_DIR WORK_DIR
 #       the daemon on the embedded simulated motor with the real-time clock,
-#       a shortened experiment program; the whole live commissioning; checks
-#       the report, the logs and the daemon's clean exit. About 2.5 min.
+#       a shortened experiment program; the whole live commissioning with
+#       --save; checks the report, the logs, the daemon's clean exit, and that
+#       a daemon restarted on the saved configuration commutates with the
+#       commissioned PGNN and feedforward. About 2.5 min.
 #   commission_live_test.sh no-daemon CLM_SERVOD CLM SOURCE_DIR WORK_DIR
 #       nobody answers: one stderr line naming the command, a non-zero exit
 #       within the ack timeout, nothing written.
@@ -87,7 +89,8 @@ out="$work/out"
 start=$(date +%s.%N)
 commission() {
   rm -rf "$out"
-  "$clm" commission --live --lcm-url "$url" --config "$work/servod.yaml" --program "$work/program.yaml" \
+  cp "$work/servod.yaml" "$work/servod.before.yaml"
+  "$clm" commission --live --save --lcm-url "$url" --config "$work/servod.yaml" --program "$work/program.yaml" \
       --validation-program none --out "$out" --no-plots > "$work/commission.out" 2> "$work/commission.err"
 }
 # On the real-time clock a loop stall of the shared host can latch a fault in
@@ -167,4 +170,29 @@ assert from_log == from_tool, f"experiments.lcm has {from_log} experiment rows, 
 print(f"logs: evaluation-pgnn {len(rows)} consecutive cycles; experiments {from_log} rows in log and csv")
 CHECK
     fail "logs: see above"
-echo "clm commission --live: $elapsed s wall time; daemon exit 0 after SIGTERM"
+
+# --save: the configuration names the commissioned files, the old one is the
+# backup, and a daemon started on it commutates with them.
+cmp -s "$work/servod.yaml.bak" "$work/servod.before.yaml" || fail "--save: servod.yaml.bak is not the previous file"
+outdir=$(cd "$out" && pwd -P)
+for line in "  pgnn_model_file: \"$outdir/model-pgnn.yaml\"" "  calibration_file: \"$outdir/calibration.yaml\"" \
+            "  feedforward_file: \"$outdir/feedforward-pgnn.yaml\"" "  mode: pgnn"; do
+  grep -qxF -- "$line" <(sed 's/ *#.*//' "$work/servod.yaml") || fail "--save: no line '$line' in servod.yaml"
+done
+start_daemon "$work/servod.yaml" "$work/servod-saved.log"
+pid=$servod_pid
+trap 'kill -KILL $pid 2>/dev/null || true' EXIT
+rc=0
+wait_for_status $pid 5 || rc=$?
+[ $rc = 0 ] || fail "no status from a daemon on the saved configuration (wait_for_status: $rc)"
+status=$(ctl status) || fail "no status on the saved configuration"
+[ "$(field commutation "$status")" = pgnn ] || fail "saved configuration: commutation $(field commutation "$status")"
+[ "$(field pgnn_model_file "$status" | cut -d' ' -f1)" = "$outdir/model-pgnn.yaml" ] ||
+    fail "saved configuration: pgnn_model_file $(field pgnn_model_file "$status")"
+[ "$(field feedforward_file "$status" | cut -d' ' -f1)" = "$outdir/feedforward-pgnn.yaml" ] ||
+    fail "saved configuration: feedforward_file $(field feedforward_file "$status")"
+rc=0
+stop_process $pid 20 || rc=$?
+trap - EXIT
+[ $rc = 0 ] || fail "clm-servod on the saved configuration: exit status $rc after SIGTERM"
+echo "clm commission --live --save: $elapsed s wall time; daemon exit 0 after SIGTERM; restarted on the saved configuration with the commissioned PGNN"
