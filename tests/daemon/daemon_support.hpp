@@ -42,6 +42,21 @@ inline servod::CommandReply command(servod::ServoDaemon& daemon, servo::CommandK
   return reply;
 }
 
+/// Submits SET_EXPERIMENT (coil set 1) and runs a cycle: the cycle must refuse
+/// it because the axis has no force sensor or has lost it.
+inline void require_experiment_refused_for_the_sensor(servod::ServoDaemon& daemon) {
+  servo::Command experiment;
+  experiment.kind = servo::CommandKind::kSetExperiment;
+  experiment.coil_set = 1;
+  (void)daemon.take_replies();
+  REQUIRE(daemon.submit(experiment).accepted);
+  daemon.run_cycles(1);
+  const auto replies = daemon.take_replies();
+  REQUIRE(replies.size() == 1);
+  CHECK_FALSE(replies[0].accepted);
+  CHECK(replies[0].text == servo::describe(servo::CommandStatus::kRejectedNoForceSensor));
+}
+
 inline void write_text(const std::string& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   out << text;

@@ -200,16 +200,7 @@ TEST_CASE("force-sensor frames missing in service: a warning with its reason, ne
   }
   CHECK(axis.counters().force_sensor_losses == 1);
   // An experiment measures with the sensor: refused while it is lost.
-  servo::Command experiment;
-  experiment.kind = Kind::kSetExperiment;
-  experiment.coil_set = 1;
-  (void)axis.daemon.take_replies();
-  REQUIRE(axis.daemon.submit(experiment).accepted);
-  axis.daemon.run_cycles(1);
-  const auto replies = axis.daemon.take_replies();
-  REQUIRE(replies.size() == 1);
-  CHECK_FALSE(replies[0].accepted);
-  CHECK(replies[0].text == servo::describe(servo::CommandStatus::kRejectedNoForceSensor));
+  test::require_experiment_refused_for_the_sensor(axis.daemon);
   // Frames again: measured at once, healthy after `limit` good cycles.
   axis.injection().drop_force_frames = 0;
   int good = 0;

@@ -118,15 +118,6 @@ TEST_CASE("without a force sensor the axis tracks Fig. 8 with the PGNN law exact
   // Per cycle the bus carries SYNC, one feedback frame and the setpoints.
   CHECK(counters.frames_received == counters.cycles);
 
-  servo::Command experiment;
-  experiment.kind = Kind::kSetExperiment;
-  experiment.coil_set = 1;
-  (void)bare.daemon.take_replies();
-  REQUIRE(bare.daemon.submit(experiment).accepted);
-  bare.daemon.run_cycles(1);
-  const auto replies = bare.daemon.take_replies();
-  REQUIRE(replies.size() == 1);
-  CHECK_FALSE(replies[0].accepted);
-  CHECK(replies[0].text == servo::describe(servo::CommandStatus::kRejectedNoForceSensor));
+  test::require_experiment_refused_for_the_sensor(bare.daemon);
   CHECK(bare.daemon.cycle().mode() == CommutationMode::kPgnn);
 }

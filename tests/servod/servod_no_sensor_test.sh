@@ -76,14 +76,19 @@ status=$(ctl status) || fail "none: no status"
 reply=$(ctl experiment --coil-set 1 --delta-rad 0 2>&1) && fail "none: an experiment was accepted: $reply"
 [[ $reply == *"an experiment needs the force sensor"* ]] || fail "none: experiment refused with '$reply'"
 
-for run in sensor none; do
-  url="udpm://239.255.76.67:$(port_of $run)?ttl=0"
-  for _ in $(seq 1 100); do
-    status=$(ctl status) || fail "$run: no status"
-    [ "$(field program_running "$status")" = false ] && break
+# until_idle RUN TRIES WHAT: polls RUN's status every 0.1 s until no program runs; sets `status`.
+until_idle() {
+  for _ in $(seq 1 "$2"); do
+    status=$(ctl status) || fail "$1: no status"
+    [ "$(field program_running "$status")" = false ] && return 0
     sleep 0.1
   done
-  [ "$(field program_running "$status")" = false ] || fail "$run: the move to the start did not end"
+  fail "$1: $3"
+}
+
+for run in sensor none; do
+  url="udpm://239.255.76.67:$(port_of $run)?ttl=0"
+  until_idle $run 100 "the move to the start did not end"
   lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_STATE "$work/$run.lcmlog" 2> "$work/logger-$run.log" &
   logger[$run]=$!
   pids+=("${logger[$run]}")
@@ -96,12 +101,7 @@ done
 sleep 1
 for run in sensor none; do
   url="udpm://239.255.76.67:$(port_of $run)?ttl=0"
-  for _ in $(seq 1 600); do
-    status=$(ctl status) || fail "$run: no status"
-    [ "$(field program_running "$status")" = false ] && break
-    sleep 0.1
-  done
-  [ "$(field program_running "$status")" = false ] || fail "$run: Fig. 8 did not end within 60 s"
+  until_idle $run 600 "Fig. 8 did not end within 60 s"
   [ "$(field fault "$status")" = 0 ] || fail "$run: fault $(field fault "$status") ($(field fault_reason "$status"))"
   if [ $run = none ]; then
     [ "$(counter "$status" missing)" = 0 ] || fail "none: $(counter "$status" missing) frames missing"
