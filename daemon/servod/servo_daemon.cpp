@@ -1,16 +1,16 @@
+// ServoDaemon: construction, the command path (submit, the cycle's queue and
+// its replies, moves and jogs planned and checked), and the commands the loop
+// executes between cycles. Files are in servo_daemon_files.cpp, the run-time
+// parameters in servo_daemon_parameters.cpp, the loop in servo_daemon_loop.cpp.
 #include "daemon/servod/servo_daemon.hpp"
 
-#include <atomic>
-#include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <stdexcept>
-#include <type_traits>
 
 #include "config/regular_file.hpp"
 #include "config/sha256.hpp"
 #include "daemon/servod/command_check.hpp"
-#include "daemon/servod/feedforward_file.hpp"
+#include "daemon/servod/servo_daemon_parts.hpp"
 
 namespace clm::servod {
 namespace {
@@ -26,60 +26,7 @@ bool reads_file(const servo::Command& command) noexcept {
   }
 }
 
-/// Where in the file a parser message points ("line 3, key kind"), read from
-/// its "<file>:<line>: <key>: ..." prefix; "" when it has none. Nothing after
-/// the key is kept: that part may quote the file's content.
-std::string where_in_file(const std::string& message, const std::string& file) {
-  if (message.compare(0, file.size(), file) != 0 || message.size() <= file.size() || message[file.size()] != ':') {
-    return "";
-  }
-  std::size_t at = file.size() + 1;
-  std::string line;
-  while (at < message.size() && message[at] >= '0' && message[at] <= '9') line += message[at++];
-  if (!line.empty() && at < message.size() && message[at] == ':') ++at;
-  std::string key;
-  if (at < message.size() && message[at] == ' ') {
-    const std::size_t end = message.find(": ", at + 1);
-    if (end != std::string::npos) key = message.substr(at + 1, end - at - 1);
-  }
-  if (key.size() > 64 || key.find_first_of("' ") != std::string::npos) key.clear();  // not a key path
-  std::string where;
-  if (!line.empty()) where = "line " + line;
-  if (!key.empty()) where += (where.empty() ? "key " : ", key ") + key;
-  return where;
-}
-
-const char* file_kind(servo::CommandKind kind) noexcept {
-  switch (kind) {
-    case servo::CommandKind::kRunProgram: return "program";
-    case servo::CommandKind::kLoadCalibration: return "calibration";
-    case servo::CommandKind::kLoadModel: return "model";
-    case servo::CommandKind::kLoadFeedforward: return "feedforward";
-    default: return "input";
-  }
-}
-
 }  // namespace
-
-// What the loader read from one command's file.
-struct ServoDaemon::Loaded {
-  servo::Command command;
-  std::string refusal;  // "" when loaded
-  std::string canonical, sha256;
-  std::unique_ptr<OwnedLaw> law;
-  ProgramFile program;
-};
-
-// A law with the files it was built from; the law refers into them.
-struct ServoDaemon::OwnedLaw {
-  servo::CommutationMode mode = servo::CommutationMode::kOriginal;
-  std::string source;  // canonical path of its file
-  std::string sha256;  // of its file
-  CalibrationFile calibration;
-  std::vector<ClassicalEstimate> estimates;
-  ModelFile model;
-  std::unique_ptr<CommutationLaw> law;
-};
 
 ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drivers::BusClock& clock,
                          std::vector<ExtraLaw> extra_laws)
@@ -128,46 +75,6 @@ ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drive
 }
 
 ServoDaemon::~ServoDaemon() = default;
-
-std::string ServoDaemon::law_source(servo::CommutationMode mode) const {
-  // The law the cycle uses now; one still waiting for standstill is not it.
-  for (const auto& law : laws_) {
-    if (law->mode == mode && cycle_->law_handover(mode).is_current(law->law.get())) return law->source;
-  }
-  for (const ExtraLaw& extra : extra_laws_) {
-    if (extra.mode == mode && cycle_->law_handover(mode).is_current(extra.law)) return extra.source;
-  }
-  return "";
-}
-
-std::unique_ptr<ServoDaemon::OwnedLaw> ServoDaemon::build_law(servo::CommutationMode mode, const std::string& path,
-                                                             const std::string& text, const std::string& sha256) const {
-  auto owned = std::make_unique<OwnedLaw>();
-  owned->mode = mode;
-  std::error_code error;
-  const auto canonical = std::filesystem::canonical(path, error);
-  owned->source = error ? path : canonical.string();
-  owned->sha256 = sha256;
-  if (mode == servo::CommutationMode::kClassical) {
-    owned->calibration = parse_calibration_file(yaml::Node::load_string(text, path));
-    check_matches_motor(owned->calibration, config_.motor, path, config_.motor_file);
-    owned->estimates = owned->calibration.estimates();
-    owned->law = std::make_unique<ClassicalCommutator>(owned->estimates, config_.motor.pole_pitch_m, config_.motor.drive,
-                                                       config_.commutation.options.phase_convention);
-  } else {
-    owned->model = parse_model_file(yaml::Node::load_string(text, path));
-    check_matches_motor(owned->model.model, config_.motor, path, config_.motor_file);
-    const ModelKind expected = mode == servo::CommutationMode::kPgnn ? ModelKind::kPgnn : ModelKind::kSpline;
-    if (owned->model.model.kind != expected) {
-      throw std::runtime_error(path + ": kind: the file holds a " +
-                               std::string(owned->model.model.kind == ModelKind::kPgnn ? "pgnn" : "spline") +
-                               " model, the " + servo::name(mode) + " commutation needs a " +
-                               (expected == ModelKind::kPgnn ? "pgnn" : "spline") + " model");
-    }
-    owned->law = std::make_unique<ModelCommutator>(owned->model.model, config_.motor.drive, config_.commutation.options);
-  }
-  return owned;
-}
 
 CommandReply ServoDaemon::queue(const servo::Command& command) {
   if (!commands_->try_push(command)) return {command.sequence, false, "command queue full"};
@@ -290,108 +197,6 @@ CommandReply ServoDaemon::submit(const servo::Command& received) {
   return reply;
 }
 
-std::unique_ptr<ServoDaemon::Loaded> ServoDaemon::load(const servo::Command& command) const {
-  using Kind = servo::CommandKind;
-  auto loaded = std::make_unique<Loaded>();
-  loaded->command = command;
-  const std::string path(command.kind == Kind::kRunProgram ? command.program.view() : command.path.view());
-  const std::string rejected = std::string("rejected: ") + servo::route(command.kind).name + ": ";
-  const std::string refusal = check_loadable(file_policy_, path, loaded->canonical);
-  if (!refusal.empty()) {
-    // The rule first, the path last: an ack's text is short, a long path is cut.
-    const std::string quoted = "'" + path + "': ";
-    loaded->refusal = refusal.compare(0, quoted.size(), quoted) == 0
-                          ? rejected + refusal.substr(quoted.size()) + ": '" + path + "'"
-                          : rejected + refusal;
-    return loaded;
-  }
-  const std::string& file = loaded->canonical;
-  try {
-    const std::string text = read_regular_file(file, static_cast<std::uint64_t>(file_policy_.max_file_bytes),
-                                               " (commands.max_file_bytes)");
-    loaded->sha256 = sha256_hex(text);
-    switch (command.kind) {
-      case Kind::kRunProgram:
-        loaded->program = parse_program_file(yaml::Node::load_string(text, file));
-        break;
-      case Kind::kLoadFeedforward: {
-        loaded->command.feedforward = parse_feedforward_file(yaml::Node::load_string(text, file)).parameters;
-        const auto& ff = loaded->command.feedforward;
-        for (const auto& [key, value] : {std::pair{"mass_kg", ff.mass_kg}, std::pair{"viscous_N_s_per_m", ff.viscous_N_s_per_m},
-                                         std::pair{"coulomb_N", ff.coulomb_N}}) {
-          if (!std::isfinite(value)) throw std::runtime_error(file + ": " + key + ": not a finite number");
-        }
-        break;
-      }
-      case Kind::kLoadCalibration:
-        loaded->law = build_law(servo::CommutationMode::kClassical, file, text, loaded->sha256);
-        break;
-      case Kind::kLoadModel: {
-        servo::CommutationMode mode = command.commutation;
-        if (mode != servo::CommutationMode::kPgnn && mode != servo::CommutationMode::kSpline) {
-          // servo_command_t names no law: the model file's own `kind:` says which.
-          const ModelFile model = parse_model_file(yaml::Node::load_string(text, file));
-          mode = model.model.kind == ModelKind::kPgnn ? servo::CommutationMode::kPgnn : servo::CommutationMode::kSpline;
-          loaded->command.commutation = mode;
-        }
-        loaded->law = build_law(mode, file, text, loaded->sha256);
-        break;
-      }
-      default:
-        loaded->refusal = rejected + "not a command that loads a file";
-        break;
-    }
-  } catch (const std::exception& e) {
-    // The parser's message may quote the file: in full to the log only.
-    const std::string message = e.what();
-    if (log_) {
-      log_("refused " + std::string(file_kind(command.kind)) + " file '" + path + "': " + message);
-    } else {
-      std::fprintf(stderr, "clm-servod: refused %s file '%s': %s\n", file_kind(command.kind), path.c_str(),
-                   message.c_str());
-    }
-    std::string where = where_in_file(message, file);
-    if (where.empty()) where = where_in_file(message, path);
-    // Short: an ack's text has 127 characters, and the path comes last.
-    loaded->refusal = rejected + "invalid " + file_kind(command.kind) + " file" + (where.empty() ? "" : " (" + where + ")") +
-                      ": '" + path + "'";
-    loaded->law.reset();
-  }
-  return loaded;
-}
-
-CommandReply ServoDaemon::finish_load(Loaded& loaded) {
-  using Kind = servo::CommandKind;
-  const servo::Command& command = loaded.command;
-  if (!loaded.refusal.empty()) return {command.sequence, false, loaded.refusal, command.client};
-  CommandReply reply{command.sequence, false, "", command.client};
-  switch (command.kind) {
-    case Kind::kRunProgram:
-      reply = post_program(command, &loaded.program);
-      break;
-    case Kind::kLoadFeedforward:
-      reply = queue(command);
-      if (reply.accepted) set_loaded_file(LoadedFileSlot::kFeedforward, loaded.canonical, loaded.sha256);
-      break;
-    case Kind::kLoadCalibration:
-    case Kind::kLoadModel: {
-      const servo::CommutationMode mode = loaded.law->mode;
-      if (!cycle_->law_handover(mode).post(loaded.law->law.get())) {
-        reply.text = "rejected: an earlier load is still waiting for standstill";
-        break;
-      }
-      laws_.push_back(std::move(loaded.law));
-      reply = {command.sequence, true, "loaded; swapped in at the next standstill"};
-      break;
-    }
-    default:
-      reply.text = "unknown command";
-      break;
-  }
-  reply.client = command.client;
-  return reply;
-}
-
 CommandReply ServoDaemon::answer(const servo::Command& received) {
   using Kind = servo::CommandKind;
   collect_garbage();
@@ -471,72 +276,6 @@ void ServoDaemon::collect_garbage() {
   std::erase_if(laws_, [&](const std::unique_ptr<OwnedLaw>& law) {
     return !cycle_->law_handover(law->mode).in_use(law->law.get());
   });
-}
-
-namespace {
-
-// A seqlock's payload is read while it may be written: every byte goes
-// through std::atomic_ref (relaxed), so the race is on atomics, not UB; the
-// generation counter says whether the copy is whole.
-static_assert(std::is_trivially_copyable_v<telemetry::LoadedFileText>);
-void atomic_copy(unsigned char* to, const unsigned char* from, std::size_t bytes, bool to_shared) noexcept {
-  for (std::size_t i = 0; i < bytes; ++i) {
-    if (to_shared) {
-      std::atomic_ref<unsigned char>(to[i]).store(from[i], std::memory_order_relaxed);
-    } else {
-      to[i] = std::atomic_ref<unsigned char>(const_cast<unsigned char&>(from[i])).load(std::memory_order_relaxed);
-    }
-  }
-}
-
-}  // namespace
-
-void ServoDaemon::set_loaded_file(LoadedFileSlot slot, const std::string& path, const std::string& sha256) noexcept {
-  FileSlot& file = files_[static_cast<std::size_t>(slot)];
-  telemetry::LoadedFileText text;  // this thread is the only writer: its own reads need no care
-  text.path.assign(path);
-  text.sha256.assign(sha256);
-  telemetry::LoadedFileText current;
-  atomic_copy(reinterpret_cast<unsigned char*>(&current), reinterpret_cast<const unsigned char*>(&file.text),
-              sizeof current, false);
-  if (current.path.view() == text.path.view() && current.sha256.view() == text.sha256.view()) return;
-  const std::uint64_t generation = file.generation.load(std::memory_order_relaxed);
-  file.generation.store(generation + 1, std::memory_order_relaxed);  // odd: being written
-  std::atomic_thread_fence(std::memory_order_release);
-  atomic_copy(reinterpret_cast<unsigned char*>(&file.text), reinterpret_cast<const unsigned char*>(&text), sizeof text,
-              true);
-  file.generation.store(generation + 2, std::memory_order_release);
-}
-
-std::uint64_t ServoDaemon::loaded_file(LoadedFileSlot slot, telemetry::LoadedFileText& out) const noexcept {
-  const FileSlot& file = files_[static_cast<std::size_t>(slot)];
-  for (int attempt = 0; attempt < 8; ++attempt) {
-    const std::uint64_t before = file.generation.load(std::memory_order_acquire);
-    if (before % 2 != 0) continue;
-    atomic_copy(reinterpret_cast<unsigned char*>(&out), reinterpret_cast<const unsigned char*>(&file.text), sizeof out,
-                false);
-    std::atomic_thread_fence(std::memory_order_acquire);
-    if (file.generation.load(std::memory_order_relaxed) == before) return before;
-  }
-  // Being rewritten on every look: say so rather than report a torn name.
-  out.path.assign("(changing)");
-  out.sha256.assign("");
-  return 0;
-}
-
-void ServoDaemon::update_law_files() noexcept {
-  const std::pair<servo::CommutationMode, LoadedFileSlot> slots[] = {
-      {servo::CommutationMode::kClassical, LoadedFileSlot::kCalibration},
-      {servo::CommutationMode::kPgnn, LoadedFileSlot::kPgnnModel},
-      {servo::CommutationMode::kSpline, LoadedFileSlot::kSplineModel},
-  };
-  for (const auto& [mode, slot] : slots) {
-    for (const auto& law : laws_) {
-      if (law->mode == mode && cycle_->law_handover(mode).is_current(law->law.get())) {
-        set_loaded_file(slot, law->source, law->sha256);
-      }
-    }
-  }
 }
 
 void ServoDaemon::mirror_state() noexcept { state_seen_.store(cycle_->state(), std::memory_order_release); }

@@ -1,0 +1,213 @@
+// The owner's and the command side of the servo cycle: the settings and
+// their validation, the commands the daemon's loop executes between two
+// cycles (enable, disable, clear-fault, stops, law requests, run-time
+// settings) and the jog offer. The cycle itself is in servo_cycle.cpp, the
+// feedback it receives in servo_cycle_feedback.cpp.
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "daemon/servo/servo_cycle.hpp"
+
+namespace clm::servo {
+namespace {
+
+bool valid_limits(const control::StopLimits& limits) noexcept {
+  return limits.deceleration_m_per_s2 > 0.0 && std::isfinite(limits.deceleration_m_per_s2) &&
+         limits.jerk_m_per_s3 > 0.0 && std::isfinite(limits.jerk_m_per_s3);
+}
+
+}  // namespace
+
+const char* describe(CommandStatus status) noexcept {
+  switch (status) {
+    case CommandStatus::kAccepted: return "accepted";
+    case CommandStatus::kDeferred: return "accepted, takes effect at the next standstill";
+    case CommandStatus::kRejectedFault: return "rejected: a fault is latched, clear it first";
+    case CommandStatus::kRejectedDisabled: return "rejected: the axis is disabled";
+    case CommandStatus::kRejectedNoLaw: return "rejected: no calibration or model loaded for that commutation";
+    case CommandStatus::kRejectedBusy: return "rejected: a program is running";
+    case CommandStatus::kRejectedInvalid: return "rejected: argument out of range";
+    case CommandStatus::kRejectedNoForceSensor:
+      return "rejected: an experiment needs the force sensor, and this axis has none or has lost it";
+  }
+  return "unknown";
+}
+
+void ServoSettings::validate() const {
+  const auto require = [](bool ok, const std::string& what) {
+    if (!ok) throw std::invalid_argument(what);
+  };
+  require(period_s > 0.0 && std::isfinite(period_s), "period_s must be positive");
+  require(pole_pitch_m > 0.0, "pole_pitch_m must be positive");
+  require(drive.motor_constant_N_per_A > 0.0, "drive motor constant must be positive");
+  protocol.validate();
+  require(soft_limit_max_m > soft_limit_min_m, "soft_limit_max_m must be above soft_limit_min_m");
+  require(following_error_limit_m > 0.0, "following_error_limit_m must be positive");
+  require(force_limit_N > 0.0, "force_limit_N must be positive");
+  require(saturation_time_limit_s >= 0.0, "saturation_time_limit_s must not be negative");
+  require(missing_frame_limit >= 1, "missing_frame_limit must be at least 1");
+  require(overrun_limit >= 1, "overrun_limit must be at least 1");
+  require(standstill_velocity_m_per_s > 0.0, "standstill_velocity_m_per_s must be positive");
+  const auto positive = [](double x) { return x > 0.0 && std::isfinite(x); };
+  require(positive(motion_limits.velocity_m_per_s) && positive(motion_limits.acceleration_m_per_s2) &&
+              positive(motion_limits.jerk_m_per_s3),
+          "motion limits must be positive and finite");
+  require(valid_limits(stop_limits), "stop limits must be positive and finite");
+  require(valid_limits(quick_stop_limits), "quick-stop limits must be positive and finite");
+  require(quick_stop_limits.deceleration_m_per_s2 >= stop_limits.deceleration_m_per_s2 &&
+              quick_stop_limits.jerk_m_per_s3 >= stop_limits.jerk_m_per_s3,
+          "quick-stop deceleration and jerk must not be below the stop's");
+  require(recovery_velocity_fraction > 0.0 && recovery_velocity_fraction <= 1.0,
+          "recovery_velocity_fraction must be in (0, 1]");
+  require(recovery_margin_m >= 0.0 && std::isfinite(recovery_margin_m), "recovery_margin_m must not be negative");
+  require(jog_timeout_s > 0.0 && std::isfinite(jog_timeout_s), "jog_timeout_s must be positive");
+}
+
+Tuning ServoSettings::tuning() const noexcept {
+  return {pid, feedforward, following_error_limit_m, force_limit_N, saturation_time_limit_s,
+          motion_limits, stop_limits, quick_stop_limits};
+}
+
+void ServoSettings::apply(const Tuning& tuning) noexcept {
+  pid = tuning.pid;
+  feedforward = tuning.feedforward;
+  following_error_limit_m = tuning.following_error_limit_m;
+  force_limit_N = tuning.force_limit_N;
+  saturation_time_limit_s = tuning.saturation_time_limit_s;
+  motion_limits = tuning.motion_limits;
+  stop_limits = tuning.stop_limits;
+  quick_stop_limits = tuning.quick_stop_limits;
+}
+
+bool ServoCycle::post_jog(const control::MoveProgram* jog) noexcept {
+  if (program_.pending()) return false;
+  jog_offer_.store(jog, std::memory_order_release);
+  jog_token_.store(0, std::memory_order_release);
+  return program_.post(jog);
+}
+
+bool ServoCycle::renew_jog() noexcept {
+  if (!jogging_.load(std::memory_order_acquire)) return false;
+  std::int64_t token = jog_token_.load(std::memory_order_acquire);
+  while (token != kJogStopped) {
+    if (jog_token_.compare_exchange_weak(token, token + 1, std::memory_order_acq_rel)) return true;
+  }
+  return false;
+}
+
+CommandStatus ServoCycle::enable() noexcept {
+  bool recovering = false;
+  if (state_ == ServoState::kFault) {
+    // Restricted mode: kPositionOutOfRange with the axis still outside the
+    // soft limits, near enough to them, and its stop finished.
+    const bool near = have_position_ && std::isfinite(position_m_) &&
+                      position_m_ >= settings_.soft_limit_min_m - settings_.recovery_margin_m &&
+                      position_m_ <= settings_.soft_limit_max_m + settings_.recovery_margin_m;
+    if (fault_ != Fault::kPositionOutOfRange || reacting_ || !near || !outside_soft_limits(position_m_)) {
+      return CommandStatus::kRejectedFault;
+    }
+    recovering = true;
+  }
+  if (state_ == ServoState::kEnabled) return CommandStatus::kAccepted;
+  if (mode_ != CommutationMode::kExperiment && laws_[static_cast<std::size_t>(mode_)] == nullptr) {
+    return CommandStatus::kRejectedNoLaw;
+  }
+  if (recovering) {
+    fault_ = Fault::kNone;
+    fault_cycle_ = -1;
+    clear_drive_fault_ = true;
+    restricted_min_m_ = std::min(settings_.soft_limit_min_m, position_m_ - settings_.following_error_limit_m);
+    restricted_max_m_ = std::max(settings_.soft_limit_max_m, position_m_ + settings_.following_error_limit_m);
+  }
+  restricted_.store(recovering, std::memory_order_release);
+  // Bumpless: hold where the axis is, fresh integrator.
+  state_ = ServoState::kEnabled;
+  stopping_ = reacting_ = false;
+  reference_ = {position_m_, 0.0, 0.0, 0.0};
+  hold_m_ = position_m_;
+  hold_position_m_.store(hold_m_, std::memory_order_release);
+  controller_.reset();
+  saturated_time_s_ = 0.0;
+  return CommandStatus::kAccepted;
+}
+
+CommandStatus ServoCycle::disable() noexcept {
+  if (state_ == ServoState::kEnabled) state_ = ServoState::kDisabled;
+  end_program();
+  stopping_ = reacting_ = false;
+  restricted_.store(false, std::memory_order_release);
+  idle_.store(true, std::memory_order_release);
+  return CommandStatus::kAccepted;
+}
+
+CommandStatus ServoCycle::clear_fault() noexcept {
+  if (state_ != ServoState::kFault) return CommandStatus::kAccepted;
+  state_ = ServoState::kDisabled;
+  fault_ = Fault::kNone;
+  fault_cycle_ = -1;
+  stopping_ = reacting_ = false;
+  idle_.store(true, std::memory_order_release);
+  clear_drive_fault_ = true;  // one cycle with the clear bit to the drive
+  drive_missed_ = force_missed_ = 0;
+  drive_unseen_ = force_unseen_ = 0;
+  drive_rejected_ = force_rejected_ = false;
+  consecutive_overruns_ = 0;
+  drive_alive_known_ = force_alive_known_ = false;
+  return CommandStatus::kAccepted;
+}
+
+CommandStatus ServoCycle::stop() noexcept {
+  if (state_ == ServoState::kEnabled && running_ != nullptr) begin_stop(settings_.stop_limits, false);
+  return CommandStatus::kAccepted;
+}
+
+CommandStatus ServoCycle::quick_stop() noexcept {
+  if (state_ == ServoState::kEnabled && (running_ != nullptr || (stopping_ && !stop_quick_))) {
+    begin_stop(settings_.quick_stop_limits, true);
+  }
+  return CommandStatus::kAccepted;
+}
+
+CommandStatus ServoCycle::request_mode(CommutationMode mode, int coil_set, double delta_rad) noexcept {
+  if (mode == CommutationMode::kExperiment) {
+    if (coil_set < 1 || coil_set > settings_.protocol.coil_sets || !std::isfinite(delta_rad) ||
+        std::abs(delta_rad) > kPi) {
+      return CommandStatus::kRejectedInvalid;
+    }
+    if (!can::has_force_sensor(settings_.protocol) || force_warning_ != Fault::kNone) {
+      return CommandStatus::kRejectedNoForceSensor;
+    }
+  } else if (laws_[static_cast<std::size_t>(mode)] == nullptr &&
+             !law_offers_[static_cast<std::size_t>(mode)].pending()) {
+    return CommandStatus::kRejectedNoLaw;
+  }
+  requested_mode_ = mode;
+  requested_coil_set_ = mode == CommutationMode::kExperiment ? coil_set : 0;
+  requested_delta_rad_ = mode == CommutationMode::kExperiment ? delta_rad : 0.0;
+  mode_pending_ = true;
+  if (state_ != ServoState::kEnabled || at_standstill()) {
+    mode_ = requested_mode_;
+    experiment_coil_set_ = requested_coil_set_;
+    experiment_delta_rad_ = requested_delta_rad_;
+    mode_pending_ = false;
+    return CommandStatus::kAccepted;
+  }
+  return CommandStatus::kDeferred;
+}
+
+void ServoCycle::set_feedforward(const control::FeedforwardParameters& parameters) noexcept {
+  controller_.set_feedforward(parameters);
+  settings_.feedforward = parameters;
+}
+
+CommandStatus ServoCycle::apply_tuning(const Tuning& tuning) noexcept {
+  // At standstill only: no reference is under way whose limits would change.
+  if (running_ != nullptr || stopping_ || program_.pending()) return CommandStatus::kRejectedBusy;
+  settings_.apply(tuning);
+  controller_.set_gains(tuning.pid);  // the integrator keeps its force: no bump at rest
+  controller_.set_feedforward(tuning.feedforward);
+  return CommandStatus::kAccepted;
+}
+
+}  // namespace clm::servo
