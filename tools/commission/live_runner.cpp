@@ -89,19 +89,22 @@ void LcmRunner::wait_cycles(std::int64_t cycles, const std::string& what) {
 }
 
 void LcmRunner::enable() {
-  // Commissioning measures forces: a daemon without a working sensor is refused before anything moves.
-  const clm_lcm::servo_status_t status = client_.wait_for_status(options_.ack_timeout_s);
-  if (status.force_sensor == servo_status_t::FORCE_SENSOR_NONE) {
-    throw std::runtime_error("clm-servod's axis '" + status.axis + "' has no force sensor (can.force_sensor_node_id "
-                             "absent in its configuration); commissioning measures forces");
-  }
-  if (status.force_sensor == servo_status_t::FORCE_SENSOR_LOST) {
-    throw std::runtime_error("clm-servod's axis '" + status.axis + "' has lost its force sensor (warning " +
-                             std::to_string(status.force_sensor_warning) + "); commissioning measures forces");
-  }
   // The first command of commissioning: take control for all of it.
   client_.take_control(options_.ack_timeout_s, "ENABLE");
   took_control_ = true;
+  // Commissioning measures forces: a daemon without a working sensor is
+  // refused before the axis is enabled (control, taken above from a status of
+  // the axis, is given back by the destructor).
+  if (const auto status = client_.latest_status()) {
+    if (status->force_sensor == servo_status_t::FORCE_SENSOR_NONE) {
+      throw std::runtime_error("clm-servod's axis '" + status->axis + "' has no force sensor (can.force_sensor_node_id "
+                               "absent in its configuration); commissioning measures forces");
+    }
+    if (status->force_sensor == servo_status_t::FORCE_SENSOR_LOST) {
+      throw std::runtime_error("clm-servod's axis '" + status->axis + "' has lost its force sensor (warning " +
+                               std::to_string(status->force_sensor_warning) + "); commissioning measures forces");
+    }
+  }
   command("ENABLE", make_command(Command::ENABLE));
   client_.wait_for_state("CLM_SERVO_STATE of the enabled axis", 2.0,
                  [](const servo_state_t& s) { return s.state == kStateEnabled; });
