@@ -569,6 +569,7 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
   record_.drive_status_word = drive_.status_word;
   record_.stopping = stopping_;
   record_.restricted = restricted_.load(std::memory_order_relaxed);
+  record_.drive_profile = settings_.protocol.drive_profile;
   return {frames_.data(), count};
 }
 

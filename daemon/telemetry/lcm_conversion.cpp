@@ -78,6 +78,7 @@ clm_lcm::servo_state_t to_message(const servo::CycleRecord& record) {
   m.program_running = record.program_running;
   m.program_time_s = record.program_time_s;
   m.restricted = record.restricted;
+  m.drive_profile = static_cast<std::int8_t>(record.drive_profile);
   return m;
 }
 
@@ -97,6 +98,10 @@ servo::CycleRecord to_record(const clm_lcm::servo_state_t& m) {
   }
   if (m.state < clm_lcm::servo_status_t::STATE_DISABLED || m.state > clm_lcm::servo_status_t::STATE_FAULT) {
     fail("state " + std::to_string(m.state) + " outside 0..2");
+  }
+  if (m.drive_profile < servo_state_t::DRIVE_PROFILE_MAGNITUDE_PHASE ||
+      m.drive_profile > servo_state_t::DRIVE_PROFILE_PHASE_CURRENT) {
+    fail("drive_profile " + std::to_string(m.drive_profile) + " outside 0..1");
   }
   servo::CycleRecord r;
   r.utime = m.utime;
@@ -133,6 +138,7 @@ servo::CycleRecord to_record(const clm_lcm::servo_state_t& m) {
   r.program_running = m.program_running;
   r.program_time_s = m.program_time_s;
   r.restricted = m.restricted;
+  r.drive_profile = static_cast<DriveProfile>(m.drive_profile);
   return r;
 }
 

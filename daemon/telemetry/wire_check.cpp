@@ -83,6 +83,7 @@ constexpr std::array kStateFields{
     doubles("ia_A", kStateCoilSets), doubles("ib_A", kStateCoilSets),
     boolean("damping_engaged"), finite("current_square_sum_A2"), boolean("force_limited"),
     i8("state", 0, 2), boolean("program_running"), finite("program_time_s"), boolean("restricted"),
+    i8("drive_profile", 0, 1),
 };
 static_assert(kStateFields[kStateCoilSets].kind == WireKind::kInt8);
 
