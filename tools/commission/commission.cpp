@@ -6,6 +6,7 @@
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <string>
 
 #include "config/atomic_file.hpp"
 #include "config/sha256.hpp"
@@ -38,6 +39,13 @@ void write_experiment_csv(const std::string& path, const std::vector<Recording>&
   double offset_s = 0.0;
   for (const auto& run : runs) {
     for (const auto& s : run.samples) {
+      // The states say what went to the drive; a daemon whose drive profile
+      // is not the configuration's made data this step would misread.
+      if (s.drive_profile != profile) {
+        throw std::runtime_error(std::string("experiments: the daemon sent ") + name(s.drive_profile) +
+                                 " setpoints in cycle " + std::to_string(s.cycle) + ", but the motor file says " +
+                                 "drive.profile " + name(profile));
+      }
       const auto l = static_cast<std::size_t>(s.coil_set - 1);
       const double row[] = {offset_s + s.program_time_s, static_cast<double>(s.coil_set), s.delta_rad,
                             s.magnitude_N[l], s.y_m, s.Fy_N, s.Fx_N, s.Tz_Nm, s.ia_A[l], s.ib_A[l]};
