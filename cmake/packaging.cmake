@@ -26,6 +26,7 @@ install(FILES ${PROJECT_SOURCE_DIR}/config/servod-real.yaml ${PROJECT_SOURCE_DIR
 install(PROGRAMS ${PROJECT_SOURCE_DIR}/tools/commission/plot_report.py DESTINATION ${CMAKE_INSTALL_DATADIR}/clm-servo)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/ DESTINATION ${CMAKE_INSTALL_DATADIR}/doc/clm-servo FILES_MATCHING PATTERN "*.md")
 install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/drivers/can/clm-servo.dbc
+              ${PROJECT_SOURCE_DIR}/drivers/can/clm-servo-phase-current.dbc
         DESTINATION ${CMAKE_INSTALL_DATADIR}/doc/clm-servo)
 
 # The build tree mirrors share/clm-servo beside bin/, so that clm finds the

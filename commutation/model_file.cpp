@@ -121,6 +121,16 @@ MotorDescription read_motor_description(const yaml::Node& root) {
   commutation.expect_keys({"motor_constant_N_per_A", "phase_offset_rad"});
   motor.drive.motor_constant_N_per_A = commutation["motor_constant_N_per_A"].as_positive();
   motor.drive.phase_offset_rad = commutation["phase_offset_rad"].as_double_in(-2.0 * kPi, 2.0 * kPi);
+  if (const auto profile = root["drive"].optional("profile")) {
+    const std::string text = profile->as_string();
+    if (text == "magnitude_phase") {
+      motor.drive_profile = DriveProfile::kMagnitudePhase;
+    } else if (text == "phase_current") {
+      motor.drive_profile = DriveProfile::kPhaseCurrent;
+    } else {
+      profile->fail("must be magnitude_phase or phase_current, got '" + text + "'");
+    }
+  }
   return motor;
 }
 

@@ -22,6 +22,11 @@ struct MotorDescription {
   double stroke_min_m = -0.1;       ///< motor.stroke_min_m: lower end of travel
   double stroke_max_m = 0.1;        ///< motor.stroke_max_m: upper end of travel
   DriveCommutation drive;           ///< drive.commutation.*
+  /// drive.profile: magnitude_phase (default) or phase_current. With
+  /// phase_current the drive has no commutation of its own: drive.commutation
+  /// is then the nominal law clm-servod applies itself where the drive's law
+  /// is meant (commutation mode original, the experiments of Algorithm 1).
+  DriveProfile drive_profile = DriveProfile::kMagnitudePhase;
 };
 
 /// Reads `motor:` and `drive.commutation:` of a YAML document; other top-level

@@ -42,6 +42,25 @@ struct DriveSetpoint {
   double delta_rad = 0.0;    ///< offset Δ^l added to the drive's commutation angle [rad]
 };
 
+/// What the drive takes as its setpoint (docs/servod.md, "Drive profile"):
+/// magnitude and phase offset per coil set, commutated by the drive's own
+/// fixed law (eq. 18/19, the paper's Fig. 5), or the phase currents
+/// [i_a, i_b] per coil set directly (current-mode or dual-analog amplifiers,
+/// Fig. 6/7 without the fixed-commutation block). Motor file key `drive.profile`.
+enum class DriveProfile { kMagnitudePhase = 0, kPhaseCurrent = 1 };
+
+/// "magnitude_phase" or "phase_current", as in the motor file.
+inline const char* name(DriveProfile profile) noexcept {
+  return profile == DriveProfile::kPhaseCurrent ? "phase_current" : "magnitude_phase";
+}
+
+/// Phase-current setpoint of one coil set for a drive with profile
+/// phase_current: the two independent star currents, i_c = −i_a − i_b (eq. 5).
+struct PhaseCurrentSetpoint {
+  double ia_A = 0.0;  ///< i_a [A]
+  double ib_A = 0.0;  ///< i_b [A]
+};
+
 /// Electrical angle 2π·y/d_m [rad] of a position (eq. 8 without the offset).
 inline double electrical_angle_rad(double position_m, double pole_pitch_m) {
   return kTwoPi * position_m / pole_pitch_m;

@@ -57,14 +57,18 @@ struct CycleRecord {
   int coil_sets = 0;              ///< L, 0..kMaxCoilSets; the arrays' first L entries are meaningful
   std::array<double, kMaxCoilSets> magnitude_N{};         ///< magnitude setpoint of each coil set, eq. (18) [N]
   std::array<double, kMaxCoilSets> setpoint_delta_rad{};  ///< phase-offset setpoint of each coil set, eq. (18) [rad]
-  std::array<double, kMaxCoilSets> ia_A{};                ///< commanded star current i_a of each coil set [A]
-  std::array<double, kMaxCoilSets> ib_A{};                ///< commanded star current i_b of each coil set [A]
+  std::array<double, kMaxCoilSets> ia_A{};                ///< commanded star current i_a of each coil set [A] (sent with phase_current)
+  std::array<double, kMaxCoilSets> ib_A{};                ///< commanded star current i_b of each coil set [A] (sent with phase_current)
   bool damping_engaged = false;   ///< the drive's short-circuit damping is engaged
   double current_square_sum_A2 = 0.0;  ///< Σ i_a² + i_b² + i_c² over all coil sets [A²]
   bool force_limited = false;     ///< |F*| was at the force limit in this cycle
   ServoState state = ServoState::kDisabled;
   bool program_running = false;   ///< a motion program (or move_to) runs in this cycle
   double program_time_s = 0.0;    ///< time into the running program [s], 0 when none
+  /// What the setpoint frames carried: magnitude_N and setpoint_delta_rad
+  /// (magnitude_phase), or ia_A and ib_A as they are (phase_current; the
+  /// magnitudes and offsets are then the equivalent eq. (39) values, not sent).
+  DriveProfile drive_profile = DriveProfile::kMagnitudePhase;
 
   // In process only, not in servo_state_t (servo_status_t carries the fault);
   // the conversion from servo_state_t leaves them at their defaults.

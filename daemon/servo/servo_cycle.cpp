@@ -193,7 +193,8 @@ void ServoCycle::commutate(double position_m, double force_N) noexcept {
     record_.setpoint_delta_rad[s] = commutation_.setpoints[s].delta_rad;
     record_.ia_A[s] = commutation_.currents_A[2 * l];
     record_.ib_A[s] = commutation_.currents_A[2 * l + 1];
-    if (!std::isfinite(record_.magnitude_N[s]) || !std::isfinite(record_.setpoint_delta_rad[s])) {
+    if (!std::isfinite(record_.magnitude_N[s]) || !std::isfinite(record_.setpoint_delta_rad[s]) ||
+        !std::isfinite(record_.ia_A[s]) || !std::isfinite(record_.ib_A[s])) {
       latch(Fault::kCommutationNotFinite);
     }
   }
@@ -331,9 +332,12 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
   command.enable = driving;
   command.clear_fault = clear_drive_fault_;
   command.alive_counter = setpoint_alive_++;
+  // Profile magnitude_phase: the (39) setpoints; phase_current: the law's
+  // currents as they are (the drive does no commutation of its own).
   for (int l = 0; l < command.coil_sets; ++l) {
     const auto s = static_cast<std::size_t>(l);
     command.setpoints[s] = {record_.magnitude_N[s], record_.setpoint_delta_rad[s]};
+    command.currents[s] = {record_.ia_A[s], record_.ib_A[s]};
   }
   can::CodecStatus status = can::CodecStatus::kOk;
   std::size_t count = can::encode_setpoints(settings_.protocol, command, frames_, status);
@@ -343,6 +347,7 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
     zero_setpoints();
     command.enable = false;
     for (auto& setpoint : command.setpoints) setpoint = {};
+    for (auto& currents : command.currents) currents = {};
     count = can::encode_setpoints(settings_.protocol, command, frames_, status);
   }
   clear_drive_fault_ = false;
@@ -362,6 +367,7 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
   record_.drive_status_word = drive_.status_word;
   record_.stopping = stopping_;
   record_.restricted = restricted_.load(std::memory_order_relaxed);
+  record_.drive_profile = settings_.protocol.drive_profile;
   return {frames_.data(), count};
 }
 

@@ -116,6 +116,7 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
   config.servo.pole_pitch_m = config.motor.pole_pitch_m;
   config.servo.drive = config.motor.drive;
   config.servo.protocol.coil_sets = config.motor.coil_sets;
+  config.servo.protocol.drive_profile = config.motor.drive_profile;  // drive.profile of the motor file
   config.servo.soft_limit_min_m = config.motor.stroke_min_m;
   config.servo.soft_limit_max_m = config.motor.stroke_max_m;
 

@@ -81,6 +81,7 @@ clm_lcm::servo_state_t to_message(const servo::CycleRecord& record) {
   m.program_time_s = record.program_time_s;
   m.restricted = record.restricted;
   m.force_measured = record.force_measured;
+  m.drive_profile = static_cast<std::int8_t>(record.drive_profile);
   return m;
 }
 
@@ -100,6 +101,10 @@ servo::CycleRecord to_record(const clm_lcm::servo_state_t& m) {
   }
   if (m.state < clm_lcm::servo_status_t::STATE_DISABLED || m.state > clm_lcm::servo_status_t::STATE_FAULT) {
     fail("state " + std::to_string(m.state) + " outside 0..2");
+  }
+  if (m.drive_profile < servo_state_t::DRIVE_PROFILE_MAGNITUDE_PHASE ||
+      m.drive_profile > servo_state_t::DRIVE_PROFILE_PHASE_CURRENT) {
+    fail("drive_profile " + std::to_string(m.drive_profile) + " outside 0..1");
   }
   servo::CycleRecord r;
   r.utime = m.utime;
@@ -137,6 +142,7 @@ servo::CycleRecord to_record(const clm_lcm::servo_state_t& m) {
   r.program_time_s = m.program_time_s;
   r.restricted = m.restricted;
   r.force_measured = m.force_measured;
+  r.drive_profile = static_cast<DriveProfile>(m.drive_profile);
   return r;
 }
 

@@ -86,6 +86,7 @@ constexpr std::array kStateFields{
     boolean("damping_engaged"), finite("current_square_sum_A2"), boolean("force_limited"),
     i8("state", 0, 2), boolean("program_running"), finite("program_time_s"), boolean("restricted"),
     boolean("force_measured"),
+    i8("drive_profile", 0, 1),
 };
 static_assert(kStateFields[kStateCoilSets].kind == WireKind::kInt8);
 

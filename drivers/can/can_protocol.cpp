@@ -16,6 +16,7 @@ constexpr double kForceXRawPerNewton = 1e2;
 constexpr double kTorqueZRawPerNewtonMetre = 1e3;
 constexpr double kMagnitudeRawPerNewton = 40.0;  // 1 / 0.025 N
 constexpr double kDeltaRawPerRadian = 1e4;
+constexpr double kCurrentRawPerAmpere = 1e3;
 
 constexpr std::int64_t kInt16Min = -32768;
 constexpr std::int64_t kInt16Max = 32767;
@@ -57,16 +58,23 @@ std::int64_t get_signed_le(const std::array<std::uint8_t, 8>& data, std::size_t 
 
 bool node_id_valid(std::uint8_t node_id) noexcept { return node_id >= 1 && node_id <= 127; }
 
-/// Raw magnitude and Δ of one coil set.
+/// The two int16 fields of one coil set: magnitude and Δ (profile
+/// magnitude_phase) or i_a and i_b (phase_current).
 struct RawSetpoint {
-  std::int64_t magnitude = 0;
-  std::int64_t delta = 0;
+  std::int64_t magnitude = 0;  ///< or i_a
+  std::int64_t delta = 0;      ///< or i_b
 };
 
 CodecStatus setpoint_to_raw(const clm::DriveSetpoint& setpoint, RawSetpoint& raw) noexcept {
   CodecStatus status = to_raw(setpoint.magnitude_N, kMagnitudeRawPerNewton, kInt16Min, kInt16Max, raw.magnitude);
   if (status != CodecStatus::kOk) return status;
   return to_raw(setpoint.delta_rad, kDeltaRawPerRadian, kInt16Min, kInt16Max, raw.delta);
+}
+
+CodecStatus currents_to_raw(const clm::PhaseCurrentSetpoint& currents, RawSetpoint& raw) noexcept {
+  CodecStatus status = to_raw(currents.ia_A, kCurrentRawPerAmpere, kInt16Min, kInt16Max, raw.magnitude);
+  if (status != CodecStatus::kOk) return status;
+  return to_raw(currents.ib_A, kCurrentRawPerAmpere, kInt16Min, kInt16Max, raw.delta);
 }
 
 void put_setpoint(std::array<std::uint8_t, 8>& data, std::size_t offset, const RawSetpoint& raw) noexcept {
@@ -79,6 +87,27 @@ clm::DriveSetpoint get_setpoint(const std::array<std::uint8_t, 8>& data, std::si
   setpoint.magnitude_N = static_cast<double>(get_signed_le(data, offset, 2)) / kMagnitudeRawPerNewton;
   setpoint.delta_rad = static_cast<double>(get_signed_le(data, offset + 2, 2)) / kDeltaRawPerRadian;
   return setpoint;
+}
+
+clm::PhaseCurrentSetpoint get_currents(const std::array<std::uint8_t, 8>& data, std::size_t offset) noexcept {
+  clm::PhaseCurrentSetpoint currents;
+  currents.ia_A = static_cast<double>(get_signed_le(data, offset, 2)) / kCurrentRawPerAmpere;
+  currents.ib_A = static_cast<double>(get_signed_le(data, offset + 2, 2)) / kCurrentRawPerAmpere;
+  return currents;
+}
+
+/// Coil set `l` of an RPDO into the array of the configured profile.
+void store_coil_set(const ProtocolConfig& config, const std::array<std::uint8_t, 8>& data, std::size_t offset,
+                    std::size_t l, SetpointCommand& accumulate) noexcept {
+  if (config.drive_profile == clm::DriveProfile::kPhaseCurrent) {
+    accumulate.currents[l] = get_currents(data, offset);
+  } else {
+    accumulate.setpoints[l] = get_setpoint(data, offset);
+  }
+}
+
+bool profile_valid(clm::DriveProfile profile) noexcept {
+  return profile == clm::DriveProfile::kMagnitudePhase || profile == clm::DriveProfile::kPhaseCurrent;
 }
 
 CodecStatus check_frame(const Frame& frame, std::uint32_t id, std::uint8_t dlc) noexcept {
@@ -116,7 +145,8 @@ const char* to_string(CodecStatus status) noexcept {
 bool ProtocolConfig::is_valid() const noexcept {
   return node_id_valid(drive_node_id) &&
          (force_sensor_node_id == kNoForceSensor || node_id_valid(force_sensor_node_id)) &&
-         drive_node_id != force_sensor_node_id && coil_sets >= 1 && coil_sets <= kMaxProtocolCoilSets;
+         drive_node_id != force_sensor_node_id && coil_sets >= 1 && coil_sets <= kMaxProtocolCoilSets &&
+         profile_valid(drive_profile);
 }
 
 void ProtocolConfig::validate() const {
@@ -138,6 +168,10 @@ void ProtocolConfig::validate() const {
         "can protocol: coil_sets must be 1..4 (the protocol carries at most 4 coil sets: set 1 in RPDO1, "
         "sets 2-3 in RPDO2, set 4 in RPDO3), got " +
         std::to_string(coil_sets));
+  }
+  if (!profile_valid(drive_profile)) {
+    throw std::invalid_argument("can protocol: drive_profile must be magnitude_phase or phase_current, got " +
+                                std::to_string(static_cast<int>(drive_profile)));
   }
 }
 
@@ -233,6 +267,7 @@ CodecStatus decode_force_feedback(const ProtocolConfig& config, const Frame& fra
 // RPDO1: 0 control byte, 1 alive counter, 2..3 magnitude 1, 4..5 Δ 1.
 // RPDO2: 0..1 magnitude 2, 2..3 Δ 2, 4..5 magnitude 3, 6..7 Δ 3.
 // RPDO3: 0..1 magnitude 4, 2..3 Δ 4.
+// Profile phase_current: i_a in place of the magnitude, i_b in place of Δ.
 
 std::size_t encode_setpoints(const ProtocolConfig& config, const SetpointCommand& command, std::span<Frame> out,
                              CodecStatus& status) noexcept {
@@ -248,8 +283,10 @@ std::size_t encode_setpoints(const ProtocolConfig& config, const SetpointCommand
   // Convert every value first, so that nothing is written if one is refused.
   std::array<RawSetpoint, kMaxProtocolCoilSets> raw{};
   for (int l = 0; l < config.coil_sets; ++l) {
-    const CodecStatus converted = setpoint_to_raw(command.setpoints[static_cast<std::size_t>(l)],
-                                                  raw[static_cast<std::size_t>(l)]);
+    const auto s = static_cast<std::size_t>(l);
+    const CodecStatus converted = config.drive_profile == clm::DriveProfile::kPhaseCurrent
+                                      ? currents_to_raw(command.currents[s], raw[s])
+                                      : setpoint_to_raw(command.setpoints[s], raw[s]);
     if (converted != CodecStatus::kOk) {
       status = converted;
       return 0;
@@ -301,13 +338,13 @@ CodecStatus decode_setpoint_frame(const ProtocolConfig& config, const Frame& fra
     accumulate.enable = (control & kControlEnable) != 0;
     accumulate.clear_fault = (control & kControlClearFault) != 0;
     accumulate.alive_counter = frame.data[1];
-    accumulate.setpoints[0] = get_setpoint(frame.data, 2);
+    store_coil_set(config, frame.data, 2, 0, accumulate);
   } else if (index == 1) {
     if (config.coil_sets == 2 && get_unsigned_le(frame.data, 4, 4) != 0) return CodecStatus::kOutOfRange;
-    accumulate.setpoints[1] = get_setpoint(frame.data, 0);
-    if (config.coil_sets >= 3) accumulate.setpoints[2] = get_setpoint(frame.data, 4);
+    store_coil_set(config, frame.data, 0, 1, accumulate);
+    if (config.coil_sets >= 3) store_coil_set(config, frame.data, 4, 2, accumulate);
   } else {
-    accumulate.setpoints[3] = get_setpoint(frame.data, 0);
+    store_coil_set(config, frame.data, 0, 3, accumulate);
   }
   accumulate.coil_sets = config.coil_sets;
   return CodecStatus::kOk;

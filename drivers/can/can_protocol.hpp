@@ -80,6 +80,9 @@ struct ProtocolConfig {
   /// the axis has none (service without a sensor, docs/servod.md).
   std::uint8_t force_sensor_node_id = 2;
   int coil_sets = 3;                      ///< L, 1..kMaxProtocolCoilSets
+  /// What the RPDOs carry per coil set: magnitude and Δ (clm-servo.dbc) or
+  /// i_a and i_b (clm-servo-phase-current.dbc); same identifiers and DLCs.
+  clm::DriveProfile drive_profile = clm::DriveProfile::kMagnitudePhase;
 
   /// Throws std::invalid_argument "can protocol: <field> ..., got <value>" if a
   /// node ID is outside 1..127 (the force sensor's may be kNoForceSensor), both
@@ -150,6 +153,7 @@ inline constexpr double kForceXLsb_N = 1e-2;
 inline constexpr double kTorqueZLsb_Nm = 1e-3;
 inline constexpr double kMagnitudeLsb_N = 0.025;
 inline constexpr double kDeltaLsb_rad = 1e-4;
+inline constexpr double kCurrentLsb_A = 1e-3;  ///< phase_current profile: int16 ±32.767 A
 
 /// The counter after `counter` in a SYNC: 1, 2, ..., 240, 1, ...
 constexpr std::uint8_t next_sync_counter(std::uint8_t counter) noexcept {
@@ -175,8 +179,12 @@ struct SetpointCommand {
   bool clear_fault = false;        ///< control bit 1: request to clear a latched fault
   std::uint8_t alive_counter = 0;  ///< +1 per cycle, wraps 255 → 0
   int coil_sets = 0;               ///< L; must equal ProtocolConfig::coil_sets
-  /// setpoints[l] for coil set l+1, l < L: magnitude ±819.2 N in 0.025 N, Δ ±3.2768 rad in 1e-4 rad.
+  /// Profile magnitude_phase: setpoints[l] for coil set l+1, l < L:
+  /// magnitude ±819.2 N in 0.025 N, Δ ±3.2768 rad in 1e-4 rad.
   std::array<clm::DriveSetpoint, clm::kMaxCoilSets> setpoints{};
+  /// Profile phase_current: currents[l] for coil set l+1, l < L: i_a, i_b
+  /// each −32.768 .. 32.767 A in 1 mA.
+  std::array<clm::PhaseCurrentSetpoint, clm::kMaxCoilSets> currents{};
 };
 
 // ---------------------------------------------------------------------------
@@ -196,6 +204,9 @@ CodecStatus encode_force_feedback(const ProtocolConfig& config, const ForceFeedb
 CodecStatus decode_force_feedback(const ProtocolConfig& config, const Frame& frame, ForceFeedback& feedback) noexcept;
 
 /// Writes the setpoint_frame_count(L) RPDOs of `command` to out[0..] and
+/// returns how many: command.setpoints with profile magnitude_phase,
+/// command.currents with phase_current (config.drive_profile); the other
+/// array is neither sent nor checked. It
 /// returns how many. Returns 0 and writes nothing when `status` is not kOk:
 /// kOutOfRange if command.coil_sets != config.coil_sets, the config is invalid
 /// or a value is out of range; kNotFinite for NaN/inf; kWrongLength if `out`
@@ -204,7 +215,8 @@ std::size_t encode_setpoints(const ProtocolConfig& config, const SetpointCommand
                              CodecStatus& status) noexcept;
 
 /// Decodes one RPDO of the drive into `accumulate` (RPDO1: control, alive
-/// counter, set 1; RPDO2: sets 2, 3; RPDO3: set 4) and sets
+/// counter, set 1; RPDO2: sets 2, 3; RPDO3: set 4; into accumulate.setpoints
+/// or accumulate.currents by config.drive_profile) and sets
 /// accumulate.coil_sets = L. kWrongId for an RPDO that L does not use;
 /// kOutOfRange for a reserved control bit, or non-zero coil-set-3 fields when
 /// L = 2 (the two ends disagree on L).

@@ -46,6 +46,7 @@ void SimulatedMotor::reset(double position_m, double velocity_m_per_s) {
   disturbance_force_N_ = 0.0;
   in_contact_ = position_m == mechanics.end_stop_min_m || position_m == mechanics.end_stop_max_m;
   setpoints_.fill(DriveSetpoint{});
+  commanded_currents_.fill(PhaseCurrentSetpoint{});
   enable_requested_ = false;
   last_command_time_s_ = 0.0;
   latched_ = 0;
@@ -63,9 +64,15 @@ void SimulatedMotor::latch_fault(std::uint32_t bits) noexcept {
   latched_ |= bits | kStatusFault;
   enable_requested_ = false;
   setpoints_.fill(DriveSetpoint{});
+  commanded_currents_.fill(PhaseCurrentSetpoint{});
 }
 
 CommandResult SimulatedMotor::command(std::span<const DriveSetpoint> setpoints, bool enable) noexcept {
+  if (parameters_.drive.profile != DriveProfile::kMagnitudePhase) {
+    latch_fault(kStatusInvalidSetpoint);
+    update_outputs();
+    return CommandResult::kWrongProfile;
+  }
   if (static_cast<int>(setpoints.size()) != coil_sets()) {
     latch_fault(kStatusInvalidSetpoint);
     update_outputs();
@@ -85,6 +92,32 @@ CommandResult SimulatedMotor::command(std::span<const DriveSetpoint> setpoints, 
   return CommandResult::kAccepted;
 }
 
+CommandResult SimulatedMotor::command_currents(std::span<const PhaseCurrentSetpoint> currents,
+                                               bool enable) noexcept {
+  if (parameters_.drive.profile != DriveProfile::kPhaseCurrent) {
+    latch_fault(kStatusInvalidSetpoint);
+    update_outputs();
+    return CommandResult::kWrongProfile;
+  }
+  if (static_cast<int>(currents.size()) != coil_sets()) {
+    latch_fault(kStatusInvalidSetpoint);
+    update_outputs();
+    return CommandResult::kWrongCoilSetCount;
+  }
+  for (const auto& current : currents) {
+    if (!std::isfinite(current.ia_A) || !std::isfinite(current.ib_A)) {
+      latch_fault(kStatusInvalidSetpoint);
+      update_outputs();
+      return CommandResult::kNotFinite;
+    }
+  }
+  std::copy(currents.begin(), currents.end(), commanded_currents_.begin());
+  enable_requested_ = enable;
+  last_command_time_s_ = time_s_;
+  update_outputs();
+  return CommandResult::kAccepted;
+}
+
 bool SimulatedMotor::drive_currents(double position_m, CurrentVector& currents_A) const noexcept {
   const int count = coil_sets();
   currents_A.setZero(2 * count);
@@ -92,9 +125,15 @@ bool SimulatedMotor::drive_currents(double position_m, CurrentVector& currents_A
   const double limit = parameters_.drive.phase_current_limit_A;
   bool limited = false;
   for (int l = 0; l < count; ++l) {
-    // The drive's own fixed law, eq. (18)/(19), at the true position.
-    Eigen::Vector2d phase = drive_phase_currents(parameters_.drive.commutation, setpoints_[static_cast<std::size_t>(l)],
-                                                 position_m, truth_.pole_pitch_m());
+    const auto s = static_cast<std::size_t>(l);
+    Eigen::Vector2d phase;
+    if (parameters_.drive.profile == DriveProfile::kPhaseCurrent) {
+      // The commanded currents as they are (ideal current loop).
+      phase << commanded_currents_[s].ia_A, commanded_currents_[s].ib_A;
+    } else {
+      // The drive's own fixed law, eq. (18)/(19), at the true position.
+      phase = drive_phase_currents(parameters_.drive.commutation, setpoints_[s], position_m, truth_.pole_pitch_m());
+    }
     const double peak = std::max({std::abs(phase.x()), std::abs(phase.y()), std::abs(phase.x() + phase.y())});
     if (peak > limit) {
       // Scale the coil set's current vector so the largest of |i_a|, |i_b|,
@@ -212,6 +251,7 @@ void SimulatedMotor::clear_fault() noexcept {
   latched_ = 0;
   enable_requested_ = false;
   setpoints_.fill(DriveSetpoint{});
+  commanded_currents_.fill(PhaseCurrentSetpoint{});
   update_outputs();
 }
 

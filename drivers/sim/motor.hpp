@@ -53,7 +53,8 @@ struct DriveStatus {
 enum class CommandResult {
   kAccepted,
   kWrongCoilSetCount,  ///< setpoints.size() != L: rejected, fault latched
-  kNotFinite,          ///< a magnitude or offset is NaN/inf: rejected, fault latched
+  kNotFinite,          ///< a magnitude, offset or current is NaN/inf: rejected, fault latched
+  kWrongProfile,       ///< a setpoint of the other drive profile (DriveParameters::profile): rejected, fault latched
 };
 
 enum class StepResult {
@@ -100,11 +101,18 @@ class SimulatedMotor {
   /// at once. enable = false stops the current. Rejected commands latch
   /// kStatusInvalidSetpoint and a fault. While a fault is latched, accepted
   /// commands drive no current (see clear_fault()).
+  /// Profile magnitude_phase only (kWrongProfile otherwise).
   CommandResult command(std::span<const DriveSetpoint> setpoints, bool enable) noexcept;
+  /// Profile phase_current only (kWrongProfile otherwise): the phase currents
+  /// [i_a, i_b] per coil set, applied as they are in every substep until the
+  /// next command (the drive's current loop is taken as ideal, as with the
+  /// other profile), subject to the same current limit, watchdog and faults.
+  CommandResult command_currents(std::span<const PhaseCurrentSetpoint> currents, bool enable) noexcept;
 
   /// Advances the simulation by `period_s` in n = max(10, ⌈period_s/h⌉) equal
   /// substeps. In every substep the drive computes the phase currents from
-  /// the true position (eq. 18/19), applies the current limit and the
+  /// the true position (eq. 18/19; profile phase_current: the commanded
+  /// currents), applies the current limit and the
   /// watchdog, and the translator is integrated with semi-implicit Euler.
   StepResult step(double period_s) noexcept;
 
@@ -171,6 +179,7 @@ class SimulatedMotor {
 
   // Drive state.
   std::array<DriveSetpoint, kMaxCoilSets> setpoints_{};
+  std::array<PhaseCurrentSetpoint, kMaxCoilSets> commanded_currents_{};
   bool enable_requested_ = false;
   double last_command_time_s_ = 0.0;
   std::uint32_t latched_ = 0;

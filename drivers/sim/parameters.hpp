@@ -114,10 +114,14 @@ struct MechanicsParameters {
   void validate() const;
 };
 
-/// The drive: a fixed classical commutation (eq. 18/19), current limit,
-/// setpoint watchdog.
+/// The drive: a fixed classical commutation (eq. 18/19) or phase-current
+/// setpoints (profile), current limit, setpoint watchdog.
 struct DriveParameters {
-  DriveCommutation commutation;        ///< k̂_d [N/A], ζ̂_d [rad]
+  DriveCommutation commutation;        ///< k̂_d [N/A], ζ̂_d [rad]; used with profile magnitude_phase
+  /// magnitude_phase: SimulatedMotor::command() takes (magnitude, Δ) and the
+  /// drive commutates with its fixed law; phase_current: command_currents()
+  /// takes [i_a, i_b] per coil set and the drive applies them as they are.
+  DriveProfile profile = DriveProfile::kMagnitudePhase;
   double phase_current_limit_A = 10.0; ///< |i_a|, |i_b|, |i_c| ≤ limit [A], > 0
   double watchdog_timeout_s = 0.01;    ///< current stops this long after the last setpoint [s], > 0
 

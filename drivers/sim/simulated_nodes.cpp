@@ -1,10 +1,18 @@
 #include "drivers/sim/simulated_nodes.hpp"
 
+#include <stdexcept>
+#include <string>
+
 namespace clm::sim {
 
 SimulatedNodes::SimulatedNodes(sim::SimulatedMotor& motor, const can::ProtocolConfig& protocol, double period_s)
     : motor_(&motor), protocol_(protocol), period_s_(period_s) {
   protocol_.validate();
+  if (protocol_.drive_profile != motor.parameters().drive.profile) {
+    throw std::invalid_argument(std::string("simulated nodes: the CAN protocol's drive profile is ") +
+                                name(protocol_.drive_profile) + " but the simulated drive's (drive.profile) is " +
+                                name(motor.parameters().drive.profile));
+  }
   pending_.coil_sets = protocol.coil_sets;
 }
 
@@ -58,9 +66,13 @@ std::size_t SimulatedNodes::on_frame(const can::Frame& frame, std::span<can::Fra
     const unsigned complete = (1u << can::setpoint_frame_count(protocol_.coil_sets)) - 1;
     if (received_mask_ == complete) {
       if (pending_.clear_fault) motor_->clear_fault();
-      motor_->command(std::span<const DriveSetpoint>(pending_.setpoints.data(),
-                                                     static_cast<std::size_t>(protocol_.coil_sets)),
-                      pending_.enable);
+      const auto count = static_cast<std::size_t>(protocol_.coil_sets);
+      if (protocol_.drive_profile == DriveProfile::kPhaseCurrent) {
+        motor_->command_currents(std::span<const PhaseCurrentSetpoint>(pending_.currents.data(), count),
+                                 pending_.enable);
+      } else {
+        motor_->command(std::span<const DriveSetpoint>(pending_.setpoints.data(), count), pending_.enable);
+      }
       ++counters_.setpoints_applied;
       received_mask_ = 0;
     }

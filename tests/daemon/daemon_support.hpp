@@ -78,9 +78,12 @@ struct SentSetpoints {
     for (int l = 0; l < command.coil_sets; ++l) sum += command.setpoints[static_cast<std::size_t>(l)].magnitude_N;
     return sum;
   }
+  /// Magnitudes zero and, for a phase-current drive, the currents too.
   bool all_magnitudes_zero() const {
     for (int l = 0; l < command.coil_sets; ++l) {
-      if (command.setpoints[static_cast<std::size_t>(l)].magnitude_N != 0.0) return false;
+      const auto s = static_cast<std::size_t>(l);
+      if (command.setpoints[s].magnitude_N != 0.0) return false;
+      if (command.currents[s].ia_A != 0.0 || command.currents[s].ib_A != 0.0) return false;
     }
     return true;
   }
@@ -238,9 +241,10 @@ inline LawFiles write_truth_laws(const TemporaryDirectory& dir, const std::strin
   return files;
 }
 
-/// The default configuration with every law available and `mode` selected.
-inline servod::ServodConfig config_with_laws(const LawFiles& files, servo::CommutationMode mode) {
-  auto config = virtual_config();
+/// The default configuration (or `servod_file`) with every law available and `mode` selected.
+inline servod::ServodConfig config_with_laws(const LawFiles& files, servo::CommutationMode mode,
+                                             const std::string& servod_file = "config/servod.yaml") {
+  auto config = virtual_config(servod_file);
   config.commutation.calibration_file = files.calibration;
   config.commutation.pgnn_model_file = files.pgnn;
   config.commutation.spline_model_file = files.spline;

@@ -19,14 +19,16 @@ using namespace clm;
 using Kind = servo::CommandKind;
 using servo::CommutationMode;
 
-TEST_CASE("10^5 cycles with a program running allocate nothing, in every commutation mode", "[daemon][allocation]") {
+namespace {
+
+/// 10^5 cycles of `mode` with a program running on the axis of `servod_file`, counted.
+void check_cycles_allocate_nothing(CommutationMode mode, const std::string& servod_file,
+                                   const std::string& motor_file) {
   constexpr std::int64_t kCycles = 100'000;
   test::TemporaryDirectory dir("clm-daemon-allocations");
-  const auto files = test::write_truth_laws(dir, test::source_path("config/motor-sim.yaml"));
-  const auto mode = GENERATE(CommutationMode::kOriginal, CommutationMode::kClassical, CommutationMode::kPgnn,
-                             CommutationMode::kSpline, CommutationMode::kOracle, CommutationMode::kExperiment);
-  INFO("mode " << servo::name(mode));
-  servod::WiredAxis axis(test::config_with_laws(files, CommutationMode::kOriginal));
+  const auto files = test::write_truth_laws(dir, test::source_path(motor_file));
+  INFO("mode " << servo::name(mode) << ", " << servod_file);
+  servod::WiredAxis axis(test::config_with_laws(files, CommutationMode::kOriginal, servod_file));
   servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
   if (mode == CommutationMode::kExperiment) {
@@ -78,6 +80,22 @@ TEST_CASE("10^5 cycles with a program running allocate nothing, in every commuta
   CHECK(after.frames_missing == before.frames_missing);
   CHECK(test::sent_setpoints(axis).command.enable);
   CHECK(daemon.take_replies().size() == 3);
+}
+
+}  // namespace
+
+TEST_CASE("10^5 cycles with a program running allocate nothing, in every commutation mode", "[daemon][allocation]") {
+  const auto mode = GENERATE(CommutationMode::kOriginal, CommutationMode::kClassical, CommutationMode::kPgnn,
+                             CommutationMode::kSpline, CommutationMode::kOracle, CommutationMode::kExperiment);
+  check_cycles_allocate_nothing(mode, "config/servod.yaml", "config/motor-sim.yaml");
+}
+
+TEST_CASE("10^5 cycles allocate nothing with a phase-current drive either", "[daemon][allocation][phase_current]") {
+  const auto mode = GENERATE(CommutationMode::kOriginal, CommutationMode::kPgnn, CommutationMode::kExperiment);
+  check_cycles_allocate_nothing(mode, "config/servod-phase-current.yaml", "config/motor-sim-phase-current.yaml");
+  // The cycle really drove a phase-current drive.
+  CHECK(test::virtual_config("config/servod-phase-current.yaml").servo.protocol.drive_profile ==
+        DriveProfile::kPhaseCurrent);
 }
 
 TEST_CASE("stops, quick stops, a jog, the approach guard and fault reactions allocate nothing in the cycle",

@@ -1,4 +1,6 @@
-// drivers/can/clm-servo.dbc against the codec: the DBC is read by a small parser
+// drivers/can/clm-servo.dbc (drive profile magnitude_phase) and
+// drivers/can/clm-servo-phase-current.dbc (phase_current) against the codec,
+// every test for both files: the DBC is read by a small parser
 // (dbc.cpp) and every frame and signal in it must be what the codec writes and
 // reads, bit for bit, so that the file cannot drift from the code.
 
@@ -23,10 +25,22 @@ using clm::test::DbcMessage;
 using clm::test::DbcSignal;
 using Values = std::map<std::string, double>;
 
+using clm::DriveProfile;
+
+// The profile every test below is run for (one DBC file each).
+DriveProfile g_profile = DriveProfile::kMagnitudePhase;
+constexpr std::array<DriveProfile, 2> kProfiles{DriveProfile::kMagnitudePhase, DriveProfile::kPhaseCurrent};
+
 const DbcFile& dbc() {
-  static const DbcFile file = clm::test::read_dbc(CLM_DBC_PATH);
-  return file;
+  static const DbcFile magnitude_phase = clm::test::read_dbc(CLM_DBC_PATH);
+  static const DbcFile phase_current = clm::test::read_dbc(CLM_DBC_PHASE_CURRENT_PATH);
+  return g_profile == DriveProfile::kPhaseCurrent ? phase_current : magnitude_phase;
 }
+
+// Runs `body` once per DBC file, with dbc() and dbc_config() set to it.
+#define FOR_EACH_PROFILE                                   \
+  for (const DriveProfile profile_under_test : kProfiles) \
+    if (g_profile = profile_under_test; true)
 
 const DbcMessage& message_named(const std::string& name) {
   for (const auto& message : dbc().messages) {
@@ -40,6 +54,7 @@ const DbcMessage& message_named(const std::string& name) {
 clm::can::ProtocolConfig dbc_config() {
   clm::can::ProtocolConfig config;
   config.coil_sets = 4;
+  config.drive_profile = g_profile;
   return config;
 }
 
@@ -61,6 +76,8 @@ clm::can::SetpointCommand command_from(const Values& v) {
   for (int l = 0; l < 4; ++l) {
     command.setpoints[static_cast<std::size_t>(l)].magnitude_N = get("Magnitude" + std::to_string(l + 1) + "_N");
     command.setpoints[static_cast<std::size_t>(l)].delta_rad = get("Delta" + std::to_string(l + 1) + "_rad");
+    command.currents[static_cast<std::size_t>(l)].ia_A = get("Ia" + std::to_string(l + 1) + "_A");
+    command.currents[static_cast<std::size_t>(l)].ib_A = get("Ib" + std::to_string(l + 1) + "_A");
   }
   return command;
 }
@@ -139,8 +156,14 @@ const std::map<std::string, MessageCodec>& codecs() {
           v["AliveCounter"] = command.alive_counter;
         }
         for (const int l : coil_sets) {
-          v["Magnitude" + std::to_string(l) + "_N"] = command.setpoints[static_cast<std::size_t>(l - 1)].magnitude_N;
-          v["Delta" + std::to_string(l) + "_rad"] = command.setpoints[static_cast<std::size_t>(l - 1)].delta_rad;
+          const auto s = static_cast<std::size_t>(l - 1);
+          if (g_profile == DriveProfile::kPhaseCurrent) {
+            v["Ia" + std::to_string(l) + "_A"] = command.currents[s].ia_A;
+            v["Ib" + std::to_string(l) + "_A"] = command.currents[s].ib_A;
+          } else {
+            v["Magnitude" + std::to_string(l) + "_N"] = command.setpoints[s].magnitude_N;
+            v["Delta" + std::to_string(l) + "_rad"] = command.setpoints[s].delta_rad;
+          }
         }
         return status;
       };
@@ -159,149 +182,164 @@ const std::map<std::string, MessageCodec>& codecs() {
 }  // namespace
 
 TEST_CASE("the DBC names the three nodes and exactly the six frames of the protocol", "[can][dbc]") {
-  CHECK(dbc().nodes == std::vector<std::string>{"Daemon", "Drive", "ForceSensor"});
-  std::set<std::string> names;
-  for (const auto& message : dbc().messages) names.insert(message.name);
-  CHECK(names == std::set<std::string>{"Sync", "DriveFeedback", "ForceFeedback", "DriveSetpoint1", "DriveSetpoint2",
-                                       "DriveSetpoint3"});
-  CHECK(dbc().messages.size() == 6);
+  FOR_EACH_PROFILE {
+    INFO("drive profile " << clm::name(profile_under_test));
+    CHECK(dbc().nodes == std::vector<std::string>{"Daemon", "Drive", "ForceSensor"});
+    std::set<std::string> names;
+    for (const auto& message : dbc().messages) names.insert(message.name);
+    CHECK(names == std::set<std::string>{"Sync", "DriveFeedback", "ForceFeedback", "DriveSetpoint1", "DriveSetpoint2",
+                                         "DriveSetpoint3"});
+    CHECK(dbc().messages.size() == 6);
+  }
 }
 
 TEST_CASE("every DBC frame has the codec's identifier and DLC and sender for the default node IDs", "[can][dbc]") {
-  const auto config = dbc_config();
-  CHECK(message_named("Sync").id == clm::can::kSyncId);
-  CHECK(message_named("DriveFeedback").id == clm::can::drive_feedback_id(config));
-  CHECK(message_named("ForceFeedback").id == clm::can::force_feedback_id(config));
-  CHECK(message_named("DriveSetpoint1").id == clm::can::setpoint_id(config, 0));
-  CHECK(message_named("DriveSetpoint2").id == clm::can::setpoint_id(config, 1));
-  CHECK(message_named("DriveSetpoint3").id == clm::can::setpoint_id(config, 2));
-  CHECK(message_named("Sync").sender == "Daemon");
-  CHECK(message_named("DriveFeedback").sender == "Drive");
-  CHECK(message_named("ForceFeedback").sender == "ForceSensor");
-  for (const char* name : {"DriveSetpoint1", "DriveSetpoint2", "DriveSetpoint3"}) {
-    CHECK(message_named(name).sender == "Daemon");
-  }
+  FOR_EACH_PROFILE {
+    INFO("drive profile " << clm::name(profile_under_test));
+    const auto config = dbc_config();
+    CHECK(message_named("Sync").id == clm::can::kSyncId);
+    CHECK(message_named("DriveFeedback").id == clm::can::drive_feedback_id(config));
+    CHECK(message_named("ForceFeedback").id == clm::can::force_feedback_id(config));
+    CHECK(message_named("DriveSetpoint1").id == clm::can::setpoint_id(config, 0));
+    CHECK(message_named("DriveSetpoint2").id == clm::can::setpoint_id(config, 1));
+    CHECK(message_named("DriveSetpoint3").id == clm::can::setpoint_id(config, 2));
+    CHECK(message_named("Sync").sender == "Daemon");
+    CHECK(message_named("DriveFeedback").sender == "Drive");
+    CHECK(message_named("ForceFeedback").sender == "ForceSensor");
+    for (const char* name : {"DriveSetpoint1", "DriveSetpoint2", "DriveSetpoint3"}) {
+      CHECK(message_named(name).sender == "Daemon");
+    }
 
-  // The DLC of the frame the codec writes (all-zero values: in range everywhere but SYNC).
-  for (const auto& message : dbc().messages) {
-    INFO(message.name);
-    Values zeros;
-    for (const auto& signal : message.signals) zeros[signal.name] = static_cast<double>(signal.raw_minimum() < 0 ? 0 : signal.raw_minimum()) * signal.scale;
-    Frame frame;
-    REQUIRE(codecs().at(message.name).encode(zeros, frame) == CodecStatus::kOk);
-    CHECK(frame.id == message.id);
-    CHECK(frame.dlc == message.dlc);
+    // The DLC of the frame the codec writes (all-zero values: in range everywhere but SYNC).
+    for (const auto& message : dbc().messages) {
+      INFO(message.name);
+      Values zeros;
+      for (const auto& signal : message.signals) zeros[signal.name] = static_cast<double>(signal.raw_minimum() < 0 ? 0 : signal.raw_minimum()) * signal.scale;
+      Frame frame;
+      REQUIRE(codecs().at(message.name).encode(zeros, frame) == CodecStatus::kOk);
+      CHECK(frame.id == message.id);
+      CHECK(frame.dlc == message.dlc);
+    }
   }
 }
 
 TEST_CASE("every DBC signal is little-endian and covers its frame's bits exactly once and names its unit", "[can][dbc]") {
-  const std::map<std::string, std::string> unit_of_suffix{{"_m", "m"}, {"_N", "N"}, {"_Nm", "Nm"}, {"_rad", "rad"}};
-  for (const auto& message : dbc().messages) {
-    INFO(message.name);
-    std::vector<int> owners(static_cast<std::size_t>(8 * message.dlc), 0);
-    for (const auto& signal : message.signals) {
-      INFO(signal.name);
-      CHECK(signal.little_endian);
-      CHECK(signal.offset == 0.0);
-      for (int b = signal.start_bit; b < signal.start_bit + signal.length_bits; ++b) {
-        REQUIRE(b < 8 * message.dlc);
-        ++owners[static_cast<std::size_t>(b)];
-      }
-      // Rule 1: the unit is in the name, and the DBC's unit string agrees.
-      std::string expected_unit;
-      for (const auto& [suffix, unit] : unit_of_suffix) {
-        if (signal.name.size() > suffix.size() &&
-            signal.name.compare(signal.name.size() - suffix.size(), suffix.size(), suffix) == 0) {
-          expected_unit = unit;
+  FOR_EACH_PROFILE {
+    INFO("drive profile " << clm::name(profile_under_test));
+    const std::map<std::string, std::string> unit_of_suffix{{"_m", "m"}, {"_N", "N"}, {"_Nm", "Nm"}, {"_rad", "rad"}, {"_A", "A"}};
+    for (const auto& message : dbc().messages) {
+      INFO(message.name);
+      std::vector<int> owners(static_cast<std::size_t>(8 * message.dlc), 0);
+      for (const auto& signal : message.signals) {
+        INFO(signal.name);
+        CHECK(signal.little_endian);
+        CHECK(signal.offset == 0.0);
+        for (int b = signal.start_bit; b < signal.start_bit + signal.length_bits; ++b) {
+          REQUIRE(b < 8 * message.dlc);
+          ++owners[static_cast<std::size_t>(b)];
         }
+        // Rule 1: the unit is in the name, and the DBC's unit string agrees.
+        std::string expected_unit;
+        for (const auto& [suffix, unit] : unit_of_suffix) {
+          if (signal.name.size() > suffix.size() &&
+              signal.name.compare(signal.name.size() - suffix.size(), suffix.size(), suffix) == 0) {
+            expected_unit = unit;
+          }
+        }
+        CHECK(signal.unit == expected_unit);
+        // The range fits the field.
+        const std::int64_t field_min = signal.is_signed ? -(std::int64_t{1} << (signal.length_bits - 1)) : 0;
+        const std::int64_t field_max =
+            signal.is_signed ? (std::int64_t{1} << (signal.length_bits - 1)) - 1 : (std::int64_t{1} << signal.length_bits) - 1;
+        CHECK(signal.raw_minimum() >= field_min);
+        CHECK(signal.raw_maximum() <= field_max);
+        // Physical signals use the whole field (no range narrower than the codec's).
+        if (!signal.unit.empty()) {
+          CHECK(signal.raw_minimum() == field_min);
+          CHECK(signal.raw_maximum() == field_max);
+        }
+        const std::string receiver = message.sender == "Daemon" ? "Drive" : "Daemon";
+        CHECK(std::find(signal.receivers.begin(), signal.receivers.end(), receiver) != signal.receivers.end());
       }
-      CHECK(signal.unit == expected_unit);
-      // The range fits the field.
-      const std::int64_t field_min = signal.is_signed ? -(std::int64_t{1} << (signal.length_bits - 1)) : 0;
-      const std::int64_t field_max =
-          signal.is_signed ? (std::int64_t{1} << (signal.length_bits - 1)) - 1 : (std::int64_t{1} << signal.length_bits) - 1;
-      CHECK(signal.raw_minimum() >= field_min);
-      CHECK(signal.raw_maximum() <= field_max);
-      // Physical signals use the whole field (no range narrower than the codec's).
-      if (!signal.unit.empty()) {
-        CHECK(signal.raw_minimum() == field_min);
-        CHECK(signal.raw_maximum() == field_max);
+      for (std::size_t b = 0; b < owners.size(); ++b) {
+        INFO("bit " << b);
+        CHECK(owners[b] == 1);
       }
-      const std::string receiver = message.sender == "Daemon" ? "Drive" : "Daemon";
-      CHECK(std::find(signal.receivers.begin(), signal.receivers.end(), receiver) != signal.receivers.end());
-    }
-    for (std::size_t b = 0; b < owners.size(); ++b) {
-      INFO("bit " << b);
-      CHECK(owners[b] == 1);
     }
   }
 }
 
 TEST_CASE("codec and DBC agree bit for bit on random values of every signal", "[can][dbc][property]") {
-  std::mt19937_64 random(20240611);
-  for (const auto& message : dbc().messages) {
-    INFO(message.name);
-    const MessageCodec& codec = codecs().at(message.name);
-    for (int trial = 0; trial < 2000; ++trial) {
-      // Random raw values in each signal's DBC range; the trials start with the range ends.
-      Values values;
-      Frame packed;
-      packed.id = message.id;
-      packed.dlc = static_cast<std::uint8_t>(message.dlc);
-      for (const auto& signal : message.signals) {
-        std::int64_t raw = 0;
-        if (trial == 0) {
-          raw = signal.raw_minimum();
-        } else if (trial == 1) {
-          raw = signal.raw_maximum();
-        } else {
-          raw = std::uniform_int_distribution<std::int64_t>(signal.raw_minimum(), signal.raw_maximum())(random);
+  FOR_EACH_PROFILE {
+    INFO("drive profile " << clm::name(profile_under_test));
+    std::mt19937_64 random(20240611);
+    for (const auto& message : dbc().messages) {
+      INFO(message.name);
+      const MessageCodec& codec = codecs().at(message.name);
+      for (int trial = 0; trial < 2000; ++trial) {
+        // Random raw values in each signal's DBC range; the trials start with the range ends.
+        Values values;
+        Frame packed;
+        packed.id = message.id;
+        packed.dlc = static_cast<std::uint8_t>(message.dlc);
+        for (const auto& signal : message.signals) {
+          std::int64_t raw = 0;
+          if (trial == 0) {
+            raw = signal.raw_minimum();
+          } else if (trial == 1) {
+            raw = signal.raw_maximum();
+          } else {
+            raw = std::uniform_int_distribution<std::int64_t>(signal.raw_minimum(), signal.raw_maximum())(random);
+          }
+          clm::test::insert_raw(signal, raw, packed);
+          values[signal.name] = static_cast<double>(raw) * signal.scale + signal.offset;
         }
-        clm::test::insert_raw(signal, raw, packed);
-        values[signal.name] = static_cast<double>(raw) * signal.scale + signal.offset;
-      }
 
-      // Decoding the DBC-packed frame gives the DBC's physical values.
-      Values decoded;
-      REQUIRE(codec.decode(packed, decoded) == CodecStatus::kOk);
-      REQUIRE(decoded.size() == message.signals.size());
-      for (const auto& signal : message.signals) {
-        INFO(signal.name << " raw " << clm::test::extract_raw(signal, packed));
-        REQUIRE(decoded.count(signal.name) == 1);
-        CHECK(std::abs(decoded.at(signal.name) - values.at(signal.name)) <= 1e-6 * signal.scale);
-      }
+        // Decoding the DBC-packed frame gives the DBC's physical values.
+        Values decoded;
+        REQUIRE(codec.decode(packed, decoded) == CodecStatus::kOk);
+        REQUIRE(decoded.size() == message.signals.size());
+        for (const auto& signal : message.signals) {
+          INFO(signal.name << " raw " << clm::test::extract_raw(signal, packed));
+          REQUIRE(decoded.count(signal.name) == 1);
+          CHECK(std::abs(decoded.at(signal.name) - values.at(signal.name)) <= 1e-6 * signal.scale);
+        }
 
-      // Encoding the physical values gives the DBC-packed bytes.
-      Frame encoded;
-      REQUIRE(codec.encode(values, encoded) == CodecStatus::kOk);
-      INFO(clm::can::describe(packed) << " vs " << clm::can::describe(encoded));
-      CHECK(encoded.id == packed.id);
-      CHECK(encoded.dlc == packed.dlc);
-      CHECK(encoded.data == packed.data);
+        // Encoding the physical values gives the DBC-packed bytes.
+        Frame encoded;
+        REQUIRE(codec.encode(values, encoded) == CodecStatus::kOk);
+        INFO(clm::can::describe(packed) << " vs " << clm::can::describe(encoded));
+        CHECK(encoded.id == packed.id);
+        CHECK(encoded.dlc == packed.dlc);
+        CHECK(encoded.data == packed.data);
+      }
     }
   }
 }
 
 TEST_CASE("the codec refuses one LSB beyond each end of every physical DBC signal", "[can][dbc]") {
-  for (const auto& message : dbc().messages) {
-    const MessageCodec& codec = codecs().at(message.name);
-    for (const auto& signal : message.signals) {
-      if (signal.unit.empty()) continue;
-      INFO(message.name << "." << signal.name);
-      Values values;
-      for (const auto& other : message.signals) values[other.name] = 0.0;
-      Frame frame;
-      frame.data.fill(0xA5);
-      const Frame untouched = frame;
-      values[signal.name] = signal.maximum + signal.scale;
-      CHECK(codec.encode(values, frame) == CodecStatus::kOutOfRange);
-      values[signal.name] = signal.minimum - signal.scale;
-      CHECK(codec.encode(values, frame) == CodecStatus::kOutOfRange);
-      CHECK(frame.data == untouched.data);
-      values[signal.name] = signal.maximum;
-      CHECK(codec.encode(values, frame) == CodecStatus::kOk);
-      values[signal.name] = signal.minimum;
-      CHECK(codec.encode(values, frame) == CodecStatus::kOk);
+  FOR_EACH_PROFILE {
+    INFO("drive profile " << clm::name(profile_under_test));
+    for (const auto& message : dbc().messages) {
+      const MessageCodec& codec = codecs().at(message.name);
+      for (const auto& signal : message.signals) {
+        if (signal.unit.empty()) continue;
+        INFO(message.name << "." << signal.name);
+        Values values;
+        for (const auto& other : message.signals) values[other.name] = 0.0;
+        Frame frame;
+        frame.data.fill(0xA5);
+        const Frame untouched = frame;
+        values[signal.name] = signal.maximum + signal.scale;
+        CHECK(codec.encode(values, frame) == CodecStatus::kOutOfRange);
+        values[signal.name] = signal.minimum - signal.scale;
+        CHECK(codec.encode(values, frame) == CodecStatus::kOutOfRange);
+        CHECK(frame.data == untouched.data);
+        values[signal.name] = signal.maximum;
+        CHECK(codec.encode(values, frame) == CodecStatus::kOk);
+        values[signal.name] = signal.minimum;
+        CHECK(codec.encode(values, frame) == CodecStatus::kOk);
+      }
     }
   }
 }

@@ -3,7 +3,7 @@
 // Input bytes: [0] drive node ID, [1] force-sensor node ID, [2] coil sets
 // (signed), [3..4] identifier (little-endian, not masked to 11 bits), [5] DLC
 // (any 0..255), [6..13] payload; missing bytes are zero. Every decoder sees
-// the frame. Invariants: a decoder that refuses writes nothing; one that
+// the frame, the setpoint decoder for both drive profiles. Invariants: a decoder that refuses writes nothing; one that
 // accepts gives values that the matching encoder turns back into the same
 // frame (identifier, DLC, the DLC's payload bytes).
 
@@ -86,6 +86,7 @@ bool same_command(const can::SetpointCommand& a, const can::SetpointCommand& b) 
     if (a.setpoints[l].magnitude_N != b.setpoints[l].magnitude_N || a.setpoints[l].delta_rad != b.setpoints[l].delta_rad) {
       return false;
     }
+    if (a.currents[l].ia_A != b.currents[l].ia_A || a.currents[l].ib_A != b.currents[l].ib_A) return false;
   }
   return true;
 }
@@ -133,6 +134,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   check_sync(frame);
   check_drive_feedback(config, frame);
   check_force_feedback(config, frame);
+  check_setpoint_frame(config, frame);
+  config.drive_profile = clm::DriveProfile::kPhaseCurrent;  // the same frame as phase currents
   check_setpoint_frame(config, frame);
   return 0;
 }

@@ -3,9 +3,13 @@
 # frames of every message passes; in a log of bad lines each one is reported
 # with its line number and the reason, and the exit status is 1.
 #
-#   candump_check_test.sh HIL_CANDUMP_CHECK DBC TESTDATA_DIR
+#   candump_check_test.sh HIL_CANDUMP_CHECK DBC TESTDATA_DIR [PHASE_CURRENT_DBC]
+#
+# With PHASE_CURRENT_DBC: the same good log passes as a phase-current drive's
+# bus (same identifiers and DLCs; the RPDOs read as i_a, i_b), and a DBC that
+# does not match the frames (an RPDO signal cut short) fails.
 set -uo pipefail
-checker=$1 dbc=$2 data=$3
+checker=$1 dbc=$2 data=$3 pc_dbc=${4:-}
 fail() { echo "FAIL: $*"; exit 1; }
 
 out=$("$checker" --dbc "$dbc" --log "$data/good.log" --coil-sets 3)
@@ -32,4 +36,22 @@ for expected in \
   grep -q "$expected" <<< "$out" || fail "bad.log: no line matching '$expected'"
 done
 if "$checker" --dbc "$dbc" --log /nonexistent 2> /dev/null; then fail "a missing log passed"; fi
+if [ -n "$pc_dbc" ]; then
+  out=$("$checker" --dbc "$pc_dbc" --drive-profile phase_current --log "$data/good.log" --coil-sets 3)
+  rc=$?
+  echo "$out"
+  [ $rc = 0 ] || fail "good.log as phase_current: exit status $rc"
+  grep -q "DriveFeedback 1, DriveSetpoint1 1, DriveSetpoint2 1, ForceFeedback 1, Sync 2" <<< "$out" ||
+    fail "good.log as phase_current: counts"
+  if "$checker" --dbc "$pc_dbc" --drive-profile both --log "$data/good.log" 2> /dev/null; then
+    fail "--drive-profile both was accepted"
+  fi
+  # A phase-current DBC whose Ib1_A covers 8 bits instead of 16 leaves bits uncovered.
+  tmp=$(mktemp -d)
+  sed 's/ SG_ Ib1_A : 32|16@1-/ SG_ Ib1_A : 32|8@1-/' "$pc_dbc" > "$tmp/short.dbc"
+  out=$("$checker" --dbc "$tmp/short.dbc" --drive-profile phase_current --log "$data/good.log" --coil-sets 3)
+  rc=$?
+  rm -rf "$tmp"
+  [ $rc = 1 ] || fail "a phase-current DBC with Ib1_A cut short: exit status $rc, expected 1 ($out)"
+fi
 echo "hil_candump_check: good and bad logs judged as expected"

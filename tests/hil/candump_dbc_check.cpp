@@ -1,5 +1,6 @@
 // hil_candump_check: every frame of a candump log (`candump -L`) must decode
-// against drivers/can/clm-servo.dbc and through the codec (drivers/can_protocol.hpp).
+// against drivers/can/clm-servo.dbc (or, with --drive-profile phase_current,
+// clm-servo-phase-current.dbc) and through the codec (drivers/can_protocol.hpp).
 //
 // For each line: the identifier must be a DBC message, the DLC the DBC's, every
 // signal's raw value inside the DBC's [minimum, maximum], every bit no signal
@@ -40,6 +41,7 @@ struct Options {
   int coil_sets = 3;
   int drive_node_id = 1;
   int force_sensor_node_id = 2;
+  std::string drive_profile = "magnitude_phase";
   long long min_frames = 1;
   int max_reports = 20;
 };
@@ -129,6 +131,8 @@ int check(const Options& options) {
   config.coil_sets = options.coil_sets;
   config.drive_node_id = static_cast<std::uint8_t>(options.drive_node_id);
   config.force_sensor_node_id = static_cast<std::uint8_t>(options.force_sensor_node_id);
+  config.drive_profile = options.drive_profile == "phase_current" ? clm::DriveProfile::kPhaseCurrent
+                                                                  : clm::DriveProfile::kMagnitudePhase;
   config.validate();
 
   std::ifstream input(options.log_path);
@@ -237,6 +241,11 @@ int main(int argc, char** argv) {
   Options options;
   app.add_option("--dbc", options.dbc_path, "DBC file (drivers/can/clm-servo.dbc)")->required()->check(CLI::ExistingFile);
   app.add_option("--log", options.log_path, "candump -L output")->required()->check(CLI::ExistingFile);
+  app.add_option("--drive-profile", options.drive_profile,
+                 "what the setpoint RPDOs carry (drive.profile): magnitude_phase with clm-servo.dbc, phase_current "
+                 "with clm-servo-phase-current.dbc")
+      ->check(CLI::IsMember({"magnitude_phase", "phase_current"}))
+      ->capture_default_str();
   app.add_option("--coil-sets", options.coil_sets, "L of the motor on the bus")->check(CLI::Range(1, 4))->capture_default_str();
   app.add_option("--drive-node-id", options.drive_node_id, "drive node ID")->check(CLI::Range(1, 127))->capture_default_str();
   app.add_option("--force-sensor-node-id", options.force_sensor_node_id, "force sensor node ID")

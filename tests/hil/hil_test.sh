@@ -39,6 +39,11 @@ if [ "$mode" = native ] && [ -z "${HIL_ARTIFACTS:-}" ] && [ -d "$work/native/com
    { [ ! -f "$work/native/commission/report.json" ] || [ "$1" -nt "$work/native/commission/report.json" ]; }; then
   rm -rf "$work/native/commission"
 fi
+if [ "$mode" = native ] && [ -z "${HIL_PC_ARTIFACTS:-}" ] && [ -d "$work/native/commission-phase-current" ] &&
+   { [ ! -f "$work/native/commission-phase-current/report.json" ] ||
+     [ "$1" -nt "$work/native/commission-phase-current/report.json" ]; }; then
+  rm -rf "$work/native/commission-phase-current"
+fi
 case $mode in
   native) exec bash "$here/$script" "$1" "$2" "$3" "$4" "$work/native" ;;
   qemu) exec bash "$here/qemu/run_qemu.sh" "$1" "$2" "$3" "$4" "$work/qemu" ;;

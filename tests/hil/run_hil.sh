@@ -5,7 +5,10 @@
 # classical and the PGNN commutation (one daemon each, with the calibration,
 # model and feedforward commissioning made for that law), checks tracking
 # from the daemon's own telemetry, the shutdown of every process, and that
-# every frame on the bus decodes against drivers/can/clm-servo.dbc.
+# every frame on the bus decodes against drivers/can/clm-servo.dbc. Then the
+# same motor behind a phase-current drive (drive.profile phase_current): one
+# daemon runs the one-stroke program with the classical law and the PGNN of a
+# phase-current commissioning; its bus against clm-servo-phase-current.dbc.
 #
 # Runs on any Linux with vcan: natively (tests/hil/hil_test.sh) or as the
 # payload of the QEMU guest (tests/hil/qemu/). Prints one "HIL: PASS ..." or
@@ -13,8 +16,9 @@
 #
 #   run_hil.sh CLM CLM_SERVOD HIL_CANDUMP_CHECK SOURCE_DIR WORK_DIR
 #
-# SOURCE_DIR needs config/{servod-vcan,motor-sim}.yaml, config/programs/ and
-# drivers/can/clm-servo.dbc. Environment (all optional):
+# SOURCE_DIR needs config/{servod-vcan,motor-sim,motor-sim-phase-current}.yaml,
+# config/programs/, tests/support/one_stroke_program.yaml and
+# drivers/can/clm-servo{,-phase-current}.dbc. Environment (all optional):
 #   HIL_CAN          interface; default: create vcanhil<pid> (root), else vcan0 if it exists.
 #                    "sim": reference run without CAN, the daemon's in-process simulated
 #                    motor on the same real-time clock (no clm sim, candump or bus checks)
@@ -23,6 +27,10 @@
 #   HIL_PROGRAM      program file; default SOURCE_DIR/config/programs/fig8.yaml
 #   HIL_MODES        commutations to run, default "classical pgnn"
 #   HIL_MAX_E_M_<law>  bound on max |e_m| [m] for that law (defaults below)
+#   HIL_PC_ARTIFACTS the same for the phase-current drive (clm commission --config
+#                    config/servod-phase-current.yaml); default WORK_DIR/commission-phase-current
+#   HIL_PC_PROGRAM   program of the phase-current runs; default tests/support/one_stroke_program.yaml
+#   HIL_PC_MAX_E_M_<law>  bound on max |e_m| [m] of the phase-current runs (classical, pgnn)
 #   HIL_PRIORITY     loop.priority of clm-servod (default: the config's; without the rights
 #                    for SCHED_FIFO the daemon warns and runs without)
 #   CANDUMP, LCM_LOGGER  the programs (default: from PATH)
@@ -147,6 +155,111 @@ else
   fi
 fi
 
+# Runs program file PROGRAM on the running daemon (status before it in
+# `before`) with its states logged to $run/states-TAG.lcm; reports one check
+# and leaves `problem` empty if the program ran to its end without a fault.
+run_program_logged() {  # TAG PROGRAM
+  # Long options: lcm-logger 1.3.1 lists -l but does not take it.
+  $(fifo 50) "$lcm_logger" --quiet --force --channel=CLM_SERVO_STATE --lcm-url="$url" "$run/states-$1.lcm" \
+    2> "$run/logger-$1.err" &
+  logger_pid=$!
+  pids+=("$logger_pid")
+  sleep 0.5  # the logger subscribes before the program starts
+  run_start=$(date +%s)
+  read -r idle_before total_before < <(cpu_jiffies)
+  reply=$(ctl run-program "$2") || problem="run-program: $reply"
+  kill -0 $logger_pid 2>/dev/null || problem="lcm-logger exited: $(head -1 "$run/logger-$1.err")"
+  saw_running=0 ended=0
+  while [ -z "$problem" ] && [ $(( $(date +%s) - run_start )) -lt 300 ]; do
+    status=$(ctl status) || { problem="no status while the program runs"; break; }
+    if [ "$(field fault "$status")" != 0 ] || [ "$(field state "$status")" != enabled ]; then
+      problem="state $(field state "$status"), fault: $(field fault_reason "$status")"
+      break
+    fi
+    if [ "$(field program_running "$status")" = true ]; then
+      saw_running=1
+    elif [ $saw_running = 1 ]; then
+      ended=1
+      break
+    fi
+    sleep 1  # each `clm ctl` costs the guest a process start-up
+  done
+  run_s=$(( $(date +%s) - run_start ))
+  read -r idle_after total_after < <(cpu_jiffies)
+  busy=$(( 100 - 100 * (idle_after - idle_before) / (total_after - total_before + 1) ))
+  sleep 0.3  # the last states reach the logger
+  # SIGINT: lcm-logger writes what it has and closes the log. It notices the
+  # signal when its loop wakes, i.e. with the next message; a second one ends
+  # a logger that has heard nothing since.
+  stop_process $logger_pid 10 INT
+  rc=$?
+  if [ $rc = 255 ]; then
+    stop_process $logger_pid 20 INT
+    rc=$?
+  fi
+  [ -z "$problem" ] && [ $rc != 0 ] && problem="lcm-logger exit status $rc on SIGINT (255: still running after 3 s)"
+  [ -z "$problem" ] && [ $ended != 1 ] && problem="the program did not run to its end within 300 s (seen running: $saw_running)"
+  missing=$(( $(counter "$status" missing) - $(counter "$before" missing) ))
+  late=$(( $(counter "$status" late) - $(counter "$before" late) ))
+  frames="frames missing $missing, late $late, rejected $(counter "$status" rejected); overruns $(field overruns "$status");"
+  frames+=" wake-up latency $(field wakeup_latency_s "$status")"
+  if [ -n "$problem" ]; then
+    fail "$1: $problem ($frames)"
+  else
+    pass "$1: program ran to its end in $run_s s without a fault ($frames; CPUs $busy % busy)"
+  fi
+}
+
+# Tracking of run TAG under LAW from the daemon's own states
+# ($run/states-TAG.lcm): max |e_m| against BOUND [m], every state with drive
+# profile PROFILE (servo_state_t.DRIVE_PROFILE_*, default 0); sets rms_e[TAG].
+check_tracking() {  # TAG LAW BOUND [PROFILE]
+  # Tracking from the daemon's own states, from the program's first move on;
+  # the standstill before it (enabling, the law switch) is reported apart.
+  if ! "$clm" log2csv --log "$run/states-$1.lcm" --output "$run/states-$1.csv" --format full > /dev/null \
+       2> "$run/log2csv-$1.err"; then
+    fail "$1: clm log2csv: $(head -1 "$run/log2csv-$1.err")"
+    return
+  fi
+  code=$(case $2 in original) echo 0;; classical) echo 1;; pgnn) echo 2;; spline) echo 3;; oracle) echo 4;; esac)
+  read -r rows max rms cycle_gaps other_mode max_t max_r max_v hold_max other_profile < <(awk -F, -v code="$code" \
+    -v profile="${4:-0}" '
+    NR == 1 { for (k = 1; k <= NF; ++k) col[$k] = k; next }
+    {
+      e = $col["e_m"] + 0; if (e < 0) e = -e
+      if (!moving && $col["r_dot_m_per_s"] + 0 != 0) moving = 1
+      if (!moving) { if (e > hold) hold = e; next }
+      if (e > max) { max = e; max_t = $col["t_s"]; max_r = $col["r_m"]; max_v = $col["r_dot_m_per_s"] }
+      sum += e * e; ++n
+      c = $col["cycle"] + 0
+      if (n > 1 && c != last + 1) ++gaps
+      last = c
+      if ($col["commutation"] + 0 != code) ++other
+      if ($col["drive_profile"] + 0 != profile) ++other_profile
+    }
+    END { printf "%d %.3e %.3e %d %d %.3f %.4f %.4f %.3e %d\n", n, max, (n ? sqrt(sum / n) : 0), gaps, other, max_t, max_r, max_v, hold, other_profile }' \
+    "$run/states-$1.csv")
+  if [ -z "$other_profile" ]; then
+    fail "$1: could not read $run/states-$1.csv (awk)"
+    return
+  fi
+  rms_e[$1]=$rms
+  bound=$3
+  detail="max |e_m| $max m (t_s $max_t, r_m $max_r, r_dot $max_v), rms $rms m over $rows states of the program"
+  detail+=" ($cycle_gaps gaps in the cycle numbers; before it, at standstill: max |e_m| $hold_max m)"
+  if [ "$rows" -lt 1000 ]; then
+    fail "$1: only $rows states logged"
+  elif [ "$other_mode" != 0 ]; then
+    fail "$1: $other_mode states with another commutation"
+  elif [ "$other_profile" != 0 ]; then
+    fail "$1: $other_profile states with a drive profile other than ${4:-0}"
+  elif awk -v m="$max" -v b="$bound" 'BEGIN { exit !(m <= b) }'; then
+    pass "$1: tracking $detail <= $bound m"
+  else
+    fail "$1: tracking $detail > $bound m"
+  fi
+}
+
 # ---- the program under each law, one daemon each ---------------------------------------
 declare -A rms_e
 daemon_cycles=0
@@ -186,55 +299,7 @@ for mode in $modes; do
   fi
   before=$status
 
-  # Long options: lcm-logger 1.3.1 lists -l but does not take it.
-  $(fifo 50) "$lcm_logger" --quiet --force --channel=CLM_SERVO_STATE --lcm-url="$url" "$run/states-$mode.lcm" \
-    2> "$run/logger-$mode.err" &
-  logger_pid=$!
-  pids+=("$logger_pid")
-  sleep 0.5  # the logger subscribes before the program starts
-  run_start=$(date +%s)
-  read -r idle_before total_before < <(cpu_jiffies)
-  reply=$(ctl run-program "$program") || problem="run-program: $reply"
-  kill -0 $logger_pid 2>/dev/null || problem="lcm-logger exited: $(head -1 "$run/logger-$mode.err")"
-  saw_running=0 ended=0
-  while [ -z "$problem" ] && [ $(( $(date +%s) - run_start )) -lt 300 ]; do
-    status=$(ctl status) || { problem="no status while the program runs"; break; }
-    if [ "$(field fault "$status")" != 0 ] || [ "$(field state "$status")" != enabled ]; then
-      problem="state $(field state "$status"), fault: $(field fault_reason "$status")"
-      break
-    fi
-    if [ "$(field program_running "$status")" = true ]; then
-      saw_running=1
-    elif [ $saw_running = 1 ]; then
-      ended=1
-      break
-    fi
-    sleep 1  # each `clm ctl` costs the guest a process start-up
-  done
-  run_s=$(( $(date +%s) - run_start ))
-  read -r idle_after total_after < <(cpu_jiffies)
-  busy=$(( 100 - 100 * (idle_after - idle_before) / (total_after - total_before + 1) ))
-  sleep 0.3  # the last states reach the logger
-  # SIGINT: lcm-logger writes what it has and closes the log. It notices the
-  # signal when its loop wakes, i.e. with the next message; a second one ends
-  # a logger that has heard nothing since.
-  stop_process $logger_pid 10 INT
-  rc=$?
-  if [ $rc = 255 ]; then
-    stop_process $logger_pid 20 INT
-    rc=$?
-  fi
-  [ -z "$problem" ] && [ $rc != 0 ] && problem="lcm-logger exit status $rc on SIGINT (255: still running after 3 s)"
-  [ -z "$problem" ] && [ $ended != 1 ] && problem="the program did not run to its end within 300 s (seen running: $saw_running)"
-  missing=$(( $(counter "$status" missing) - $(counter "$before" missing) ))
-  late=$(( $(counter "$status" late) - $(counter "$before" late) ))
-  frames="frames missing $missing, late $late, rejected $(counter "$status" rejected); overruns $(field overruns "$status");"
-  frames+=" wake-up latency $(field wakeup_latency_s "$status")"
-  if [ -n "$problem" ]; then
-    fail "$mode: $problem ($frames)"
-  else
-    pass "$mode: program ran to its end in $run_s s without a fault ($frames; CPUs $busy % busy)"
-  fi
+  run_program_logged "$mode" "$program"
 
   # Shutdown of this daemon: exit 0 on SIGTERM, after disabling the axis.
   daemon_cycles=$(( daemon_cycles + $(field cycles "$(ctl status)") ))
@@ -247,47 +312,8 @@ for mode in $modes; do
   fi
   [ -n "$problem" ] && continue
 
-  # Tracking from the daemon's own states, from the program's first move on;
-  # the standstill before it (enabling, the law switch) is reported apart.
-  if ! "$clm" log2csv --log "$run/states-$mode.lcm" --output "$run/states-$mode.csv" --format full > /dev/null \
-       2> "$run/log2csv-$mode.err"; then
-    fail "$mode: clm log2csv: $(head -1 "$run/log2csv-$mode.err")"
-    continue
-  fi
-  code=$(case $mode in original) echo 0;; classical) echo 1;; pgnn) echo 2;; spline) echo 3;; oracle) echo 4;; esac)
-  read -r rows max rms cycle_gaps other_mode max_t max_r max_v hold_max < <(awk -F, -v code="$code" '
-    NR == 1 { for (k = 1; k <= NF; ++k) col[$k] = k; next }
-    {
-      e = $col["e_m"] + 0; if (e < 0) e = -e
-      if (!moving && $col["r_dot_m_per_s"] + 0 != 0) moving = 1
-      if (!moving) { if (e > hold) hold = e; next }
-      if (e > max) { max = e; max_t = $col["t_s"]; max_r = $col["r_m"]; max_v = $col["r_dot_m_per_s"] }
-      sum += e * e; ++n
-      c = $col["cycle"] + 0
-      if (n > 1 && c != last + 1) ++gaps
-      last = c
-      if ($col["commutation"] + 0 != code) ++other
-    }
-    END { printf "%d %.3e %.3e %d %d %.3f %.4f %.4f %.3e\n", n, max, (n ? sqrt(sum / n) : 0), gaps, other, max_t, max_r, max_v, hold }' \
-    "$run/states-$mode.csv")
-  if [ -z "$other_mode" ]; then
-    fail "$mode: could not read $run/states-$mode.csv (awk)"
-    continue
-  fi
-  rms_e[$mode]=$rms
   bound_var="max_e_$mode"
-  bound=${!bound_var:-${HIL_MAX_E_M_default:-60e-6}}
-  detail="max |e_m| $max m (t_s $max_t, r_m $max_r, r_dot $max_v), rms $rms m over $rows states of the program"
-  detail+=" ($cycle_gaps gaps in the cycle numbers; before it, at standstill: max |e_m| $hold_max m)"
-  if [ "$rows" -lt 1000 ]; then
-    fail "$mode: only $rows states logged"
-  elif [ "$other_mode" != 0 ]; then
-    fail "$mode: $other_mode states with another commutation"
-  elif awk -v m="$max" -v b="$bound" 'BEGIN { exit !(m <= b) }'; then
-    pass "$mode: tracking $detail <= $bound m"
-  else
-    fail "$mode: tracking $detail > $bound m"
-  fi
+  check_tracking "$mode" "$mode" "${!bound_var:-${HIL_MAX_E_M_default:-60e-6}}"
 done
 if [ -n "${rms_e[classical]:-}" ] && [ -n "${rms_e[pgnn]:-}" ]; then
   if awk -v c="${rms_e[classical]}" -v p="${rms_e[pgnn]}" 'BEGIN { exit !(p < c) }'; then
@@ -296,7 +322,143 @@ if [ -n "${rms_e[classical]:-}" ] && [ -n "${rms_e[pgnn]:-}" ]; then
     fail "pgnn does not track better than classical: rms e_m ${rms_e[pgnn]} vs ${rms_e[classical]} m"
   fi
 fi
-[ "$iface" = sim ] && finish
+# ---- a phase-current drive: one daemon, classical then PGNN ------------------------------
+# The same motor behind a drive that takes phase currents (drive.profile
+# phase_current, config/motor-sim-phase-current.yaml): its own `clm sim` and
+# bus record, checked against clm-servo-phase-current.dbc; the artefacts of a
+# phase-current commissioning (HIL_PC_ARTIFACTS, default WORK_DIR/commission-
+# phase-current, made here if missing); the one-stroke program
+# (HIL_PC_PROGRAM); one daemon that runs it with the classical law, then
+# switches to the PGNN and its feedforward and runs it again.
+pc_max_e_classical=${HIL_PC_MAX_E_M_classical:-15e-6}
+pc_max_e_pgnn=${HIL_PC_MAX_E_M_pgnn:-5e-6}
+phase_current_suite() {
+  local pc_artifacts pc_program pc_config pc_motor law problem_before
+  pc_artifacts=${HIL_PC_ARTIFACTS:-$work/commission-phase-current}
+  pc_program=$(absolute "${HIL_PC_PROGRAM:-$source_dir/tests/support/one_stroke_program.yaml}")
+  pc_motor=$source_dir/config/motor-sim-phase-current.yaml
+  mkdir -p "$pc_artifacts"
+  pc_artifacts=$(cd "$pc_artifacts" && pwd)
+  if [ ! -f "$pc_artifacts/model-pgnn.yaml" ] || [ ! -f "$pc_artifacts/feedforward-pgnn.yaml" ] ||
+     [ ! -f "$pc_artifacts/calibration.yaml" ] || [ ! -f "$pc_artifacts/feedforward-classical.yaml" ]; then
+    echo "HIL: commissioning the phase-current drive into $pc_artifacts (clm commission --config config/servod-phase-current.yaml)"
+    if ! "$clm" commission --config "$source_dir/config/servod-phase-current.yaml" --program "$pc_program" \
+         --validation-program none --out "$pc_artifacts" --no-plots > "$work/commission-phase-current.log" 2>&1; then
+      tail -5 "$work/commission-phase-current.log"
+      fail "phase_current: clm commission failed"
+      return
+    fi
+  fi
+  pass "phase_current: artefacts of a phase-current commissioning in $pc_artifacts"
+
+  if [ "$iface" != sim ]; then
+    start_candump "$run/candump-phase-current.log" "$run/candump-phase-current.err"
+    if sim_motor=$pc_motor start_sim "$run/sim-phase-current.out" "$run/sim-phase-current.err"; then
+      pass "phase_current: clm sim --motor motor-sim-phase-current.yaml listening on $iface"
+    else
+      fail "phase_current: clm sim not up: $(head -1 "$run/sim-phase-current.err")"
+      return
+    fi
+  fi
+
+  pc_config=$run/servod-phase-current.yaml
+  missing=$(config_edit "$source_dir/config/servod-vcan.yaml" "$pc_config" \
+            "motor_file: $pc_motor" "  interface: $iface" "  priority: $priority" \
+            "  lcm_url: \"$url\"") || { fail "phase_current: config: no line '$missing'"; return; }
+  sed -i -e "s|^  feedforward: .*|  feedforward_file: $pc_artifacts/feedforward-classical.yaml|" \
+      -e "s|^\(commutation:.*\)|\1\n  calibration_file: $pc_artifacts/calibration.yaml\n  pgnn_model_file: $pc_artifacts/model-pgnn.yaml|" \
+      "$pc_config"
+  missing=$(config_require "$pc_config" "  feedforward_file: $pc_artifacts/feedforward-classical.yaml" \
+            "  calibration_file: $pc_artifacts/calibration.yaml" "  pgnn_model_file: $pc_artifacts/model-pgnn.yaml") ||
+    { fail "phase_current: config: no line '$missing'"; return; }
+  grep -q "^commands:" "$pc_config" && { fail "phase_current: config has a commands: section already"; return; }
+  printf 'commands:\n  file_directories: ["%s", "%s"]\n' "$(dirname "$pc_program")" "$pc_artifacts" >> "$pc_config"
+
+  start_daemon "$pc_config" "$run/servod-phase-current.err"
+  if ! wait_for_status $servod_pid 20; then
+    fail "phase_current: clm-servod gave no status within 20 s: $(grep -v warning "$run/servod-phase-current.err" | tail -2 | tr '\n' ' ')"
+    stop_process $servod_pid 30
+    return
+  fi
+  if [ "$(field state "$status")" != disabled ] || [ "$(field fault "$status")" != 0 ] ||
+     [ "$(field bus_state "$status")" != "$expected_bus" ]; then
+    fail "phase_current: clm-servod up in state $(field state "$status"), fault '$(field fault_reason "$status")', bus $(field bus_state "$status")"
+    stop_process $servod_pid 30
+    return
+  fi
+  pass "phase_current: clm-servod up on $iface with drive.profile phase_current, disabled, no fault ($(elapsed) s)"
+
+  for law in classical pgnn; do
+    problem=""
+    local -a commands=("commutation $law")
+    [ "$law" = classical ] && commands=(enable "commutation $law")
+    [ "$law" = pgnn ] && commands+=("load-feedforward $pc_artifacts/feedforward-pgnn.yaml")
+    for command in "${commands[@]}"; do
+      # shellcheck disable=SC2086
+      reply=$(ctl $command) || { problem="ctl $command: $reply"; break; }
+    done
+    active=""
+    for _ in $(seq 1 50); do
+      [ -n "$problem" ] && break
+      status=$(ctl status) && active=$(field commutation "$status")
+      [ "$active" = "$law" ] && break
+      sleep 0.1
+    done
+    [ -z "$problem" ] && [ "$active" != "$law" ] && problem="the daemon still reports commutation '$active'"
+    if [ -n "$problem" ]; then
+      fail "phase_current-$law: $problem"
+      break
+    fi
+    before=$status
+    run_program_logged "phase_current-$law" "$pc_program"
+    [ -n "$problem" ] && break
+    bound_var="pc_max_e_$law"
+    check_tracking "phase_current-$law" "$law" "${!bound_var}" 1
+  done
+  problem_before=$problem
+  stop_process $servod_pid 30
+  rc=$?
+  if [ $rc = 0 ] && grep -q "stopping on SIGTERM" "$run/servod-phase-current.err"; then
+    pass "phase_current: clm-servod exit 0 on SIGTERM"
+  else
+    fail "phase_current: clm-servod exit status $rc on SIGTERM: $(grep -m1 error "$run/servod-phase-current.err")"
+  fi
+  if [ -z "$problem_before" ] && [ -n "${rms_e[phase_current-classical]:-}" ] && [ -n "${rms_e[phase_current-pgnn]:-}" ]; then
+    if awk -v c="${rms_e[phase_current-classical]}" -v p="${rms_e[phase_current-pgnn]}" 'BEGIN { exit !(p < c) }'; then
+      pass "phase_current: pgnn tracks better than classical: rms e_m ${rms_e[phase_current-pgnn]} < ${rms_e[phase_current-classical]} m"
+    else
+      fail "phase_current: pgnn does not track better than classical: rms e_m ${rms_e[phase_current-pgnn]} vs ${rms_e[phase_current-classical]} m"
+    fi
+  fi
+  [ "$iface" = sim ] && return
+
+  stop_process $sim_pid 30
+  rc=$?
+  summary=$(grep "^clm sim: stopped" "$run/sim-phase-current.out")
+  echo "HIL: phase_current: $summary"
+  if [ $rc = 0 ] && grep -q " 0 frames rejected, 0 feedback values not encodable" <<< "$summary" &&
+     grep -q " 0 not sent" <<< "$summary"; then
+    pass "phase_current: clm sim exit 0 on SIGTERM, no frame rejected, every reply sent"
+  else
+    fail "phase_current: clm sim exit status $rc, summary '$summary' $(head -3 "$run/sim-phase-current.err" | tr '\n' ' ')"
+  fi
+  sleep 0.2
+  stop_process $candump_pid 30
+  result=$("$checker" --dbc "$source_dir/drivers/can/clm-servo-phase-current.dbc" --drive-profile phase_current \
+           --log "$run/candump-phase-current.log" --coil-sets "$(config_value "$pc_motor" "  coil_sets")" --min-frames 1000)
+  rc=$?
+  echo "$result" | sed 's/^/HIL:   /'
+  if [ $rc = 0 ]; then
+    pass "phase_current: candump: every frame decodes against clm-servo-phase-current.dbc"
+  else
+    fail "phase_current: candump: frames that do not decode (above; log $run/candump-phase-current.log)"
+  fi
+}
+
+if [ "$iface" = sim ]; then
+  phase_current_suite
+  finish
+fi
 
 # ---- the simulated motor's shutdown and the bus record -----------------------------------
 stop_process $sim_pid 30
@@ -336,4 +498,5 @@ if [ -n "$sim_syncs" ] && [ "$recorded_syncs" = "$sim_syncs" ]; then
 else
   fail "candump: recorded '${recorded_syncs}' SYNCs, clm sim answered '${sim_syncs}'"
 fi
+phase_current_suite
 finish

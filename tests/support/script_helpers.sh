@@ -120,13 +120,13 @@ start_candump() {
   pids+=("$candump_pid")
 }
 
-# Starts the simulated motor (`clm sim --can $iface`, config/motor-sim.yaml,
-# and ARGS) at SCHED_FIFO 70 where allowed, stdout to OUT_FILE, stderr to
+# Starts the simulated motor (`clm sim --can $iface`, config/motor-sim.yaml
+# or the motor file $sim_motor, and ARGS) at SCHED_FIFO 70 where allowed, stdout to OUT_FILE, stderr to
 # ERR_FILE: sets sim_pid; waits up to 10 s until it waits for SYNC (1: not up).
 start_sim() {
   local out=$1 err=$2
   shift 2
-  $(fifo 70) "$clm" sim --can "$iface" --motor "$source_dir/config/motor-sim.yaml" "$@" > "$out" 2> "$err" &
+  $(fifo 70) "$clm" sim --can "$iface" --motor "${sim_motor:-$source_dir/config/motor-sim.yaml}" "$@" > "$out" 2> "$err" &
   sim_pid=$!
   pids+=("$sim_pid")
   for _ in $(seq 1 100); do

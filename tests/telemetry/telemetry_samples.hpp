@@ -46,6 +46,7 @@ inline servo::CycleRecord make_state(std::int64_t cycle, int coil_sets = 3) {
   s.state = static_cast<servo::ServoState>(cycle % 3);
   s.program_running = cycle % 2 == 1;
   s.program_time_s = 0.75 + 1e-3 * k;
+  s.drive_profile = cycle % 2 == 0 ? DriveProfile::kPhaseCurrent : DriveProfile::kMagnitudePhase;
   return s;
 }
 
@@ -87,6 +88,7 @@ inline void check_state(const servo::CycleRecord& s, const clm_lcm::servo_state_
   CHECK(m.state == static_cast<int>(s.state));
   CHECK(static_cast<bool>(m.program_running) == s.program_running);
   CHECK(m.program_time_s == s.program_time_s);
+  CHECK(m.drive_profile == static_cast<int>(s.drive_profile));
 }
 
 /// Every field of two records that servo_state_t carries.
@@ -124,6 +126,7 @@ inline void check_state(const servo::CycleRecord& s, const servo::CycleRecord& r
   CHECK(r.state == s.state);
   CHECK(r.program_running == s.program_running);
   CHECK(r.program_time_s == s.program_time_s);
+  CHECK(r.drive_profile == s.drive_profile);
 }
 
 inline telemetry::ServoStatusSample make_status() {

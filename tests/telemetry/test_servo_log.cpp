@@ -161,7 +161,7 @@ TEST_CASE("log2csv --format full writes every field, coil-set columns per coil s
                            "Tz_Nm", "commutation", "coil_set", "delta_rad", "coil_sets", "magnitude_N_1",
                            "setpoint_delta_rad_1", "ia_A_1", "ib_A_1", "magnitude_N_2", "setpoint_delta_rad_2",
                            "ia_A_2", "ib_A_2", "damping_engaged", "current_square_sum_A2", "force_limited", "state",
-                           "program_running", "program_time_s"}) {
+                           "program_running", "program_time_s", "drive_profile"}) {
     INFO(name);
     CHECK(table.has(name));
   }

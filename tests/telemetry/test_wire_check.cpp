@@ -55,6 +55,7 @@ clm_lcm::servo_state_t random_state(Random& random) {
   s.force_limited = random.integer(0, 1) != 0;
   s.state = static_cast<std::int8_t>(random.integer(0, 2));
   s.program_running = random.integer(0, 1) != 0;
+  s.drive_profile = static_cast<std::int8_t>(random.integer(0, 1));
   return s;
 }
 
@@ -220,6 +221,14 @@ TEST_CASE("enum ranges, booleans and non-finite numbers are refused before decod
   CHECK(check_wire(layout, encode(state)) == "");
   state.F_star_N = std::numeric_limits<double>::quiet_NaN();
   CHECK_THAT(check_wire(layout, encode(state)), Catch::Contains("F_star_N"));
+  // drive_profile, the last byte, is 0 or 1 (DRIVE_PROFILE_*).
+  state.F_star_N = 0.0;
+  state.drive_profile = clm_lcm::servo_state_t::DRIVE_PROFILE_PHASE_CURRENT;
+  bytes = encode(state);
+  REQUIRE(check_wire(layout, bytes) == "");
+  REQUIRE(bytes.back() == 1);
+  bytes.back() = 2;
+  CHECK_THAT(check_wire(layout, bytes), Catch::Contains("drive_profile"));
 
   clm_lcm::servo_command_ack_t ack{};
   auto ack_bytes = encode(ack);

@@ -78,6 +78,7 @@ void run_sim(const SimOptions& options) {
   protocol.drive_node_id = static_cast<std::uint8_t>(options.drive_node_id);
   protocol.force_sensor_node_id = static_cast<std::uint8_t>(options.force_sensor_node_id);
   protocol.coil_sets = motor.coil_sets();
+  protocol.drive_profile = parameters.drive.profile;  // the motor file's drive.profile
   protocol.validate();
   const double period_s = 1.0 / options.rate_hz;
   sim::SimulatedNodes nodes(motor, protocol, period_s);

@@ -6,6 +6,7 @@
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <string>
 
 #include "config/atomic_file.hpp"
 #include "config/sha256.hpp"
@@ -23,16 +24,31 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// Experiment rows of the recordings, in the tools' CSV format.
-void write_experiment_csv(const std::string& path, const std::vector<Recording>& runs) {
-  const std::vector<std::string> names = {"t_s", "coil_set", "delta_rad", "magnitude_N", "y_m", "Fy_N", "Fx_N", "Tz_Nm"};
+// Experiment rows of the recordings, in the tools' CSV format. With a
+// phase-current drive the currents the daemon sent (ia_A, ib_A of the
+// record) are the data; with magnitude_phase they are left out and
+// reconstructed from the setpoints through the drive's fixed commutation.
+void write_experiment_csv(const std::string& path, const std::vector<Recording>& runs, DriveProfile profile) {
+  std::vector<std::string> names = {"t_s", "coil_set", "delta_rad", "magnitude_N", "y_m", "Fy_N", "Fx_N", "Tz_Nm"};
+  const bool currents = profile == DriveProfile::kPhaseCurrent;
+  if (currents) {
+    names.push_back("ia_A");
+    names.push_back("ib_A");
+  }
   std::vector<std::vector<double>> columns(names.size());
   double offset_s = 0.0;
   for (const auto& run : runs) {
     for (const auto& s : run.samples) {
+      // The states say what went to the drive; a daemon whose drive profile
+      // is not the configuration's made data this step would misread.
+      if (s.drive_profile != profile) {
+        throw std::runtime_error(std::string("experiments: the daemon sent ") + name(s.drive_profile) +
+                                 " setpoints in cycle " + std::to_string(s.cycle) + ", but the motor file says " +
+                                 "drive.profile " + name(profile));
+      }
       const auto l = static_cast<std::size_t>(s.coil_set - 1);
       const double row[] = {offset_s + s.program_time_s, static_cast<double>(s.coil_set), s.delta_rad,
-                            s.magnitude_N[l], s.y_m, s.Fy_N, s.Fx_N, s.Tz_Nm};
+                            s.magnitude_N[l], s.y_m, s.Fy_N, s.Fx_N, s.Tz_Nm, s.ia_A[l], s.ib_A[l]};
       for (std::size_t c = 0; c < names.size(); ++c) columns[c].push_back(row[c]);
     }
     if (!run.samples.empty()) offset_s += run.samples.back().program_time_s + 1.0;
@@ -234,7 +250,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   runner.close_log();
   tell("experiments", 1.0, "done");
   const std::string experiment_csv = written("experiments.csv");
-  write_experiment_csv(experiment_csv, experiments);
+  write_experiment_csv(experiment_csv, experiments, motor.drive_profile);
   report.steps.push_back({"experiments", seconds_since(step_start)});
 
   // 2. Calibration and identification, through the same code as the offline tools.

@@ -275,13 +275,14 @@ CsvColumns full_columns(std::span<const servo::CycleRecord> states) {
     out.add("program_time_s", s.program_time_s);
     out.add("restricted", s.restricted ? 1.0 : 0.0);
     out.add("force_measured", s.force_measured ? 1.0 : 0.0);
+    out.add("drive_profile", static_cast<double>(s.drive_profile));
     out.end_row();
   }
   return out.finish({"utime", "cycle", "t_s", "r_m", "r_dot_m_per_s", "r_ddot_m_per_s2", "y_m", "e_m",
                              "F_star_N", "u_fb_N", "u_ff_N", "Fy_star_N", "Fx_star_N", "Tz_star_Nm", "Fy_N", "Fx_N",
                              "Tz_Nm", "commutation", "coil_set", "delta_rad", "coil_sets", "damping_engaged",
                              "current_square_sum_A2", "force_limited", "state", "program_running",
-                             "program_time_s", "restricted", "force_measured"});
+                             "program_time_s", "restricted", "force_measured", "drive_profile"});
 }
 
 CsvColumns to_csv_columns(std::span<const servo::CycleRecord> states, CsvFormat format) {

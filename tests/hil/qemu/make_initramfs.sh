@@ -98,7 +98,9 @@ printf '%s\n' "${order[@]}" > "$staging/hil/modules/order"
 
 # What the suite reads from the source tree, at the same relative paths.
 for file in config/servod-vcan.yaml config/motor-sim.yaml drivers/can/clm-servo.dbc tests/hil/run_hil.sh \
-            tests/hil/run_faults.sh tests/support/script_helpers.sh; do
+            tests/hil/run_faults.sh tests/support/script_helpers.sh config/motor-sim-phase-current.yaml \
+            config/servod-phase-current.yaml drivers/can/clm-servo-phase-current.dbc \
+            tests/support/one_stroke_program.yaml; do
   mkdir -p "$staging/hil/src/$(dirname "$file")"
   cp "$source_dir/$file" "$staging/hil/src/$file"
 done
@@ -113,6 +115,13 @@ else
     [ -f "$artifacts/$file" ] || die "no $artifacts/$file (clm commission --out $artifacts)"
   done
   cp "$artifacts"/calibration.yaml "$artifacts"/model-*.yaml "$artifacts"/feedforward-*.yaml "$staging/hil/artifacts/"
+  # The phase-current drive's (PC_ARTIFACTS in the environment, run_qemu.sh).
+  for file in calibration.yaml model-pgnn.yaml feedforward-classical.yaml feedforward-pgnn.yaml; do
+    [ -f "${PC_ARTIFACTS:-}/$file" ] || die "no ${PC_ARTIFACTS:-(PC_ARTIFACTS unset)}/$file (clm commission --out DIR)"
+  done
+  mkdir -p "$staging/hil/artifacts-phase-current"
+  cp "$PC_ARTIFACTS"/calibration.yaml "$PC_ARTIFACTS"/model-*.yaml "$PC_ARTIFACTS"/feedforward-*.yaml \
+     "$staging/hil/artifacts-phase-current/"
 fi
 cp "$guest_env" "$staging/hil/env"
 cp "$source_dir/tests/hil/qemu/init" "$staging/init"

@@ -56,19 +56,35 @@ if [ "$suite" = fig8 ] && { [ ! -f "$artifacts/report.json" ] || [ "$clm" -nt "$
   fi
   echo "HIL: commissioning took $(( $(date +%s) - commission_start )) s"
 fi
+# The same for the phase-current drive (run_hil.sh's phase_current_suite):
+# the one-stroke program, no held-out run.
+pc_artifacts=${HIL_PC_ARTIFACTS:-$work/commission-phase-current}
+if [ "$suite" = fig8 ] && { [ ! -f "$pc_artifacts/report.json" ] || [ "$clm" -nt "$pc_artifacts/report.json" ]; }; then
+  echo "HIL: commissioning the phase-current drive on the host into $pc_artifacts"
+  commission_start=$(date +%s)
+  if ! "$clm" commission --config "$source_dir/config/servod-phase-current.yaml" \
+       --program "$source_dir/tests/support/one_stroke_program.yaml" --validation-program none \
+       --out "$pc_artifacts" --no-plots > "$work/commission-phase-current.log" 2>&1; then
+    tail -5 "$work/commission-phase-current.log"
+    echo "HIL: 0 passed, 1 failed (clm commission of the phase-current drive on the host)"
+    exit 1
+  fi
+  echo "HIL: phase-current commissioning took $(( $(date +%s) - commission_start )) s"
+fi
 initramfs_start=$(date +%s)
 
 # What the guest's /init exports before it runs the suite.
 {
   printf "HIL_SUITE='%s'\n" "$suite"
-  for variable in HIL_MODES HIL_PROGRAM HIL_MAX_E_M_classical HIL_MAX_E_M_pgnn HIL_PRIORITY; do
+  for variable in HIL_MODES HIL_PROGRAM HIL_MAX_E_M_classical HIL_MAX_E_M_pgnn HIL_PRIORITY HIL_PC_MAX_E_M_classical \
+                  HIL_PC_MAX_E_M_pgnn; do
     [ -n "${!variable:-}" ] && printf "%s='%s'\n" "$variable" "${!variable}"
   done
   true
 } > "$work/guest$suffix.env"
 
 initramfs=$work/initramfs$suffix.cpio.gz
-if ! bash "$here/make_initramfs.sh" "$initramfs" "$work/initramfs$suffix" "$kernel_version" "$source_dir" "$artifacts" \
+if ! PC_ARTIFACTS=$pc_artifacts bash "$here/make_initramfs.sh" "$initramfs" "$work/initramfs$suffix" "$kernel_version" "$source_dir" "$artifacts" \
        "$work/guest$suffix.env" "$clm" "$servod" "$checker"; then
   echo "HIL: 0 passed, 1 failed (initramfs)"
   exit 1
