@@ -42,7 +42,7 @@ void TelemetryBridge::fill_status(const servo::ServoCycle& cycle, const LoopTimi
   out.frames_missing = c.frames_missing;
   out.frames_late = c.frames_late;
   out.frames_rejected = c.frames_rejected;
-  out.bus_state = daemon_->config().can.interface == "sim" ? -1 : static_cast<std::int8_t>(daemon_->bus_state());
+  out.bus_state = static_cast<std::int8_t>(daemon_->bus_state());  // the embedded bus reports its injected states too
   out.damping_cycles = c.damping_cycles;
   out.program_running = cycle.record().program_running;
   out.program_time_s = cycle.record().program_time_s;

@@ -52,7 +52,7 @@ const char* commutation_name(int mode) {
 
 const char* bus_state_name(int state) {
   switch (state) {
-    case clm_lcm::servo_status_t::BUS_STATE_NONE: return "none (in-process simulated motor)";
+    case clm_lcm::servo_status_t::BUS_STATE_NONE: return "none";
     case clm_lcm::servo_status_t::BUS_STATE_ERROR_ACTIVE: return "error-active";
     case clm_lcm::servo_status_t::BUS_STATE_ERROR_WARNING: return "error-warning";
     case clm_lcm::servo_status_t::BUS_STATE_ERROR_PASSIVE: return "error-passive";
