@@ -104,7 +104,7 @@ CodecStatus decode_with_codec(const clm::can::ProtocolConfig& config, const Fram
     clm::can::DriveFeedback feedback;
     return clm::can::decode_drive_feedback(config, frame, feedback);
   }
-  if (frame.id == clm::can::force_feedback_id(config)) {
+  if (clm::can::has_force_sensor(config) && frame.id == clm::can::force_feedback_id(config)) {
     clm::can::ForceFeedback feedback;
     return clm::can::decode_force_feedback(config, frame, feedback);
   }
@@ -204,7 +204,7 @@ int check(const Options& options) {
       // The alive counter's byte: drive feedback 6, force feedback 7, RPDO1 1 (RPDO2/3 have none).
       int alive_byte = -1;
       if (frame.id == clm::can::drive_feedback_id(config)) alive_byte = 6;
-      if (frame.id == clm::can::force_feedback_id(config)) alive_byte = 7;
+      if (clm::can::has_force_sensor(config) && frame.id == clm::can::force_feedback_id(config)) alive_byte = 7;
       if (frame.id == clm::can::setpoint_id(config, 0)) alive_byte = 1;
       if (alive_byte >= 0) alive_gaps[frame.id].see(frame.data[static_cast<std::size_t>(alive_byte)], 0, 255);
     }
@@ -248,8 +248,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--coil-sets", options.coil_sets, "L of the motor on the bus")->check(CLI::Range(1, 4))->capture_default_str();
   app.add_option("--drive-node-id", options.drive_node_id, "drive node ID")->check(CLI::Range(1, 127))->capture_default_str();
-  app.add_option("--force-sensor-node-id", options.force_sensor_node_id, "force sensor node ID")
-      ->check(CLI::Range(1, 127))
+  app.add_option("--force-sensor-node-id", options.force_sensor_node_id,
+                 "force sensor node ID; 0: the axis has none, and a force frame on the bus does not decode")
+      ->check(CLI::Range(0, 127))
       ->capture_default_str();
   app.add_option("--min-frames", options.min_frames, "fail with fewer frames than this")->capture_default_str();
   app.add_option("--max-reports", options.max_reports, "undecodable lines printed at most")->capture_default_str();

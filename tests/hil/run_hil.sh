@@ -327,7 +327,10 @@ fi
 # phase-current commissioning (HIL_PC_ARTIFACTS, default WORK_DIR/commission-
 # phase-current, made here if missing); the one-stroke program
 # (HIL_PC_PROGRAM); one daemon that runs it with the classical law, then
-# switches to the PGNN and its feedforward and runs it again.
+# switches to the PGNN and its feedforward and runs it again. The
+# commissioning borrowed the force sensor; this axis runs in service without
+# one (no can.force_sensor_node_id, `clm sim --force-sensor-node-id 0`): the
+# daemon must say so, and no force frame may be on the bus.
 pc_max_e_classical=${HIL_PC_MAX_E_M_classical:-15e-6}
 pc_max_e_pgnn=${HIL_PC_MAX_E_M_pgnn:-5e-6}
 phase_current_suite() {
@@ -351,8 +354,8 @@ phase_current_suite() {
 
   if [ "$iface" != sim ]; then
     start_candump "$run/candump-phase-current.log" "$run/candump-phase-current.err"
-    if sim_motor=$pc_motor start_sim "$run/sim-phase-current.out" "$run/sim-phase-current.err"; then
-      pass "phase_current: clm sim --motor motor-sim-phase-current.yaml listening on $iface"
+    if sim_motor=$pc_motor start_sim "$run/sim-phase-current.out" "$run/sim-phase-current.err" --force-sensor-node-id 0; then
+      pass "phase_current: clm sim --motor motor-sim-phase-current.yaml, no force sensor, listening on $iface"
     else
       fail "phase_current: clm sim not up: $(head -1 "$run/sim-phase-current.err")"
       return
@@ -369,6 +372,9 @@ phase_current_suite() {
   missing=$(config_require "$pc_config" "  feedforward_file: $pc_artifacts/feedforward-classical.yaml" \
             "  calibration_file: $pc_artifacts/calibration.yaml" "  pgnn_model_file: $pc_artifacts/model-pgnn.yaml") ||
     { fail "phase_current: config: no line '$missing'"; return; }
+  # In service, without the force sensor that commissioning borrowed.
+  sed -i '/^  force_sensor_node_id:/d' "$pc_config"
+  grep -q "force_sensor_node_id" "$pc_config" && { fail "phase_current: config still names a force sensor"; return; }
   grep -q "^commands:" "$pc_config" && { fail "phase_current: config has a commands: section already"; return; }
   printf 'commands:\n  file_directories: ["%s", "%s"]\n' "$(dirname "$pc_program")" "$pc_artifacts" >> "$pc_config"
 
@@ -384,7 +390,12 @@ phase_current_suite() {
     stop_process $servod_pid 30
     return
   fi
-  pass "phase_current: clm-servod up on $iface with drive.profile phase_current, disabled, no fault ($(elapsed) s)"
+  if [ "$(field force_sensor "$status")" != "none, losses 0" ]; then
+    fail "phase_current: clm-servod reports force_sensor '$(field force_sensor "$status")', expected none"
+    stop_process $servod_pid 30
+    return
+  fi
+  pass "phase_current: clm-servod up on $iface with drive.profile phase_current and no force sensor, disabled, no fault ($(elapsed) s)"
 
   for law in classical pgnn; do
     problem=""
@@ -443,11 +454,12 @@ phase_current_suite() {
   sleep 0.2
   stop_process $candump_pid 30
   result=$("$checker" --dbc "$source_dir/drivers/can/clm-servo-phase-current.dbc" --drive-profile phase_current \
+           --force-sensor-node-id 0 \
            --log "$run/candump-phase-current.log" --coil-sets "$(config_value "$pc_motor" "  coil_sets")" --min-frames 1000)
   rc=$?
   echo "$result" | sed 's/^/HIL:   /'
   if [ $rc = 0 ]; then
-    pass "phase_current: candump: every frame decodes against clm-servo-phase-current.dbc"
+    pass "phase_current: candump: every frame decodes against clm-servo-phase-current.dbc, no force frame on the bus"
   else
     fail "phase_current: candump: frames that do not decode (above; log $run/candump-phase-current.log)"
   fi

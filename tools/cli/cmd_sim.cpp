@@ -261,8 +261,9 @@ void add_sim(CLI::App& app) {
       ->check(CLI::Range(1, 127))
       ->capture_default_str();
   sub->add_option("--force-sensor-node-id", options->force_sensor_node_id,
-                  "CANopen node ID of the force sensor (the daemon's can.force_sensor_node_id)")
-      ->check(CLI::Range(1, 127))
+                  "CANopen node ID of the force sensor (the daemon's can.force_sensor_node_id); 0: no force sensor, "
+                  "no force frame is sent")
+      ->check(CLI::Range(0, 127))
       ->capture_default_str();
   sub->add_option("--inject", options->injection_plan,
                   "bus-side fault injection: steps fired one per SIGUSR1 at the next SYNC with the axis enabled, "
