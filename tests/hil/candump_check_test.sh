@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # hil_candump_check on hand-made candump -L logs (label unit): a log of good
 # frames of every message passes; in a log of bad lines each one is reported
-# with its line number and the reason, and the exit status is 1.
+# with its line number and the reason, and the exit status is 1; for an axis
+# without a force sensor a force frame is reported and the rest passes.
 #
 #   candump_check_test.sh HIL_CANDUMP_CHECK DBC TESTDATA_DIR [PHASE_CURRENT_DBC]
 #
@@ -36,6 +37,19 @@ for expected in \
   grep -q "$expected" <<< "$out" || fail "bad.log: no line matching '$expected'"
 done
 if "$checker" --dbc "$dbc" --log /nonexistent 2> /dev/null; then fail "a missing log passed"; fi
+# An axis without a force sensor: its force frame does not belong on the bus,
+# the same log without it passes.
+out=$("$checker" --dbc "$dbc" --log "$data/good.log" --coil-sets 3 --force-sensor-node-id 0)
+rc=$?
+[ $rc = 1 ] || fail "good.log without a force sensor: exit status $rc, expected 1 ($out)"
+grep -q "ForceFeedback: the codec refuses it" <<< "$out" || fail "good.log without a force sensor: $out"
+tmp=$(mktemp -d)
+grep -v " 182#" "$data/good.log" > "$tmp/no-force.log"
+out=$("$checker" --dbc "$dbc" --log "$tmp/no-force.log" --coil-sets 3 --force-sensor-node-id 0)
+rc=$?
+rm -rf "$tmp"
+[ $rc = 0 ] || fail "good.log without its force frame, no force sensor: exit status $rc ($out)"
+grep -q "DriveFeedback 1, DriveSetpoint1 1, DriveSetpoint2 1, Sync 2" <<< "$out" || fail "no force sensor: counts ($out)"
 if [ -n "$pc_dbc" ]; then
   out=$("$checker" --dbc "$pc_dbc" --drive-profile phase_current --log "$data/good.log" --coil-sets 3)
   rc=$?
