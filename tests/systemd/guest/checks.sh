@@ -90,7 +90,7 @@ sleep 2
 second=$(prop WatchdogTimestampMonotonic)
 watchdog_usec=$(prop WatchdogUSec)
 if [ -n "$first" ] && [ -n "$second" ] && [ "$first" -gt 0 ] && [ "$second" -gt "$first" ] &&
-   journal_since "$start_epoch" | grep -q "systemd watchdog every 500 ms"; then
+   journal_since "$start_epoch" | grep -q "systemd watchdog every 0.5 s"; then
   report watchdog_pings 0 "WatchdogTimestampMonotonic ${first} -> ${second} us over 2 s (WatchdogUSec $watchdog_usec)"
 else
   report watchdog_pings 1 "WatchdogTimestampMonotonic '$first' -> '$second', WatchdogUSec $watchdog_usec; journal: $(journal_since "$start_epoch" | grep running: )"
@@ -109,10 +109,10 @@ check_sandbox() {
                    sed 's/^.*) //' "$stat" | awk -v p="$priority" '$39 == 1 && $38 == p { print "x" }'
                  done | wc -l)
   state_uid=$(stat -L -c %u /var/lib/clm-servo 2>/dev/null || echo none)
-  seen="uid $uid ($(getent passwd "$uid" | cut -d: -f1)), VmLck $vmlck kB, $fifo_threads thread(s) SCHED_FIFO $priority,"
+  seen="uid $uid (unit's UID $(prop UID)), VmLck $vmlck kB, $fifo_threads thread(s) SCHED_FIFO $priority,"
   seen="$seen /var/lib/clm-servo -> $(readlink /var/lib/clm-servo) owned by $state_uid"
   why=$seen
-  [ "$uid" -ne 0 ] || { why="runs as root: $seen"; return 1; }
+  [ "$uid" -ne 0 ] && [ "$uid" = "$(prop UID)" ] || { why="not the unit's dynamic user: $seen"; return 1; }
   [ "${vmlck:-0}" -gt 0 ] || { why="no memory locked: $seen"; return 1; }
   [ "$fifo_threads" = 1 ] || { why="not exactly one SCHED_FIFO $priority thread: $seen"; return 1; }
   [ "$state_uid" = "$uid" ] || { why="StateDirectory not the service user's: $seen"; return 1; }
