@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
 # The initramfs of the systemd guest (docs/hil.md, "The systemd tier"): a
-# statically linked busybox, the modules of the installed Debian kernel that
+# statically linked busybox; the modules of the installed Debian kernel that
 # mount the root file system (virtio block device, ext4) with their
-# dependencies, autofs4 (systemd's automount points; the root image has no
-# modules of its own), /init (tests/systemd/init), and under /payload what
-# the guest needs for this run: the package, the checks and their units.
-# /init mounts the root image, copies the payload into it and hands over to
-# systemd.
-# Written under the build directory at test time; nothing of it is committed.
+# dependencies, and autofs4 and binfmt_misc, which systemd mounts at boot
+# (the root image has no modules of its own); /init (tests/systemd/init);
+# and under /payload what the guest needs for this run: the package, the
+# checks and their units. /init mounts the root image, copies the payload
+# into it and hands over to systemd. Written under the build directory at
+# test time; nothing of it is committed.
 #
 #   make_initramfs.sh OUT.cpio.gz STAGING_DIR KERNEL_VERSION SOURCE_DIR DEB
 #
@@ -31,7 +31,7 @@ cp "$busybox" "$staging/bin/busybox"
 for applet in $("$busybox" --list); do
   [ "$applet" = busybox ] || ln -s busybox "$staging/bin/$applet"
 done
-copy_kernel_modules "$kernel_version" "$staging/modules" virtio_pci virtio_blk crc32c_generic ext4 autofs4 \
+copy_kernel_modules "$kernel_version" "$staging/modules" virtio_pci virtio_blk crc32c_generic ext4 autofs4 binfmt_misc \
     2> "$staging.modules.err" || die "$(cat "$staging.modules.err")"
 rm -f "$staging.modules.err"
 
