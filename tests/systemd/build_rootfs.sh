@@ -17,7 +17,8 @@
 #
 # Environment (optional): CLM_SYSTEMD_MIRROR (default http://deb.debian.org/debian).
 # Exit status: 0 the image is there; 1 debootstrap or mke2fs failed; 77 this
-# machine cannot build it (not root, no debootstrap or mke2fs), with the reason.
+# machine cannot build it (not root, no debootstrap or mke2fs, the mirror out
+# of reach), with the reason.
 set -euo pipefail
 deb=$1 cache=$2
 suite=bookworm
@@ -30,7 +31,7 @@ depends=$(dpkg-deb -f "$deb" Depends) || die "dpkg-deb -f $deb Depends failed"
 # "libc6 (>= 2.34), python3 | python3-minimal, ..." -> libc6 python3 ...: the
 # first alternative of each, without version or architecture qualifier.
 package_names=$(tr ',' '\n' <<< "$depends" | sed -e 's/|.*//' -e 's/(.*)//' -e 's/:any//' -e 's/[[:space:]]//g' | sed '/^$/d')
-packages=$(printf '%s\n' systemd systemd-sysv iproute2 liblcm-bin $package_names | sort -u | paste -sd, -)
+packages=$( { printf '%s\n' systemd systemd-sysv iproute2 liblcm-bin; echo "$package_names"; } | sort -u | paste -sd, -)
 key=$( { echo "$suite $mirror minbase $packages"; cat "$0"; } | sha256sum | cut -c1-16)
 image=$cache/rootfs-$key.ext4
 mkdir -p "$cache"
@@ -67,6 +68,12 @@ mkdir -p "$work"
 echo "build_rootfs: debootstrap $suite from $mirror with $packages"
 if ! debootstrap --variant=minbase --include="$packages" "$suite" "$root" "$mirror" > "$work/debootstrap.log" 2>&1; then
   tail -5 "$work/debootstrap.log" >&2
+  # The mirror out of reach is this machine's limit, not the package's fault.
+  if grep -q -E "Failed getting release file|Couldn't download|Unable to resolve|unable to resolve host" "$work/debootstrap.log"; then
+    reason=$(grep -m1 -E "Failed getting release file|Couldn't download|resolve" "$work/debootstrap.log")
+    remove_tree "$work"
+    skip "debootstrap cannot reach $mirror: $reason"
+  fi
   die "debootstrap failed (log: $work/debootstrap.log)"
 fi
 debootstrap_s=$(date +%s)
