@@ -59,7 +59,11 @@ wait_until() {
     sleep 0.2
   done
 }
-journal_since() { journalctl -u "$unit" --no-pager -o cat --since "@$1" 2>/dev/null; }
+# The unit's journal since the epoch second SINCE, after journald has written what it has.
+journal_since() {
+  journalctl --sync 2>/dev/null
+  journalctl -u "$unit" --no-pager -o cat --since "@$1" 2>/dev/null
+}
 
 echo "SYSTEMD: guest up: kernel $(uname -r), systemd $(systemctl --version | awk 'NR == 1 { print $2 }'), $(nproc) CPU," \
      "booted in $(systemd-analyze 2>/dev/null | sed -n 's/^Startup finished in //p' | head -1)"
@@ -165,10 +169,10 @@ report stop_disables_axis $? "$why"
 
 # ---- watchdog_restart ----------------------------------------------------------------
 check_watchdog_restart() {
-  local pid0 restarts0 pid1 restarts1 stop_s ready_s
+  local pid0 restarts0 pid1 restarts1 stop_s stop_epoch ready_s
   systemctl start "$unit" || { why="systemctl start failed"; return 1; }
   pid0=$(prop MainPID) restarts0=$(prop NRestarts)
-  stop_s=$(now_s)
+  stop_s=$(now_s) stop_epoch=$(date +%s)
   kill -STOP "$pid0"
   restarted() { [ "$(prop NRestarts)" -gt "$restarts0" ] && [ "$(prop ActiveState)/$(prop SubState)" = active/running ]; }
   if ! wait_until 30 restarted; then
@@ -178,11 +182,11 @@ check_watchdog_restart() {
   fi
   ready_s=$(now_s)
   pid1=$(prop MainPID) restarts1=$(prop NRestarts)
-  why="SIGSTOP to MainPID $pid0; systemd: '$(journalctl -u "$unit" --no-pager -o cat | grep -m1 -i "watchdog timeout")';"
+  why="SIGSTOP to MainPID $pid0; systemd: '$(journal_since "$stop_epoch" | grep -m1 -i "watchdog timeout")';"
   why="$why NRestarts $restarts0 -> $restarts1, MainPID $pid1, active (running) again $(awk -v a="$stop_s" -v b="$ready_s" 'BEGIN { printf "%.1f", b - a }') s after the SIGSTOP"
   [ "$restarts1" = $((restarts0 + 1)) ] && [ "$pid1" != "$pid0" ] && [ "$pid1" -gt 0 ] || return 1
   kill -0 "$pid0" 2>/dev/null && { why="the stopped process $pid0 is still there: $why"; return 1; }
-  journalctl -u "$unit" --no-pager -o cat | grep -qi "watchdog timeout" || { why="no watchdog timeout in the journal: $why"; return 1; }
+  journal_since "$stop_epoch" | grep -qi "watchdog timeout" || { why="no watchdog timeout in the journal: $why"; return 1; }
   return 0
 }
 check_watchdog_restart
