@@ -11,7 +11,9 @@
 # Environment (optional): CLM_SYSTEMD_CACHE_DIR (the root image's cache,
 # default ${XDG_CACHE_HOME:-~/.cache}/clm-servo/systemd), CLM_SYSTEMD_MIRROR
 # (build_rootfs.sh), SYSTEMD_QEMU_TIMEOUT_S (default 600), SYSTEMD_KERNEL_VERSION
-# (default: the newest /boot/vmlinuz-* with virtio_blk and ext4 modules).
+# (default: the newest /boot/vmlinuz-* with virtio_blk and ext4 modules),
+# SYSTEMD_QEMU_DRIVE_OPTIONS (more -drive options, e.g. throttling.iops-total=20
+# to see the guest on a slow host disk).
 #
 # Exit status: 0 every check passed; 1 a check failed, or the guest did not
 # finish or gave no result; 77 this machine cannot run it (no QEMU, kernel,
@@ -70,13 +72,14 @@ boot_s=$(date +%s)
 # shift=0,sleep=off, so that the guest's clocks follow its executed
 # instructions and a busy host slows the run down without making the
 # daemon's loop or its 0.5 s watchdog pings late; one vCPU. The root image
-# is a snapshot: nothing is written back to the cache. systemd prints only
+# is a snapshot: nothing is written back to the cache, and its writes (to a
+# temporary overlay) need no flush (cache=unsafe). systemd prints only
 # errors; no first-boot questions.
 console=$work/console.log
 timeout -k 10 "$timeout_s" "$qemu" -accel tcg -icount shift=0,sleep=off -m 1024 -smp 1 \
   -kernel "$kernel" -initrd "$work/initramfs.cpio.gz" \
   -append "console=ttyS0 quiet panic=-1 preempt=full systemd.show_status=error systemd.firstboot=off" \
-  -drive "file=$image,format=raw,if=virtio,snapshot=on" \
+  -drive "file=$image,format=raw,if=virtio,snapshot=on,cache=unsafe${SYSTEMD_QEMU_DRIVE_OPTIONS:+,$SYSTEMD_QEMU_DRIVE_OPTIONS}" \
   -nographic -no-reboot -net none < /dev/null 2>&1 | tr -d '\r' | tee "$console"
 qemu_rc=${PIPESTATUS[0]}
 end_s=$(date +%s)
