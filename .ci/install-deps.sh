@@ -12,6 +12,8 @@ packages=(
   python3 python3-numpy python3-matplotlib
   # HIL suite in a QEMU guest where this kernel has no SocketCAN (docs/hil.md)
   linux-image-amd64 qemu-system-x86 busybox-static iproute2 kmod
+  # the systemd tier: the guest's Debian 12 root file system (docs/hil.md)
+  debootstrap e2fsprogs
   # libFuzzer harnesses and their runtimes (docs/fuzzing.md)
   clang-14 libclang-rt-14-dev
 )

@@ -74,27 +74,12 @@ done
 
 # The CAN modules and what they depend on (modinfo's depends:), in load
 # order, decompressed if the kernel package ships them compressed.
-declare -A seen
-order=()
-add_module() {
-  local name=$1 file dependency
-  [ -n "${seen[$name]:-}" ] && return
-  seen[$name]=1
-  file=$(modinfo -k "$kernel_version" -n "$name" 2>/dev/null) || die "no module $name for kernel $kernel_version"
-  for dependency in $(modinfo -k "$kernel_version" -F depends "$name" | tr ',' ' '); do
-    add_module "$dependency"
-  done
-  case $file in
-    *.ko) cp "$file" "$staging/hil/modules/$name.ko" ;;
-    *.ko.xz) xz -dc "$file" > "$staging/hil/modules/$name.ko" ;;
-    *.ko.zst) zstd -qdc "$file" > "$staging/hil/modules/$name.ko" ;;
-    *.ko.gz) gzip -dc "$file" > "$staging/hil/modules/$name.ko" ;;
-    *) die "module $name: unknown file $file" ;;
-  esac
-  order+=("$name")
-}
-for module in can can-raw can-dev vcan; do add_module "$module"; done
-printf '%s\n' "${order[@]}" > "$staging/hil/modules/order"
+# shellcheck source=kernel_lib.sh
+source "$(dirname "$0")/kernel_lib.sh"
+copy_kernel_modules "$kernel_version" "$staging/hil/modules" can can-raw can-dev vcan 2> "$staging.modules.err" ||
+    die "$(cat "$staging.modules.err")"
+rm -f "$staging.modules.err"
+mapfile -t order < "$staging/hil/modules/order"
 
 # What the suite reads from the source tree, at the same relative paths.
 for file in config/servod-vcan.yaml config/motor-sim.yaml drivers/can/clm-servo.dbc tests/hil/run_hil.sh \

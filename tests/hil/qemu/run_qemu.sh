@@ -28,15 +28,10 @@ skip() { echo "HIL: skipped: $*"; exit 77; }
 qemu=$(command -v qemu-system-x86_64) || skip "no qemu-system-x86_64 (Debian package qemu-system-x86)"
 
 # A kernel with the vcan module on disk and a readable image.
+# shellcheck source=kernel_lib.sh
+source "$here/kernel_lib.sh"
 kernel_version=${HIL_KERNEL_VERSION:-}
-if [ -z "$kernel_version" ]; then
-  for image in $(ls -v /boot/vmlinuz-* 2>/dev/null); do
-    version=${image#/boot/vmlinuz-}
-    if [ -r "$image" ] && ls /lib/modules/"$version"/kernel/drivers/net/can/vcan.ko* > /dev/null 2>&1; then
-      kernel_version=$version
-    fi
-  done
-fi
+[ -n "$kernel_version" ] || kernel_version=$(find_kernel_version kernel/drivers/net/can/vcan.ko) || true
 [ -n "$kernel_version" ] || skip "no /boot/vmlinuz-* with a vcan module (Debian package linux-image-amd64)"
 kernel=/boot/vmlinuz-$kernel_version
 
