@@ -118,6 +118,11 @@ class ServoCycle {
   bool renew_jog() noexcept;
   /// A jog runs and has not been stopped.
   bool jogging() const noexcept { return jogging_.load(std::memory_order_acquire); }
+  /// A jog was offered (post_jog) and the cycle has not taken it yet; it starts
+  /// with a fresh jog_timeout_s when it does.
+  bool jog_pending() const noexcept {
+    return jog_offer_.load(std::memory_order_acquire) != nullptr && program_.pending();
+  }
   /// Position the axis holds when idle [m] (for planning a move from it).
   double hold_position_m() const noexcept { return hold_position_m_.load(std::memory_order_acquire); }
   bool idle() const noexcept { return idle_.load(std::memory_order_acquire); }

@@ -151,10 +151,11 @@ CommandReply ServoDaemon::jog(const servo::Command& command) {
   const auto& l = command.limits;
   const bool same = command.jog_velocity_m_per_s == jog_velocity_m_per_s_ &&
                     l.acceleration_m_per_s2 == jog_limits_.acceleration_m_per_s2 && l.jerk_m_per_s3 == jog_limits_.jerk_m_per_s3;
-  if (cycle_->jogging()) {
-    // A repeat keeps the running jog going; anything else waits for it to end.
+  if (cycle_->jogging() || cycle_->jog_pending()) {
+    // A repeat keeps the jog going (one not yet started starts with a fresh
+    // timeout: nothing to renew); anything else waits for it to end.
     if (!same) return refuse("another jog runs: repeat it unchanged, or stop it first");
-    if (cycle_->renew_jog()) return {command.sequence, true, "jogging"};
+    if (cycle_->jog_pending() || cycle_->renew_jog()) return {command.sequence, true, "jogging"};
     return refuse("the jog has timed out and is stopping; send it again once the axis is at rest");
   }
   if (!cycle_->idle()) return refuse("a program is running");

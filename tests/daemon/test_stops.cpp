@@ -413,6 +413,15 @@ TEST_CASE("a jog moves at its velocity while repeated and stops along the stop l
   auto reply = daemon.submit(jog);
   REQUIRE(reply.accepted);
   CHECK(reply.text == "jog started");
+  // A repeat before the cycle has taken the jog (a stalled loop) keeps it, and
+  // the jog starts with its whole timeout.
+  CHECK(daemon.cycle().jog_pending());
+  reply = daemon.submit(jog);
+  REQUIRE(reply.accepted);
+  CHECK(reply.text == "jogging");
+  daemon.run_cycles(1);
+  CHECK_FALSE(daemon.cycle().jog_pending());
+  CHECK(daemon.cycle().jogging());
   // Repeated every 0.1 s for 0.5 s: at the velocity, towards the lower limit.
   for (int k = 0; k < 5; ++k) {
     daemon.run_cycles(100);
