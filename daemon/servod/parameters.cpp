@@ -29,9 +29,10 @@ constexpr std::array<RuntimeParameter, 15> kParameters{{
 // The last entry is read-only (min == max == 0): listed, never set.
 constexpr std::size_t kTunable = kParameters.size() - 1;
 
-/// The field of `values` that entry `index` of kParameters names.
-double* field(RuntimeValues& values, std::size_t index) noexcept {
-  servo::Tuning& t = values.tuning;
+/// The field of `values` (const or not) that entry `index` of kParameters names.
+template <typename Values>
+auto field(Values& values, std::size_t index) noexcept -> decltype(&values.bandwidth_hz) {
+  auto& t = values.tuning;
   switch (index) {
     case 0: return &values.bandwidth_hz;
     case 1: return &t.feedforward.mass_kg;
@@ -71,7 +72,7 @@ const RuntimeParameter* find_runtime_parameter(std::string_view key) noexcept {
 
 double parameter_value(const RuntimeValues& values, const RuntimeParameter& parameter) noexcept {
   const auto index = static_cast<std::size_t>(&parameter - kParameters.data());
-  return *field(const_cast<RuntimeValues&>(values), index);
+  return *field(values, index);
 }
 
 ParameterChange change_parameter(const RuntimeValues& values, const servo::ServoSettings& base, double rate_hz,

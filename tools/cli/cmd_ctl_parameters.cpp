@@ -14,6 +14,7 @@
 
 #include "clm_lcm/servo_status_t.hpp"
 #include "config/yaml_edit.hpp"
+#include "daemon/servo/cycle_record.hpp"
 #include "daemon/servod/parameters.hpp"
 #include "daemon/servod/servod_config.hpp"
 #include "tools/cli/ctl_support.hpp"
@@ -71,8 +72,8 @@ void run_save(const CtlOptions& options, const std::string& config_path) {
     throw std::runtime_error(config_path + ": axis.name is '" + config.axis_name + "', the daemon answering drives '" +
                              status.axis + "': give the configuration of that daemon");
   }
-  static const char* const kModes[] = {"original", "classical", "pgnn", "spline", "oracle"};
-  if (status.commutation < 0 || status.commutation > 4) {
+  const auto mode = static_cast<servo::CommutationMode>(status.commutation);  // 0..5: the wire check's range
+  if (mode == servo::CommutationMode::kExperiment) {
     throw std::runtime_error("the daemon runs an identification experiment: save once it commutates with a law");
   }
   // Only what differs from the file is written: the rest of it stays as it is.
@@ -115,9 +116,7 @@ void run_save(const CtlOptions& options, const std::string& config_path) {
         std::tuple{"commutation.spline_model_file", status.spline_model_file, config.commutation.spline_model_file}}) {
     if (!running_file.empty() && !same_file(running_file, file)) edits.push_back({key, yaml::quoted(running_file)});
   }
-  if (static_cast<int>(config.commutation.mode) != status.commutation) {
-    edits.push_back({"commutation.mode", kModes[status.commutation]});
-  }
+  if (config.commutation.mode != mode) edits.push_back({"commutation.mode", servo::name(mode)});
   if (edits.empty()) {
     std::printf("%s already holds the running configuration of axis '%s': nothing written\n", config_path.c_str(),
                 status.axis.c_str());
