@@ -67,55 +67,49 @@ void SimulatedMotor::latch_fault(std::uint32_t bits) noexcept {
   commanded_currents_.fill(PhaseCurrentSetpoint{});
 }
 
-CommandResult SimulatedMotor::command(std::span<const DriveSetpoint> setpoints, bool enable) noexcept {
-  if (parameters_.drive.profile != DriveProfile::kMagnitudePhase) {
+CommandResult SimulatedMotor::check_command(DriveProfile profile, std::size_t count, bool finite) noexcept {
+  CommandResult result = CommandResult::kAccepted;
+  if (parameters_.drive.profile != profile) {
+    result = CommandResult::kWrongProfile;
+  } else if (static_cast<int>(count) != coil_sets()) {
+    result = CommandResult::kWrongCoilSetCount;
+  } else if (!finite) {
+    result = CommandResult::kNotFinite;
+  }
+  if (result != CommandResult::kAccepted) {
     latch_fault(kStatusInvalidSetpoint);
     update_outputs();
-    return CommandResult::kWrongProfile;
   }
-  if (static_cast<int>(setpoints.size()) != coil_sets()) {
-    latch_fault(kStatusInvalidSetpoint);
-    update_outputs();
-    return CommandResult::kWrongCoilSetCount;
-  }
-  for (const auto& setpoint : setpoints) {
-    if (!std::isfinite(setpoint.magnitude_N) || !std::isfinite(setpoint.delta_rad)) {
-      latch_fault(kStatusInvalidSetpoint);
-      update_outputs();
-      return CommandResult::kNotFinite;
-    }
-  }
-  std::copy(setpoints.begin(), setpoints.end(), setpoints_.begin());
+  return result;
+}
+
+void SimulatedMotor::take_command(bool enable) noexcept {
   enable_requested_ = enable;
   last_command_time_s_ = time_s_;
   update_outputs();
-  return CommandResult::kAccepted;
+}
+
+CommandResult SimulatedMotor::command(std::span<const DriveSetpoint> setpoints, bool enable) noexcept {
+  const bool finite = std::all_of(setpoints.begin(), setpoints.end(), [](const DriveSetpoint& s) {
+    return std::isfinite(s.magnitude_N) && std::isfinite(s.delta_rad);
+  });
+  const CommandResult result = check_command(DriveProfile::kMagnitudePhase, setpoints.size(), finite);
+  if (result != CommandResult::kAccepted) return result;
+  std::copy(setpoints.begin(), setpoints.end(), setpoints_.begin());
+  take_command(enable);
+  return result;
 }
 
 CommandResult SimulatedMotor::command_currents(std::span<const PhaseCurrentSetpoint> currents,
                                                bool enable) noexcept {
-  if (parameters_.drive.profile != DriveProfile::kPhaseCurrent) {
-    latch_fault(kStatusInvalidSetpoint);
-    update_outputs();
-    return CommandResult::kWrongProfile;
-  }
-  if (static_cast<int>(currents.size()) != coil_sets()) {
-    latch_fault(kStatusInvalidSetpoint);
-    update_outputs();
-    return CommandResult::kWrongCoilSetCount;
-  }
-  for (const auto& current : currents) {
-    if (!std::isfinite(current.ia_A) || !std::isfinite(current.ib_A)) {
-      latch_fault(kStatusInvalidSetpoint);
-      update_outputs();
-      return CommandResult::kNotFinite;
-    }
-  }
+  const bool finite = std::all_of(currents.begin(), currents.end(), [](const PhaseCurrentSetpoint& c) {
+    return std::isfinite(c.ia_A) && std::isfinite(c.ib_A);
+  });
+  const CommandResult result = check_command(DriveProfile::kPhaseCurrent, currents.size(), finite);
+  if (result != CommandResult::kAccepted) return result;
   std::copy(currents.begin(), currents.end(), commanded_currents_.begin());
-  enable_requested_ = enable;
-  last_command_time_s_ = time_s_;
-  update_outputs();
-  return CommandResult::kAccepted;
+  take_command(enable);
+  return result;
 }
 
 bool SimulatedMotor::drive_currents(double position_m, CurrentVector& currents_A) const noexcept {

@@ -158,6 +158,11 @@ class SimulatedMotor {
   int substeps(double period_s) const noexcept;
 
  private:
+  /// The checks both command kinds share: the drive's profile, one setpoint
+  /// per coil set, finite values. A refusal latches kStatusInvalidSetpoint.
+  CommandResult check_command(DriveProfile profile, std::size_t count, bool finite) noexcept;
+  /// Takes an accepted command: enable, the watchdog's time, the outputs.
+  void take_command(bool enable) noexcept;
   bool drive_active() const noexcept;
   void latch_fault(std::uint32_t bits) noexcept;
   /// Phase currents the drive applies at `position_m`; true if limited.
