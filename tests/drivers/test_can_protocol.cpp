@@ -10,36 +10,20 @@
 #include <stdexcept>
 
 #include "drivers/can/can_protocol.hpp"
+#include "drivers/can_frames.hpp"
 #include "support/allocation_counter.hpp"
 
 namespace can = clm::can;
 using can::CodecStatus;
 using can::Frame;
+using clm::test::frame_of;
+using clm::test::same_frame;
+using clm::test::sentinel_frame;
 
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-/// A frame full of a pattern no encoder writes, to prove nothing was written.
-Frame sentinel_frame() {
-  Frame frame;
-  frame.id = 0x7AB;
-  frame.dlc = 3;
-  frame.data.fill(0xA5);
-  return frame;
-}
-
-bool same_frame(const Frame& a, const Frame& b) { return a.id == b.id && a.dlc == b.dlc && a.data == b.data; }
-
-Frame frame_of(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
-  Frame frame;
-  frame.id = id;
-  frame.dlc = static_cast<std::uint8_t>(bytes.size());
-  std::size_t i = 0;
-  for (const auto byte : bytes) frame.data[i++] = byte;
-  return frame;
-}
 
 can::ProtocolConfig config_with(int coil_sets) {
   can::ProtocolConfig config;
