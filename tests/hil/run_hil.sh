@@ -153,6 +153,25 @@ if [ "$iface" != sim ]; then
   fi
 fi
 
+# Sends each of COMMANDS (clm ctl arguments) and waits up to 5 s for the
+# status to report commutation LAW; leaves `problem` empty on success, else
+# says what went wrong (`status` is the last one read).
+switch_law() {  # LAW COMMANDS...
+  local law=$1 command active=""
+  shift
+  problem=""
+  for command in "$@"; do
+    # shellcheck disable=SC2086
+    reply=$(ctl $command) || { problem="ctl $command: $reply"; return; }
+  done
+  for _ in $(seq 1 50); do
+    status=$(ctl status) && active=$(field commutation "$status")
+    [ "$active" = "$law" ] && return
+    sleep 0.1
+  done
+  problem="the daemon still reports commutation '$active'"
+}
+
 # Runs program file PROGRAM on the running daemon (status before it in
 # `before`) with its states logged to $run/states-TAG.lcm; reports one check
 # and leaves `problem` empty if the program ran to its end without a fault.
@@ -277,19 +296,7 @@ for mode in $modes; do
   fi
   pass "$mode: clm-servod up on $iface, disabled, no fault, bus $expected_bus ($(elapsed) s)"
 
-  problem=""
-  for command in enable "commutation $mode"; do
-    # shellcheck disable=SC2086
-    reply=$(ctl $command) || { problem="ctl $command: $reply"; break; }
-  done
-  active=""
-  for _ in $(seq 1 50); do
-    [ -n "$problem" ] && break
-    status=$(ctl status) && active=$(field commutation "$status")
-    [ "$active" = "$mode" ] && break
-    sleep 0.1
-  done
-  [ -z "$problem" ] && [ "$active" != "$mode" ] && problem="the daemon still reports commutation '$active'"
+  switch_law "$mode" enable "commutation $mode"
   if [ -n "$problem" ]; then
     fail "$mode: $problem"
     stop_process $servod_pid 30
@@ -402,18 +409,7 @@ phase_current_suite() {
     local -a commands=("commutation $law")
     [ "$law" = classical ] && commands=(enable "commutation $law")
     [ "$law" = pgnn ] && commands+=("load-feedforward $pc_artifacts/feedforward-pgnn.yaml")
-    for command in "${commands[@]}"; do
-      # shellcheck disable=SC2086
-      reply=$(ctl $command) || { problem="ctl $command: $reply"; break; }
-    done
-    active=""
-    for _ in $(seq 1 50); do
-      [ -n "$problem" ] && break
-      status=$(ctl status) && active=$(field commutation "$status")
-      [ "$active" = "$law" ] && break
-      sleep 0.1
-    done
-    [ -z "$problem" ] && [ "$active" != "$law" ] && problem="the daemon still reports commutation '$active'"
+    switch_law "$law" "${commands[@]}"
     if [ -n "$problem" ]; then
       fail "phase_current-$law: $problem"
       break
