@@ -293,6 +293,18 @@ std::string format_model_file(const ModelFile& file) {
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
+  if (provenance.nuisance.identified) {
+    const auto& nuisance = provenance.nuisance;
+    out << YAML::Key << "nuisance" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "sensor_offset_y_N" << YAML::Value;
+    out << yaml::format_double(nuisance.sensor_offset_y_N);
+    out << YAML::Key << "direction_smoothing_velocity_m_per_s" << YAML::Value;
+    out << yaml::format_double(nuisance.direction_smoothing_m_per_s);
+    out << YAML::Key << "direction_force_N_N_Nm" << YAML::Value << YAML::BeginSeq;
+    for (const auto& force : nuisance.direction_force_N_N_Nm) yaml::emit_double_list(out, force.data(), force.size());
+    out << YAML::EndSeq;
+    out << YAML::EndMap;
+  }
   out << YAML::EndMap;
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
@@ -350,7 +362,7 @@ ModelFile parse_model_file(const yaml::Node& root) {
     model.coil_sets.push_back(std::move(coil_set));
   }
   const yaml::Node provenance = root["provenance"];
-  provenance.expect_keys({"data_sha256", "created_utc", "generator", "costs"});
+  provenance.expect_keys({"data_sha256", "created_utc", "generator", "costs", "nuisance"});
   file.provenance.data_sha256 = optional_string(provenance, "data_sha256");
   file.provenance.created_utc = optional_string(provenance, "created_utc");
   file.provenance.generator = optional_string(provenance, "generator");
@@ -363,6 +375,19 @@ ModelFile parse_model_file(const yaml::Node& root) {
                                        parse_triple(entry["physics_validation_N2"]),
                                        parse_triple(entry["model_validation_N2"])});
     }
+  }
+  if (const auto nuisance = provenance.optional("nuisance")) {
+    nuisance->expect_keys({"sensor_offset_y_N", "direction_smoothing_velocity_m_per_s", "direction_force_N_N_Nm"});
+    auto& record = file.provenance.nuisance;
+    record.identified = true;
+    record.sensor_offset_y_N = (*nuisance)["sensor_offset_y_N"].as_double();
+    record.direction_smoothing_m_per_s = (*nuisance)["direction_smoothing_velocity_m_per_s"].as_double();
+    const yaml::Node forces = (*nuisance)["direction_force_N_N_Nm"];
+    if (forces.size() != model.coil_sets.size()) {
+      forces.fail(std::to_string(forces.size()) + " entries, the model has " + std::to_string(model.coil_sets.size()) +
+                  " coil sets");
+    }
+    for (std::size_t l = 0; l < forces.size(); ++l) record.direction_force_N_N_Nm.push_back(parse_triple(forces.at(l)));
   }
   try {
     model.validate();

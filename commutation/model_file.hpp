@@ -66,11 +66,24 @@ struct CoilSetCosts {
   std::array<double, 3> model_validation{};
 };
 
+/// Nuisance terms identified beside the model (docs/commutation.md,
+/// "Nuisance terms"). They are a record: no law uses them.
+struct ModelNuisance {
+  bool identified = false;
+  /// Offset of the force sensor's F_y reading, removed from the data before
+  /// identification [N] (F_x and T_z offsets are not observable: the guides
+  /// carry those forces).
+  double sensor_offset_y_N = 0.0;
+  double direction_smoothing_m_per_s = 0.0;  ///< v_c of C·tanh(ẏ/v_c)
+  std::vector<std::array<double, 3>> direction_force_N_N_Nm;  ///< C per coil set [N, N, N·m]
+};
+
 struct ModelProvenance {
   std::string data_sha256;
   std::string created_utc;
   std::string generator;
   std::vector<CoilSetCosts> costs;  ///< one per coil set, or empty
+  ModelNuisance nuisance;           ///< written only when identified
 };
 
 struct ModelFile {

@@ -9,7 +9,8 @@ namespace clm::identification {
 void check_dataset(const CoilSetDataset& data, const char* what) {
   if (data.size() < 10) throw std::invalid_argument(std::string(what) + " data has fewer than 10 samples");
   if (data.currents_A.cols() != data.size() || data.wrench.cols() != data.size() ||
-      static_cast<Eigen::Index>(data.group.size()) != data.size()) {
+      static_cast<Eigen::Index>(data.group.size()) != data.size() ||
+      (data.velocity_m_per_s.size() != 0 && data.velocity_m_per_s.size() != data.size())) {
     throw std::invalid_argument(std::string(what) + " data columns have different lengths");
   }
 }
@@ -21,9 +22,12 @@ CoilSetDataset CoilSetDataset::subset(const std::vector<Eigen::Index>& indices) 
   out.currents_A.resize(2, n);
   out.wrench.resize(3, n);
   out.group.resize(indices.size());
+  const bool velocity = velocity_m_per_s.size() == position_m.size() && position_m.size() > 0;
+  if (velocity) out.velocity_m_per_s.resize(n);
   for (Eigen::Index k = 0; k < n; ++k) {
     const Eigen::Index i = indices[static_cast<std::size_t>(k)];
     out.position_m[k] = position_m[i];
+    if (velocity) out.velocity_m_per_s[k] = velocity_m_per_s[i];
     out.currents_A.col(k) = currents_A.col(i);
     out.wrench.col(k) = wrench.col(i);
     out.group[static_cast<std::size_t>(k)] = group[static_cast<std::size_t>(i)];
@@ -40,6 +44,12 @@ CoilSetDataset joined(const CoilSetDataset& first, const CoilSetDataset& second)
   out.currents_A << first.currents_A, second.currents_A;
   out.wrench.resize(3, n);
   out.wrench << first.wrench, second.wrench;
+  // Velocities only when both have them; a join without them has none.
+  if (first.velocity_m_per_s.size() == first.size() && second.velocity_m_per_s.size() == second.size() &&
+      n > 0) {
+    out.velocity_m_per_s.resize(n);
+    out.velocity_m_per_s << first.velocity_m_per_s, second.velocity_m_per_s;
+  }
   out.group = first.group;
   out.group.insert(out.group.end(), second.group.begin(), second.group.end());
   return out;

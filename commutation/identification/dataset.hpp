@@ -10,6 +10,11 @@ namespace clm::identification {
 
 struct CoilSetDataset {
   Eigen::VectorXd position_m;              ///< y(t), N samples
+  /// dy/dt from the data's positions and times (velocity_from_positions), N
+  /// samples; empty when the data have no times. The direction-dependent
+  /// force of Remark 5.1 is identified against it (docs/commutation.md,
+  /// "Nuisance terms").
+  Eigen::VectorXd velocity_m_per_s;
   Eigen::Matrix<double, 2, Eigen::Dynamic> currents_A;  ///< [i_a; i_b] per sample
   Eigen::Matrix<double, 3, Eigen::Dynamic> wrench;      ///< measured [F_y N; F_x N; T_z N·m]
   std::vector<int> group;                  ///< 0 or 1: which offset experiment a sample belongs to

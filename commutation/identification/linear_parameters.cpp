@@ -6,12 +6,17 @@
 
 namespace clm::identification {
 
-PgnnFeatures features_of(const CoilSetDataset& data, double pole_pitch_m, const PositionNormalisation& normalisation) {
+PgnnFeatures features_of(const CoilSetDataset& data, double pole_pitch_m, const PositionNormalisation& normalisation,
+                         const DirectionForce& direction) {
   PgnnFeatures f;
   const Eigen::ArrayXd theta = data.position_m.array() * (kTwoPi / pole_pitch_m);
   f.cos_theta = theta.cos();
   f.sin_theta = theta.sin();
   f.input = (data.position_m.array() - normalisation.offset_m) / normalisation.scale_m;
+  f.direction = Eigen::ArrayXd::Zero(data.size());
+  if (direction.identified() && data.velocity_m_per_s.size() == data.size()) {
+    for (Eigen::Index t = 0; t < data.size(); ++t) f.direction[t] = direction.feature(data.velocity_m_per_s[t]);
+  }
   return f;
 }
 
@@ -25,7 +30,7 @@ void ridge_linear(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnL
   double ha[Network::kMaxWidth], hb[Network::kMaxWidth], hc[Network::kMaxWidth];
   const double inv_n = 1.0 / static_cast<double>(data.size());
   for (Eigen::Index t = 0; t < data.size(); ++t) {
-    regressor(layout, nonlinear, f.cos_theta[t], f.sin_theta[t], f.input[t], data.currents_A(0, t),
+    regressor(layout, nonlinear, f.cos_theta[t], f.sin_theta[t], f.input[t], f.direction[t], data.currents_A(0, t),
               data.currents_A(1, t), m, ha, hb, hc);
     const Eigen::Map<const Eigen::VectorXd> mv(m, p);
     gram.selfadjointView<Eigen::Lower>().rankUpdate(mv, inv_n);
@@ -36,13 +41,15 @@ void ridge_linear(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnL
   for (int k = 0; k < 4; ++k) gram(k, k) += lambda2;
   for (int q = 0; q < 3; ++q) rhs.block<4, 1>(0, q) += lambda2 * physics_target(physics_a, physics_b, q);
   // A tiny ridge on the output layers keeps the solve defined when a neuron is
-  // saturated over the whole stroke (a constant column duplicates the bias).
+  // saturated over the whole stroke (a constant column duplicates the bias),
+  // and sets C_q to zero when the data carry no velocity.
   for (int k = 4; k < p; ++k) gram(k, k) += 1e-10 * (1.0 + gram(k, k));
   linear = gram.ldlt().solve(rhs);
 }
 
 void unpack_parameters(const PgnnLayout& layout, const double* nonlinear,
-                       const Eigen::Matrix<double, Eigen::Dynamic, 3>& linear, CoilSetModel& coil_set) {
+                       const Eigen::Matrix<double, Eigen::Dynamic, 3>& linear, CoilSetModel& coil_set,
+                       DirectionForce& direction) {
   const int na = layout.column_hidden;
   const int nc = layout.cogging_hidden;
   coil_set.column_a = Network::zeros({na});
@@ -71,11 +78,12 @@ void unpack_parameters(const PgnnLayout& layout, const double* nonlinear,
     coil_set.column_b.layers[1].biases[q] = linear(layout.column_b_offset() + na, q);
     for (int j = 0; j < nc; ++j) coil_set.cogging.layers[1].weights(q, j) = linear(layout.cogging_offset() + j, q);
     coil_set.cogging.layers[1].biases[q] = linear(layout.cogging_offset() + nc, q);
+    direction.amplitude[q] = direction.identified() ? linear(layout.direction_offset(), q) : 0.0;
   }
 }
 
-void pack_parameters(const PgnnLayout& layout, const CoilSetModel& coil_set, std::vector<double>& nonlinear,
-                     Eigen::Matrix<double, Eigen::Dynamic, 3>& linear) {
+void pack_parameters(const PgnnLayout& layout, const CoilSetModel& coil_set, const DirectionForce& direction,
+                     std::vector<double>& nonlinear, Eigen::Matrix<double, Eigen::Dynamic, 3>& linear) {
   const int na = layout.column_hidden;
   const int nc = layout.cogging_hidden;
   nonlinear.assign(static_cast<std::size_t>(layout.nonlinear_size()), 0.0);
@@ -103,6 +111,7 @@ void pack_parameters(const PgnnLayout& layout, const CoilSetModel& coil_set, std
     linear(layout.column_b_offset() + na, q) = coil_set.column_b.layers[1].biases[q];
     for (int j = 0; j < nc; ++j) linear(layout.cogging_offset() + j, q) = coil_set.cogging.layers[1].weights(q, j);
     linear(layout.cogging_offset() + nc, q) = coil_set.cogging.layers[1].biases[q];
+    linear(layout.direction_offset(), q) = direction.amplitude[q];
   }
 }
 
@@ -115,15 +124,16 @@ PositionNormalisation normalisation_for(const Eigen::VectorXd& position_m) {
 
 void solve_linear_parameters(const CoilSetDataset& data, double pole_pitch_m,
                              const PositionNormalisation& normalisation, const CoilGain& physics_a,
-                             const CoilGain& physics_b, double regularisation, CoilSetModel& coil_set) {
+                             const CoilGain& physics_b, double regularisation, CoilSetModel& coil_set,
+                             DirectionForce& direction) {
   const PgnnLayout layout{static_cast<int>(coil_set.column_a.layers[0].biases.size()),
                           static_cast<int>(coil_set.cogging.layers[0].biases.size())};
   std::vector<double> nonlinear;
   Eigen::Matrix<double, Eigen::Dynamic, 3> linear;
-  pack_parameters(layout, coil_set, nonlinear, linear);
-  const PgnnFeatures f = features_of(data, pole_pitch_m, normalisation);
+  pack_parameters(layout, coil_set, direction, nonlinear, linear);
+  const PgnnFeatures f = features_of(data, pole_pitch_m, normalisation, direction);
   ridge_linear(data, f, layout, nonlinear.data(), physics_a, physics_b, regularisation, linear);
-  unpack_parameters(layout, nonlinear.data(), linear, coil_set);
+  unpack_parameters(layout, nonlinear.data(), linear, coil_set, direction);
 }
 
 }  // namespace clm::identification

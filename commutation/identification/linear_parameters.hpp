@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "commutation/identification/dataset.hpp"
+#include "commutation/identification/nuisance.hpp"
 #include "commutation/model.hpp"
 
 namespace clm::identification {
@@ -20,41 +21,51 @@ PositionNormalisation normalisation_for(const Eigen::VectorXd& position_m);
 /// Eq. (31): ridge least squares of every parameter in which the PGNN is
 /// linear (A, B and the output layers), direction by direction, with the
 /// hidden layers of `coil_set` held fixed. Modifies `coil_set` in place.
+/// `direction` gives v_c of the direction-dependent force fitted beside them;
+/// its amplitude is written back.
 void solve_linear_parameters(const CoilSetDataset& data, double pole_pitch_m,
                              const PositionNormalisation& normalisation, const CoilGain& physics_a,
-                             const CoilGain& physics_b, double regularisation, CoilSetModel& coil_set);
+                             const CoilGain& physics_b, double regularisation, CoilSetModel& coil_set,
+                             DirectionForce& direction);
 
 /// Per-sample quantities that do not depend on the parameters: cos θ, sin θ
-/// of the electrical angle and the normalised network input.
+/// of the electrical angle, the normalised network input and the regressor
+/// tanh(ẏ/v_c) of the direction-dependent force (zero without one).
 struct PgnnFeatures {
-  Eigen::ArrayXd cos_theta, sin_theta, input;
+  Eigen::ArrayXd cos_theta, sin_theta, input, direction;
 };
 
 /// The features of every sample of `data` (θ from position_m and pole_pitch_m,
-/// input = (y − offset_m) / scale_m). No checks: `data` is validated by the caller.
-PgnnFeatures features_of(const CoilSetDataset& data, double pole_pitch_m, const PositionNormalisation& normalisation);
+/// input = (y − offset_m) / scale_m, direction from `direction`'s v_c). No
+/// checks: `data` is validated by the caller.
+PgnnFeatures features_of(const CoilSetDataset& data, double pole_pitch_m, const PositionNormalisation& normalisation,
+                         const DirectionForce& direction);
 
 /// Layout of the parameters of one direction in which the PGNN is linear
-/// (eq. 29): [A_q (2), B_q (2), W_a (n_a), b_a, W_b (n_b), b_b, W_cog (n_c), b_cog].
+/// (eq. 29), then the direction-dependent force C_q (a nuisance term, not
+/// part of the model): [A_q (2), B_q (2), W_a (n_a), b_a, W_b (n_b), b_b,
+/// W_cog (n_c), b_cog, C_q].
 struct PgnnLayout {
   int column_hidden;
   int cogging_hidden;
-  int linear_size() const { return 4 + 2 * (column_hidden + 1) + cogging_hidden + 1; }
+  int linear_size() const { return 4 + 2 * (column_hidden + 1) + cogging_hidden + 2; }
   int column_a_offset() const { return 4; }
   int column_b_offset() const { return 4 + column_hidden + 1; }
   int cogging_offset() const { return 4 + 2 * (column_hidden + 1); }
+  int direction_offset() const { return linear_size() - 1; }
   // Hidden layers (eq. 29's θ_NL): [w_a, b_a, w_b, b_b, w_cog, b_cog].
   int nonlinear_size() const { return 4 * column_hidden + 2 * cogging_hidden; }
 };
 
 /// Largest linear_size() for networks of at most Network::kMaxWidth neurons.
-constexpr int kMaxRegressor = 4 + 2 * (Network::kMaxWidth + 1) + Network::kMaxWidth + 1;
+constexpr int kMaxRegressor = 4 + 2 * (Network::kMaxWidth + 1) + Network::kMaxWidth + 2;
 
 /// Regressor M(θ_NL, t) of eq. (28) (the same for all three directions) into
 /// m[0..linear_size()), and the hidden activations into hidden_a/b/cog.
 /// Inline: the cost functions of the PGNN training call it once per sample.
-inline void regressor(const PgnnLayout& layout, const double* nonlinear, double c, double s, double x, double ia,
-                      double ib, double* m, double* hidden_a, double* hidden_b, double* hidden_cog) {
+/// `d` is the sample's tanh(ẏ/v_c).
+inline void regressor(const PgnnLayout& layout, const double* nonlinear, double c, double s, double x, double d,
+                      double ia, double ib, double* m, double* hidden_a, double* hidden_b, double* hidden_cog) {
   m[0] = c * ia;
   m[1] = c * ib;
   m[2] = s * ia;
@@ -80,6 +91,7 @@ inline void regressor(const PgnnLayout& layout, const double* nonlinear, double 
     m[layout.cogging_offset() + j] = hidden_cog[j];
   }
   m[layout.cogging_offset() + nc] = 1.0;
+  m[layout.direction_offset()] = d;
 }
 
 /// Eq. (31) for one coil set, given the hidden layers in `nonlinear`; writes the
@@ -88,12 +100,15 @@ void ridge_linear(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnL
                   const CoilGain& physics_a, const CoilGain& physics_b, double regularisation,
                   Eigen::Matrix<double, Eigen::Dynamic, 3>& linear);
 
-/// Writes the hidden and linear parameters into the networks of `coil_set`.
+/// Writes the hidden and linear parameters into the networks of `coil_set`,
+/// and C_q into `direction`'s amplitude.
 void unpack_parameters(const PgnnLayout& layout, const double* nonlinear,
-                       const Eigen::Matrix<double, Eigen::Dynamic, 3>& linear, CoilSetModel& coil_set);
+                       const Eigen::Matrix<double, Eigen::Dynamic, 3>& linear, CoilSetModel& coil_set,
+                       DirectionForce& direction);
 
-/// Reads the parameters back from the networks (inverse of unpack_parameters).
-void pack_parameters(const PgnnLayout& layout, const CoilSetModel& coil_set, std::vector<double>& nonlinear,
-                     Eigen::Matrix<double, Eigen::Dynamic, 3>& linear);
+/// Reads the parameters back from the networks and `direction` (inverse of
+/// unpack_parameters).
+void pack_parameters(const PgnnLayout& layout, const CoilSetModel& coil_set, const DirectionForce& direction,
+                     std::vector<double>& nonlinear, Eigen::Matrix<double, Eigen::Dynamic, 3>& linear);
 
 }  // namespace clm::identification

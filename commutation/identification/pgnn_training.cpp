@@ -46,7 +46,8 @@ class ChunkCost final : public ceres::CostFunction {
       const double x = features_.input[t];
       const double ia = data_.currents_A(0, t);
       const double ib = data_.currents_A(1, t);
-      regressor(layout_, nonlinear, features_.cos_theta[t], features_.sin_theta[t], x, ia, ib, m, ha, hb, hc);
+      regressor(layout_, nonlinear, features_.cos_theta[t], features_.sin_theta[t], x, features_.direction[t], ia, ib, m,
+                ha, hb, hc);
       double prediction = 0.0;
       for (int k = 0; k < p; ++k) prediction += linear[k] * m[k];
       residuals[row] = scale_ * (data_.wrench(direction_, t) - prediction);
@@ -206,7 +207,8 @@ class ProjectedCost final : public ceres::CostFunction {
       const double x = features_.input[t];
       const double ia = data_.currents_A(0, t);
       const double ib = data_.currents_A(1, t);
-      regressor(layout_, nonlinear, features_.cos_theta[t], features_.sin_theta[t], x, ia, ib, m, ha, hb, hc);
+      regressor(layout_, nonlinear, features_.cos_theta[t], features_.sin_theta[t], x, features_.direction[t], ia, ib, m,
+                ha, hb, hc);
       for (int k = 0; k < p; ++k) regressors(t, k) = m[k];
       if (!want_jacobian) continue;
       const auto fill = [&](int first, const double* h, int width, double multiplier) {
@@ -312,24 +314,38 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
   }
   if (options.restarts < 1) throw std::invalid_argument("at least one restart is needed");
   if (!(options.regularisation >= 0.0)) throw std::invalid_argument("regularisation must be non-negative");
+  if (!(options.direction_smoothing_m_per_s >= 0.0)) {
+    throw std::invalid_argument("direction smoothing velocity must be non-negative");
+  }
 
   CoilGain physics_a, physics_b;
-  fit_physics_only(training, pole_pitch_m, physics_a, physics_b);
+  DirectionForce physics_direction;
+  fit_physics_only(training, pole_pitch_m, options.direction_smoothing_m_per_s, physics_a, physics_b,
+                   physics_direction);
+  // The shape of the direction-dependent force fitted beside the model; its
+  // amplitude comes out of eq. (31) with the other linear parameters.
+  const DirectionForce shape = direction_shape(training, options.direction_smoothing_m_per_s);
   const PgnnLayout layout{options.column_hidden, options.cogging_hidden};
   const auto solve = options.solver == PgnnSolver::kVariableProjection ? variable_projection : levenberg_marquardt;
   const bool held_out = validation.size() > 0;
-  // The model of parameters (θ_NL, θ_L) as ElectromagneticModel evaluates it.
+  // The model of parameters (θ_NL, θ_L) as ElectromagneticModel evaluates it,
+  // and the direction-dependent force identified beside it.
+  struct Candidate {
+    ElectromagneticModel model;
+    DirectionForce direction;
+  };
   const auto model_of = [&](const std::vector<double>& nonlinear, const Eigen::Matrix<double, Eigen::Dynamic, 3>& linear) {
     CoilSetModel part;
-    unpack_parameters(layout, nonlinear.data(), linear, part);
-    return single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, part);
+    DirectionForce direction = shape;
+    unpack_parameters(layout, nonlinear.data(), linear, part, direction);
+    return Candidate{single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, part), direction};
   };
 
   const CoilSetDataset coarse = decimate(training, options.restart_decimation);
-  const PgnnFeatures coarse_features = features_of(coarse, pole_pitch_m, normalisation);
+  const PgnnFeatures coarse_features = features_of(coarse, pole_pitch_m, normalisation, shape);
   const CoilSetDataset polish = decimate(training, options.final_decimation);
-  const PgnnFeatures polish_features = features_of(polish, pole_pitch_m, normalisation);
-  const PgnnFeatures full_features = features_of(training, pole_pitch_m, normalisation);
+  const PgnnFeatures polish_features = features_of(polish, pole_pitch_m, normalisation, shape);
+  const PgnnFeatures full_features = features_of(training, pole_pitch_m, normalisation, shape);
 
   std::mt19937_64 rng(options.seed);
   std::uniform_real_distribution<double> slope(-4.0, 4.0);
@@ -361,7 +377,11 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
     // With held-out data the restart that predicts them best is kept: a low
     // training cost alone also rewards networks that swing wildly between
     // the training blocks (docs/commutation.md, "Identification").
-    const double score = held_out ? coil_set_cost(model_of(nonlinear, linear), 0, validation).sum() : cost;
+    double score = cost;
+    if (held_out) {
+      const Candidate candidate = model_of(nonlinear, linear);
+      score = coil_set_cost(candidate.model, 0, validation, candidate.direction).sum();
+    }
     if (score < best_score) {
       best_score = score;
       best_nonlinear = nonlinear;
@@ -388,7 +408,9 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
   const auto physics_model = single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, physics);
   // Training and validation costs are those of the model fit without the
   // validation blocks: the held-out estimate of how it predicts.
-  fill_report_costs(model_of(best_nonlinear, best_linear), physics_model, training, validation, report);
+  const Candidate trained = model_of(best_nonlinear, best_linear);
+  fill_report_costs({trained.model, trained.direction}, {physics_model, physics_direction}, training, validation,
+                    report);
 
   // The model put to use has seen every sample: with held-out data, the
   // chosen parameters are polished once more on training and validation
@@ -397,21 +419,24 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
   if (held_out) all = joined(training, validation);
   const CoilSetDataset& fitted = held_out ? all : training;
   if (held_out) {
-    fit_physics_only(all, pole_pitch_m, physics_a, physics_b);
+    fit_physics_only(all, pole_pitch_m, options.direction_smoothing_m_per_s, physics_a, physics_b, physics_direction);
     const CoilSetDataset all_polish = decimate(all, options.final_decimation);
-    solve(all_polish, features_of(all_polish, pole_pitch_m, normalisation), layout, physics_a, physics_b,
+    solve(all_polish, features_of(all_polish, pole_pitch_m, normalisation, shape), layout, physics_a, physics_b,
           options.regularisation, options.final_iterations, options.threads, best_nonlinear, best_linear,
           report.iterations);
-    ridge_linear(all, features_of(all, pole_pitch_m, normalisation), layout, best_nonlinear.data(), physics_a,
+    ridge_linear(all, features_of(all, pole_pitch_m, normalisation, shape), layout, best_nonlinear.data(), physics_a,
                  physics_b, options.regularisation, best_linear);
     physics.a_N_per_A = physics_a;
     physics.b_N_per_A = physics_b;
   }
   report.refit_on_all_data = held_out;
   CoilSetModel result;
-  unpack_parameters(layout, best_nonlinear.data(), best_linear, result);
-  fill_fit_costs(model_of(best_nonlinear, best_linear),
-                 single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, physics), fitted, report);
+  DirectionForce direction = shape;
+  unpack_parameters(layout, best_nonlinear.data(), best_linear, result, direction);
+  const auto result_model = single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, result);
+  fill_fit_costs({result_model, direction},
+                 {single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, physics), physics_direction},
+                 fitted, report);
   Eigen::Vector4d deviation;
   double prior = 0.0;
   for (int q = 0; q < 3; ++q) {

@@ -33,6 +33,9 @@ struct PgnnOptions {
   // than anything the networks resolve; the decimated sets keep every
   // position region. Eq. (31) at the end always uses all training samples.
   int threads = 2;
+  /// v_c of the direction-dependent force C·tanh(ẏ/v_c) identified beside
+  /// the model (Remark 5.1); 0, or data without velocities: none.
+  double direction_smoothing_m_per_s = 0.0;
   PgnnSolver solver = PgnnSolver::kVariableProjection;
 };
 

@@ -6,24 +6,39 @@
 
 namespace clm::identification {
 
-void fit_physics_only(const CoilSetDataset& data, double pole_pitch_m, CoilGain& a, CoilGain& b) {
+DirectionForce direction_shape(const CoilSetDataset& data, double direction_smoothing_m_per_s) {
+  DirectionForce shape;
+  if (direction_smoothing_m_per_s > 0.0 && data.velocity_m_per_s.size() == data.size()) {
+    shape.smoothing_velocity_m_per_s = direction_smoothing_m_per_s;
+  }
+  return shape;
+}
+
+void fit_physics_only(const CoilSetDataset& data, double pole_pitch_m, double direction_smoothing_m_per_s, CoilGain& a,
+                      CoilGain& b, DirectionForce& direction) {
   check_dataset(data, "physics-only fit:");
-  Eigen::Matrix4d gram = Eigen::Matrix4d::Zero();
-  Eigen::Matrix<double, 4, 3> rhs = Eigen::Matrix<double, 4, 3>::Zero();
+  direction = direction_shape(data, direction_smoothing_m_per_s);
+  const int p = direction.identified() ? 5 : 4;
+  Eigen::Matrix<double, 5, 5> gram = Eigen::Matrix<double, 5, 5>::Zero();
+  Eigen::Matrix<double, 5, 3> rhs = Eigen::Matrix<double, 5, 3>::Zero();
   for (Eigen::Index t = 0; t < data.size(); ++t) {
     const double theta = electrical_angle_rad(data.position_m[t], pole_pitch_m);
     const double c = std::cos(theta), s = std::sin(theta);
     const double ia = data.currents_A(0, t), ib = data.currents_A(1, t);
-    const Eigen::Vector4d m(c * ia, c * ib, s * ia, s * ib);
+    const double d = direction.identified() ? direction.feature(data.velocity_m_per_s[t]) : 0.0;
+    Eigen::Matrix<double, 5, 1> m;
+    m << c * ia, c * ib, s * ia, s * ib, d;
     gram.noalias() += m * m.transpose();
     rhs.noalias() += m * data.wrench.col(t).transpose();
   }
-  Eigen::LDLT<Eigen::Matrix4d> solver(gram);
+  const Eigen::MatrixXd used = gram.topLeftCorner(p, p);
+  Eigen::LDLT<Eigen::MatrixXd> solver(used);
   if (solver.info() != Eigen::Success || solver.rcond() < 1e-12) {
     throw std::invalid_argument("physics-only fit is singular: the currents do not excite both columns of K");
   }
-  const Eigen::Matrix<double, 4, 3> solution = solver.solve(rhs);
+  const Eigen::MatrixXd solution = solver.solve(rhs.topRows(p));
   for (int q = 0; q < 3; ++q) {
+    direction.amplitude[q] = p == 5 ? solution(4, q) : 0.0;
     a(q, 0) = solution(0, q);
     a(q, 1) = solution(1, q);
     b(q, 0) = solution(2, q);

@@ -2,14 +2,17 @@
 
 namespace clm::identification {
 
-DirectionCost coil_set_cost(const ElectromagneticModel& model, int coil_set, const CoilSetDataset& data) {
+DirectionCost coil_set_cost(const ElectromagneticModel& model, int coil_set, const CoilSetDataset& data,
+                            const DirectionForce& direction) {
   DirectionCost cost = DirectionCost::Zero();
   if (data.size() == 0) return cost;
+  const bool nuisance = direction.identified() && data.velocity_m_per_s.size() == data.size();
   for (Eigen::Index t = 0; t < data.size(); ++t) {
     CoilGain gain;
     Wrench cogging;
     model.evaluate_coil_set(coil_set, data.position_m[t], gain, cogging);
-    const Wrench error = data.wrench.col(t) - gain * data.currents_A.col(t) - cogging;
+    Wrench error = data.wrench.col(t) - gain * data.currents_A.col(t) - cogging;
+    if (nuisance) error -= direction.amplitude * direction.feature(data.velocity_m_per_s[t]);
     cost += error.cwiseAbs2();
   }
   return cost / static_cast<double>(data.size());
@@ -26,20 +29,22 @@ ElectromagneticModel single_coil_set_model(ModelKind kind, double pole_pitch_m, 
   return model;
 }
 
-void fill_report_costs(const ElectromagneticModel& model, const ElectromagneticModel& physics,
-                       const CoilSetDataset& training, const CoilSetDataset& validation, IdentificationReport& report) {
-  report.model_training = coil_set_cost(model, 0, training);
-  report.physics_training = coil_set_cost(physics, 0, training);
+void fill_report_costs(const ModelWithNuisance& model, const ModelWithNuisance& physics, const CoilSetDataset& training,
+                       const CoilSetDataset& validation, IdentificationReport& report) {
+  report.model_training = coil_set_cost(model.model, 0, training, model.direction);
+  report.physics_training = coil_set_cost(physics.model, 0, training, physics.direction);
   if (validation.size() > 0) {
-    report.model_validation = coil_set_cost(model, 0, validation);
-    report.physics_validation = coil_set_cost(physics, 0, validation);
+    report.model_validation = coil_set_cost(model.model, 0, validation, model.direction);
+    report.physics_validation = coil_set_cost(physics.model, 0, validation, physics.direction);
   }
 }
 
-void fill_fit_costs(const ElectromagneticModel& model, const ElectromagneticModel& physics, const CoilSetDataset& fitted,
+void fill_fit_costs(const ModelWithNuisance& model, const ModelWithNuisance& physics, const CoilSetDataset& fitted,
                     IdentificationReport& report) {
-  report.model_fit = coil_set_cost(model, 0, fitted);
-  report.physics_fit = coil_set_cost(physics, 0, fitted);
+  report.model_fit = coil_set_cost(model.model, 0, fitted, model.direction);
+  report.physics_fit = coil_set_cost(physics.model, 0, fitted, physics.direction);
+  report.direction_force = model.direction;
+  report.physics_direction_force = physics.direction;
   for (int q = 0; q < 3; ++q) {
     report.proposition_holds[q] = report.model_fit[q] <= report.physics_fit[q] * (1.0 + 1e-9) + 1e-12;
   }

@@ -6,6 +6,7 @@
 // spline fits. No I/O.
 
 #include "commutation/identification/dataset.hpp"
+#include "commutation/identification/nuisance.hpp"
 #include "commutation/model.hpp"
 
 namespace clm::identification {
@@ -26,6 +27,11 @@ struct IdentificationReport {
   DirectionCost physics_fit = DirectionCost::Zero();
   DirectionCost model_fit = DirectionCost::Zero();
   double regularised_cost = 0.0;  ///< eq. (26) of the model put to use, on the data it was fit on
+  /// The direction-dependent force identified beside the model put to use
+  /// (Remark 5.1; reported, never part of the commutation law), and beside
+  /// the physics-only fit of the same data.
+  DirectionForce direction_force;
+  DirectionForce physics_direction_force;
   int best_restart = -1;
   int iterations = 0;             ///< LM iterations over all steps
   /// Proposition 4.1 per direction for the model put to use: its data term
@@ -34,9 +40,18 @@ struct IdentificationReport {
 };
 
 /// Data-term cost per direction (mean squared error, eq. 26 without the
-/// regularisation) of coil set `coil_set` of `model` on `data`. Evaluates the
-/// model through ElectromagneticModel, independently of the training code.
-DirectionCost coil_set_cost(const ElectromagneticModel& model, int coil_set, const CoilSetDataset& data);
+/// regularisation) of coil set `coil_set` of `model` on `data`, with the
+/// direction-dependent force `direction` identified beside it added to the
+/// prediction. Evaluates the model through ElectromagneticModel,
+/// independently of the training code.
+DirectionCost coil_set_cost(const ElectromagneticModel& model, int coil_set, const CoilSetDataset& data,
+                            const DirectionForce& direction = {});
+
+/// A model with the direction-dependent force identified beside it.
+struct ModelWithNuisance {
+  const ElectromagneticModel& model;
+  const DirectionForce& direction;
+};
 
 /// A model of kind `kind` holding `coil_set` as its only coil set, so that
 /// coil_set_cost can evaluate a coil set identified on its own.
@@ -47,12 +62,12 @@ ElectromagneticModel single_coil_set_model(ModelKind kind, double pole_pitch_m,
 /// Fills the training and validation costs of `report` (validation ones only
 /// for non-empty `validation`) from the single-coil-set `model` and the
 /// physics-only `physics` model, both fit on `training` alone.
-void fill_report_costs(const ElectromagneticModel& model, const ElectromagneticModel& physics,
-                       const CoilSetDataset& training, const CoilSetDataset& validation, IdentificationReport& report);
+void fill_report_costs(const ModelWithNuisance& model, const ModelWithNuisance& physics, const CoilSetDataset& training,
+                       const CoilSetDataset& validation, IdentificationReport& report);
 
 /// Fills model_fit, physics_fit and proposition_holds from the model put to
 /// use and the physics-only model, both fit on `fitted`.
-void fill_fit_costs(const ElectromagneticModel& model, const ElectromagneticModel& physics, const CoilSetDataset& fitted,
+void fill_fit_costs(const ModelWithNuisance& model, const ModelWithNuisance& physics, const CoilSetDataset& fitted,
                     IdentificationReport& report);
 
 }  // namespace clm::identification

@@ -23,16 +23,20 @@ namespace {
 
 struct SplineFit {
   CoilSetModel model;
-  CoilSetModel physics;  ///< the physics-only fit the model is pulled towards
+  DirectionForce direction;  ///< identified beside the model
+  CoilSetModel physics;      ///< the physics-only fit the model is pulled towards
+  DirectionForce physics_direction;
 };
 
 // One regularised linear least-squares problem per direction on `data`.
 SplineFit fit_spline(const CoilSetDataset& data, double pole_pitch_m, const UniformCubicBasis& basis,
                      const SplineOptions& options) {
   CoilGain physics_a, physics_b;
-  fit_physics_only(data, pole_pitch_m, physics_a, physics_b);
+  DirectionForce physics_direction;
+  fit_physics_only(data, pole_pitch_m, options.direction_smoothing_m_per_s, physics_a, physics_b, physics_direction);
+  DirectionForce direction = direction_shape(data, options.direction_smoothing_m_per_s);
   const int n = basis.size();
-  const int p = 4 + 3 * n;  // [A_q, B_q, C_a (n), C_b (n), G (n)]
+  const int p = 4 + 3 * n + 1;  // [A_q, B_q, C_a (n), C_b (n), G (n), C_q of the direction-dependent force]
   Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(p, p);
   Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(p, 3);
   const double inv_n = 1.0 / static_cast<double>(data.size());
@@ -42,8 +46,8 @@ SplineFit fit_spline(const CoilSetDataset& data, double pole_pitch_m, const Unif
     const double c = std::cos(theta), s = std::sin(theta);
     const double ia = data.currents_A(0, t), ib = data.currents_A(1, t);
     const auto span = basis.evaluate(y);
-    int index[16];
-    double value[16];
+    int index[17];
+    double value[17];
     const double head[4] = {c * ia, c * ib, s * ia, s * ib};
     for (int k = 0; k < 4; ++k) {
       index[k] = k;
@@ -55,8 +59,10 @@ SplineFit fit_spline(const CoilSetDataset& data, double pole_pitch_m, const Unif
       index[12 + k] = 4 + 2 * n + span.first + k;
       value[12 + k] = span.value[static_cast<std::size_t>(k)];
     }
-    for (int r = 0; r < 16; ++r) {
-      for (int k = 0; k < 16; ++k) gram(index[r], index[k]) += inv_n * value[r] * value[k];
+    index[16] = p - 1;
+    value[16] = direction.identified() ? direction.feature(data.velocity_m_per_s[t]) : 0.0;
+    for (int r = 0; r < 17; ++r) {
+      for (int k = 0; k < 17; ++k) gram(index[r], index[k]) += inv_n * value[r] * value[k];
       for (int q = 0; q < 3; ++q) rhs(index[r], q) += inv_n * value[r] * data.wrench(q, t);
     }
   }
@@ -74,6 +80,7 @@ SplineFit fit_spline(const CoilSetDataset& data, double pole_pitch_m, const Unif
   const double lambda2 = options.regularisation * options.regularisation;
   for (int k = 0; k < 4; ++k) gram(k, k) += lambda2;
   for (int q = 0; q < 3; ++q) rhs.block<4, 1>(0, q) += lambda2 * physics_target(physics_a, physics_b, q);
+  // A tiny ridge keeps knots without data and an absent direction term defined.
   for (int k = 4; k < p; ++k) gram(k, k) += 1e-12 * (1.0 + gram(k, k));
   const Eigen::MatrixXd solution = gram.ldlt().solve(rhs);
   if (!solution.allFinite()) throw std::invalid_argument("spline least-squares problem is singular");
@@ -93,7 +100,10 @@ SplineFit fit_spline(const CoilSetDataset& data, double pole_pitch_m, const Unif
       result.column_b_spline(q, j) = solution(4 + n + j, q);
       result.cogging_spline(q, j) = solution(4 + 2 * n + j, q);
     }
+    direction.amplitude[q] = direction.identified() ? solution(p - 1, q) : 0.0;
   }
+  fit.direction = direction;
+  fit.physics_direction = physics_direction;
   CoilSetModel& physics = fit.physics;
   physics.a_N_per_A = physics_a;
   physics.b_N_per_A = physics_b;
@@ -118,13 +128,14 @@ CoilSetModel identify_spline_coil_set(const CoilSetDataset& training, const Coil
   // Fit on the training data alone for the held-out estimate; the model put
   // to use is fit on every sample, as the PGNN's is.
   SplineFit fit = fit_spline(training, pole_pitch_m, basis, options);
-  fill_report_costs(as_model(fit.model), as_model(fit.physics), training, validation, report);
+  fill_report_costs({as_model(fit.model), fit.direction}, {as_model(fit.physics), fit.physics_direction}, training,
+                    validation, report);
   report.refit_on_all_data = validation.size() > 0;
   CoilSetDataset all;
   if (report.refit_on_all_data) all = joined(training, validation);
   const CoilSetDataset& fitted = report.refit_on_all_data ? all : training;
   if (report.refit_on_all_data) fit = fit_spline(fitted, pole_pitch_m, basis, options);
-  fill_fit_costs(as_model(fit.model), as_model(fit.physics), fitted, report);
+  fill_fit_costs({as_model(fit.model), fit.direction}, {as_model(fit.physics), fit.physics_direction}, fitted, report);
   report.regularised_cost = report.model_fit.sum();
   report.best_restart = 0;
   report.iterations = 0;

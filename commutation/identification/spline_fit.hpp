@@ -15,6 +15,9 @@ struct SplineOptions {
   double knot_spacing_m = 0.0;  ///< 0: an eighth of the pole pitch
   double smoothing = 1e-6;      ///< weight of the squared second differences of the coefficients
   double regularisation = 0.1;  ///< Λ pulling A, B towards the physics-only fit
+  /// v_c of the direction-dependent force C·tanh(ẏ/v_c) identified beside
+  /// the model (Remark 5.1); 0, or data without velocities: none.
+  double direction_smoothing_m_per_s = 0.0;
 };
 
 /// Spline model of one coil set: K̂ = A cos + B sin + Σ_j b_j(y)·[C_a,j, C_b,j],

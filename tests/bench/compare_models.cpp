@@ -138,7 +138,8 @@ std::vector<CoilSetCost> costs_on_data(const ElectromagneticModel& model, const 
     const auto training = dataset.subset(split.training);
     const auto validation = dataset.subset(split.validation);
     CoilGain a_star, b_star;
-    fit_physics_only(training, pole_pitch_m, a_star, b_star);
+    DirectionForce direction;
+    fit_physics_only(training, pole_pitch_m, 0.0, a_star, b_star, direction);
     CoilSetCost c;
     c.training = coil_set_cost(model, static_cast<int>(l), training);
     c.validation = coil_set_cost(model, static_cast<int>(l), validation);

@@ -59,7 +59,8 @@ TEST_CASE("physics-only fit recovers a classical coil set exactly", "[identifica
   const auto truth = make_classical_model(kPolePitch, coil_sets);
   const auto data = synthetic_data(truth, 1, 0.0, 2000, rng);
   CoilGain a, b;
-  fit_physics_only(data, kPolePitch, a, b);
+  DirectionForce direction;
+  fit_physics_only(data, kPolePitch, 0.0, a, b, direction);
   CHECK((a - truth.coil_sets[1].a_N_per_A).cwiseAbs().maxCoeff() < 1e-9);
   CHECK((b - truth.coil_sets[1].b_N_per_A).cwiseAbs().maxCoeff() < 1e-9);
 }
@@ -85,11 +86,12 @@ TEST_CASE("eq. (31) minimises the regularised cost over the linear parameters", 
   const auto data = synthetic_data(truth, 0, 0.5, 1500, rng);
   const PositionNormalisation normalisation = truth.normalisation;
   CoilGain pa, pb;
-  fit_physics_only(data, kPolePitch, pa, pb);
+  DirectionForce direction;
+  fit_physics_only(data, kPolePitch, 0.0, pa, pb, direction);
   // Hidden layers from a different random model; output layers solved.
   auto other = test::random_pgnn_model(1, kPolePitch, rng);
   CoilSetModel coil_set = other.coil_sets[0];
-  solve_linear_parameters(data, kPolePitch, normalisation, pa, pb, 0.1, coil_set);
+  solve_linear_parameters(data, kPolePitch, normalisation, pa, pb, 0.1, coil_set, direction);
   ElectromagneticModel model = other;
   model.coil_sets[0] = coil_set;
   const auto regularised = [&](const ElectromagneticModel& m) {

@@ -58,9 +58,9 @@ void add_identify(CLI::App& app) {
     std::vector<data::CoilSetIdentification> reports;
     ProgressBar bar("identify " + options->model);
     const auto on_progress = [&](const data::IdentifyProgress& p) {
-      const double fraction = (p.coil_set - 1 + static_cast<double>(p.step) / p.steps) / p.coil_sets;
-      bar.update(fraction, "coil set " + std::to_string(p.coil_set) + "/" + std::to_string(p.coil_sets) + " step " +
-                               std::to_string(p.step) + "/" + std::to_string(p.steps));
+      bar.update(p.fraction(), p.what + ", coil set " + std::to_string(p.coil_set) + "/" +
+                                   std::to_string(p.coil_sets) + " step " + std::to_string(p.step) + "/" +
+                                   std::to_string(p.steps));
     };
     ModelFile file = data::identify_motor(data, motor, options->identify, reports, on_progress);
     bar.finish();

@@ -1,6 +1,8 @@
 #include "tools/commission/commission.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <limits>
 #include <cmath>
 #include <filesystem>
 #include <optional>
@@ -147,12 +149,48 @@ CommutationResult evaluate(const Recording& run, double period_s) {
   }
   const double n = static_cast<double>(run.samples.size());
   result.mse = control::commutation_error_mse(measured, desired, period_s);
+  if (!run.samples.empty() && run.true_wrench.size() == run.samples.size()) {
+    result.true_mse = control::commutation_error_mse(run.true_wrench, desired, period_s);
+    result.truth_known = true;
+  }
   result.tracking_mse_m2 = tracking / n;
   result.mean_current_square_A2 = current / n;
   result.damping_cycles = run.damping_cycles;
   result.force_limited_cycles = run.force_limited_cycles;
   result.evaluated = true;
   return result;
+}
+
+void recommend(Report& report) {
+  const auto score_of = [](const data::IdentifySummary& s) {
+    return s.trials.empty() ? std::numeric_limits<double>::infinity() : s.trials[s.chosen].validation_score;
+  };
+  const double pgnn = score_of(report.pgnn_selection);
+  const double spline = score_of(report.spline_selection);
+  // The physics-only fit scores 3 per coil set (its own ratio in each direction).
+  const double physics = 3.0 * report.coil_sets;
+  const auto name_of = [](const data::IdentifySummary& s) { return s.trials[s.chosen].capacity; };
+  char text[400];
+  if (!(std::min(pgnn, spline) < physics)) {
+    report.recommended = "classical";
+    std::snprintf(text, sizeof(text),
+                  "neither model predicts the held-out blocks better than the physics-only fit (validation score "
+                  "PGNN %.3g, spline %.3g, physics-only %.3g): keep the calibrated classical law",
+                  pgnn, spline, physics);
+  } else {
+    const bool spline_better = spline < pgnn;
+    report.recommended = spline_better ? "spline" : "pgnn";
+    std::snprintf(text, sizeof(text),
+                  "%s (%s) predicts the held-out blocks of the experiments best: validation score %.3g against "
+                  "%.3g for %s (%s) and %.3g for the physics-only fit (sum over coil sets and directions of the "
+                  "model's held-out MSE divided by the physics-only fit's)",
+                  spline_better ? "spline" : "PGNN",
+                  (spline_better ? name_of(report.spline_selection) : name_of(report.pgnn_selection)).c_str(),
+                  std::min(pgnn, spline), std::max(pgnn, spline), spline_better ? "PGNN" : "spline",
+                  (spline_better ? name_of(report.pgnn_selection) : name_of(report.spline_selection)).c_str(),
+                  physics);
+  }
+  report.recommendation = text;
 }
 
 Report run(const Options& options, const std::function<void(const Progress&)>& progress) {
@@ -274,15 +312,30 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     identify.kind = k == 0 ? ModelKind::kPgnn : ModelKind::kSpline;
     const std::string label = k == 0 ? "identify pgnn" : "identify spline";
     auto& reports = k == 0 ? report.pgnn : report.spline;
+    auto& selection = k == 0 ? report.pgnn_selection : report.spline_selection;
     models[k] = data::identify_motor(data, motor, identify, reports, [&](const data::IdentifyProgress& p) {
-      tell(label, (p.coil_set - 1 + static_cast<double>(p.step) / p.steps) / p.coil_sets,
-           "coil set " + std::to_string(p.coil_set));
-    });
+      tell(label, p.fraction(), p.what + ", coil set " + std::to_string(p.coil_set));
+    }, &selection);
+    for (auto& trial : selection.trials) {
+      trial.model.provenance.data_sha256 = data_hash;
+      trial.model.provenance.generator = "clm commission";
+    }
     models[k].provenance.data_sha256 = data_hash;
     models[k].provenance.generator = "clm commission";
     write_file_atomically(written(k == 0 ? "model-pgnn.yaml" : "model-spline.yaml"), format_model_file(models[k]));
     report.steps.push_back({label, seconds_since(step_start)});
   }
+  // The paper's PGNN (2/16 neurons) is always evaluated, for Table 2.
+  const data::CapacityTrial* paper_pgnn = nullptr;
+  for (const auto& trial : report.pgnn_selection.trials) {
+    if (trial.column_hidden == 2 && trial.cogging_hidden == 16) paper_pgnn = &trial;
+  }
+  const bool paper_is_chosen = paper_pgnn == nullptr ||
+                               paper_pgnn == &report.pgnn_selection.trials[report.pgnn_selection.chosen];
+  if (paper_pgnn != nullptr) {
+    write_file_atomically(written("model-pgnn-paper.yaml"), format_model_file(paper_pgnn->model));
+  }
+  recommend(report);
   if (const sim::SimulatedMotor* simulated = runner.simulated_motor()) {
     write_truth_comparison(dir, *simulated, models[0], models[1], motor);
     report.files.push_back("truth-comparison.csv");
@@ -290,7 +343,6 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
 
   // 3. Load the results into the daemon.
   runner.load_calibration(dir + "/calibration.yaml");
-  runner.load_model(servo::CommutationMode::kPgnn, dir + "/model-pgnn.yaml");
   runner.load_model(servo::CommutationMode::kSpline, dir + "/model-spline.yaml");
   // The feedforward runs' zero feedforward, as a file a running daemon can load.
   servod::FeedforwardFile no_feedforward;
@@ -299,21 +351,34 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   write_file_atomically(no_feedforward_path, servod::format_feedforward_file(no_feedforward));
 
   // 4. Per commutation: feedforward identification, then evaluation.
-  const std::pair<const char*, servo::CommutationMode> commutations[] = {
-      {"original", servo::CommutationMode::kOriginal}, {"classical", servo::CommutationMode::kClassical},
-      {"pgnn", servo::CommutationMode::kPgnn},         {"spline", servo::CommutationMode::kSpline},
-      {"oracle", servo::CommutationMode::kOracle}};
+  // The daemon has one PGNN slot: the paper's model is evaluated in it
+  // first, then the chosen one, which stays loaded.
+  struct Commutation {
+    const char* name;
+    servo::CommutationMode mode;
+    std::string model;  // loaded into the mode's slot first, when not empty
+  };
+  const std::vector<Commutation> commutations = {
+      {"original", servo::CommutationMode::kOriginal, ""},
+      {"classical", servo::CommutationMode::kClassical, ""},
+      {"pgnn-paper", servo::CommutationMode::kPgnn, paper_is_chosen ? "" : dir + "/model-pgnn-paper.yaml"},
+      {"pgnn", servo::CommutationMode::kPgnn, dir + "/model-pgnn.yaml"},
+      {"spline", servo::CommutationMode::kSpline, ""},
+      {"oracle", servo::CommutationMode::kOracle, ""}};
+  const auto count = static_cast<double>(commutations.size());
   int index = 0;
-  for (const auto& [name, mode] : commutations) {
+  for (const auto& [name, mode, model] : commutations) {
     step_start = Clock::now();
-    tell("evaluation", index / 5.0, name);
+    tell("evaluation", index / count, name);
     ++index;
     if (mode == servo::CommutationMode::kOracle && !runner.oracle_unavailable_reason().empty()) {
       const std::string reason = runner.oracle_unavailable_reason();
-      report.results.push_back({name, false, reason, {}, {}, 0, 0, 0, 0});
-      if (validation_program) report.validation.push_back({name, false, reason, {}, {}, 0, 0, 0, 0});
+      report.results.push_back({name, false, reason});
+      if (validation_program) report.validation.push_back({name, false, reason});
       continue;
     }
+    if (std::string(name) == "pgnn-paper" && paper_is_chosen) continue;  // the same model as "pgnn": copied below
+    if (!model.empty()) runner.load_model(mode, model);
     runner.set_commutation(mode);
     runner.load_feedforward(no_feedforward.parameters, no_feedforward_path);
     open_log(std::string("feedforward-data-") + name + ".lcm");
@@ -350,6 +415,16 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     report.steps.push_back({std::string("evaluation ") + name, seconds_since(step_start)});
   }
   tell("evaluation", 1.0, "done");
+  // With the paper's size chosen, "pgnn-paper" is that same model and run.
+  const auto copy_chosen = [&](std::vector<CommutationResult>& results) {
+    const auto chosen = std::find_if(results.begin(), results.end(), [](const auto& r) { return r.name == "pgnn"; });
+    if (!paper_is_chosen || chosen == results.end()) return;
+    CommutationResult paper = *chosen;
+    paper.name = "pgnn-paper";
+    results.insert(chosen, paper);
+  };
+  copy_chosen(report.results);
+  copy_chosen(report.validation);
   report.live = runner.live_summary();
   for (const auto& note : runner.notes()) report.notes.push_back(note);
   report.total_wall_s = seconds_since(start);

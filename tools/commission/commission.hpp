@@ -38,7 +38,12 @@ struct CommutationResult {
   bool evaluated = false;
   std::string skipped_reason;
   control::FeedforwardParameters feedforward{};
-  control::DirectionMse mse{};
+  control::DirectionMse mse{};  ///< measured wrench − F*
+  /// The simulator's true electromagnetic wrench, without the
+  /// direction-dependent force and the sensor's bias and noise, − F*: the
+  /// error the commutation itself makes. Only with a simulator in this process.
+  bool truth_known = false;
+  control::DirectionMse true_mse{};
   double tracking_mse_m2 = 0.0;
   double mean_current_square_A2 = 0.0;
   std::int64_t damping_cycles = 0;
@@ -57,7 +62,15 @@ struct Report {
   CalibrationFile calibration_robust;
   std::vector<data::CoilSetIdentification> pgnn;
   std::vector<data::CoilSetIdentification> spline;
-  std::vector<CommutationResult> results;  ///< original, classical, pgnn, spline, oracle
+  /// Nuisance terms and the capacity trials of each class (docs/commutation.md).
+  data::IdentifySummary pgnn_selection;
+  data::IdentifySummary spline_selection;
+  /// The law recommended for service ("pgnn", "spline" or "classical") and why.
+  std::string recommended;
+  std::string recommendation;
+  /// original, classical, pgnn-paper (the paper's 2/16 PGNN), pgnn (capacity
+  /// chosen by validation), spline, oracle
+  std::vector<CommutationResult> results;
   std::vector<CommutationResult> validation;  ///< the same on the held-out trajectory
   std::string validation_program;
   std::vector<StepTime> steps;
@@ -91,6 +104,10 @@ std::string report_markdown(const Report& report);
 /// Feedforward (40) identified from a run without feedforward: the reference
 /// and the force command F* of every sample (control::identify_feedforward).
 control::FeedforwardParameters identify_ff(const Recording& run);
+
+/// Sets report.recommended and report.recommendation from the validation
+/// scores of the chosen PGNN and spline (docs/commutation.md, "Capacity").
+void recommend(Report& report);
 
 /// Commutation MSE (filtered and unfiltered, y/x/z), tracking MSE and mean
 /// current square of an evaluation run.

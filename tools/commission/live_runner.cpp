@@ -228,7 +228,8 @@ Recording LcmRunner::attempt(const servod::ProgramFile& program, const std::stri
   wait_cycles(20, "the end of '" + name + "'");  // the status and events that trail the last cycle
   messages = client_.stop_capture();
 
-  Recording recording{name, {}, {}, 0, 0};  // no simulator truth over LCM
+  Recording recording;  // no simulator truth over LCM
+  recording.name = name;
   std::vector<std::int64_t> cycles;
   states = 0;
   for (const auto& message : messages) {

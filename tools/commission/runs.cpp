@@ -9,16 +9,24 @@
 namespace clm::commission {
 
 void Recorder::start(const std::string& name) {
-  recording_ = Recording{name, {}, {}, 0, 0};
+  recording_ = Recording{};
+  recording_.name = name;
   recording_.samples.reserve(40000);
-  if (truth_ != nullptr) recording_.y_true_m.reserve(40000);
+  if (truth_ != nullptr) {
+    recording_.y_true_m.reserve(40000);
+    recording_.true_wrench.reserve(40000);
+  }
   active_ = true;
 }
 
 void Recorder::on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming& timing) noexcept {
   const auto& record = cycle.record();
   if (!active_ || !record.program_running || record.state != servo::ServoState::kEnabled) return;
-  if (truth_ != nullptr) recording_.y_true_m.push_back(truth_->truth().position_m);
+  if (truth_ != nullptr) {
+    const sim::TruthState truth = truth_->truth();
+    recording_.y_true_m.push_back(truth.position_m);
+    recording_.true_wrench.push_back(truth.wrench - truth_->direction_dependent(truth.velocity_m_per_s));
+  }
   if (record.damping_engaged) ++recording_.damping_cycles;
   if (record.force_limited) ++recording_.force_limited_cycles;
   recording_.samples.push_back(record);  // offline tool: the vectors were reserved

@@ -23,6 +23,11 @@ struct Recording {
   /// y_true_m[k]: the simulated motor's true position at samples[k] [m];
   /// empty without a simulator in this process (live runs).
   std::vector<double> y_true_m;
+  /// true_wrench[k]: the electromagnetic wrench the simulated motor produced
+  /// at samples[k] without the direction-dependent force and the sensor's
+  /// bias and noise, i.e. what the commutation acts on [N, N, N·m]; empty
+  /// without a simulator in this process.
+  std::vector<Wrench> true_wrench;
   std::int64_t damping_cycles = 0;
   std::int64_t force_limited_cycles = 0;
 };

@@ -1,10 +1,12 @@
 #include "tools/data/commissioning_steps.hpp"
 
 #include <ctime>
+#include <limits>
 #include <stdexcept>
 
 #include "commutation/calibration.hpp"
 #include "commutation/identification/linear_parameters.hpp"
+#include "commutation/identification/nuisance.hpp"
 
 namespace clm::data {
 
@@ -42,13 +44,36 @@ CalibrationFile calibrate_motor(const ExperimentData& data, const MotorDescripti
   return file;
 }
 
+namespace {
+
+// One coil set's data, split into training and held-out blocks.
+struct SplitData {
+  int coil_set = 0;  // 1-based
+  identification::CoilSetDataset training, validation;
+};
+
+// Σ over coil sets and directions of model / physics-only MSE on the
+// held-out blocks (on the training data when nothing is held out).
+double selection_score(const std::vector<CoilSetIdentification>& reports) {
+  double score = 0.0;
+  for (const auto& entry : reports) {
+    const auto& r = entry.report;
+    const bool held_out = entry.validation_samples > 0;
+    for (int q = 0; q < 3; ++q) {
+      const double model = held_out ? r.model_validation[q] : r.model_training[q];
+      const double physics = held_out ? r.physics_validation[q] : r.physics_training[q];
+      if (physics > 0.0) score += model / physics;
+    }
+  }
+  return score;
+}
+
+}  // namespace
+
 ModelFile identify_motor(const ExperimentData& data, const MotorDescription& motor, const IdentifyOptions& options,
                          std::vector<CoilSetIdentification>& reports,
-                         const std::function<void(const IdentifyProgress&)>& progress) {
-  ModelFile file;
-  auto& model = file.model;
-  model.kind = options.kind;
-  model.pole_pitch_m = motor.pole_pitch_m;
+                         const std::function<void(const IdentifyProgress&)>& progress, IdentifySummary* summary_out) {
+  IdentifySummary summary;
   // One normalisation and one knot grid for the whole model, from all positions.
   Eigen::Index total = 0;
   for (const auto& experiment : data.coil_sets) total += experiment.dataset.size();
@@ -58,46 +83,147 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
     all_positions.segment(at, experiment.dataset.size()) = experiment.dataset.position_m;
     at += experiment.dataset.size();
   }
-  model.normalisation = identification::normalisation_for(all_positions);
-  model.spline_basis = identification::spline_basis_for(all_positions, motor.pole_pitch_m, options.spline);
+  const PositionNormalisation normalisation = identification::normalisation_for(all_positions);
 
-  reports.clear();
-  const int count = static_cast<int>(data.coil_sets.size());
-  for (const auto& experiment : data.coil_sets) {
-    const auto split = identification::split_contiguous_blocks(experiment.dataset, options.validation_fraction);
-    const auto training = experiment.dataset.subset(split.training);
-    const auto validation = experiment.dataset.subset(split.validation);
-    CoilSetIdentification entry;
-    entry.training_samples = split.training.size();
-    entry.validation_samples = split.validation.size();
-    CoilSetModel part;
-    if (options.kind == ModelKind::kPgnn) {
-      identification::PgnnOptions pgnn = options.pgnn;
-      pgnn.seed = options.pgnn.seed + static_cast<std::uint64_t>(experiment.coil_set) * 1000;
-      const auto on_step = [&](const identification::PgnnProgress& p) {
-        if (progress) progress({experiment.coil_set, count, p.restart + 1, p.restarts + 1});
-      };
-      part = identification::identify_pgnn_coil_set(training, validation, motor.pole_pitch_m, model.normalisation,
-                                                    pgnn, entry.report, on_step);
-    } else {
-      part = identification::identify_spline_coil_set(training, validation, motor.pole_pitch_m, model.spline_basis,
-                                                      options.spline, entry.report);
-      if (progress) progress({experiment.coil_set, count, 1, 1});
+  // Nuisance terms: the sensor's F_y offset from the mechanics, removed from
+  // the data; the velocities that carry the direction-dependent force.
+  if (options.nuisance) {
+    std::vector<identification::MotionRecord> records;
+    for (const auto& experiment : data.coil_sets) records.push_back(experiment.motion);
+    try {
+      summary.sensor_offset = identification::fit_driving_sensor_offset(records);
+      summary.nuisance = true;
+    } catch (const std::invalid_argument& e) {
+      summary.nuisance_skipped = e.what();
     }
-    model.coil_sets.push_back(std::move(part));
-    CoilSetCosts costs;
-    for (std::size_t q = 0; q < 3; ++q) {
-      const auto i = static_cast<Eigen::Index>(q);
-      costs.physics_training[q] = entry.report.physics_training[i];
-      costs.model_training[q] = entry.report.model_training[i];
-      costs.physics_validation[q] = entry.report.physics_validation[i];
-      costs.model_validation[q] = entry.report.model_validation[i];
-    }
-    file.provenance.costs.push_back(costs);
-    reports.push_back(entry);
   }
-  model.validate();
-  file.provenance.created_utc = utc_timestamp();
+  std::vector<SplitData> splits;
+  for (const auto& experiment : data.coil_sets) {
+    identification::CoilSetDataset dataset = experiment.dataset;
+    if (summary.nuisance) {
+      dataset.wrench.row(0).array() -= summary.sensor_offset.offset_N;
+    } else {
+      dataset.velocity_m_per_s.resize(0);
+    }
+    const auto split = identification::split_contiguous_blocks(dataset, options.validation_fraction);
+    splits.push_back({experiment.coil_set, dataset.subset(split.training), dataset.subset(split.validation)});
+  }
+
+  // Every trial fits all coil sets with the given class options.
+  const int count = static_cast<int>(data.coil_sets.size());
+  const bool select = options.select_capacity && options.validation_fraction > 0.0;
+  const int smoothing_trials = summary.nuisance ? static_cast<int>(std::size(identification::kDirectionSmoothingGrid_m_per_s)) : 0;
+  const int capacity_trials = !select ? 1
+                              : options.kind == ModelKind::kPgnn ? static_cast<int>(kPgnnCapacityGrid.size())
+                                                                 : static_cast<int>(kSplineKnotsPerPolePitch.size());
+  const int trials = smoothing_trials + capacity_trials;
+  int trial = 0;
+  const auto fit_all = [&](ModelKind kind, const identification::PgnnOptions& pgnn,
+                           const identification::SplineOptions& spline, const std::string& what) {
+    ++trial;
+    CapacityTrial result;
+    result.capacity = what;
+    ModelFile& file = result.model;
+    auto& model = file.model;
+    model.kind = kind;
+    model.pole_pitch_m = motor.pole_pitch_m;
+    model.normalisation = normalisation;
+    model.spline_basis = identification::spline_basis_for(all_positions, motor.pole_pitch_m, spline);
+    auto& nuisance = file.provenance.nuisance;
+    nuisance.identified = summary.nuisance;
+    nuisance.sensor_offset_y_N = summary.sensor_offset.offset_N;
+    nuisance.direction_smoothing_m_per_s = kind == ModelKind::kPgnn ? pgnn.direction_smoothing_m_per_s
+                                                                    : spline.direction_smoothing_m_per_s;
+    for (const auto& part : splits) {
+      CoilSetIdentification entry;
+      entry.training_samples = static_cast<std::size_t>(part.training.size());
+      entry.validation_samples = static_cast<std::size_t>(part.validation.size());
+      CoilSetModel coil_set;
+      if (kind == ModelKind::kPgnn) {
+        identification::PgnnOptions seeded = pgnn;
+        seeded.seed = pgnn.seed + static_cast<std::uint64_t>(part.coil_set) * 1000;
+        const auto on_step = [&](const identification::PgnnProgress& p) {
+          if (progress) progress({part.coil_set, count, p.restart + 1, p.restarts + 1, trial, trials, what});
+        };
+        coil_set = identification::identify_pgnn_coil_set(part.training, part.validation, motor.pole_pitch_m,
+                                                          normalisation, seeded, entry.report, on_step);
+      } else {
+        coil_set = identification::identify_spline_coil_set(part.training, part.validation, motor.pole_pitch_m,
+                                                            model.spline_basis, spline, entry.report);
+        if (progress) progress({part.coil_set, count, 1, 1, trial, trials, what});
+      }
+      model.coil_sets.push_back(std::move(coil_set));
+      CoilSetCosts costs;
+      for (std::size_t q = 0; q < 3; ++q) {
+        const auto i = static_cast<Eigen::Index>(q);
+        costs.physics_training[q] = entry.report.physics_training[i];
+        costs.model_training[q] = entry.report.model_training[i];
+        costs.physics_validation[q] = entry.report.physics_validation[i];
+        costs.model_validation[q] = entry.report.model_validation[i];
+      }
+      file.provenance.costs.push_back(costs);
+      const auto& c = entry.report.direction_force.amplitude;
+      nuisance.direction_force_N_N_Nm.push_back({c[0], c[1], c[2]});
+      result.coil_sets.push_back(entry);
+    }
+    model.validate();
+    file.provenance.created_utc = utc_timestamp();
+    result.validation_score = selection_score(result.coil_sets);
+    return result;
+  };
+
+  // v_c of the direction-dependent force: a property of the motor, chosen
+  // once with the spline class at the given spacing (linear, so cheap).
+  identification::PgnnOptions pgnn = options.pgnn;
+  identification::SplineOptions spline = options.spline;
+  if (summary.nuisance) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const double smoothing : identification::kDirectionSmoothingGrid_m_per_s) {
+      identification::SplineOptions trial_spline = options.spline;
+      trial_spline.direction_smoothing_m_per_s = smoothing;
+      const double score = fit_all(ModelKind::kSpline, pgnn, trial_spline, "v_c " + shortest_double(smoothing) + " m/s")
+                               .validation_score;
+      summary.direction_smoothing_scores.emplace_back(smoothing, score);
+      if (score < best) {
+        best = score;
+        pgnn.direction_smoothing_m_per_s = spline.direction_smoothing_m_per_s = smoothing;
+      }
+    }
+  }
+
+  // Capacity: the grid, or the options as given.
+  if (options.kind == ModelKind::kPgnn) {
+    const auto sizes = select ? std::vector<std::array<int, 2>>(kPgnnCapacityGrid.begin(), kPgnnCapacityGrid.end())
+                              : std::vector<std::array<int, 2>>{{options.pgnn.column_hidden, options.pgnn.cogging_hidden}};
+    for (const auto& [column, cogging] : sizes) {
+      pgnn.column_hidden = column;
+      pgnn.cogging_hidden = cogging;
+      summary.trials.push_back(fit_all(ModelKind::kPgnn, pgnn, spline,
+                                       "pgnn " + std::to_string(column) + "/" + std::to_string(cogging)));
+      summary.trials.back().column_hidden = column;
+      summary.trials.back().cogging_hidden = cogging;
+    }
+  } else {
+    std::vector<double> spacings;
+    if (select) {
+      for (const int per_pitch : kSplineKnotsPerPolePitch) spacings.push_back(motor.pole_pitch_m / per_pitch);
+    } else {
+      spacings.push_back(options.spline.knot_spacing_m > 0.0 ? options.spline.knot_spacing_m : motor.pole_pitch_m / 8.0);
+    }
+    for (const double spacing : spacings) {
+      spline.knot_spacing_m = spacing;
+      summary.trials.push_back(fit_all(ModelKind::kSpline, pgnn, spline,
+                                       "spline knots " + shortest_double(spacing * 1e3) + " mm"));
+      summary.trials.back().knot_spacing_m = spacing;
+    }
+  }
+  for (std::size_t k = 1; k < summary.trials.size(); ++k) {
+    if (summary.trials[k].validation_score < summary.trials[summary.chosen].validation_score) summary.chosen = k;
+  }
+  const CapacityTrial& chosen = summary.trials[summary.chosen];
+  reports = chosen.coil_sets;
+  ModelFile file = chosen.model;
+  if (summary_out != nullptr) *summary_out = std::move(summary);
   return file;
 }
 

@@ -3,6 +3,8 @@
 // `clm calibrate`, `clm identify` and `clm commission` share. No file I/O;
 // progress is reported through a callback.
 
+#include <algorithm>
+#include <array>
 #include <functional>
 #include <string>
 #include <vector>
@@ -26,13 +28,34 @@ struct IdentifyOptions {
   identification::PgnnOptions pgnn;
   identification::SplineOptions spline;
   double validation_fraction = 0.2;
+  /// Identify the nuisance terms beside the model: the sensor's F_y offset
+  /// from the mechanics and the direction-dependent force C·tanh(ẏ/v_c)
+  /// (docs/commutation.md, "Nuisance terms"). false: the paper's fit.
+  bool nuisance = true;
+  /// Choose the capacity (PGNN hidden sizes, spline knot spacing) from the
+  /// grid below by validation error; false: pgnn's sizes and spline's
+  /// spacing as given.
+  bool select_capacity = true;
 };
+
+/// The capacities tried: PGNN [column, cogging] neurons (the paper's 2/16
+/// first) and spline knots per pole pitch.
+inline constexpr std::array<std::array<int, 2>, 4> kPgnnCapacityGrid{{{2, 16}, {4, 16}, {4, 32}, {8, 32}}};
+inline constexpr std::array<int, 5> kSplineKnotsPerPolePitch{4, 6, 8, 12, 16};
 
 struct IdentifyProgress {
   int coil_set = 0;       ///< 1-based
   int coil_sets = 0;
   int step = 0;           ///< restarts done (PGNN), then one polishing step
   int steps = 0;
+  int trial = 1;          ///< 1-based: which fit of the selection (v_c, then capacities)
+  int trials = 1;
+  std::string what;       ///< what the trial fits, e.g. "pgnn 4/32"
+  /// Share of the whole identification done, in [0, 1].
+  double fraction() const {
+    return (trial - 1 + (coil_set - 1 + static_cast<double>(step) / std::max(steps, 1)) / std::max(coil_sets, 1)) /
+           std::max(trials, 1);
+  }
 };
 
 struct CoilSetIdentification {
@@ -41,11 +64,37 @@ struct CoilSetIdentification {
   std::size_t validation_samples = 0;
 };
 
-/// Algorithm 2 (or the spline model) for every coil set; fills the model
-/// file's costs. `reports` receives one entry per coil set.
+/// One capacity tried, fit on training blocks and scored on the held-out ones.
+struct CapacityTrial {
+  std::string capacity;            ///< "2/16" neurons, or "d_m/8" knot spacing
+  int column_hidden = 0, cogging_hidden = 0;  ///< PGNN
+  double knot_spacing_m = 0.0;     ///< spline
+  /// Σ over coil sets and directions of model / physics-only validation MSE
+  /// (unit-free; lower is better).
+  double validation_score = 0.0;
+  ModelFile model;
+  std::vector<CoilSetIdentification> coil_sets;
+};
+
+/// What identify_motor found beside the model.
+struct IdentifySummary {
+  bool nuisance = false;                  ///< nuisance terms identified
+  std::string nuisance_skipped;           ///< why not, when asked for
+  identification::DrivingOffsetFit sensor_offset;
+  /// v_c tried and the spline validation score of each; the lowest is used.
+  std::vector<std::pair<double, double>> direction_smoothing_scores;
+  std::vector<CapacityTrial> trials;      ///< in grid order; one entry without selection
+  std::size_t chosen = 0;                 ///< index into trials
+};
+
+/// Algorithm 2 (or the spline model) for every coil set, with the nuisance
+/// terms and the capacity chosen by validation as `options` says; fills the
+/// model file's costs and nuisance record. `reports` receives one entry per
+/// coil set of the model returned; `summary` (optional) every trial.
 ModelFile identify_motor(const ExperimentData& data, const MotorDescription& motor, const IdentifyOptions& options,
                          std::vector<CoilSetIdentification>& reports,
-                         const std::function<void(const IdentifyProgress&)>& progress = {});
+                         const std::function<void(const IdentifyProgress&)>& progress = {},
+                         IdentifySummary* summary = nullptr);
 
 /// Current UTC time as 2026-11-21T05:09:41Z.
 std::string utc_timestamp();

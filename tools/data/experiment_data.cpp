@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "commutation/classical.hpp"
+#include "commutation/identification/nuisance.hpp"
 
 namespace clm::data {
 
@@ -16,7 +17,7 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
   const auto fy = table.numbers("Fy_N");
   const auto fx = table.numbers("Fx_N");
   const auto tz = table.numbers("Tz_Nm");
-  table.numbers("t_s");  // required and must be numeric, though the fits do not use time
+  const auto time = table.numbers("t_s");
   const bool measured = table.has("ia_A") || table.has("ib_A");
   std::vector<double> ia, ib;
   if (measured) {
@@ -81,9 +82,16 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
     set.currents_A.resize(2, n);
     set.wrench.resize(3, n);
     set.group.resize(rows[l].size());
+    auto& motion = experiment.motion;
+    motion.time_s.resize(n);
+    motion.position_m.resize(n);
+    motion.force_N.resize(n);
     for (Eigen::Index k = 0; k < n; ++k) {
       const std::size_t r = rows[l][static_cast<std::size_t>(k)];
       const int group = row_group[r];
+      motion.time_s[k] = time[r];
+      motion.position_m[k] = position[r];
+      motion.force_N[k] = fy[r];
       set.position_m[k] = position[r];
       if (measured) {
         set.currents_A.col(k) << ia[r], ib[r];
@@ -94,6 +102,9 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
       set.wrench.col(k) << fy[r], fx[r], tz[r];
       set.group[static_cast<std::size_t>(k)] = group;
     }
+    // Rows are in time order within each run; the gap between two runs
+    // starts a new stretch of the differences.
+    set.velocity_m_per_s = identification::differentiate(motion.time_s, motion.position_m);
   }
   return data;
 }

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "commutation/identification/dataset.hpp"
+#include "commutation/identification/nuisance.hpp"
 #include "commutation/model_file.hpp"
 #include "tools/data/csv_table.hpp"
 
@@ -19,8 +20,11 @@ struct CoilSetExperiment {
   /// Per offset group: the columns Algorithm 1 needs.
   std::array<std::vector<double>, 2> position_m, magnitude_N, driving_force_N;
   /// Both groups with currents (measured ia_A/ib_A when present, else
-  /// reconstructed through the drive's fixed commutation, eq. 19).
+  /// reconstructed through the drive's fixed commutation, eq. 19) and the
+  /// velocity from t_s and y_m.
   identification::CoilSetDataset dataset;
+  /// The same rows as times, positions and F_y, for the sensor-offset fit.
+  identification::MotionRecord motion;
 };
 
 struct ExperimentData {
