@@ -295,6 +295,19 @@ double variable_projection(const CoilSetDataset& data, const PgnnFeatures& f, co
   return summary.final_cost;
 }
 
+// The physics-only fit as a PGNN of `layout` whose networks are zero but
+// for the cogging network's output bias, the fit's constant force.
+CoilSetModel physics_coil_set(const PhysicsFit& fit, const PgnnLayout& layout) {
+  CoilSetModel physics;
+  physics.a_N_per_A = fit.a_N_per_A;
+  physics.b_N_per_A = fit.b_N_per_A;
+  physics.column_a = Network::zeros({layout.column_hidden});
+  physics.column_b = Network::zeros({layout.column_hidden});
+  physics.cogging = Network::zeros({layout.cogging_hidden});
+  physics.cogging.layers[1].biases = fit.constant;
+  return physics;
+}
+
 CoilSetDataset decimate(const CoilSetDataset& data, int every) {
   std::vector<Eigen::Index> indices;
   for (Eigen::Index i = 0; i < data.size(); i += std::max(1, every)) indices.push_back(i);
@@ -318,10 +331,9 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
     throw std::invalid_argument("direction smoothing velocity must be non-negative");
   }
 
-  CoilGain physics_a, physics_b;
-  DirectionForce physics_direction;
-  fit_physics_only(training, pole_pitch_m, options.direction_smoothing_m_per_s, physics_a, physics_b,
-                   physics_direction);
+  const PhysicsFit physics_fit = fit_physics_only(training, pole_pitch_m, options.direction_smoothing_m_per_s);
+  const CoilGain& physics_a = physics_fit.a_N_per_A;
+  const CoilGain& physics_b = physics_fit.b_N_per_A;
   // The shape of the direction-dependent force fitted beside the model; its
   // amplitude comes out of eq. (31) with the other linear parameters.
   const DirectionForce shape = direction_shape(training, options.direction_smoothing_m_per_s);
@@ -399,48 +411,62 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
                best_linear);
   if (progress) progress({options.restarts, options.restarts, final_cost});
 
-  CoilSetModel physics;
-  physics.a_N_per_A = physics_a;
-  physics.b_N_per_A = physics_b;
-  physics.column_a = Network::zeros({layout.column_hidden});
-  physics.column_b = Network::zeros({layout.column_hidden});
-  physics.cogging = Network::zeros({layout.cogging_hidden});
-  const auto physics_model = single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, physics);
+  const auto physics_model =
+      single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, physics_coil_set(physics_fit, layout));
   // Training and validation costs are those of the model fit without the
   // validation blocks: the held-out estimate of how it predicts.
   const Candidate trained = model_of(best_nonlinear, best_linear);
-  fill_report_costs({trained.model, trained.direction}, {physics_model, physics_direction}, training, validation,
+  fill_report_costs({trained.model, trained.direction}, {physics_model, physics_fit.direction}, training, validation,
                     report);
+  CoilSetModel result;
+  DirectionForce direction = shape;
+  unpack_parameters(layout, best_nonlinear.data(), best_linear, result, direction);
+  static const CoilSetDataset kNone;
+  return refit_pgnn_coil_set(result, direction, training, options.refit_on_all_data ? validation : kNone, pole_pitch_m,
+                             normalisation, options, report);
+}
 
+CoilSetModel refit_pgnn_coil_set(const CoilSetModel& trained, const DirectionForce& trained_direction,
+                                 const CoilSetDataset& training, const CoilSetDataset& validation, double pole_pitch_m,
+                                 const PositionNormalisation& normalisation, const PgnnOptions& options,
+                                 IdentificationReport& report) {
+  const PgnnLayout layout{static_cast<int>(trained.column_a.layers[0].biases.size()),
+                          static_cast<int>(trained.cogging.layers[0].biases.size())};
+  const auto solve = options.solver == PgnnSolver::kVariableProjection ? variable_projection : levenberg_marquardt;
+  std::vector<double> nonlinear;
+  Eigen::Matrix<double, Eigen::Dynamic, 3> linear;
+  pack_parameters(layout, trained, trained_direction, nonlinear, linear);
   // The model put to use has seen every sample: with held-out data, the
   // chosen parameters are polished once more on training and validation
   // together, so that no stretch of the stroke is left to extrapolation.
+  const bool held_out = validation.size() > 0;
   CoilSetDataset all;
   if (held_out) all = joined(training, validation);
   const CoilSetDataset& fitted = held_out ? all : training;
+  const PhysicsFit physics_fit = fit_physics_only(fitted, pole_pitch_m, options.direction_smoothing_m_per_s);
+  const CoilGain& physics_a = physics_fit.a_N_per_A;
+  const CoilGain& physics_b = physics_fit.b_N_per_A;
+  const DirectionForce shape = trained_direction;
   if (held_out) {
-    fit_physics_only(all, pole_pitch_m, options.direction_smoothing_m_per_s, physics_a, physics_b, physics_direction);
     const CoilSetDataset all_polish = decimate(all, options.final_decimation);
     solve(all_polish, features_of(all_polish, pole_pitch_m, normalisation, shape), layout, physics_a, physics_b,
-          options.regularisation, options.final_iterations, options.threads, best_nonlinear, best_linear,
-          report.iterations);
-    ridge_linear(all, features_of(all, pole_pitch_m, normalisation, shape), layout, best_nonlinear.data(), physics_a,
-                 physics_b, options.regularisation, best_linear);
-    physics.a_N_per_A = physics_a;
-    physics.b_N_per_A = physics_b;
+          options.regularisation, options.final_iterations, options.threads, nonlinear, linear, report.iterations);
+    ridge_linear(all, features_of(all, pole_pitch_m, normalisation, shape), layout, nonlinear.data(), physics_a,
+                 physics_b, options.regularisation, linear);
   }
   report.refit_on_all_data = held_out;
   CoilSetModel result;
   DirectionForce direction = shape;
-  unpack_parameters(layout, best_nonlinear.data(), best_linear, result, direction);
-  const auto result_model = single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, result);
-  fill_fit_costs({result_model, direction},
-                 {single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, physics), physics_direction},
+  unpack_parameters(layout, nonlinear.data(), linear, result, direction);
+  fill_fit_costs({single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, result), direction},
+                 {single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {},
+                                        physics_coil_set(physics_fit, layout)),
+                  physics_fit.direction},
                  fitted, report);
-  Eigen::Vector4d deviation;
   double prior = 0.0;
   for (int q = 0; q < 3; ++q) {
-    deviation = physics_target(result.a_N_per_A, result.b_N_per_A, q) - physics_target(physics_a, physics_b, q);
+    const Eigen::Vector4d deviation =
+        physics_target(result.a_N_per_A, result.b_N_per_A, q) - physics_target(physics_a, physics_b, q);
     prior += options.regularisation * options.regularisation * deviation.squaredNorm();
   }
   report.regularised_cost = report.model_fit.sum() + prior;

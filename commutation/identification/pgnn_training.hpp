@@ -36,6 +36,9 @@ struct PgnnOptions {
   /// v_c of the direction-dependent force C·tanh(ẏ/v_c) identified beside
   /// the model (Remark 5.1); 0, or data without velocities: none.
   double direction_smoothing_m_per_s = 0.0;
+  /// With held-out data, polish the chosen model once more on all samples
+  /// (refit_pgnn_coil_set); false leaves it fit on the training blocks.
+  bool refit_on_all_data = true;
   PgnnSolver solver = PgnnSolver::kVariableProjection;
 };
 
@@ -55,5 +58,15 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
                                     double pole_pitch_m, const PositionNormalisation& normalisation,
                                     const PgnnOptions& options, IdentificationReport& report,
                                     const std::function<void(const PgnnProgress&)>& progress = {});
+
+/// The model put to use: `trained` (and the direction-dependent force fitted
+/// beside it) polished once more on training and validation together, then
+/// eq. (31) on all of them; with empty `validation`, `trained` as it is.
+/// Fills refit_on_all_data, model_fit, physics_fit, proposition_holds,
+/// direction_force and regularised_cost of `report`.
+CoilSetModel refit_pgnn_coil_set(const CoilSetModel& trained, const DirectionForce& trained_direction,
+                                 const CoilSetDataset& training, const CoilSetDataset& validation, double pole_pitch_m,
+                                 const PositionNormalisation& normalisation, const PgnnOptions& options,
+                                 IdentificationReport& report);
 
 }  // namespace clm::identification

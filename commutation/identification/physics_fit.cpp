@@ -14,20 +14,21 @@ DirectionForce direction_shape(const CoilSetDataset& data, double direction_smoo
   return shape;
 }
 
-void fit_physics_only(const CoilSetDataset& data, double pole_pitch_m, double direction_smoothing_m_per_s, CoilGain& a,
-                      CoilGain& b, DirectionForce& direction) {
+PhysicsFit fit_physics_only(const CoilSetDataset& data, double pole_pitch_m, double direction_smoothing_m_per_s) {
   check_dataset(data, "physics-only fit:");
-  direction = direction_shape(data, direction_smoothing_m_per_s);
-  const int p = direction.identified() ? 5 : 4;
-  Eigen::Matrix<double, 5, 5> gram = Eigen::Matrix<double, 5, 5>::Zero();
-  Eigen::Matrix<double, 5, 3> rhs = Eigen::Matrix<double, 5, 3>::Zero();
+  PhysicsFit fit;
+  fit.direction = direction_shape(data, direction_smoothing_m_per_s);
+  // Columns [c·i_a, c·i_b, s·i_a, s·i_b, 1, tanh(ẏ/v_c)]; the last only with a direction term.
+  const int p = fit.direction.identified() ? 6 : 5;
+  Eigen::Matrix<double, 6, 6> gram = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 3> rhs = Eigen::Matrix<double, 6, 3>::Zero();
   for (Eigen::Index t = 0; t < data.size(); ++t) {
     const double theta = electrical_angle_rad(data.position_m[t], pole_pitch_m);
     const double c = std::cos(theta), s = std::sin(theta);
     const double ia = data.currents_A(0, t), ib = data.currents_A(1, t);
-    const double d = direction.identified() ? direction.feature(data.velocity_m_per_s[t]) : 0.0;
-    Eigen::Matrix<double, 5, 1> m;
-    m << c * ia, c * ib, s * ia, s * ib, d;
+    const double d = fit.direction.identified() ? fit.direction.feature(data.velocity_m_per_s[t]) : 0.0;
+    Eigen::Matrix<double, 6, 1> m;
+    m << c * ia, c * ib, s * ia, s * ib, 1.0, d;
     gram.noalias() += m * m.transpose();
     rhs.noalias() += m * data.wrench.col(t).transpose();
   }
@@ -38,12 +39,14 @@ void fit_physics_only(const CoilSetDataset& data, double pole_pitch_m, double di
   }
   const Eigen::MatrixXd solution = solver.solve(rhs.topRows(p));
   for (int q = 0; q < 3; ++q) {
-    direction.amplitude[q] = p == 5 ? solution(4, q) : 0.0;
-    a(q, 0) = solution(0, q);
-    a(q, 1) = solution(1, q);
-    b(q, 0) = solution(2, q);
-    b(q, 1) = solution(3, q);
+    fit.a_N_per_A(q, 0) = solution(0, q);
+    fit.a_N_per_A(q, 1) = solution(1, q);
+    fit.b_N_per_A(q, 0) = solution(2, q);
+    fit.b_N_per_A(q, 1) = solution(3, q);
+    fit.constant[q] = solution(4, q);
+    fit.direction.amplitude[q] = p == 6 ? solution(5, q) : 0.0;
   }
+  return fit;
 }
 
 // θ*_phy,q of one direction in layout order [A_q0, A_q1, B_q0, B_q1].

@@ -31,9 +31,9 @@ struct SplineFit {
 // One regularised linear least-squares problem per direction on `data`.
 SplineFit fit_spline(const CoilSetDataset& data, double pole_pitch_m, const UniformCubicBasis& basis,
                      const SplineOptions& options) {
-  CoilGain physics_a, physics_b;
-  DirectionForce physics_direction;
-  fit_physics_only(data, pole_pitch_m, options.direction_smoothing_m_per_s, physics_a, physics_b, physics_direction);
+  const PhysicsFit physics_fit = fit_physics_only(data, pole_pitch_m, options.direction_smoothing_m_per_s);
+  const CoilGain& physics_a = physics_fit.a_N_per_A;
+  const CoilGain& physics_b = physics_fit.b_N_per_A;
   DirectionForce direction = direction_shape(data, options.direction_smoothing_m_per_s);
   const int n = basis.size();
   const int p = 4 + 3 * n + 1;  // [A_q, B_q, C_a (n), C_b (n), G (n), C_q of the direction-dependent force]
@@ -103,13 +103,14 @@ SplineFit fit_spline(const CoilSetDataset& data, double pole_pitch_m, const Unif
     direction.amplitude[q] = direction.identified() ? solution(p - 1, q) : 0.0;
   }
   fit.direction = direction;
-  fit.physics_direction = physics_direction;
+  fit.physics_direction = physics_fit.direction;
   CoilSetModel& physics = fit.physics;
   physics.a_N_per_A = physics_a;
   physics.b_N_per_A = physics_b;
   physics.column_a_spline = SplineCoefficients::Zero(3, n);
   physics.column_b_spline = SplineCoefficients::Zero(3, n);
-  physics.cogging_spline = SplineCoefficients::Zero(3, n);
+  // The uniform B-splines sum to one: a constant force is every coefficient.
+  physics.cogging_spline = physics_fit.constant * Eigen::RowVectorXd::Ones(n);
   return fit;
 }
 

@@ -137,9 +137,9 @@ std::vector<CoilSetCost> costs_on_data(const ElectromagneticModel& model, const 
     const auto split = split_contiguous_blocks(dataset, options.validation_fraction);
     const auto training = dataset.subset(split.training);
     const auto validation = dataset.subset(split.validation);
-    CoilGain a_star, b_star;
-    DirectionForce direction;
-    fit_physics_only(training, pole_pitch_m, 0.0, a_star, b_star, direction);
+    const PhysicsFit physics = fit_physics_only(training, pole_pitch_m, 0.0);
+    const CoilGain& a_star = physics.a_N_per_A;
+    const CoilGain& b_star = physics.b_N_per_A;
     CoilSetCost c;
     c.training = coil_set_cost(model, static_cast<int>(l), training);
     c.validation = coil_set_cost(model, static_cast<int>(l), validation);

@@ -58,9 +58,9 @@ TEST_CASE("physics-only fit recovers a classical coil set exactly", "[identifica
   const auto coil_sets = test::random_classical_coil_sets(3, rng);
   const auto truth = make_classical_model(kPolePitch, coil_sets);
   const auto data = synthetic_data(truth, 1, 0.0, 2000, rng);
-  CoilGain a, b;
-  DirectionForce direction;
-  fit_physics_only(data, kPolePitch, 0.0, a, b, direction);
+  const PhysicsFit fit = fit_physics_only(data, kPolePitch, 0.0);
+  const CoilGain& a = fit.a_N_per_A;
+  const CoilGain& b = fit.b_N_per_A;
   CHECK((a - truth.coil_sets[1].a_N_per_A).cwiseAbs().maxCoeff() < 1e-9);
   CHECK((b - truth.coil_sets[1].b_N_per_A).cwiseAbs().maxCoeff() < 1e-9);
 }
@@ -85,9 +85,10 @@ TEST_CASE("eq. (31) minimises the regularised cost over the linear parameters", 
   const auto truth = test::random_pgnn_model(1, kPolePitch, rng);
   const auto data = synthetic_data(truth, 0, 0.5, 1500, rng);
   const PositionNormalisation normalisation = truth.normalisation;
-  CoilGain pa, pb;
+  const PhysicsFit fit = fit_physics_only(data, kPolePitch, 0.0);
+  const CoilGain& pa = fit.a_N_per_A;
+  const CoilGain& pb = fit.b_N_per_A;
   DirectionForce direction;
-  fit_physics_only(data, kPolePitch, 0.0, pa, pb, direction);
   // Hidden layers from a different random model; output layers solved.
   auto other = test::random_pgnn_model(1, kPolePitch, rng);
   CoilSetModel coil_set = other.coil_sets[0];

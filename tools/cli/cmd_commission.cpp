@@ -94,7 +94,13 @@ void add_commission(CLI::App& app) {
       ->check(CLI::ExistingFile)
       ->capture_default_str();
   sub->add_option("--out", options->run.out_dir, "output directory")->required();
-  sub->add_option("--program", options->run.program_path, "reference program (default: programs/fig8.yaml beside the config)")
+  sub->add_option("--program", options->run.program_path,
+                  "evaluation program: feedforward data and the evaluation of every law (default: programs/fig8.yaml "
+                  "beside the config)")
+      ->check(CLI::ExistingFile);
+  sub->add_option("--experiment-program", options->run.experiment_program_path,
+                  "experiment program of calibration and identification (default: programs/identification.yaml beside "
+                  "the config)")
       ->check(CLI::ExistingFile);
   sub->add_option("--validation-program", options->run.validation_program_path,
                   "held-out program (default: programs/validation.yaml beside the config; none: skip)");
@@ -134,15 +140,23 @@ void add_commission(CLI::App& app) {
     });
     bar.finish();
     const bool plotted = options->plots && make_plots(options->run.out_dir);
-    std::printf("\ncommutation  MSE y [N^2]  MSE x [N^2]  MSE z [N^2m^2]  (filtered)  tracking [m^2]\n");
+    const commission::CommutationResult* oracle = nullptr;
+    for (const auto& r : report.results) {
+      if (r.name == "oracle" && r.evaluated) oracle = &r;
+    }
+    std::printf("\ncommutation  MSE y [N^2]  MSE x [N^2]  MSE z [N^2m^2]  true y [N^2]  tracking [m^2]  /oracle\n");
     for (const auto& r : report.results) {
       if (!r.evaluated) {
         std::printf("%-11s  not evaluated: %s\n", r.name.c_str(), r.skipped_reason.c_str());
         continue;
       }
-      std::printf("%-11s  %s    %s    %s                   %s\n", r.name.c_str(), cell(r.mse.filtered[0]).c_str(),
-                  cell(r.mse.filtered[1]).c_str(), cell(r.mse.filtered[2]).c_str(), cell(r.tracking_mse_m2).c_str());
+      std::printf("%-11s  %s    %s    %s     %s     %s  %s\n", r.name.c_str(), cell(r.mse.filtered[0]).c_str(),
+                  cell(r.mse.filtered[1]).c_str(), cell(r.mse.filtered[2]).c_str(),
+                  r.truth_known ? cell(r.true_mse.filtered[0]).c_str() : "        -",
+                  cell(r.tracking_mse_m2).c_str(),
+                  oracle ? cell(r.tracking_mse_m2 / oracle->tracking_mse_m2).c_str() : "        -");
     }
+    std::printf("(MSE of the measured force - F*, filtered; true y: the simulator's electromagnetic force - F*)\n");
     const commission::CommutationResult* classical = nullptr;
     const commission::CommutationResult* pgnn = nullptr;
     for (const auto& r : report.results) {
@@ -153,6 +167,16 @@ void add_commission(CLI::App& app) {
       std::printf("\nPGNN vs calibrated classical: commutation MSE y %.1fx lower, tracking MSE %.1fx lower "
                   "(paper: 11.2x and 4.6x)\n",
                   classical->mse.filtered[0] / pgnn->mse.filtered[0], classical->tracking_mse_m2 / pgnn->tracking_mse_m2);
+    }
+    if (oracle) {
+      std::printf("tracking MSE over the oracle's:");
+      for (const auto& r : report.results) {
+        if (r.evaluated && &r != oracle) std::printf(" %s %.2fx", r.name.c_str(), r.tracking_mse_m2 / oracle->tracking_mse_m2);
+      }
+      std::printf("\n");
+    }
+    if (!report.recommended.empty()) {
+      std::printf("recommended for service: %s; %s\n", report.recommended.c_str(), report.recommendation.c_str());
     }
     if (report.live.live) {
       std::printf("live: %d runs over %s, %lld program cycles recorded, %lld CLM_SERVO_STATE missing in the runs kept, "

@@ -46,6 +46,12 @@ void add_identify(CLI::App& app) {
   sub->add_option("--knot-spacing-m", o.spline.knot_spacing_m, "spline knot spacing (0: pole pitch / 8)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   sub->add_option("--smoothing", o.spline.smoothing, "spline roughness penalty")->check(CLI::NonNegativeNumber)->capture_default_str();
+  sub->add_flag("!--no-nuisance", o.nuisance,
+                "fit the model alone, as the paper does (default: the sensor's F_y offset and the direction-dependent "
+                "force are identified beside it)");
+  sub->add_flag("!--no-selection", o.select_capacity,
+                "use --column-neurons/--cogging-neurons or --knot-spacing-m as given (default: chosen from a grid by "
+                "validation error)");
   lcmlog::add_data_limit_options(*sub, options->limits, "--data");
   sub->callback([options] {
     options->identify.kind = options->model == "pgnn" ? ModelKind::kPgnn : ModelKind::kSpline;

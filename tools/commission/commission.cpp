@@ -167,8 +167,8 @@ void recommend(Report& report) {
   };
   const double pgnn = score_of(report.pgnn_selection);
   const double spline = score_of(report.spline_selection);
-  // The physics-only fit scores 3 per coil set (its own ratio in each direction).
-  const double physics = 3.0 * report.coil_sets;
+  // The physics-only fit scores 1 per coil set.
+  const double physics = 1.0 * report.coil_sets;
   const auto name_of = [](const data::IdentifySummary& s) { return s.trials[s.chosen].capacity; };
   char text[400];
   if (!(std::min(pgnn, spline) < physics)) {
@@ -182,8 +182,8 @@ void recommend(Report& report) {
     report.recommended = spline_better ? "spline" : "pgnn";
     std::snprintf(text, sizeof(text),
                   "%s (%s) predicts the held-out blocks of the experiments best: validation score %.3g against "
-                  "%.3g for %s (%s) and %.3g for the physics-only fit (sum over coil sets and directions of the "
-                  "model's held-out MSE divided by the physics-only fit's)",
+                  "%.3g for %s (%s) and %.3g for the physics-only fit (sum over coil sets of the model's "
+                  "held-out F_y MSE divided by the physics-only fit's)",
                   spline_better ? "spline" : "PGNN",
                   (spline_better ? name_of(report.spline_selection) : name_of(report.pgnn_selection)).c_str(),
                   std::min(pgnn, spline), std::max(pgnn, spline), spline_better ? "PGNN" : "spline",
@@ -250,8 +250,14 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   const std::string config_dir = std::filesystem::absolute(options.config_path).parent_path().string();
   const std::string program_path = std::filesystem::absolute(
       options.program_path.empty() ? config_dir + "/programs/fig8.yaml" : options.program_path).lexically_normal().string();
-  const servod::ProgramFile program = fit(program_path, "experiment program");
+  const servod::ProgramFile program = fit(program_path, "evaluation program");
   const control::MoveProgram timeline(program.start_m, program.steps);
+  const std::string experiment_path = std::filesystem::absolute(
+      options.experiment_program_path.empty() ? config_dir + "/programs/identification.yaml"
+                                              : options.experiment_program_path).lexically_normal().string();
+  const servod::ProgramFile experiment_program = fit(experiment_path, "experiment program");
+  report.experiment_program = experiment_path;
+  report.evaluation_program = program_path;
   std::optional<servod::ProgramFile> validation_program;
   std::string validation_path;
   if (options.validation_program_path != "none") {
@@ -282,7 +288,8 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
       tell("experiments", static_cast<double>(experiments.size()) / runs,
            "coil set " + std::to_string(l) + ", delta " + (delta < 0 ? "-pi/4" : "+pi/4"));
       runner.set_experiment(l, delta);
-      experiments.push_back(runner.run_program(program, program_path, "experiment coil set " + std::to_string(l)));
+      experiments.push_back(
+          runner.run_program(experiment_program, experiment_path, "experiment coil set " + std::to_string(l)));
     }
   }
   runner.close_log();
@@ -328,7 +335,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   // The paper's PGNN (2/16 neurons) is always evaluated, for Table 2.
   const data::CapacityTrial* paper_pgnn = nullptr;
   for (const auto& trial : report.pgnn_selection.trials) {
-    if (trial.column_hidden == 2 && trial.cogging_hidden == 16) paper_pgnn = &trial;
+    if (trial.is_paper_pgnn()) paper_pgnn = &trial;
   }
   const bool paper_is_chosen = paper_pgnn == nullptr ||
                                paper_pgnn == &report.pgnn_selection.trials[report.pgnn_selection.chosen];

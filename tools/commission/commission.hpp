@@ -22,8 +22,13 @@ struct Options {
   std::string config_path;
   std::string out_dir;
   data::IdentifyOptions identify;
-  /// Experiment reference (the paper's Fig. 8 unless replaced).
+  /// Evaluation reference: feedforward data and the evaluation of every
+  /// commutation (the paper's Fig. 8 unless replaced).
   std::string program_path;
+  /// Experiments of calibration and identification (programs/identification.yaml
+  /// beside the config unless replaced: several speeds and accelerations,
+  /// which the nuisance terms need; docs/commissioning.md).
+  std::string experiment_program_path;
   /// Held-out trajectory on which every commutation is evaluated as well
   /// (programs/validation.yaml beside the config unless replaced; "none" skips).
   std::string validation_program_path;
@@ -73,6 +78,8 @@ struct Report {
   std::vector<CommutationResult> results;
   std::vector<CommutationResult> validation;  ///< the same on the held-out trajectory
   std::string validation_program;
+  std::string experiment_program;  ///< absolute paths of the programs run
+  std::string evaluation_program;
   std::vector<StepTime> steps;
   double total_wall_s = 0.0;
   std::vector<std::string> files;          ///< written, relative to the output directory

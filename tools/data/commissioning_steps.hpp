@@ -38,9 +38,14 @@ struct IdentifyOptions {
   bool select_capacity = true;
 };
 
-/// The capacities tried: PGNN [column, cogging] neurons (the paper's 2/16
-/// first) and spline knots per pole pitch.
-inline constexpr std::array<std::array<int, 2>, 4> kPgnnCapacityGrid{{{2, 16}, {4, 16}, {4, 32}, {8, 32}}};
+/// The capacities tried: PGNN column and cogging neurons with the Λ of
+/// eq. (26) (the paper's 2/16 and 0.1 first), and spline knots per pole pitch.
+struct PgnnCapacity {
+  int column_hidden;
+  int cogging_hidden;
+  double regularisation;
+};
+inline constexpr std::array<PgnnCapacity, 3> kPgnnCapacityGrid{{{2, 16, 0.1}, {2, 16, 0.01}, {8, 32, 0.01}}};
 inline constexpr std::array<int, 5> kSplineKnotsPerPolePitch{4, 6, 8, 12, 16};
 
 struct IdentifyProgress {
@@ -68,9 +73,12 @@ struct CoilSetIdentification {
 struct CapacityTrial {
   std::string capacity;            ///< "2/16" neurons, or "d_m/8" knot spacing
   int column_hidden = 0, cogging_hidden = 0;  ///< PGNN
+  double regularisation = 0.0;                ///< PGNN: Λ of eq. (26)
+  /// The paper's PGNN: 2/16 neurons, Λ = 0.1 (always reported).
+  bool is_paper_pgnn() const { return column_hidden == 2 && cogging_hidden == 16 && regularisation == 0.1; }
   double knot_spacing_m = 0.0;     ///< spline
-  /// Σ over coil sets and directions of model / physics-only validation MSE
-  /// (unit-free; lower is better).
+  /// Σ over coil sets of the model's held-out F_y MSE over the physics-only
+  /// fit's (unit-free; lower is better).
   double validation_score = 0.0;
   ModelFile model;
   std::vector<CoilSetIdentification> coil_sets;
