@@ -45,7 +45,7 @@ struct PgnnCapacity {
   int cogging_hidden;
   double regularisation;
 };
-inline constexpr std::array<PgnnCapacity, 3> kPgnnCapacityGrid{{{2, 16, 0.1}, {2, 16, 0.01}, {8, 32, 0.01}}};
+inline constexpr std::array<PgnnCapacity, 3> kPgnnCapacityGrid{{{2, 16, 0.1}, {2, 16, 0.01}, {4, 32, 0.01}}};
 inline constexpr std::array<int, 5> kSplineKnotsPerPolePitch{4, 6, 8, 12, 16};
 
 struct IdentifyProgress {
