@@ -195,12 +195,12 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
   try {
     config.servo.pid = control::tune_pid(mass_kg, config.control_bandwidth_hz);
   } catch (const std::invalid_argument&) {
-    // Each value passed its own check; together they overflow the gains (m ω_c²).
+    // Each value passed its own check; together they overflow the gains (k_p ∝ m ω_c², k_i ∝ m ω_c³).
     const yaml::Node mass_node = root["control"]["mass_kg"];
     char bandwidth[32];
     std::snprintf(bandwidth, sizeof bandwidth, "%g", config.control_bandwidth_hz);
     mass_node.fail("value " + mass_node.scalar_text() + " kg gives non-finite PID gains at control.bandwidth_hz " +
-                   bandwidth + " Hz (k_p = 0.557 m (2 pi bandwidth_hz)^2 N/m)");
+                   bandwidth + " Hz (k_p grows with mass_kg * bandwidth_hz^2, k_i with mass_kg * bandwidth_hz^3)");
   }
 
   if (const auto commutation = root.optional("commutation")) {

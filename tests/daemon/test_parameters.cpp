@@ -150,11 +150,11 @@ TEST_CASE("set refuses what the configuration refuses, and a move while a change
 TEST_CASE("a bandwidth whose PID gains overflow with the configured mass is refused, nothing changed",
           "[daemon][parameters]") {
   const servod::ServodConfig config = test::virtual_config();
-  // k_p ≈ 0.557·m·(2π·f)²: finite for 1e303 kg at 20 Hz (≈ 8.8e306 N/m), above 1.8e308 at 160 Hz.
-  const servod::RuntimeValues values{config.servo.tuning(), 1e303, 20.0};
+  // k_i ≈ 0.111·m·(2π·f)³ (tune_pid): for 1e301 kg about 2e306 N/(m*s) at 20 Hz, above 1.8e308 at 160 Hz.
+  const servod::RuntimeValues values{config.servo.tuning(), 1e301, 20.0};
   const auto change = servod::change_parameter(values, config.servo, 1000.0, "control.bandwidth_hz", 160.0);
   CHECK_FALSE(change.values.has_value());
-  CHECK(change.refusal.rfind("control.bandwidth_hz = 160: tune_pid: mass_kg 1e+303 kg at bandwidth_hz 160 Hz gives "
+  CHECK(change.refusal.rfind("control.bandwidth_hz = 160: tune_pid: mass_kg 1e+301 kg at bandwidth_hz 160 Hz gives "
                              "non-finite gains",
                              0) == 0);
   CHECK(servod::change_parameter(values, config.servo, 1000.0, "control.bandwidth_hz", 30.0).values.has_value());
