@@ -41,8 +41,18 @@ PidGains tune_pid(double mass_kg, double bandwidth_hz) {
   const double lead = derivative_ratio - integrator_ratio;
   const double kp = mass_kg * crossover_rad_per_s * crossover_rad_per_s *
                     std::sqrt(1.0 + 1.0 / (lowpass_ratio * lowpass_ratio)) / std::sqrt(1.0 + lead * lead);
-  return {kp, kp * integrator_ratio * crossover_rad_per_s, kp * derivative_ratio / crossover_rad_per_s,
-          lowpass_ratio * bandwidth_hz};
+  const PidGains gains{kp, kp * integrator_ratio * crossover_rad_per_s, kp * derivative_ratio / crossover_rad_per_s,
+                       lowpass_ratio * bandwidth_hz};
+  // Finite inputs can still overflow (m ω_c² above the largest double): say
+  // so here, where mass and bandwidth are known, not in PidController.
+  if (!std::isfinite(gains.proportional_N_per_m) || !std::isfinite(gains.integral_N_per_m_s) ||
+      !std::isfinite(gains.derivative_N_s_per_m)) {
+    throw std::invalid_argument("tune_pid: mass_kg " + detail::format_number(mass_kg) + " kg at bandwidth_hz " +
+                                detail::format_number(bandwidth_hz) + " Hz gives non-finite gains (k_p " +
+                                detail::format_number(gains.proportional_N_per_m) + " N/m, k_i " +
+                                detail::format_number(gains.integral_N_per_m_s) + " N/(m*s))");
+  }
+  return gains;
 }
 
 // ---------------------------------------------------------------------------

@@ -41,7 +41,8 @@ struct PidGains {
 /// hold) plus any computation delay on top; keep ω_c·T_s small.
 /// (The textbook k_p = m ω_c²/3, k_d = m ω_c/√3 gives |L(jω_c)| = 2/3 only, so
 /// the crossover lands below ω_c.)
-/// Throws std::invalid_argument if mass or bandwidth is not positive and finite.
+/// Throws std::invalid_argument if mass or bandwidth is not positive and
+/// finite, or if the gains overflow (are not finite).
 PidGains tune_pid(double mass_kg, double bandwidth_hz);
 
 /// The PID of PidGains, discretised with the Tustin (bilinear) transform,

@@ -17,8 +17,9 @@
 //              advances, STATUS= lines (systemd, Type=notify).
 // Only the loop thread runs with real-time priority.
 //
-// Exit status: 0 after a clean shutdown, 2 when start-up fails (one line on
-// stderr), 1 when the loop thread failed while running.
+// Exit status (config/command_line.hpp): 0 after a clean shutdown, 2 on a
+// bad command line or when start-up fails (one line on stderr), 1 when the
+// loop thread failed while running.
 //
 // Shutdown (docs/servod.md, "Shutdown"): on a stop signal main sets the
 // daemon's disable request, which the loop honours at its next cycle (not
@@ -48,6 +49,7 @@
 #include <thread>
 
 #include "clm_version.hpp"
+#include "config/command_line.hpp"
 #include "daemon/servod/axis_presence.hpp"
 #include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/command_server.hpp"
@@ -351,23 +353,15 @@ int run(const std::string& config_path, double duration_s) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"clm-servod: real-time servo daemon for coreless linear motors (docs/servod.md)"};
+  CLI::App app{"clm-servod: real-time servo daemon for coreless linear motors (docs/servod.md)", "clm-servod"};
   app.set_version_flag("--version", std::string("clm-servod ") + CLM_SERVO_VERSION);
   std::string config_path;
   double duration_s = 0.0;
   app.add_option("--config", config_path, "configuration file (YAML, e.g. config/servod.yaml)")->required();
   app.add_option("--duration-s", duration_s,
                  "stop cleanly after this many seconds [s]; default: run until SIGINT, SIGTERM, SIGHUP or SIGQUIT")
-      ->check(CLI::PositiveNumber);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
-  try {
-    return run(config_path, duration_s);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "clm-servod: error: %s\n", e.what());
-    return 2;
-  }
+      ->check(clm::positive_number());
+  // A failed start-up is bad input (exit status 2, RestartPreventExitStatus=2); run() returns 1 itself when the
+  // loop thread failed while running.
+  return clm::run_command_line(app, argc, argv, [&] { return run(config_path, duration_s); });
 }

@@ -1,6 +1,7 @@
 #include "daemon/servod/servod_config.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <limits>
 #include <optional>
@@ -191,7 +192,16 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     root["control"];  // throws "missing key 'control'": mass_kg has no default
   }
   config.control_mass_kg = mass_kg;
-  config.servo.pid = control::tune_pid(mass_kg, config.control_bandwidth_hz);
+  try {
+    config.servo.pid = control::tune_pid(mass_kg, config.control_bandwidth_hz);
+  } catch (const std::invalid_argument&) {
+    // Each value passed its own check; together they overflow the gains (k_p ∝ m ω_c², k_i ∝ m ω_c³).
+    const yaml::Node mass_node = root["control"]["mass_kg"];
+    char bandwidth[32];
+    std::snprintf(bandwidth, sizeof bandwidth, "%g", config.control_bandwidth_hz);
+    mass_node.fail("value " + mass_node.scalar_text() + " kg gives non-finite PID gains at control.bandwidth_hz " +
+                   bandwidth + " Hz (k_p grows with mass_kg * bandwidth_hz^2, k_i with mass_kg * bandwidth_hz^3)");
+  }
 
   if (const auto commutation = root.optional("commutation")) {
     commutation->expect_keys({"mode", "calibration_file", "pgnn_model_file", "spline_model_file", "power",

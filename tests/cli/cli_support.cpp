@@ -54,14 +54,14 @@ std::vector<std::string> ProcessResult::err_lines() const {
   return lines;
 }
 
-ProcessResult run_clm(const std::vector<std::string>& args) {
+ProcessResult run_program(const std::string& binary, const std::vector<std::string>& args) {
   // Captures live in a directory of their own so that listings of the
-  // directory under test see only what clm wrote.
+  // directory under test see only what the program wrote.
   static const TemporaryDirectory captures("clm_cli_tests");
   const std::string out_path = captures.file("stdout");
   const std::string err_path = captures.file("stderr");
 
-  std::vector<std::string> argv_strings = {CLM_BINARY};
+  std::vector<std::string> argv_strings = {binary};
   argv_strings.insert(argv_strings.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (auto& s : argv_strings) argv.push_back(s.data());
@@ -72,9 +72,9 @@ ProcessResult run_clm(const std::vector<std::string>& args) {
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   pid_t pid = 0;
-  const int spawned = ::posix_spawn(&pid, CLM_BINARY, &actions, nullptr, argv.data(), environ);
+  const int spawned = ::posix_spawn(&pid, binary.c_str(), &actions, nullptr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
-  if (spawned != 0) throw std::runtime_error(std::string(CLM_BINARY) + ": cannot spawn: " + std::strerror(spawned));
+  if (spawned != 0) throw std::runtime_error(binary + ": cannot spawn: " + std::strerror(spawned));
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0) {
     if (errno != EINTR) throw std::runtime_error(std::string("waitpid: ") + std::strerror(errno));
@@ -85,6 +85,10 @@ ProcessResult run_clm(const std::vector<std::string>& args) {
   result.err = read_file(err_path);
   return result;
 }
+
+ProcessResult run_clm(const std::vector<std::string>& args) { return run_program(CLM_BINARY, args); }
+
+ProcessResult run_servod(const std::vector<std::string>& args) { return run_program(CLM_SERVOD_BINARY, args); }
 
 std::set<std::string> listing(const std::string& directory) {
   std::set<std::string> names;

@@ -18,10 +18,13 @@ struct ProcessResult {
   std::vector<std::string> err_lines() const;
 };
 
-/// Runs build/bin/clm (CLM_BINARY) with `args` via posix_spawn; stdout and
-/// stderr go to files in a directory of this process's own, never to the
-/// directory under test.
+/// Runs `binary` with `args` via posix_spawn; stdout and stderr go to files
+/// in a directory of this process's own, never to the directory under test.
+ProcessResult run_program(const std::string& binary, const std::vector<std::string>& args);
+/// run_program of build/bin/clm (CLM_BINARY).
 ProcessResult run_clm(const std::vector<std::string>& args);
+/// run_program of build/bin/clm-servod (CLM_SERVOD_BINARY).
+ProcessResult run_servod(const std::vector<std::string>& args);
 
 /// A fresh directory under the system's temporary directory, removed with
 /// everything in it on destruction (tests/support).

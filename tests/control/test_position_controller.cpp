@@ -112,6 +112,9 @@ TEST_CASE("tune_pid: the continuous loop crosses 0 dB at the bandwidth with >= 3
   }
   REQUIRE_THROWS_WITH(tune_pid(0.0, 50.0), Contains("mass_kg"));
   REQUIRE_THROWS_WITH(tune_pid(10.0, -1.0), Contains("bandwidth_hz") && Contains("-1"));
+  // Finite inputs whose gains overflow (k_p ≈ 0.557·m·(2π·f)² > 1.8e308) are refused, not returned as inf.
+  REQUIRE_THROWS_WITH(tune_pid(1e308, 40.0), Contains("mass_kg 1e+308 kg") && Contains("non-finite gains"));
+  REQUIRE_THROWS_WITH(tune_pid(1e300, 3000.0), Contains("non-finite gains"));
 }
 
 TEST_CASE("PID on a simulated discrete mass: measured crossover at the target bandwidth, phase margin >= 30 deg",

@@ -147,6 +147,19 @@ TEST_CASE("set refuses what the configuration refuses, and a move while a change
   CHECK(daemon.submit(move_to(0.01, 0.1)).accepted);
 }
 
+TEST_CASE("a bandwidth whose PID gains overflow with the configured mass is refused, nothing changed",
+          "[daemon][parameters]") {
+  const servod::ServodConfig config = test::virtual_config();
+  // k_i ≈ 0.111·m·(2π·f)³ (tune_pid): for 1e301 kg about 2e306 N/(m*s) at 20 Hz, above 1.8e308 at 160 Hz.
+  const servod::RuntimeValues values{config.servo.tuning(), 1e301, 20.0};
+  const auto change = servod::change_parameter(values, config.servo, 1000.0, "control.bandwidth_hz", 160.0);
+  CHECK_FALSE(change.values.has_value());
+  CHECK(change.refusal.rfind("control.bandwidth_hz = 160: tune_pid: mass_kg 1e+301 kg at bandwidth_hz 160 Hz gives "
+                             "non-finite gains",
+                             0) == 0);
+  CHECK(servod::change_parameter(values, config.servo, 1000.0, "control.bandwidth_hz", 30.0).values.has_value());
+}
+
 TEST_CASE("a feedforward parameter set after a feedforward file is loaded takes the file's name out of the status",
           "[daemon][parameters]") {
   test::TemporaryDirectory dir("clm-daemon-parameters");

@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "config/command_line.hpp"
 #include "drivers/can/can_protocol.hpp"
 #include "drivers/dbc.hpp"
 
@@ -237,7 +238,8 @@ int check(const Options& options) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"hil_candump_check: every frame of a candump -L log must decode against the DBC and the codec"};
+  CLI::App app{"hil_candump_check: every frame of a candump -L log must decode against the DBC and the codec",
+               "hil_candump_check"};
   Options options;
   app.add_option("--dbc", options.dbc_path, "DBC file (drivers/can/clm-servo.dbc)")->required()->check(CLI::ExistingFile);
   app.add_option("--log", options.log_path, "candump -L output")->required()->check(CLI::ExistingFile);
@@ -246,23 +248,14 @@ int main(int argc, char** argv) {
                  "with clm-servo-phase-current.dbc")
       ->check(CLI::IsMember({"magnitude_phase", "phase_current"}))
       ->capture_default_str();
-  app.add_option("--coil-sets", options.coil_sets, "L of the motor on the bus")->check(CLI::Range(1, 4))->capture_default_str();
-  app.add_option("--drive-node-id", options.drive_node_id, "drive node ID")->check(CLI::Range(1, 127))->capture_default_str();
+  app.add_option("--coil-sets", options.coil_sets, "L of the motor on the bus")->check(clm::in_range(1, 4))->capture_default_str();
+  app.add_option("--drive-node-id", options.drive_node_id, "drive node ID")->check(clm::in_range(1, 127))->capture_default_str();
   app.add_option("--force-sensor-node-id", options.force_sensor_node_id,
                  "force sensor node ID; 0: the axis has none, and a force frame on the bus does not decode")
-      ->check(CLI::Range(0, 127))
+      ->check(clm::in_range(0, 127))
       ->capture_default_str();
   app.add_option("--min-frames", options.min_frames, "fail with fewer frames than this")->capture_default_str();
   app.add_option("--max-reports", options.max_reports, "undecodable lines printed at most")->capture_default_str();
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
-  try {
-    return check(options);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "hil_candump_check: error: %s\n", e.what());
-    return 2;
-  }
+  // The programs' convention (config/command_line.hpp): 2 and one line on bad usage or input, check()'s 0 or 1.
+  return clm::run_command_line(app, argc, argv, [&] { return check(options); });
 }

@@ -35,9 +35,11 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "config/command_line.hpp"
 #include "drivers/can/can_protocol.hpp"
 
 namespace {
@@ -313,31 +315,10 @@ void report_sim_killed(const Bus& bus) {
               bus.cycles() - last);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  Options options;
-  CLI::App app{"What the bus shows of each injected fault (docs/reliability.md)"};
-  app.add_option("--log", options.log_path, "candump -L log")->required()->check(CLI::ExistingFile);
-  app.add_option("--events", options.events_path, "clm sim --event-log file")->check(CLI::ExistingFile);
-  app.add_option("--coil-sets", options.coil_sets, "L")->check(CLI::Range(1, 4));
-  app.add_option("--drive-node-id", options.drive_node_id)->check(CLI::Range(1, 127));
-  app.add_option("--force-sensor-node-id", options.force_sensor_node_id)->check(CLI::Range(1, 127));
-  app.add_option("--period-s", options.period_s, "cycle period [s]")->check(CLI::PositiveNumber);
-  app.add_option("--receive-window-fraction", options.receive_window_fraction)->check(CLI::Range(0.05, 0.9));
-  app.add_option("--flood-id", options.flood_id, "identifier of the flood frames, hex");
-  app.add_flag("--sim-killed", options.sim_killed, "report the cycles from the feedback's end to zero setpoints");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;
-  }
-
+/// What the bus shows of each injected fault in the log, per the options (main's work after parsing).
+int report(const Options& options) {
   std::ifstream log(options.log_path);
-  if (!log) {
-    std::fprintf(stderr, "hil_fault_check: cannot read %s\n", options.log_path.c_str());
-    return 2;
-  }
+  if (!log) throw std::runtime_error("cannot read " + options.log_path);
   std::vector<Cycle> cycles;
   std::string line;
   while (std::getline(log, line)) {
@@ -368,4 +349,22 @@ int main(int argc, char** argv) {
   }
   if (options.sim_killed) report_sim_killed(bus);
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  CLI::App app{"What the bus shows of each injected fault (docs/reliability.md)", "hil_fault_check"};
+  app.add_option("--log", options.log_path, "candump -L log")->required()->check(CLI::ExistingFile);
+  app.add_option("--events", options.events_path, "clm sim --event-log file")->check(CLI::ExistingFile);
+  app.add_option("--coil-sets", options.coil_sets, "L")->check(clm::in_range(1, 4));
+  app.add_option("--drive-node-id", options.drive_node_id)->check(clm::in_range(1, 127));
+  app.add_option("--force-sensor-node-id", options.force_sensor_node_id)->check(clm::in_range(1, 127));
+  app.add_option("--period-s", options.period_s, "cycle period [s]")->check(clm::positive_number());
+  app.add_option("--receive-window-fraction", options.receive_window_fraction)->check(clm::in_range(0.05, 0.9));
+  app.add_option("--flood-id", options.flood_id, "identifier of the flood frames, hex");
+  app.add_flag("--sim-killed", options.sim_killed, "report the cycles from the feedback's end to zero setpoints");
+  // The programs' convention (config/command_line.hpp): 2 and one line on a bad command line.
+  return clm::run_command_line(app, argc, argv, [&] { return report(options); });
 }

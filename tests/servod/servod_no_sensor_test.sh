@@ -73,7 +73,7 @@ done
 url="udpm://239.255.76.67:$(port_of none)?ttl=0"
 status=$(ctl status) || fail "none: no status"
 [ "$(field force_sensor "$status")" = "none, losses 0" ] || fail "none: force_sensor '$(field force_sensor "$status")'"
-reply=$(ctl experiment --coil-set 1 --delta-rad 0 2>&1) && fail "none: an experiment was accepted: $reply"
+ctl_refused experiment --coil-set 1 --delta-rad 0
 [[ $reply == *"an experiment needs the force sensor"* ]] || fail "none: experiment refused with '$reply'"
 
 # until_idle RUN TRIES WHAT: polls RUN's status every 0.1 s until no program runs; sets `status`.

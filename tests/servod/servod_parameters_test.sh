@@ -53,9 +53,9 @@ ctl set control.bandwidth_hz 30 > /dev/null || fail "set control.bandwidth_hz 30
 ctl set control.feedforward.coulomb_N 4.5 > /dev/null || fail "set control.feedforward.coulomb_N 4.5 refused"
 [ "$(ctl get motion.velocity_m_per_s)" = "motion.velocity_m_per_s = 0.3 m/s" ] || fail "get after set: $(ctl get motion.velocity_m_per_s)"
 ctl enable > /dev/null || fail "enable refused"
-if reply=$(ctl move-to --target-m 0.05 --velocity-m-per-s 0.4 2>&1); then fail "a move at 0.4 m/s was accepted: $reply"; fi
+ctl_refused move-to --target-m 0.05 --velocity-m-per-s 0.4
 [[ $reply == *"0.3"* ]] || fail "the refusal of a move at 0.4 m/s does not name the 0.3 m/s limit: $reply"
-if reply=$(ctl set control.force_limit_N 900 2>&1); then fail "force_limit_N 900 was accepted: $reply"; fi
+ctl_refused set control.force_limit_N 900
 [ "$reply" = "rejected: control.force_limit_N: expected a number in [1, 819] N, got 900" ] || fail "refusal: $reply"
 ctl disable > /dev/null || fail "disable refused"
 

@@ -23,6 +23,23 @@ absolute() { echo "$(cd "$(dirname "$1")" && pwd)/$(basename "$1")"; }
 # `clm ctl` of the daemon at $url; waits 2 s for a status or an ack unless --timeout-s.
 ctl() { "$clm" ctl --lcm-url "$url" "$@"; }
 
+# `ctl ARGS...` expecting a refusal (docs/design-decisions.md, "Exit status
+# and error messages"): exit status 1, nothing on stdout, one stderr line
+# "clm ctl: error: TEXT"; sets `reply` to TEXT (the ack's text). Calls the
+# sourcing script's `fail` otherwise.
+ctl_refused() {
+  local err_file out err rc=0
+  err_file=$(mktemp)
+  out=$(ctl "$@" 2> "$err_file") || rc=$?
+  err=$(cat "$err_file")
+  rm -f "$err_file"
+  [ "$rc" = 1 ] || fail "ctl $*: exit status $rc, expected 1 (refused): stdout '$out', stderr '$err'"
+  [ -z "$out" ] || fail "ctl $*: the refusal printed '$out' on stdout"
+  [ "$(printf '%s\n' "$err" | wc -l)" = 1 ] || fail "ctl $*: not one line on stderr: '$err'"
+  [[ $err == "clm ctl: error: "* ]] || fail "ctl $*: stderr '$err' lacks 'clm ctl: error: '"
+  reply=${err#clm ctl: error: }
+}
+
 # Prints "FAIL: MESSAGE", the fault lines of the daemon's status (when one
 # answers on $url) and the clm-servod stderr LOG files, then exits 1.
 fail_with_status() {

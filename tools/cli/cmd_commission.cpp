@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "config/command_line.hpp"
 #include "config/yaml_edit.hpp"
 #include "tools/servod_client/config_update.hpp"
 
@@ -111,13 +112,13 @@ void add_commission(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--ack-timeout-s", options->run.live_options.ack_timeout_s,
                   "--live: how long each command waits for its CLM_SERVO_COMMAND_ACK [s]")
-      ->check(CLI::PositiveNumber)
+      ->check(clm::positive_number())
       ->capture_default_str();
   sub->add_option("--attempts-per-run", options->run.live_options.attempts_per_run,
                   "--live: a run with missing CLM_SERVO_STATE messages is repeated up to this many attempts in all")
-      ->check(CLI::Range(1, 100))
+      ->check(clm::in_range(1, 100))
       ->capture_default_str();
-  sub->add_option("--restarts", options->run.identify.pgnn.restarts, "PGNN restarts")->check(CLI::Range(1, 1000))->capture_default_str();
+  sub->add_option("--restarts", options->run.identify.pgnn.restarts, "PGNN restarts")->check(clm::in_range(1, 1000))->capture_default_str();
   sub->add_option("--seed", options->run.identify.pgnn.seed, "seed of the PGNN restarts")->capture_default_str();
   sub->add_flag("!--no-plots", options->plots, "skip the PNG plots");
   sub->add_flag("--save", options->save,

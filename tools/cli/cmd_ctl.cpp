@@ -10,9 +10,11 @@
 // (docs/servod.md "Command authority"). `status` prints --axis's status, or
 // the first one heard.
 //
-// Exit status: 0 status received / command accepted; 1 timeout or command
-// refused (the ack's text says why); 2 bad arguments, no LCM, or several
-// axes answering without --axis.
+// Exit status (config/exit_status.hpp): 0 status received / command
+// accepted (the ack's text on stdout); 1 no answer within --timeout-s,
+// command refused (the ack's text as the one stderr line "clm ctl: error:
+// ..."), or LCM not available; 2 bad arguments, or several axes answering
+// without --axis.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -25,6 +27,7 @@
 
 #include "clm_lcm/servo_command_t.hpp"
 #include "clm_lcm/servo_status_t.hpp"
+#include "config/command_line.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 #include "tools/cli/commands.hpp"
 #include "tools/cli/ctl_support.hpp"
@@ -111,7 +114,7 @@ void print_status(const clm_lcm::servo_status_t& s) {
 }
 
 void run_status(const CtlOptions& options) {
-  servod_client::Client client(client_options(options, telemetry::kStatusChannel));  // no LCM: exit status 2
+  servod_client::Client client(client_options(options, telemetry::kStatusChannel));
   clm_lcm::servo_status_t status;
   try {
     // Only reading: the first axis heard (or --axis's), without listening for others.
@@ -119,9 +122,6 @@ void run_status(const CtlOptions& options) {
     status = client.wait_for_status(options.timeout_s);
   } catch (const servod_client::SeveralAxes& e) {
     several_axes(e);
-  } catch (const servod_client::Timeout& e) {
-    std::fprintf(stderr, "clm ctl: %s\n", e.what());
-    fail_quietly();
   }
   print_status(status);
 }
@@ -136,13 +136,13 @@ void add_ctl(CLI::App& app) {
   options->lcm_url = telemetry::kDefaultLcmUrl;
   ctl->add_option("--lcm-url", options->lcm_url, "LCM URL of the daemon (its telemetry.lcm_url)")->capture_default_str();
   ctl->add_option("--timeout-s", options->timeout_s, "how long to wait for the status or the ack [s]")
-      ->check(CLI::PositiveNumber)
+      ->check(clm::positive_number())
       ->capture_default_str();
   ctl->add_option("--axis", options->axis,
                   "the axis to command or report (servo_status_t.axis); default: the only one answering");
   ctl->add_option("--client-id", options->client_id,
                   "client id the commands carry; default: FNV-1a-64 of \"UID@HOSTNAME\", the same for every clm ctl of the user")
-      ->check(CLI::Range(static_cast<std::int64_t>(1), std::numeric_limits<std::int64_t>::max()));
+      ->check(clm::at_least(1));
 
   ctl->add_subcommand("status", "wait for one CLM_SERVO_STATUS and print it")->callback([options] {
     run_status(*options);
@@ -166,11 +166,11 @@ void add_ctl(CLI::App& app) {
   auto* move_to = ctl->add_subcommand("move-to", "jerk-limited move to a position");
   move_to->add_option("--target-m", move->target_m, "target position [m]")->required();
   move_to->add_option("--velocity-m-per-s", move->velocity_m_per_s, "velocity limit [m/s]")
-      ->check(CLI::PositiveNumber)->capture_default_str();
+      ->check(clm::positive_number())->capture_default_str();
   move_to->add_option("--acceleration-m-per-s2", move->acceleration_m_per_s2, "acceleration limit [m/s^2]")
-      ->check(CLI::PositiveNumber)->capture_default_str();
+      ->check(clm::positive_number())->capture_default_str();
   move_to->add_option("--jerk-m-per-s3", move->jerk_m_per_s3, "jerk limit [m/s^3]")
-      ->check(CLI::PositiveNumber)->capture_default_str();
+      ->check(clm::positive_number())->capture_default_str();
   move_to->callback([options, move] {
     if (!std::isfinite(move->target_m)) throw std::runtime_error("--target-m must be finite");
     Command command = make_command(Command::MOVE_TO);
@@ -191,13 +191,13 @@ void add_ctl(CLI::App& app) {
   jog_sub->add_option("--velocity-m-per-s", jog->velocity_m_per_s, "velocity [m/s], signed: + towards the upper soft limit")
       ->required();
   jog_sub->add_option("--acceleration-m-per-s2", jog->acceleration_m_per_s2, "acceleration limit [m/s^2]")
-      ->check(CLI::PositiveNumber)->capture_default_str();
+      ->check(clm::positive_number())->capture_default_str();
   jog_sub->add_option("--jerk-m-per-s3", jog->jerk_m_per_s3, "jerk limit [m/s^3]")
-      ->check(CLI::PositiveNumber)->capture_default_str();
+      ->check(clm::positive_number())->capture_default_str();
   jog_sub->add_option("--duration-s", jog->duration_s, "how long to keep repeating [s]")
-      ->check(CLI::Range(0.01, 3600.0))->capture_default_str();
+      ->check(clm::in_range(0.01, 3600.0))->capture_default_str();
   jog_sub->add_option("--repeat-s", jog->repeat_s, "time between repeats [s]; below the daemon's jog_timeout_s")
-      ->check(CLI::Range(0.01, 1.0))->capture_default_str();
+      ->check(clm::in_range(0.01, 1.0))->capture_default_str();
   jog_sub->callback([options, jog] {
     if (!std::isfinite(jog->velocity_m_per_s) || jog->velocity_m_per_s == 0.0) {
       throw std::runtime_error("--velocity-m-per-s must be finite and not 0 (its sign is the direction)");
@@ -214,10 +214,7 @@ void add_ctl(CLI::App& app) {
       command.acceleration_m_per_s2 = jog->acceleration_m_per_s2;
       command.jerk_m_per_s3 = jog->jerk_m_per_s3;
       const servod_client::Ack ack = send(client, *options, command);
-      if (!ack.accepted) {
-        std::printf("%s\n", ack.text.c_str());
-        fail_quietly();
-      }
+      require_accepted(ack);
       if (repeats++ == 0) std::printf("%s\n", ack.text.c_str());
       std::this_thread::sleep_until(next + period);
     }
@@ -264,7 +261,7 @@ void add_ctl(CLI::App& app) {
   };
   auto experiment = std::make_shared<ExperimentOptions>();
   auto* sub = ctl->add_subcommand("experiment", "identification experiment: drive one coil set with a phase offset");
-  sub->add_option("--coil-set", experiment->coil_set, "coil set l = 1..L")->required()->check(CLI::Range(1, 8));
+  sub->add_option("--coil-set", experiment->coil_set, "coil set l = 1..L")->required()->check(clm::in_range(1, 8));
   sub->add_option("--delta-rad", experiment->delta_rad, "phase offset added to the drive's commutation angle [rad]")
       ->required();
   sub->callback([options, experiment] {

@@ -2,7 +2,8 @@
 //   get [KEY]        the value the daemon's cycle uses, of KEY or of every run-time parameter
 //   set KEY VALUE    change it at standstill; the daemon checks it as the configuration would
 //   save --config F  write the running parameters, law and loaded files into F (F.bak keeps the old)
-// Exit status as the other ctl subcommands: 1 refused or no answer, 2 bad arguments.
+// Exit status as the other ctl subcommands: 1 refused or no answer, 2 bad
+// arguments or a bad configuration file.
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -45,7 +46,7 @@ std::vector<std::pair<const servod::RuntimeParameter*, double>> get_all(servod_c
     Command command = make_command(Command::GET_PARAMETER);
     command.parameter = parameter.key;
     const servod_client::Ack ack = send(client, options, command);
-    if (!ack.accepted) throw std::runtime_error("get_parameter " + std::string(parameter.key) + ": " + ack.text);
+    if (!ack.accepted) throw RunTimeFailure("get_parameter " + std::string(parameter.key) + ": " + ack.text);
     out.emplace_back(&parameter, value_of(parameter.key, ack.text));
   }
   return out;
@@ -60,14 +61,8 @@ std::string number(double value) {
 void run_save(const CtlOptions& options, const std::string& config_path) {
   // What the file must say: the daemon's own configuration, for its axis.
   const servod::ServodConfig config = servod::load_servod_config(config_path);
-  servod_client::Client client(command_client_options(options));  // no LCM: exit status 2
-  clm_lcm::servo_status_t status;
-  try {
-    status = client.wait_for_status(options.timeout_s);
-  } catch (const servod_client::Timeout& e) {
-    std::fprintf(stderr, "clm ctl: %s\n", e.what());
-    fail_quietly();
-  }
+  servod_client::Client client(command_client_options(options));
+  const clm_lcm::servo_status_t status = client.wait_for_status(options.timeout_s);
   if (status.axis != config.axis_name) {
     throw std::runtime_error(config_path + ": axis.name is '" + config.axis_name + "', the daemon answering drives '" +
                              status.axis + "': give the configuration of that daemon");
@@ -134,13 +129,13 @@ void add_ctl_parameters(CLI::App& ctl, const std::shared_ptr<CtlOptions>& option
   auto* get = ctl.add_subcommand("get", "print run-time parameters as the daemon's cycle uses them (all without KEY)");
   get->add_option("KEY", *key, "a run-time parameter, e.g. control.bandwidth_hz (docs/servod.md)");
   get->callback([options, key] {
-    servod_client::Client client(command_client_options(*options));  // no LCM: exit status 2
+    servod_client::Client client(command_client_options(*options));
     if (!key->empty()) {
       Command command = make_command(Command::GET_PARAMETER);
       command.parameter = *key;
       const servod_client::Ack ack = send(client, *options, command);
+      require_accepted(ack);
       std::printf("%s\n", ack.text.c_str());
-      if (!ack.accepted) fail_quietly();
       return;
     }
     for (const auto& [parameter, value] : get_all(client, *options)) {

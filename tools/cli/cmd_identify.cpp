@@ -4,6 +4,7 @@
 
 #include "commutation/model_file.hpp"
 #include "config/atomic_file.hpp"
+#include "config/command_line.hpp"
 #include "config/sha256.hpp"
 #include "tools/cli/commands.hpp"
 #include "tools/data/commissioning_steps.hpp"
@@ -25,33 +26,33 @@ void add_identify(CLI::App& app) {
   sub->add_option("--output", options->output, "model file to write (YAML)")->required();
   sub->add_option("--model", options->model, "model class")->check(CLI::IsMember({"pgnn", "spline"}))->capture_default_str();
   sub->add_option("--validation-fraction", o.validation_fraction, "held-out share, in contiguous blocks")
-      ->check(CLI::Range(0.0, 0.9))->capture_default_str();
+      ->check(clm::in_range(0.0, 0.9))->capture_default_str();
   sub->add_option("--column-neurons", o.pgnn.column_hidden, "tanh neurons per column network of K")
-      ->check(CLI::Range(1, 64))->capture_default_str();
+      ->check(clm::in_range(1, 64))->capture_default_str();
   sub->add_option("--cogging-neurons", o.pgnn.cogging_hidden, "tanh neurons of the cogging network")
-      ->check(CLI::Range(1, 64))->capture_default_str();
+      ->check(clm::in_range(1, 64))->capture_default_str();
   sub->add_option("--regularisation", o.pgnn.regularisation, "Lambda = value * I in eq. (26)")
-      ->check(CLI::NonNegativeNumber)->capture_default_str();
-  sub->add_option("--restarts", o.pgnn.restarts, "seeded random restarts, best kept")->check(CLI::Range(1, 1000))->capture_default_str();
+      ->check(clm::non_negative_number())->capture_default_str();
+  sub->add_option("--restarts", o.pgnn.restarts, "seeded random restarts, best kept")->check(clm::in_range(1, 1000))->capture_default_str();
   sub->add_option("--seed", o.pgnn.seed, "seed of the restarts")->capture_default_str();
   sub->add_option("--restart-iterations", o.pgnn.restart_iterations, "LM iterations per restart")
-      ->check(CLI::Range(1, 100000))->capture_default_str();
+      ->check(clm::in_range(1, 100000))->capture_default_str();
   sub->add_option("--final-iterations", o.pgnn.final_iterations, "LM iterations polishing the best restart")
-      ->check(CLI::Range(0, 100000))->capture_default_str();
+      ->check(clm::in_range(0, 100000))->capture_default_str();
   sub->add_option("--restart-decimation", o.pgnn.restart_decimation, "restarts use every n-th training sample")
-      ->check(CLI::Range(1, 1000))->capture_default_str();
+      ->check(clm::in_range(1, 1000))->capture_default_str();
   sub->add_option("--final-decimation", o.pgnn.final_decimation, "the polish uses every n-th training sample")
-      ->check(CLI::Range(1, 1000))->capture_default_str();
-  sub->add_option("--threads", o.pgnn.threads, "solver threads")->check(CLI::Range(1, 64))->capture_default_str();
+      ->check(clm::in_range(1, 1000))->capture_default_str();
+  sub->add_option("--threads", o.pgnn.threads, "solver threads")->check(clm::in_range(1, 64))->capture_default_str();
   sub->add_option("--knot-spacing-m", o.spline.knot_spacing_m, "spline knot spacing (0: pole pitch / 8)")
-      ->check(CLI::NonNegativeNumber)->capture_default_str();
-  sub->add_option("--smoothing", o.spline.smoothing, "spline roughness penalty")->check(CLI::NonNegativeNumber)->capture_default_str();
+      ->check(clm::non_negative_number())->capture_default_str();
+  sub->add_option("--smoothing", o.spline.smoothing, "spline roughness penalty")->check(clm::non_negative_number())->capture_default_str();
   sub->add_flag("!--no-nuisance", o.nuisance,
                 "fit the model alone, as the paper does (default: the sensor's F_y offset and the direction-dependent "
                 "force are identified beside it)");
   sub->add_flag("!--no-selection", o.select_capacity,
-                "use --column-neurons/--cogging-neurons or --knot-spacing-m as given (default: chosen from a grid by "
-                "validation error)");
+                "use --column-neurons/--cogging-neurons/--regularisation or --knot-spacing-m as given (default: "
+                "chosen from a grid by validation error)");
   lcmlog::add_data_limit_options(*sub, options->limits, "--data");
   sub->callback([options] {
     options->identify.kind = options->model == "pgnn" ? ModelKind::kPgnn : ModelKind::kSpline;

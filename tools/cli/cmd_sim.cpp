@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "config/command_line.hpp"
 #include "drivers/sim/bus_injector.hpp"
 #include "drivers/sim/motor.hpp"
 #include "drivers/sim/motor_file.hpp"
@@ -253,17 +254,17 @@ void add_sim(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingFile);
   sub->add_option("--rate-hz", options->rate_hz, "SYNC rate of the daemon: the motor steps 1/rate per SYNC [Hz]")
-      ->check(CLI::PositiveNumber)
+      ->check(clm::positive_number())
       ->capture_default_str();
   sub->add_option("--duration-s", options->duration_s, "stop after this many seconds [s]; default: until SIGINT/SIGTERM")
-      ->check(CLI::PositiveNumber);
+      ->check(clm::positive_number());
   sub->add_option("--drive-node-id", options->drive_node_id, "CANopen node ID of the drive (the daemon's can.drive_node_id)")
-      ->check(CLI::Range(1, 127))
+      ->check(clm::in_range(1, 127))
       ->capture_default_str();
   sub->add_option("--force-sensor-node-id", options->force_sensor_node_id,
                   "CANopen node ID of the force sensor (the daemon's can.force_sensor_node_id); 0: no force sensor, "
                   "no force frame is sent")
-      ->check(CLI::Range(0, 127))
+      ->check(clm::in_range(0, 127))
       ->capture_default_str();
   sub->add_option("--inject", options->injection_plan,
                   "bus-side fault injection: steps fired one per SIGUSR1 at the next SYNC with the axis enabled, "

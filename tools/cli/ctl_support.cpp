@@ -2,16 +2,18 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <stdexcept>
 
 #include "daemon/telemetry/telemetry.hpp"
 
 namespace clm::cli {
 
-void fail_quietly() { throw CLI::RuntimeError(1); }
-
 void several_axes(const servod_client::SeveralAxes& e) {
-  std::fprintf(stderr, "clm ctl: %s\n", e.what());
-  throw CLI::RuntimeError(2);
+  throw std::invalid_argument(e.what());  // not a RunTimeFailure: --axis must choose (exit status 2)
+}
+
+void require_accepted(const servod_client::Ack& ack) {
+  if (!ack.accepted) throw RunTimeFailure(ack.text);
 }
 
 servod_client::Options client_options(const CtlOptions& options, const std::string& channels) {
@@ -33,17 +35,14 @@ servod_client::Ack send(servod_client::Client& client, const CtlOptions& options
     return client.send(command, options.timeout_s);
   } catch (const servod_client::SeveralAxes& e) {
     several_axes(e);
-  } catch (const servod_client::NoAck& e) {
-    std::fprintf(stderr, "clm ctl: %s\n", e.what());
-    fail_quietly();
   }
 }
 
 void send_command(const CtlOptions& options, const Command& command) {
-  servod_client::Client client(command_client_options(options));  // no LCM: exit status 2
+  servod_client::Client client(command_client_options(options));  // no LCM: servod_client::Error, exit status 1
   const servod_client::Ack ack = send(client, options, command);
+  require_accepted(ack);
   std::printf("%s\n", ack.text.c_str());
-  if (!ack.accepted) fail_quietly();
 }
 
 std::string absolute_path(const std::string& path) { return std::filesystem::absolute(path).lexically_normal().string(); }

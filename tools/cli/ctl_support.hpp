@@ -1,7 +1,9 @@
 #pragma once
 // What the subcommands of `clm ctl` share (cmd_ctl.cpp, cmd_ctl_parameters.cpp):
 // the global options, the client built from them, and the exit conventions
-// (1: timeout or refused, 2: bad arguments or several axes without --axis).
+// (config/exit_status.hpp; 1: refused, no answer in time, LCM not available;
+// 2: bad arguments, or several axes answering without --axis). Every error is
+// one stderr line "clm ctl: error: ...", printed by main.
 
 #include <CLI/CLI.hpp>
 #include <cstdint>
@@ -22,19 +24,21 @@ struct CtlOptions {
   std::int64_t client_id = 0;  ///< 0: servod_client::default_client_id()
 };
 
-/// Exits `clm` with status 1 without a further message (CLI11 prints nothing for it).
-[[noreturn]] void fail_quietly();
-/// Several axes answer and --axis does not choose: exit status 2 with the list.
+/// Several axes answer and --axis does not choose: a usage error (exit
+/// status 2) naming them.
 [[noreturn]] void several_axes(const servod_client::SeveralAxes& e);
 /// The client of one subcommand: receives `channels` alone (an LCM regular expression).
 servod_client::Options client_options(const CtlOptions& options, const std::string& channels);
 /// A client that hears the status and the acks (what sending a command needs).
 servod_client::Options command_client_options(const CtlOptions& options);
-/// Sends `command` through `client` and returns its ack; no ack: one stderr
-/// line and exit status 1; several axes: exit status 2.
+/// Sends `command` through `client` and returns its ack; no ack:
+/// servod_client::NoAck (exit status 1); several axes: exit status 2.
 servod_client::Ack send(servod_client::Client& client, const CtlOptions& options, const Command& command);
-/// Sends `command`, prints the ack's text; exit status 1 when it is refused.
+/// Sends `command` and prints the ack's text on stdout; refused: throws
+/// RunTimeFailure with the ack's text (exit status 1, the text on stderr).
 void send_command(const CtlOptions& options, const Command& command);
+/// Throws RunTimeFailure with the ack's text unless the daemon accepted.
+void require_accepted(const servod_client::Ack& ack);
 /// The daemon opens files itself, from its own working directory: send absolute paths.
 std::string absolute_path(const std::string& path);
 

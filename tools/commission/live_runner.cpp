@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "config/exit_status.hpp"
 #include "daemon/control/trajectory.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 
@@ -97,11 +98,11 @@ void LcmRunner::enable() {
   // the axis, is given back by the destructor).
   if (const auto status = client_.latest_status()) {
     if (status->force_sensor == servo_status_t::FORCE_SENSOR_NONE) {
-      throw std::runtime_error("clm-servod's axis '" + status->axis + "' has no force sensor (can.force_sensor_node_id "
+      throw RunTimeFailure("clm-servod's axis '" + status->axis + "' has no force sensor (can.force_sensor_node_id "
                                "absent in its configuration); commissioning measures forces");
     }
     if (status->force_sensor == servo_status_t::FORCE_SENSOR_LOST) {
-      throw std::runtime_error("clm-servod's axis '" + status->axis + "' has lost its force sensor (warning " +
+      throw RunTimeFailure("clm-servod's axis '" + status->axis + "' has lost its force sensor (warning " +
                                std::to_string(status->force_sensor_warning) + "); commissioning measures forces");
     }
   }
@@ -250,7 +251,7 @@ Recording LcmRunner::attempt(const servod::ProgramFile& program, const std::stri
   const std::int64_t force_unmeasured = gaps.force_unmeasured;
   gaps = find_state_gaps(cycles);
   gaps.force_unmeasured = force_unmeasured;
-  if (recording.samples.empty()) throw std::runtime_error("run '" + name + "': no CLM_SERVO_STATE of the running program");
+  if (recording.samples.empty()) throw RunTimeFailure("run '" + name + "': no CLM_SERVO_STATE of the running program");
   return recording;
 }
 
@@ -285,7 +286,7 @@ Recording LcmRunner::run_program(const servod::ProgramFile& program, const std::
                                                            : "");
     summary_.states_missing_discarded += gaps.missing;
     if (k >= options_.attempts_per_run) {
-      throw std::runtime_error("run '" + name + "': " + problem + " in attempt " + std::to_string(k) + " of " +
+      throw RunTimeFailure("run '" + name + "': " + problem + " in attempt " + std::to_string(k) + " of " +
                                std::to_string(options_.attempts_per_run) +
                                "; no attempt was complete (a loaded host or a lossy network between clm and clm-servod)");
     }

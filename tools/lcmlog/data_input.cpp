@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <stdexcept>
 
+#include "config/command_line.hpp"
 #include "config/regular_file.hpp"
 
 namespace clm::lcmlog {
@@ -49,12 +50,12 @@ void add_data_limit_options(CLI::App& subcommand, data::DataLimits& limits, cons
   subcommand
       .add_option("--max-bytes", limits.max_bytes,
                   "refuse a " + file_option + " file of more bytes than this (docs/data-formats.md, size limits)")
-      ->check(CLI::PositiveNumber)
+      ->check(clm::positive_number())
       ->capture_default_str();
   subcommand
       .add_option("--max-rows", limits.max_rows,
                   "refuse a " + file_option + " file of more data rows (or CLM_SERVO_STATE messages) than this")
-      ->check(CLI::PositiveNumber)
+      ->check(clm::positive_number())
       ->capture_default_str();
 }
 

@@ -9,7 +9,8 @@
 // ack with that axis, session, client and sequence; takes control before a
 // command that needs it; waits for a status or for states; keeps the messages
 // of a stretch of time. `clm ctl` and `clm commission --live` are built on it.
-// Every failure throws servod_client::Error (a std::runtime_error), one line.
+// Every failure throws servod_client::Error (a clm::RunTimeFailure: exit
+// status 1 in the programs), one line.
 
 #include <atomic>
 #include <condition_variable>
@@ -31,6 +32,7 @@
 #include "clm_lcm/servo_event_t.hpp"
 #include "clm_lcm/servo_state_t.hpp"
 #include "clm_lcm/servo_status_t.hpp"
+#include "config/exit_status.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 #include "daemon/telemetry/wire_check.hpp"
 
@@ -88,10 +90,11 @@ struct Ack {
 };
 
 /// Every failure of the client: LCM not opened, a publish refused, and the
-/// subclasses below.
-class Error : public std::runtime_error {
+/// subclasses below. All fail at run time: a program exits 1 on them
+/// (config/exit_status.hpp).
+class Error : public RunTimeFailure {
  public:
-  using std::runtime_error::runtime_error;
+  using RunTimeFailure::RunTimeFailure;
 };
 /// Nothing (status, ack, states) came within the time waited.
 class Timeout : public Error {
