@@ -175,8 +175,9 @@ std::string describe_gaps(const std::string& path, const LogGaps& gaps) {
   const CycleGaps& c = gaps.cycles;
   std::string line = path + ": ";
   if (c.missing > 0) {
-    line += std::to_string(c.missing) + " " + kStateChannel + " messages missing in " + std::to_string(c.gaps) +
-            (c.gaps == 1 ? " gap" : " gaps") + " (cycles " + describe_ranges(c) + ")";
+    line += std::to_string(c.missing) + " " + kStateChannel + (c.missing == 1 ? " message" : " messages") +
+            " missing in " + std::to_string(c.gaps) + (c.gaps == 1 ? " gap" : " gaps") + " (cycles " +
+            describe_ranges(c) + ")";
     if (c.step_cycles > 1) line += " among states every " + std::to_string(c.step_cycles) + " cycles";
   } else {
     line += std::string("no ") + kStateChannel + " message missing";
@@ -190,7 +191,7 @@ std::string describe_gaps(const std::string& path, const LogGaps& gaps) {
   } else {
     line += "; the daemon counted " + std::to_string(gaps.daemon_dropped) +
             " telemetry messages dropped (servo_status_t.telemetry_dropped over " + std::to_string(gaps.statuses) +
-            " statuses)";
+            (gaps.statuses == 1 ? " status)" : " statuses)");
   }
   return line;
 }
