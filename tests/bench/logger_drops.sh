@@ -19,7 +19,8 @@
 # 2 s, as a long preemption or a slow disk would hold it. Needs
 # build/bin/clm-servod, build/bin/clm, lcm-logger, chrt and the rights for
 # SCHED_FIFO, and a multicast route (docs/telemetry.md, "Multicast set-up and
-# tests").
+# tests"). With LOGS_DIR set, the logs and the warnings of clm log2csv are
+# kept there.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 # shellcheck source=../support/script_helpers.sh
@@ -79,6 +80,11 @@ count() {
   warning=$("$clm" log2csv --log "$1" --output "$1.csv" --format full 2>&1 > /dev/null) ||
       { echo "log2csv failed: $warning" >&2; exit 1; }
   states=$(($(wc -l < "$1.csv") - 1))
+  if [ -n "${LOGS_DIR:-}" ]; then
+    mkdir -p "$LOGS_DIR"
+    cp "$1" "$LOGS_DIR/"
+    [ -z "$warning" ] || echo "$warning" > "$LOGS_DIR/$(basename "$1").warning"
+  fi
   missing=$(sed -n 's/.*: \([0-9]*\) CLM_SERVO_STATE messages\{0,1\} missing.*/\1/p' <<< "$warning")
   dropped=$(sed -n 's/.*the daemon counted \([0-9]*\) telemetry.*/\1/p' <<< "$warning")
   echo "$states ${missing:-0} ${dropped:-0}"
