@@ -30,6 +30,7 @@ rounds=${2:-3}
 hogs=${3:-0}
 stall_ms=${4:-0}
 buffer=${5:-4194304}
+# shellcheck disable=SC2034  # read by script_helpers.sh
 servod=build/bin/clm-servod clm=build/bin/clm source_dir=.
 # A port of its own, away from the test scripts' 7700..9989.
 port=$((7600 + $$ % 50))
@@ -51,6 +52,7 @@ missing=$(config_edit config/servod.yaml "$work/servod.yaml" \
           "  lcm_url: \"$url\"" "  overrun_limit: 1000") || fail "config: no line '$missing' after editing"
 start_daemon "$work/servod.yaml" "$work/servod.log"
 rc=0
+# shellcheck disable=SC2154  # servod_pid: set by start_daemon
 wait_for_status "$servod_pid" 5 || rc=$?
 [ $rc = 0 ] || fail "clm-servod gave no status (wait_for_status $rc)"
 reply=$(ctl enable) || fail "enable refused: $reply"
@@ -129,8 +131,8 @@ for round in $(seq 1 "$rounds"); do
   fi
   echo "round $round:"
   for i in "${!names[@]}"; do
-    kernel[$i]=$(socket_drops "${loggers[$i]}")
-    rb[$i]=$(receive_buffer "${loggers[$i]}")
+    kernel[i]=$(socket_drops "${loggers[$i]}")
+    rb[i]=$(receive_buffer "${loggers[$i]}")
   done
   kill -INT "${loggers[@]}"
   for pid in "${loggers[@]}"; do wait "$pid" || true; done
@@ -147,9 +149,9 @@ for round in $(seq 1 "$rounds"); do
 done
 echo "all rounds:"
 for i in "${!names[@]}"; do
+  percent=$(awk -v m="${missing_sum[$i]}" -v s="${states_sum[$i]}" 'BEGIN { print 100 * m / (m + s) }')
   printf '  %-13s %7d states, %5d missing (%5.2f %%), kernel socket drops %5d\n' "${names[$i]}" "${states_sum[$i]}" \
-         "${missing_sum[$i]}" "$(awk -v m="${missing_sum[$i]}" -v s="${states_sum[$i]}" 'BEGIN { print 100 * m / (m + s) }')" \
-         "${kernel_sum[$i]}"
+         "${missing_sum[$i]}" "$percent" "${kernel_sum[$i]}"
 done
 status=$(ctl status) || fail "no status at the end"
 echo "daemon: $(field state "$status"), fault $(field fault "$status"); $(grep -E '^telemetry' <<< "$status" || true)"

@@ -7,9 +7,8 @@
 #include <cstring>
 #include <initializer_list>
 #include <limits>
-#include <stdexcept>
-
 #include <numeric>
+#include <stdexcept>
 
 #include "commutation/types.hpp"
 #include "daemon/telemetry/lcm_conversion.hpp"
@@ -285,8 +284,8 @@ ServoStateLog read_servo_state_log(const std::string& lcm_log_path, const data::
     log.events.push_back(event);
   }
   if (log.states.empty()) {
-    throw std::runtime_error(lcm_log_path + ": no " + kStateChannel + " message " +
-                             (event == 0 ? std::string("(an empty file)") : "among " + std::to_string(event) + " events"));
+    const std::string where = event == 0 ? "(an empty file)" : "among " + std::to_string(event) + " events";
+    throw std::runtime_error(lcm_log_path + ": no " + kStateChannel + " message " + where);
   }
   std::vector<std::int64_t> cycles(log.states.size());
   for (std::size_t k = 0; k < cycles.size(); ++k) cycles[k] = log.states[k].cycle;
