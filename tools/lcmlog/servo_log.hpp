@@ -64,11 +64,13 @@ struct LogGaps {
 /// One line (no prefix, no newline) describing `gaps` of the log at `path`,
 /// e.g. "run.lcm: 93 CLM_SERVO_STATE messages missing in 41 gaps (cycles 12,
 /// 15..19, ... and 36 more gaps); the daemon counted 0 telemetry messages
-/// dropped (servo_status_t.telemetry_dropped, 85 statuses)". "" when !gaps.any().
+/// dropped (servo_status_t.telemetry_dropped over 85 statuses)". "" when !gaps.any().
 std::string describe_gaps(const std::string& path, const LogGaps& gaps);
 
 /// Every CLM_SERVO_STATE message of the log at `lcm_log_path`, in file order,
-/// as records (telemetry::to_record); other channels are skipped. Throws std::runtime_error with one line naming
+/// as records (telemetry::to_record); other channels are skipped, except that
+/// CLM_SERVO_STATUS and CLM_SERVO_EVENT are checked and read for the gaps
+/// (read_servo_state_log). Throws std::runtime_error with one line naming
 /// the file and the event (0-based, counting every channel, as lcm-logplayer):
 ///   "run.lcm: cannot open: No such file or directory"
 ///   "run.lcm: not a regular file (a FIFO); only regular files are read"
