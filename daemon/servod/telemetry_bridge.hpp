@@ -25,6 +25,7 @@ enum class EventCode : std::int16_t {
   kRequestSuperseded = 305,   ///< a deferred law request was replaced before it took effect
   kForceSensorLost = 306,     ///< the force sensor was lost in service (a warning, not a fault)
   kForceSensorBack = 307,     ///< its frames come again
+  // 308 is a recorder's, not the daemon's: telemetry::kRecordingResumedEvent.
 };
 
 /// Who reports the command authority's part of the status (the command

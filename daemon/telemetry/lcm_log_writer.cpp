@@ -8,6 +8,7 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "daemon/telemetry/lcm_conversion.hpp"
 #include "daemon/telemetry/messages.hpp"
 
 namespace clm::telemetry {
@@ -53,6 +54,16 @@ void LcmLogWriter::close() {
     throw std::runtime_error(error_);
   }
   closed_ = true;
+}
+
+void mark_recording_resumed(TelemetrySink& sink, std::int64_t cycle, std::int64_t utime) {
+  ServoEventSample marker;
+  marker.utime = utime;
+  marker.cycle = cycle;
+  marker.code = kRecordingResumedEvent;
+  marker.severity = clm_lcm::servo_event_t::SEVERITY_INFO;
+  marker.text.assign("recording resumed: the cycles before were left out on purpose");
+  publish_message(sink, kEventChannel, to_message(marker), utime);
 }
 
 }  // namespace clm::telemetry

@@ -46,4 +46,12 @@ class LcmLogWriter : public TelemetrySink {
   bool closed_ = false;
 };
 
+/// Writes the marker of a recorder that resumes recording after leaving
+/// cycles out on purpose: a servo_event_t with code kRecordingResumedEvent,
+/// `cycle` the daemon's last cycle before it as far as the recorder knows,
+/// stamped `utime`. A reader of the log
+/// (tools/lcmlog) then takes the step in the cycle counter across the marker
+/// for a pause, not a loss. Throws as `sink`.publish does.
+void mark_recording_resumed(TelemetrySink& sink, std::int64_t cycle, std::int64_t utime);
+
 }  // namespace clm::telemetry

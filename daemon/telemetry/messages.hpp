@@ -18,6 +18,13 @@ inline constexpr const char* kEventChannel = "CLM_SERVO_EVENT";
 inline constexpr const char* kCommandChannel = "CLM_SERVO_COMMAND";
 inline constexpr const char* kCommandAckChannel = "CLM_SERVO_COMMAND_ACK";
 
+/// servo_event_t.code that a recorder, never the daemon, writes into its own
+/// LCM log where it resumes recording after leaving cycles out on purpose
+/// (clm commission records the runs only): the step in the cycle counter
+/// across it is a pause, not a loss (docs/telemetry.md, "Gaps"). Beside the
+/// daemon's event codes (servod::EventCode).
+inline constexpr std::int16_t kRecordingResumedEvent = 308;
+
 /// Multicast on the local host only (ttl=0): LCM's default group and port.
 inline constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
 

@@ -4,8 +4,10 @@
 // refused with one line naming the log and the event.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include "cli/cli_support.hpp"
 #include "commutation/model_file.hpp"
@@ -50,21 +52,24 @@ std::vector<std::uint64_t> event_offsets(const std::string& bytes) {
   return offsets;
 }
 
-/// Refusal as in test_refusals.cpp: status ≠ 0, one line, nothing written.
-void check_refused(const std::vector<std::string>& args, const std::string& output, const std::string& expected) {
+/// Refusal as in test_refusals.cpp: status `exit_code` (2: bad input; 1: a
+/// refusal at run time), one line, nothing written, an earlier output kept
+/// byte for byte.
+void check_refused(const std::vector<std::string>& args, const std::string& output, const std::string& expected,
+                   int exit_code = 2) {
   const std::string directory = fs::path(output).parent_path().string();
   fs::remove(output);
   const auto before = listing(directory);
   const ProcessResult result = run_clm(args);
   INFO("stderr: " << result.err);
-  CHECK(result.exit_code != 0);
+  CHECK(result.exit_code == exit_code);
   const auto lines = result.err_lines();
   REQUIRE(lines.size() == 1);
   CHECK(lines[0] == "clm " + args[0] + ": error: " + expected);
   CHECK(listing(directory) == before);
   const std::string previous = "an output of an earlier run\n";
   write_file(output, previous);
-  CHECK(run_clm(args).exit_code != 0);
+  CHECK(run_clm(args).exit_code == exit_code);
   CHECK(read_file(output) == previous);
   fs::remove(output);
 }
@@ -88,6 +93,37 @@ void write_states_log(const std::string& path, const std::vector<clm_lcm::servo_
   telemetry::publish_message(writer, telemetry::kStatusChannel, clm_lcm::servo_status_t{}, 0);
   for (const auto& state : states) telemetry::publish_message(writer, telemetry::kStateChannel, state, state.utime);
   writer.close();
+}
+
+/// The first `count` states of the experiments' log (the commissioning runs,
+/// each after a recording-resumed marker; 0: all) without those at `left_out`
+/// (indices), a status with telemetry_dropped `dropped_before` first and one
+/// with `dropped_after` last. Returns the cycles left out.
+std::vector<std::int64_t> write_experiments_without(const std::string& path, const std::set<std::size_t>& left_out,
+                                                    std::size_t count = 0, std::int64_t dropped_before = 0,
+                                                    std::int64_t dropped_after = 0) {
+  static const lcmlog::ServoStateLog full = lcmlog::read_servo_state_log(experiment_files().lcm);
+  REQUIRE(full.gaps.cycles.pauses == 5);  // six runs: 2 offsets × 3 coil sets
+  REQUIRE(count <= full.states.size());
+  telemetry::LcmLogWriter writer(path);
+  clm_lcm::servo_status_t status{};
+  status.telemetry_dropped = dropped_before;
+  telemetry::publish_message(writer, telemetry::kStatusChannel, status, 0);
+  std::vector<std::int64_t> cycles;
+  for (std::size_t k = 0; k < (count == 0 ? full.states.size() : count); ++k) {
+    const auto& state = full.states[k];
+    if (left_out.count(k) != 0) {
+      REQUIRE(state.cycle == full.states[k - 1].cycle + 1);  // inside a run
+      cycles.push_back(state.cycle);
+      continue;
+    }
+    if (k > 0 && state.cycle != full.states[k - 1].cycle + 1) telemetry::mark_recording_resumed(writer, 0, 0);
+    telemetry::publish_message(writer, telemetry::kStateChannel, telemetry::to_message(state), state.utime);
+  }
+  status.telemetry_dropped = dropped_after;
+  telemetry::publish_message(writer, telemetry::kStatusChannel, status, 0);
+  writer.close();
+  return cycles;
 }
 
 }  // namespace
@@ -226,6 +262,101 @@ TEST_CASE("a log's states are checked as CSV rows are, named by event: NaN, coil
       check_refused(args, output_of(args),
                     log + ": no state in experiment mode (commutation 5 with a coil set) among 400 "
                           "CLM_SERVO_STATE messages");
+    }
+  }
+}
+
+TEST_CASE("log2csv, calibrate, identify and ff-identify warn of a log's missing states in one stderr line and "
+          "still write",
+          "[cli][lcm][gaps]") {
+  TemporaryDirectory dir;
+  const std::string log = dir.file("run.lcm");
+  const auto cycles = write_experiments_without(log, {100, 300, 301, 302});
+  REQUIRE(cycles.size() == 4);
+  REQUIRE(cycles[3] == cycles[1] + 2);
+  const std::string gaps = log + ": 4 CLM_SERVO_STATE messages missing in 2 gaps (cycles " + std::to_string(cycles[0]) +
+                           ", " + std::to_string(cycles[1]) + ".." + std::to_string(cycles[3]) +
+                           "); the daemon counted 0 telemetry messages dropped (servo_status_t.telemetry_dropped over "
+                           "2 statuses)";
+  auto commands = readers(dir, log);
+  commands.push_back({"log2csv", "--log", log, "--output", dir.file("run.csv"), "--format", "full"});
+  for (const auto& args : commands) {
+    const ProcessResult result = run_clm(args);
+    INFO("stderr: " << result.err);
+    CHECK(result.exit_code == 0);
+    // One line, the first; identify's progress lines follow it.
+    const auto lines = result.err_lines();
+    REQUIRE_FALSE(lines.empty());
+    CHECK(lines.front() == "clm " + args[0] + ": warning: " + gaps);
+    CHECK(std::count_if(lines.begin(), lines.end(), [](const std::string& l) { return l.rfind("clm ", 0) == 0; }) == 1);
+    CHECK(fs::exists(output_of(args)));
+  }
+}
+
+TEST_CASE("With --fail-on-gaps a log with missing states or daemon drops is refused: status 1, one line, nothing "
+          "written",
+          "[cli][lcm][gaps]") {
+  TemporaryDirectory dir;
+  const std::string log = dir.file("run.lcm");
+  auto commands = readers(dir, log);
+  commands.push_back({"log2csv", "--log", log, "--output", dir.file("run.csv"), "--format", "experiment"});
+  for (auto& args : commands) args.push_back("--fail-on-gaps");
+
+  // Refused before the states are used: a short stretch of the first run will do.
+  SECTION("states missing") {
+    const auto cycles = write_experiments_without(log, {200}, 600);
+    REQUIRE(cycles.size() == 1);
+    for (const auto& args : commands) {
+      check_refused(args, output_of(args),
+                    log + ": 1 CLM_SERVO_STATE message missing in 1 gap (cycles " + std::to_string(cycles[0]) +
+                        "); the daemon counted 0 telemetry messages dropped (servo_status_t.telemetry_dropped over 2 "
+                        "statuses) (--fail-on-gaps)",
+                    1);
+    }
+  }
+  SECTION("no state missing, but the daemon's drop counter grew") {
+    write_experiments_without(log, {}, 600, 17, 17 + 3);
+    for (const auto& args : commands) {
+      check_refused(args, output_of(args),
+                    log + ": no CLM_SERVO_STATE message missing; the daemon counted 3 telemetry messages dropped "
+                          "(servo_status_t.telemetry_dropped over 2 statuses) (--fail-on-gaps)",
+                    1);
+    }
+  }
+  SECTION("a complete log passes") {
+    write_experiments_without(log, {}, 600, 17, 17);
+    for (const auto& args : commands) {
+      if (args[0] != "log2csv") continue;  // the same reading as the others; their fits are tested above
+      const ProcessResult result = run_clm(args);
+      INFO("stderr: " << result.err);
+      CHECK(result.exit_code == 0);
+      CHECK(result.err.empty());
+    }
+  }
+}
+
+TEST_CASE("An empty log and a log without a state are bad input: status 2, one line naming the file, an earlier "
+          "output kept",
+          "[cli][lcm][gaps]") {
+  TemporaryDirectory dir;
+  const std::string log = dir.file("run.lcm");
+  const std::string csv = dir.file("run.csv");
+  const std::vector<std::string> log2csv = {"log2csv", "--log", log, "--output", csv, "--format", "full"};
+  SECTION("0 bytes") {
+    write_file(log, "");
+    check_refused(log2csv, csv, log + ": no CLM_SERVO_STATE message (an empty file)");
+  }
+  SECTION("statuses only") {
+    {
+      telemetry::LcmLogWriter writer(log);
+      telemetry::publish_message(writer, telemetry::kStatusChannel, clm_lcm::servo_status_t{}, 0);
+      telemetry::publish_message(writer, telemetry::kStatusChannel, clm_lcm::servo_status_t{}, 0);
+      writer.close();
+    }
+    auto commands = readers(dir, log);
+    commands.push_back(log2csv);
+    for (const auto& args : commands) {
+      check_refused(args, output_of(args), log + ": no CLM_SERVO_STATE message among 2 events");
     }
   }
 }

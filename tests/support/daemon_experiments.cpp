@@ -47,6 +47,10 @@ DaemonExperiments run_daemon_experiments(const std::string& servod_config_path, 
       experiment.coil_set = l;
       experiment.delta_rad = delta;
       commission::execute(daemon, experiment);
+      if (log) {  // the log holds the runs only, as clm commission's do
+        const auto& last = daemon.cycle().record();
+        telemetry::mark_recording_resumed(*log, last.cycle, last.utime);
+      }
       experiments.runs.push_back(commission::run_program(axis, program, "experiment coil set " + std::to_string(l),
                                                          bridge ? &*bridge : nullptr));
     }

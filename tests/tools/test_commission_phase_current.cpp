@@ -6,11 +6,13 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <filesystem>
 
 #include "commutation/classical.hpp"
 #include "support/temporary_directory.hpp"
 #include "tools/commission/commission.hpp"
 #include "tools/data/csv_table.hpp"
+#include "tools/lcmlog/servo_log.hpp"
 
 using namespace clm;
 
@@ -37,6 +39,13 @@ Outcome commission_with(const std::string& config, const test::TemporaryDirector
   }
   REQUIRE(outcome.classical_y > 0.0);
   REQUIRE(outcome.pgnn_y > 0.0);
+  // Its logs hold the runs only, with the pauses between them marked: no gap.
+  for (const auto& entry : std::filesystem::directory_iterator(options.out_dir + "/logs")) {
+    INFO(entry.path().string());
+    const auto log = lcmlog::read_servo_state_log(entry.path().string());
+    CHECK_FALSE(log.gaps.any());
+    if (entry.path().filename() == "experiments.lcm") CHECK(log.gaps.cycles.pauses == 2 * 3 - 1);  // 3 coil sets
+  }
   return outcome;
 }
 

@@ -17,6 +17,7 @@ void add_calibrate(CLI::App& app) {
     std::string motor, data, output;
     bool robust = false;
     data::DataLimits limits;
+    lcmlog::GapPolicy gaps;
   };
   auto options = std::make_shared<Options>();
   sub->add_option("--motor", options->motor, "motor description (YAML)")->required()->check(lcmlog::existing_input_file());
@@ -26,11 +27,12 @@ void add_calibrate(CLI::App& app) {
   sub->add_flag("--robust", options->robust,
                 "write the offset-robust fit (a position-dependent offset fitted beside c_i) instead of the paper's");
   lcmlog::add_data_limit_options(*sub, options->limits, "--data");
+  lcmlog::add_gap_option(*sub, options->gaps);
   sub->callback([options] {
     const auto motor = load_motor_description(options->motor);
     // The table (the file's text) is dropped once its rows are grouped.
     const auto data = data::read_experiment_data(
-        lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment, options->limits), motor);
+        lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment, options->limits, options->gaps), motor);
     const auto paper = data::calibrate_motor(data, motor, data::CalibrationMethod::kAlgorithm1);
     const auto robust = data::calibrate_motor(data, motor, data::CalibrationMethod::kOffsetRobust);
     CalibrationFile chosen = options->robust ? robust : paper;

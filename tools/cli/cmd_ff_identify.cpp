@@ -16,14 +16,17 @@ void add_ff_identify(CLI::App& app) {
   struct Options {
     std::string data, output;
     data::DataLimits limits;
+    lcmlog::GapPolicy gaps;
   };
   auto options = std::make_shared<Options>();
   sub->add_option("--data", options->data,
                   "closed-loop data: CSV with t_s, r_m, F_star_N, or an LCM log of clm-servod")->required()->check(lcmlog::existing_input_file());
   sub->add_option("--output", options->output, "feedforward file to write (YAML)")->required();
   lcmlog::add_data_limit_options(*sub, options->limits, "--data");
+  lcmlog::add_gap_option(*sub, options->gaps);
   sub->callback([options] {
-    const auto table = lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kFeedforward, options->limits);
+    const auto table =
+        lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kFeedforward, options->limits, options->gaps);
     const auto time = table.numbers("t_s");
     const auto reference = table.numbers("r_m");
     const auto force = table.numbers("F_star_N");

@@ -18,6 +18,7 @@ void add_identify(CLI::App& app) {
     std::string motor, data, output, model = "pgnn";
     data::IdentifyOptions identify;
     data::DataLimits limits;
+    lcmlog::GapPolicy gaps;
   };
   auto options = std::make_shared<Options>();
   auto& o = options->identify;
@@ -54,6 +55,7 @@ void add_identify(CLI::App& app) {
                 "use --column-neurons/--cogging-neurons/--regularisation or --knot-spacing-m as given (default: "
                 "chosen from a grid by validation error)");
   lcmlog::add_data_limit_options(*sub, options->limits, "--data");
+  lcmlog::add_gap_option(*sub, options->gaps);
   sub->callback([options] {
     options->identify.kind = options->model == "pgnn" ? ModelKind::kPgnn : ModelKind::kSpline;
     options->identify.spline.regularisation = options->identify.pgnn.regularisation;
@@ -61,7 +63,7 @@ void add_identify(CLI::App& app) {
     // The table (the file's text) is dropped once its rows are grouped, before
     // the identification's own matrices are made (docs/benchmarks.md, memory).
     const auto data = data::read_experiment_data(
-        lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment, options->limits), motor);
+        lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment, options->limits, options->gaps), motor);
     std::vector<data::CoilSetIdentification> reports;
     ProgressBar bar("identify " + options->model);
     const auto on_progress = [&](const data::IdentifyProgress& p) {

@@ -8,6 +8,7 @@
 #include "config/exit_status.hpp"
 #include "daemon/control/trajectory.hpp"
 #include "daemon/telemetry/telemetry.hpp"
+#include "tools/lcmlog/servo_log.hpp"
 
 namespace clm::commission {
 namespace {
@@ -42,25 +43,11 @@ servod_client::Options client_options(const LiveOptions& options) {
 }  // namespace
 
 StateGaps find_state_gaps(const std::vector<std::int64_t>& cycles, int max_ranges) {
+  const lcmlog::CycleGaps found = lcmlog::find_cycle_gaps(cycles, 1, {}, max_ranges);
   StateGaps gaps;
-  int listed = 0;
-  for (std::size_t k = 1; k < cycles.size(); ++k) {
-    const std::int64_t step = cycles[k] - cycles[k - 1];
-    if (step <= 0) {
-      ++gaps.out_of_order;
-      continue;
-    }
-    if (step == 1) continue;
-    gaps.missing += step - 1;
-    if (listed < max_ranges) {
-      if (!gaps.ranges.empty()) gaps.ranges += ", ";
-      gaps.ranges += std::to_string(cycles[k - 1] + 1);
-      if (step > 2) gaps.ranges += ".." + std::to_string(cycles[k] - 1);
-    } else if (listed == max_ranges) {
-      gaps.ranges += ", ...";
-    }
-    ++listed;
-  }
+  gaps.missing = found.missing;
+  gaps.out_of_order = found.out_of_order;
+  gaps.ranges = lcmlog::describe_ranges(found);
   return gaps;
 }
 
@@ -267,11 +254,15 @@ Recording LcmRunner::run_program(const servod::ProgramFile& program, const std::
     if (gaps.missing == 0 && gaps.out_of_order == 0 && gaps.force_unmeasured == 0) {
       summary_.states_recorded += static_cast<std::int64_t>(recording.samples.size());
       if (log_) {
-        // The program's states, and every other message of the run.
+        // The program's states, and every other message of the run. The log
+        // holds the runs only: the first state of each follows a marker.
+        bool marked = false;
         for (const auto& message : messages) {
           if (message.channel == telemetry::kStateChannel) {
             servo_state_t s;
             if (!decode(message.data, s) || !s.program_running || s.state != kStateEnabled) continue;
+            if (!marked) telemetry::mark_recording_resumed(*log_, s.cycle - 1, message.utime);
+            marked = true;
           }
           log_->publish(message.channel, message.data, message.utime);
         }

@@ -30,7 +30,8 @@ using servod_client::ReceivedMessage;
 
 /// Cycles missing from a sequence of CLM_SERVO_STATE cycle counters that
 /// should follow one another (each = previous + 1): the number missing and
-/// the gaps as "a..b" ranges (at most `max_ranges` listed). Pure: no I/O.
+/// the gaps as "a..b" ranges (at most `max_ranges` listed), as
+/// lcmlog::find_cycle_gaps and lcmlog::describe_ranges find them for logs. Pure: no I/O.
 struct StateGaps {
   std::int64_t missing = 0;
   std::int64_t out_of_order = 0;  ///< a counter not above its predecessor

@@ -172,6 +172,11 @@ void InProcessRunner::close_log() {
 }
 
 Recording InProcessRunner::run_program(const servod::ProgramFile& program, const std::string&, const std::string& name) {
+  // The log holds the runs only: the approach and the time between runs are left out on purpose.
+  if (log_) {
+    const auto& last = daemon_->cycle().record();
+    telemetry::mark_recording_resumed(log_->writer, last.cycle, last.utime);
+  }
   return commission::run_program(*axis_, program, name, log_ ? &log_->bridge : nullptr);
 }
 

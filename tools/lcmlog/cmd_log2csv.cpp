@@ -17,6 +17,7 @@ void add_log2csv(CLI::App& app) {
   struct Options {
     std::string log, output, format;
     data::DataLimits limits;
+    lcmlog::GapPolicy gaps;
   };
   auto options = std::make_shared<Options>();
   sub->add_option("--log", options->log, "LCM log of clm-servod (lcm-logger or the commissioning recorder)")
@@ -29,9 +30,12 @@ void add_log2csv(CLI::App& app) {
       ->required()
       ->check(CLI::IsMember({"experiment", "feedforward", "full"}));
   lcmlog::add_data_limit_options(*sub, options->limits, "--log");
+  lcmlog::add_gap_option(*sub, options->gaps);
   sub->callback([options] {
     const auto format = lcmlog::parse_csv_format(options->format);
-    const auto states = lcmlog::read_servo_states(options->log, options->limits);
+    const lcmlog::ServoStateLog log = lcmlog::read_servo_state_log(options->log, options->limits);
+    lcmlog::report_gaps(options->log, log.gaps, options->gaps);
+    const auto& states = log.states;
     lcmlog::CsvColumns columns;
     try {
       columns = lcmlog::to_csv_columns(states, format);

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstdint>
+#include <cstdio>
 #include <stdexcept>
 
 #include "config/command_line.hpp"
@@ -21,9 +22,30 @@ bool is_lcm_log(const std::string& path) {
   return magic == std::array<unsigned char, 4>{0xED, 0xA1, 0xDA, 0x01};
 }
 
-data::CsvTable load_data_table(const std::string& path, CsvFormat format, const data::DataLimits& limits) {
+void add_gap_option(CLI::App& subcommand, GapPolicy& policy) {
+  policy.subcommand = subcommand.get_name();
+  subcommand.add_flag("--fail-on-gaps", policy.fail_on_gaps,
+                      "refuse an LCM log with CLM_SERVO_STATE messages missing (a gap in the cycle counter) or "
+                      "telemetry the daemon dropped (exit status 1); without it they are a warning");
+}
+
+void report_gaps(const std::string& lcm_log_path, const LogGaps& gaps, const GapPolicy& policy) {
+  const std::string line = describe_gaps(lcm_log_path, gaps);
+  if (line.empty()) return;
+  const std::string name = policy.subcommand.empty() ? "clm" : "clm " + policy.subcommand;
+  if (!policy.fail_on_gaps) {
+    std::fprintf(stderr, "%s: warning: %s\n", name.c_str(), line.c_str());
+    return;
+  }
+  std::fprintf(stderr, "%s: error: %s (--fail-on-gaps)\n", name.c_str(), line.c_str());
+  throw CLI::RuntimeError(1);
+}
+
+data::CsvTable load_data_table(const std::string& path, CsvFormat format, const data::DataLimits& limits,
+                               const GapPolicy& gaps) {
   if (!is_lcm_log(path)) return data::CsvTable::load(path, limits);
   ServoStateLog log = read_servo_state_log(path, limits);
+  report_gaps(path, log.gaps, gaps);
   CsvColumns columns;
   try {
     columns = to_csv_columns(log.states, format);

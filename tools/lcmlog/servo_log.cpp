@@ -7,16 +7,21 @@
 #include <cstring>
 #include <initializer_list>
 #include <limits>
+#include <numeric>
 #include <stdexcept>
 
 #include "commutation/types.hpp"
 #include "daemon/telemetry/lcm_conversion.hpp"
+#include "daemon/telemetry/messages.hpp"
+#include "daemon/telemetry/wire_check.hpp"
 #include "config/regular_file.hpp"
 
 namespace clm::lcmlog {
 namespace {
 
-constexpr const char* kStateChannel = "CLM_SERVO_STATE";
+using telemetry::kEventChannel;
+using telemetry::kStateChannel;
+using telemetry::kStatusChannel;
 constexpr std::size_t kEventHeaderBytes = 4 + 8 + 8 + 4 + 4;
 constexpr std::uint64_t kSyncWord = 0xEDA1DA01;
 // lcm's own reader refuses channel names of 1000 bytes or more.
@@ -76,7 +81,119 @@ class BufferedReader {
   std::size_t filled_ = 0;
 };
 
+/// The growth of servo_status_t.telemetry_dropped over the statuses of a log,
+/// fed in file order.
+class DaemonDropCount {
+ public:
+  void add(const clm_lcm::servo_status_t& status) {
+    ++statuses_;
+    if (statuses_ > 1 && status.session == session_ && status.telemetry_dropped >= last_) {
+      growth_ += status.telemetry_dropped - last_;
+    } else if (statuses_ > 1) {
+      // Another session: that daemon started within the log, and every drop it counted happened in it.
+      growth_ += std::max<std::int64_t>(0, status.telemetry_dropped);
+    }
+    session_ = status.session;
+    last_ = status.telemetry_dropped;
+  }
+  std::int64_t statuses() const { return statuses_; }
+  std::int64_t growth() const { return growth_; }
+
+ private:
+  std::int64_t statuses_ = 0;
+  std::int64_t session_ = 0;
+  std::int64_t last_ = 0;
+  std::int64_t growth_ = 0;
+};
+
+/// True at the steps that find_cycle_gaps examines.
+class StepFilter {
+ public:
+  explicit StepFilter(std::span<const std::size_t> resumed) : resumed_(resumed) {}
+  /// Whether the step into state k (k ascending from 1) is a pause.
+  bool pause(std::size_t k) {
+    while (next_ < resumed_.size() && resumed_[next_] < k) ++next_;
+    return next_ < resumed_.size() && resumed_[next_] == k;
+  }
+
+ private:
+  std::span<const std::size_t> resumed_;
+  std::size_t next_ = 0;
+};
+
 }  // namespace
+
+CycleGaps find_cycle_gaps(std::span<const std::int64_t> cycles, std::int64_t step_cycles,
+                          std::span<const std::size_t> resumed, int max_listed) {
+  CycleGaps gaps;
+  gaps.step_cycles = std::max<std::int64_t>(1, step_cycles);
+  StepFilter filter(resumed);
+  for (std::size_t k = 1; k < cycles.size(); ++k) {
+    if (filter.pause(k)) {
+      ++gaps.pauses;
+      continue;
+    }
+    const std::int64_t step = cycles[k] - cycles[k - 1];
+    if (step <= 0) {
+      ++gaps.out_of_order;
+      continue;
+    }
+    if (step <= gaps.step_cycles) continue;
+    // A step that is not a multiple of step_cycles still misses the states in between.
+    gaps.missing += (step - 1) / gaps.step_cycles;
+    if (gaps.gaps < max_listed) gaps.listed.push_back({cycles[k - 1] + gaps.step_cycles, cycles[k] - gaps.step_cycles});
+    ++gaps.gaps;
+  }
+  return gaps;
+}
+
+std::int64_t published_step_cycles(std::span<const std::int64_t> cycles, std::span<const std::size_t> resumed) {
+  std::int64_t step_cycles = 0;
+  StepFilter filter(resumed);
+  for (std::size_t k = 1; k < cycles.size(); ++k) {
+    const std::int64_t step = cycles[k] - cycles[k - 1];
+    if (!filter.pause(k) && step > 0) step_cycles = std::gcd(step_cycles, step);
+  }
+  return std::max<std::int64_t>(1, step_cycles);
+}
+
+std::string describe_ranges(const CycleGaps& gaps) {
+  std::string text;
+  for (const CycleRange& range : gaps.listed) {
+    if (!text.empty()) text += ", ";
+    text += std::to_string(range.first);
+    if (range.last != range.first) text += ".." + std::to_string(range.last);
+  }
+  const auto unlisted = gaps.gaps - static_cast<std::int64_t>(gaps.listed.size());
+  if (unlisted > 0) text += ", ... and " + std::to_string(unlisted) + " more " + (unlisted == 1 ? "gap" : "gaps");
+  return text;
+}
+
+std::string describe_gaps(const std::string& path, const LogGaps& gaps) {
+  if (!gaps.any()) return "";
+  const CycleGaps& c = gaps.cycles;
+  std::string line = path + ": ";
+  if (c.missing > 0) {
+    line += std::to_string(c.missing) + " " + kStateChannel + (c.missing == 1 ? " message" : " messages") +
+            " missing in " + std::to_string(c.gaps) + (c.gaps == 1 ? " gap" : " gaps") + " (cycles " +
+            describe_ranges(c) + ")";
+    if (c.step_cycles > 1) line += " among states every " + std::to_string(c.step_cycles) + " cycles";
+  } else {
+    line += std::string("no ") + kStateChannel + " message missing";
+  }
+  if (c.out_of_order > 0) {
+    line += "; " + std::to_string(c.out_of_order) +
+            " cycle counters not above the one before (repeated, reordered, or the daemon restarted)";
+  }
+  if (gaps.statuses == 0) {
+    line += std::string("; the daemon's own drop count is unknown (no ") + kStatusChannel + " in the log)";
+  } else {
+    line += "; the daemon counted " + std::to_string(gaps.daemon_dropped) +
+            " telemetry messages dropped (servo_status_t.telemetry_dropped over " + std::to_string(gaps.statuses) +
+            (gaps.statuses == 1 ? " status)" : " statuses)");
+  }
+  return line;
+}
 
 std::vector<servo::CycleRecord> read_servo_states(const std::string& lcm_log_path, const data::DataLimits& limits) {
   return read_servo_state_log(lcm_log_path, limits).states;
@@ -97,7 +214,10 @@ ServoStateLog read_servo_state_log(const std::string& lcm_log_path, const data::
   std::vector<std::uint8_t> data;
   std::string channel;
   std::uint64_t offset = 0;
-  for (std::int64_t event = 0; offset < file_bytes; ++event) {
+  DaemonDropCount daemon_drops;
+  std::vector<std::size_t> resumed;  // states that follow a recording-resumed marker
+  std::int64_t event = 0;
+  for (; offset < file_bytes; ++event) {
     const auto fail = [&](const std::string& what) {
       throw std::runtime_error(event_prefix(lcm_log_path, event) + what);
     };
@@ -129,6 +249,25 @@ ServoStateLog read_servo_state_log(const std::string& lcm_log_path, const data::
     }
     offset += kEventHeaderBytes + body;
 
+    const auto decode = [&](auto& message) {
+      const std::string reason = telemetry::decode_checked(std::span<const std::uint8_t>(data), message);
+      if (!reason.empty()) fail(channel + ": " + reason);
+    };
+    if (channel == kStatusChannel) {
+      clm_lcm::servo_status_t status;
+      decode(status);
+      daemon_drops.add(status);
+      continue;
+    }
+    if (channel == kEventChannel) {
+      clm_lcm::servo_event_t marker;
+      decode(marker);
+      if (marker.code == telemetry::kRecordingResumedEvent &&
+          (resumed.empty() || resumed.back() != log.states.size())) {
+        resumed.push_back(log.states.size());
+      }
+      continue;
+    }
     if (channel != kStateChannel) continue;
     clm_lcm::servo_state_t state;
     if (state.decode(data.data(), 0, data_length) != data_length) fail(std::string("cannot decode ") + kStateChannel);
@@ -144,6 +283,15 @@ ServoStateLog read_servo_state_log(const std::string& lcm_log_path, const data::
     }
     log.events.push_back(event);
   }
+  if (log.states.empty()) {
+    const std::string where = event == 0 ? "(an empty file)" : "among " + std::to_string(event) + " events";
+    throw std::runtime_error(lcm_log_path + ": no " + kStateChannel + " message " + where);
+  }
+  std::vector<std::int64_t> cycles(log.states.size());
+  for (std::size_t k = 0; k < cycles.size(); ++k) cycles[k] = log.states[k].cycle;
+  log.gaps.cycles = find_cycle_gaps(cycles, published_step_cycles(cycles, resumed), resumed);
+  log.gaps.statuses = daemon_drops.statuses();
+  log.gaps.daemon_dropped = daemon_drops.growth();
   return log;
 }
 

@@ -15,8 +15,62 @@
 
 namespace clm::lcmlog {
 
+/// Missing cycles first..last (inclusive): the states of those cycles that
+/// would have been published are not in the log.
+struct CycleRange {
+  std::int64_t first = 0;
+  std::int64_t last = 0;
+  bool operator==(const CycleRange&) const = default;
+};
+
+/// Gaps in a sequence of CLM_SERVO_STATE cycle counters. Pure: no I/O.
+struct CycleGaps {
+  std::int64_t step_cycles = 1;      ///< cycles from one published state to the next (state_decimation)
+  std::int64_t missing = 0;          ///< states missing: a step a → b misses (b − a)/step_cycles − 1
+  std::int64_t gaps = 0;             ///< steps with states missing
+  std::vector<CycleRange> listed;    ///< the first gaps, at most the `max_listed` asked for
+  std::int64_t out_of_order = 0;     ///< a counter not above its predecessor (repeated, reordered, a daemon restart)
+  std::int64_t pauses = 0;           ///< steps across a recording-resumed marker: not examined
+};
+
+/// The gaps of `cycles` (in file order) where each state should follow the one
+/// before by `step_cycles`. `resumed` lists, ascending, the indices k whose
+/// step from k − 1 is a pause of the recording (telemetry::kRecordingResumedEvent),
+/// not examined. Lists the first `max_listed` gaps; counts all.
+CycleGaps find_cycle_gaps(std::span<const std::int64_t> cycles, std::int64_t step_cycles,
+                          std::span<const std::size_t> resumed = {}, int max_listed = 5);
+
+/// The listed gaps as "12, 15..19" (cycle numbers), with ", ... and 36 more
+/// gaps" when not all are listed; "" when there is none.
+std::string describe_ranges(const CycleGaps& gaps);
+
+/// The step between published states that `cycles` show: the greatest common
+/// divisor of the increasing steps (pauses left out), 1 when there is none.
+/// clm-servod publishes every state_decimation-th cycle, which no state carries.
+std::int64_t published_step_cycles(std::span<const std::int64_t> cycles, std::span<const std::size_t> resumed = {});
+
+/// What a log says about its own completeness (docs/telemetry.md, "Gaps").
+struct LogGaps {
+  CycleGaps cycles;                    ///< in the cycle counter of the states
+  std::int64_t statuses = 0;           ///< CLM_SERVO_STATUS messages in the log
+  /// Growth of servo_status_t.telemetry_dropped over the log: the messages the
+  /// daemon itself dropped (its queues full). Summed per daemon session; a
+  /// session that starts within the log counts from its start.
+  std::int64_t daemon_dropped = 0;
+  /// True when states are missing, out of order, or the daemon dropped messages.
+  bool any() const { return cycles.missing > 0 || cycles.out_of_order > 0 || daemon_dropped > 0; }
+};
+
+/// One line (no prefix, no newline) describing `gaps` of the log at `path`,
+/// e.g. "run.lcm: 93 CLM_SERVO_STATE messages missing in 41 gaps (cycles 12,
+/// 15..19, ... and 36 more gaps); the daemon counted 0 telemetry messages
+/// dropped (servo_status_t.telemetry_dropped over 85 statuses)". "" when !gaps.any().
+std::string describe_gaps(const std::string& path, const LogGaps& gaps);
+
 /// Every CLM_SERVO_STATE message of the log at `lcm_log_path`, in file order,
-/// as records (telemetry::to_record); other channels are skipped. Throws std::runtime_error with one line naming
+/// as records (telemetry::to_record); other channels are skipped, except that
+/// CLM_SERVO_STATUS and CLM_SERVO_EVENT are checked and read for the gaps
+/// (read_servo_state_log). Throws std::runtime_error with one line naming
 /// the file and the event (0-based, counting every channel, as lcm-logplayer):
 ///   "run.lcm: cannot open: No such file or directory"
 ///   "run.lcm: not a regular file (a FIFO); only regular files are read"
@@ -27,14 +81,21 @@ namespace clm::lcmlog {
 ///   "run.lcm: event 17: CLM_SERVO_STATE: commutation 7 outside 0..5"
 ///   "run.lcm: event 17: no LCM sync word at byte 5120 (corrupt log, or not an LCM log)"
 ///   "run.lcm: event 17: truncated: the event at byte 5120 needs 415 bytes after its header, the file has 12"
+///   "run.lcm: no CLM_SERVO_STATE message (an empty file)"
+///   "run.lcm: no CLM_SERVO_STATE message among 12 events"
 std::vector<servo::CycleRecord> read_servo_states(const std::string& lcm_log_path, const data::DataLimits& limits = {});
 
-/// The CLM_SERVO_STATE messages of a log with the event number of each.
+/// The CLM_SERVO_STATE messages of a log with the event number of each, and
+/// what the log shows of messages lost on the way.
 struct ServoStateLog {
   std::vector<servo::CycleRecord> states;
   std::vector<std::int64_t> events;  ///< events[k]: event number of states[k] (0-based, every channel)
+  LogGaps gaps;
 };
-/// As read_servo_states, keeping each state's event number; same errors.
+/// As read_servo_states, keeping each state's event number and the log's gaps;
+/// the same errors, and also for a CLM_SERVO_STATUS or CLM_SERVO_EVENT message
+/// that fails telemetry::decode_checked:
+///   "run.lcm: event 17: CLM_SERVO_STATUS: <the wire check's reason>"
 ServoStateLog read_servo_state_log(const std::string& lcm_log_path, const data::DataLimits& limits = {});
 
 /// Named columns of equal length, ready for clm::data::write_csv_atomically.
