@@ -15,8 +15,16 @@ ModelFile random_model_file(ModelKind kind, int coil_sets, std::mt19937_64& rng)
   ModelFile file;
   file.model = kind == ModelKind::kPgnn ? test::random_pgnn_model(coil_sets, 0.032, rng)
                                         : test::random_spline_model(coil_sets, 0.032, rng);
-  file.provenance = {"0123abcd", "2026-11-21T00:00:00Z", "test", {}};
+  file.provenance = {"0123abcd", "2026-11-21T00:00:00Z", "test", {}, {}};
   for (int l = 0; l < coil_sets; ++l) file.provenance.costs.push_back({{1.0 / 3, 2, 3}, {0.1, 0.2, 0.3}, {4, 5, 6}, {0.4, 0.5, 0.6}});
+  // Nuisance terms on every other file, so that both forms are read back.
+  if (rng() % 2 == 0) {
+    auto& nuisance = file.provenance.nuisance;
+    nuisance.identified = true;
+    nuisance.sensor_offset_y_N = 0.1 + 1.0 / 3;
+    nuisance.direction_smoothing_m_per_s = 0.002;
+    for (int l = 0; l < coil_sets; ++l) nuisance.direction_force_N_N_Nm.push_back({-1.0 / 7, 0.1 * l, 0.03});
+  }
   return file;
 }
 
@@ -62,6 +70,11 @@ TEST_CASE("model files round-trip bit for bit", "[model_file]") {
       }
       REQUIRE(parsed.provenance.costs.size() == static_cast<std::size_t>(coil_sets));
       REQUIRE(parsed.provenance.costs[0].physics_training[0] == 1.0 / 3);
+      const auto& nuisance = original.provenance.nuisance;
+      REQUIRE(parsed.provenance.nuisance.identified == nuisance.identified);
+      REQUIRE(parsed.provenance.nuisance.sensor_offset_y_N == nuisance.sensor_offset_y_N);
+      REQUIRE(parsed.provenance.nuisance.direction_smoothing_m_per_s == nuisance.direction_smoothing_m_per_s);
+      REQUIRE(parsed.provenance.nuisance.direction_force_N_N_Nm == nuisance.direction_force_N_N_Nm);
       REQUIRE(format_model_file(parsed) == text);
     }
   }

@@ -178,7 +178,7 @@ inline ModelFile truth_pgnn(const sim::MotorParameters& motor, double gain_scale
   }
   ModelFile file;
   file.model = make_classical_model(motor.pole_pitch_m(), sets, {8}, {8});
-  file.provenance = {"truth", "", "daemon tests", {}};
+  file.provenance = {"truth", "", "daemon tests", {}, {}};
   return file;
 }
 
@@ -223,7 +223,7 @@ inline ModelFile truth_spline(const sim::MotorParameters& parameters) {
   }
   ModelFile file;
   file.model = model;
-  file.provenance = {"truth", "", "daemon tests", {}};
+  file.provenance = {"truth", "", "daemon tests", {}, {}};
   return file;
 }
 

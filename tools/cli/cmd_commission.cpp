@@ -60,22 +60,23 @@ std::string cell(double value) {
   return buffer;
 }
 
-/// --save: the commissioned laws and the PGNN's feedforward into the
-/// daemon's configuration, as absolute paths (the daemon reads them at its
-/// next start; with --live it has them loaded already).
-void save_result(const std::string& config_path, const std::string& out_dir) {
+/// --save: the commissioned laws and the recommended law's feedforward into
+/// the daemon's configuration, as absolute paths, with the recommended law as
+/// the mode (the daemon reads them at its next start; with --live it has them
+/// loaded already).
+void save_result(const std::string& config_path, const std::string& out_dir, const std::string& law) {
   const std::string dir = std::filesystem::canonical(out_dir).string();
   const std::vector<servod_client::ConfigEdit> edits{
       {"commutation.calibration_file", yaml::quoted(dir + "/calibration.yaml")},
       {"commutation.pgnn_model_file", yaml::quoted(dir + "/model-pgnn.yaml")},
       {"commutation.spline_model_file", yaml::quoted(dir + "/model-spline.yaml")},
-      {"control.feedforward_file", yaml::quoted(dir + "/feedforward-pgnn.yaml")},
+      {"control.feedforward_file", yaml::quoted(dir + "/feedforward-" + law + ".yaml")},
       {"control.feedforward", std::nullopt},
-      {"commutation.mode", "pgnn"},
+      {"commutation.mode", law},
   };
   const auto update = servod_client::update_config_file(config_path, edits);
-  std::printf("saved: %s now starts with the PGNN law and feedforward of %s (the previous file is %s)\n",
-              update.path.c_str(), dir.c_str(), update.backup_path.c_str());
+  std::printf("saved: %s now starts with the %s law and feedforward of %s (the previous file is %s)\n",
+              update.path.c_str(), law.c_str(), dir.c_str(), update.backup_path.c_str());
 }
 
 }  // namespace
@@ -120,10 +121,16 @@ void add_commission(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--restarts", options->run.identify.pgnn.restarts, "PGNN restarts")->check(clm::in_range(1, 1000))->capture_default_str();
   sub->add_option("--seed", options->run.identify.pgnn.seed, "seed of the PGNN restarts")->capture_default_str();
+  sub->add_flag("!--no-nuisance", options->run.identify.nuisance,
+                "identify the models alone, as the paper does (default: the sensor's F_y offset and the "
+                "direction-dependent force beside them)");
+  sub->add_flag("!--no-selection", options->run.identify.select_capacity,
+                "the paper's PGNN (2/16 neurons, Lambda 0.1) and knots at pole pitch / 8 (default: chosen from a grid "
+                "by validation error)");
   sub->add_flag("!--no-plots", options->plots, "skip the PNG plots");
   sub->add_flag("--save", options->save,
-                "keep the result: the calibration, both models, the PGNN's feedforward and commutation mode pgnn go into "
-                "--config (the previous file stays as FILE.bak)");
+                "keep the result: the calibration, both models, and the recommended law as the commutation mode with its "
+                "feedforward go into --config (the previous file stays as FILE.bak)");
   sub->callback([options] {
     if (options->run.validation_program_path != "none" && !options->run.validation_program_path.empty() &&
         !std::filesystem::is_regular_file(options->run.validation_program_path)) {
@@ -187,7 +194,7 @@ void add_commission(CLI::App& app) {
     }
     std::printf("report: %s/report.md, %s/report.json%s; total %.1f s\n", options->run.out_dir.c_str(),
                 options->run.out_dir.c_str(), plotted ? ", plots" : " (no plots)", report.total_wall_s);
-    if (options->save) save_result(options->run.config_path, options->run.out_dir);
+    if (options->save) save_result(options->run.config_path, options->run.out_dir, report.recommended);
   });
 }
 

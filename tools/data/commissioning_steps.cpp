@@ -1,5 +1,6 @@
 #include "tools/data/commissioning_steps.hpp"
 
+#include <cstdio>
 #include <ctime>
 #include <limits>
 #include <stdexcept>
@@ -66,6 +67,13 @@ double selection_score(const std::vector<CoilSetIdentification>& reports) {
     if (physics > 0.0) score += model / physics;
   }
   return score;
+}
+
+// A length in mm with three significant digits, for trial names.
+std::string millimetres(double length_m) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.3g", length_m * 1e3);
+  return text;
 }
 
 }  // namespace
@@ -220,7 +228,7 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
     for (const double spacing : spacings) {
       spline.knot_spacing_m = spacing;
       summary.trials.push_back(fit_all(ModelKind::kSpline, pgnn, spline,
-                                       "spline knots " + shortest_double(spacing * 1e3) + " mm"));
+                                       "spline knots " + millimetres(spacing) + " mm"));
       summary.trials.back().knot_spacing_m = spacing;
     }
   }
