@@ -3,6 +3,7 @@
 // and the direction-dependent force beside the PGNN and the spline model,
 // each against a truth the test builds itself.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -28,9 +29,9 @@ TEST_CASE("differentiate is exact for quadratics inside a stretch and restarts a
   for (int k : {1, 2, 3, 4, 7, 8, 9, 10}) CHECK(v[k] == Approx(6.0 * t[k] - 2.0).epsilon(1e-9));
   // One-sided at the ends of each stretch: off by 3·dt, never across the gap.
   for (int k : {0, 5, 6, 11}) CHECK(std::abs(v[k] - (6.0 * t[k] - 2.0)) <= 3.0 * 1e-3 + 1e-12);
-  Eigen::VectorXd lone_t(3), lone_y(3);
-  lone_t << 0.0, 1.0, 1.001;
-  lone_y << 5.0, 7.0, 7.002;
+  Eigen::VectorXd lone_t(5), lone_y(5);
+  lone_t << 0.0, 1.0, 1.001, 1.002, 1.003;
+  lone_y << 5.0, 7.0, 7.002, 7.004, 7.006;
   CHECK(differentiate(lone_t, lone_y)[0] == 0.0);  // a stretch of one sample
   CHECK_THROWS_AS(differentiate(lone_t, Eigen::VectorXd::Zero(2)), std::invalid_argument);
 }
@@ -48,15 +49,19 @@ TEST_CASE("the sensor offset and the mechanics come back from positions and the 
     record.time_s.resize(n);
     record.position_m.resize(n);
     record.force_N.resize(n);
+    // Strokes of ±0.1 m along the minimum-jerk profile s(τ) = 10τ³ − 15τ⁴ + 6τ⁵,
+    // each followed by a dwell; two stroke times, so two speeds.
+    const double stroke_s = run == 0 ? 1.0 : 0.4, dwell_s = 0.3;
     for (int k = 0; k < n; ++k) {
       const double t = 1e-3 * k;
-      // Strokes at two frequencies with dwells where the sine is clipped.
-      const double w = run == 0 ? 2.0 : 5.0;
-      const double raw = std::sin(w * t);
-      const bool dwell = std::abs(raw) > 0.9;
-      const double y = 0.1 * (dwell ? std::copysign(0.9, raw) : raw);
-      const double v = dwell ? 0.0 : 0.1 * w * std::cos(w * t);
-      const double a = dwell ? 0.0 : -0.1 * w * w * std::sin(w * t);
+      const double period = stroke_s + dwell_s;
+      const int stroke = static_cast<int>(t / period);
+      const double tau = std::min(1.0, (t - stroke * period) / stroke_s);
+      const double from = stroke % 2 == 0 ? -0.1 : 0.1;
+      const double span = -2.0 * from;
+      const double y = from + span * (10 * std::pow(tau, 3) - 15 * std::pow(tau, 4) + 6 * std::pow(tau, 5));
+      const double v = tau < 1.0 ? span / stroke_s * (30 * tau * tau - 60 * std::pow(tau, 3) + 30 * std::pow(tau, 4)) : 0.0;
+      const double a = tau < 1.0 ? span / (stroke_s * stroke_s) * (60 * tau - 180 * tau * tau + 120 * std::pow(tau, 3)) : 0.0;
       record.time_s[k] = t + 100.0 * run;
       record.position_m[k] = 1e-7 * std::round(y / 1e-7);
       record.force_N[k] = mass_kg * a + viscous * v + coulomb * std::tanh(v / smoothing) + offset_N + noise(rng);
