@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "config/command_line.hpp"
+#include "config/exit_status.hpp"
 #include "config/regular_file.hpp"
 
 namespace clm::lcmlog {
@@ -37,8 +38,8 @@ void report_gaps(const std::string& lcm_log_path, const LogGaps& gaps, const Gap
     std::fprintf(stderr, "%s: warning: %s\n", name.c_str(), line.c_str());
     return;
   }
-  std::fprintf(stderr, "%s: error: %s (--fail-on-gaps)\n", name.c_str(), line.c_str());
-  throw CLI::RuntimeError(1);
+  // A run-time failure (exit 1); the program prints the one line with its prefix.
+  throw RunTimeFailure(line + " (--fail-on-gaps)");
 }
 
 data::CsvTable load_data_table(const std::string& path, CsvFormat format, const data::DataLimits& limits,
