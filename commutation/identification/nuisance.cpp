@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "commutation/types.hpp"
+
 namespace clm::identification {
 
 Eigen::VectorXd differentiate(const Eigen::VectorXd& time_s, const Eigen::VectorXd& values) {
@@ -87,6 +89,33 @@ DrivingOffsetFit fit_driving_sensor_offset(const std::vector<MotionRecord>& reco
                                 "(the experiments need moves in both directions and standstill)");
   }
   return best;
+}
+
+double direction_force_inflation(const CoilSetDataset& data, double pole_pitch_m, double direction_smoothing_m_per_s) {
+  if (data.velocity_m_per_s.size() != data.size() || data.size() < 10 || !(direction_smoothing_m_per_s > 0.0)) {
+    return std::numeric_limits<double>::infinity();
+  }
+  Eigen::Matrix<double, 5, 5> gram = Eigen::Matrix<double, 5, 5>::Zero();
+  Eigen::Matrix<double, 5, 1> cross = Eigen::Matrix<double, 5, 1>::Zero();
+  double sum = 0.0, square = 0.0;
+  for (Eigen::Index t = 0; t < data.size(); ++t) {
+    const double theta = kTwoPi * data.position_m[t] / pole_pitch_m;
+    const double c = std::cos(theta), s = std::sin(theta);
+    const double ia = data.currents_A(0, t), ib = data.currents_A(1, t);
+    Eigen::Matrix<double, 5, 1> m;
+    m << c * ia, c * ib, s * ia, s * ib, 1.0;
+    const double d = std::tanh(data.velocity_m_per_s[t] / direction_smoothing_m_per_s);
+    gram.noalias() += m * m.transpose();
+    cross += m * d;
+    sum += d;
+    square += d * d;
+  }
+  const double n = static_cast<double>(data.size());
+  const double total = square - sum * sum / n;  // Σ(d − d̄)²
+  if (!(total > 0.0)) return std::numeric_limits<double>::infinity();
+  const Eigen::LDLT<Eigen::Matrix<double, 5, 5>> solver(gram);
+  const double residual = std::max(0.0, square - cross.dot(solver.solve(cross)));
+  return residual > 0.0 ? total / residual : std::numeric_limits<double>::infinity();
 }
 
 }  // namespace clm::identification

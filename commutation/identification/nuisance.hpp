@@ -71,4 +71,16 @@ struct MotionRecord {
 /// or regressors that do not excite mass, friction and offset apart.
 DrivingOffsetFit fit_driving_sensor_offset(const std::vector<MotionRecord>& records);
 
+/// How well `data` tells the direction-dependent force from a gain: the
+/// variance inflation factor 1/(1 − R²) of tanh(ẏ/v_c) regressed on the
+/// physics-only regressors [cos θ·i_a, cos θ·i_b, sin θ·i_a, sin θ·i_b, 1].
+/// When the current is nearly ±I in the two directions of motion (one speed,
+/// friction-dominated), a gain error mimics C·sign(ẏ) and the factor grows
+/// without bound. Infinite without velocities or with a constant feature.
+double direction_force_inflation(const CoilSetDataset& data, double pole_pitch_m, double direction_smoothing_m_per_s);
+
+/// Above this factor the direction-dependent force is not identified (the
+/// textbook bound for a regressor that others explain nine tenths of).
+inline constexpr double kMaxDirectionForceInflation = 10.0;
+
 }  // namespace clm::identification

@@ -71,7 +71,8 @@ void add_identify(CLI::App& app) {
                                    std::to_string(p.coil_sets) + " step " + std::to_string(p.step) + "/" +
                                    std::to_string(p.steps));
     };
-    ModelFile file = data::identify_motor(data, motor, options->identify, reports, on_progress);
+    data::IdentifySummary summary;
+    ModelFile file = data::identify_motor(data, motor, options->identify, reports, on_progress, &summary);
     bar.finish();
     file.provenance.data_sha256 = sha256_file(options->data);
     file.provenance.generator = generator_name("identify");
@@ -94,6 +95,30 @@ void add_identify(CLI::App& app) {
                   "", r.refit_on_all_data ? "all, in use" : "in use", r.physics_fit[0], r.physics_fit[1],
                   r.physics_fit[2], r.model_fit[0], r.model_fit[1], r.model_fit[2], holds ? "holds" : "VIOLATED",
                   r.iterations, r.best_restart + 1);
+    }
+    if (summary.nuisance) {
+      const auto& offset = summary.sensor_offset;
+      std::printf("nuisance: sensor F_y offset %.4g N from the mechanics (m %.4g kg, f_v %.4g N s/m, f_c %.4g N, "
+                  "residual RMS %.3g N, condition %.3g), removed from the data\n",
+                  offset.offset_N, offset.mass_kg, offset.viscous_N_s_per_m, offset.coulomb_N, offset.residual_rms_N,
+                  offset.condition);
+      if (summary.direction_force) {
+        std::printf("nuisance: direction-dependent force C*tanh(v/%.3g m/s) beside the model (variance inflation "
+                    "%.3g); C per coil set [N, N, N m]:",
+                    file.provenance.nuisance.direction_smoothing_m_per_s, summary.direction_force_inflation);
+        for (const auto& c : file.provenance.nuisance.direction_force_N_N_Nm) {
+          std::printf(" [%.3g, %.3g, %.3g]", c[0], c[1], c[2]);
+        }
+        std::printf("\n");
+      } else {
+        std::printf("nuisance: %s\n", summary.direction_force_skipped.c_str());
+      }
+    } else if (!summary.nuisance_skipped.empty()) {
+      std::printf("nuisance: not identified: %s\n", summary.nuisance_skipped.c_str());
+    }
+    for (std::size_t k = 0; k < summary.trials.size(); ++k) {
+      std::printf("capacity: %-24s validation score %.4g%s\n", summary.trials[k].capacity.c_str(),
+                  summary.trials[k].validation_score, k == summary.chosen ? "  chosen" : "");
     }
     std::printf("wrote %s\n", options->output.c_str());
   });

@@ -84,6 +84,11 @@ void selection_json(std::ostringstream& out, const data::IdentifySummary& summar
         << number(offset.mass_kg) << ", \"viscous_N_s_per_m\": " << number(offset.viscous_N_s_per_m)
         << ", \"coulomb_N\": " << number(offset.coulomb_N) << ", \"residual_rms_N\": " << number(offset.residual_rms_N)
         << ", \"condition\": " << number(offset.condition) << ", \"samples\": " << offset.samples << "}";
+    out << ", \"direction_force\": " << (summary.direction_force ? "true" : "false")
+        << ", \"direction_force_inflation\": " << number(summary.direction_force_inflation);
+    if (!summary.direction_force_skipped.empty()) {
+      out << ", \"direction_force_skipped\": " << quoted(summary.direction_force_skipped);
+    }
     out << ", \"direction_smoothing\": [";
     for (std::size_t k = 0; k < summary.direction_smoothing_scores.size(); ++k) {
       out << (k ? ", " : "") << "{\"velocity_m_per_s\": " << number(summary.direction_smoothing_scores[k].first)
@@ -375,9 +380,16 @@ std::string report_markdown(const Report& report) {
           << fixed(o.viscous_N_s_per_m, "%.1f") << " N·s/m, f_c " << fixed(o.coulomb_N, "%.2f") << " N, residual RMS "
           << fixed(o.residual_rms_N, "%.2f") << " N, condition " << fixed(o.condition, "%.1f")
           << "). The x and z offsets are not observable: the guides carry those forces.\n\n"
-             "v_c of the direction-dependent force C·tanh(ẏ/v_c), by the spline's validation score:";
-      for (const auto& [velocity, score] : summary.direction_smoothing_scores) {
-        out << " " << fixed(velocity * 1e3, "%.2g") << " mm/s " << fixed(score, "%.4g") << ";";
+             "Direction-dependent force: variance inflation "
+          << fixed(summary.direction_force_inflation, "%.3g") << " (identified up to "
+          << fixed(identification::kMaxDirectionForceInflation, "%.3g") << ").";
+      if (summary.direction_force) {
+        out << " v_c of C·tanh(ẏ/v_c), by the spline's validation score:";
+        for (const auto& [velocity, score] : summary.direction_smoothing_scores) {
+          out << " " << fixed(velocity * 1e3, "%.2g") << " mm/s " << fixed(score, "%.4g") << ";";
+        }
+      } else {
+        out << " " << summary.direction_force_skipped << ".";
       }
       out << "\n\n";
     } else if (!summary.nuisance_skipped.empty()) {

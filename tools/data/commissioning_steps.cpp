@@ -69,6 +69,10 @@ double selection_score(const std::vector<CoilSetIdentification>& reports) {
   return score;
 }
 
+// v_c at which the identifiability of the direction-dependent force is
+// judged: the middle of the grid.
+constexpr double kNominalSmoothing_m_per_s = 2e-3;
+
 // A length in mm with three significant digits, for trial names.
 std::string millimetres(double length_m) {
   char text[32];
@@ -117,10 +121,36 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
     splits.push_back({experiment.coil_set, dataset.subset(split.training), dataset.subset(split.validation)});
   }
 
+  // The direction-dependent force only where the experiments tell it from a
+  // gain (docs/commutation.md, "Nuisance terms"); else the models are fit
+  // without it and the report says why.
+  if (summary.nuisance) {
+    for (const auto& part : splits) {
+      summary.direction_force_inflation = std::max(
+          summary.direction_force_inflation,
+          identification::direction_force_inflation(part.training, motor.pole_pitch_m, kNominalSmoothing_m_per_s));
+    }
+    summary.direction_force = summary.direction_force_inflation <= identification::kMaxDirectionForceInflation;
+    if (!summary.direction_force) {
+      char reason[240];
+      std::snprintf(reason, sizeof(reason),
+                    "the direction-dependent force is not identified: the experiments do not tell it from a gain "
+                    "(variance inflation %.3g > %.3g; run moves at several speeds and accelerations, "
+                    "programs/identification.yaml)",
+                    summary.direction_force_inflation, identification::kMaxDirectionForceInflation);
+      summary.direction_force_skipped = reason;
+      for (auto& part : splits) {
+        part.training.velocity_m_per_s.resize(0);
+        part.validation.velocity_m_per_s.resize(0);
+      }
+    }
+  }
+
   // Every trial fits all coil sets with the given class options.
   const int count = static_cast<int>(data.coil_sets.size());
   const bool select = options.select_capacity && options.validation_fraction > 0.0;
-  const int smoothing_trials = summary.nuisance ? static_cast<int>(std::size(identification::kDirectionSmoothingGrid_m_per_s)) : 0;
+  const int smoothing_trials =
+      summary.direction_force ? static_cast<int>(std::size(identification::kDirectionSmoothingGrid_m_per_s)) : 0;
   const int capacity_trials = !select ? 1
                               : options.kind == ModelKind::kPgnn ? static_cast<int>(kPgnnCapacityGrid.size())
                                                                  : static_cast<int>(kSplineKnotsPerPolePitch.size());
@@ -186,7 +216,7 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
   // once with the spline class at the given spacing (linear, so cheap).
   identification::PgnnOptions pgnn = options.pgnn;
   identification::SplineOptions spline = options.spline;
-  if (summary.nuisance) {
+  if (summary.direction_force) {
     double best = std::numeric_limits<double>::infinity();
     for (const double smoothing : identification::kDirectionSmoothingGrid_m_per_s) {
       identification::SplineOptions trial_spline = options.spline;

@@ -88,6 +88,9 @@ struct CapacityTrial {
 struct IdentifySummary {
   bool nuisance = false;                  ///< nuisance terms identified
   std::string nuisance_skipped;           ///< why not, when asked for
+  bool direction_force = false;           ///< the direction-dependent force identified beside the models
+  double direction_force_inflation = 0.0; ///< its largest variance inflation over the coil sets
+  std::string direction_force_skipped;    ///< why not, when the nuisance terms were
   identification::DrivingOffsetFit sensor_offset;
   /// v_c tried and the spline validation score of each; the lowest is used.
   std::vector<std::pair<double, double>> direction_smoothing_scores;
