@@ -133,6 +133,10 @@ double feedforward_force_N(const FeedforwardParameters& parameters, const Refere
 
 FeedforwardParameters identify_feedforward(std::span<const ReferenceSample> reference,
                                            std::span<const double> force_demand_N) {
+  return fit_feedforward(reference, force_demand_N).parameters;
+}
+
+FeedforwardFit fit_feedforward(std::span<const ReferenceSample> reference, std::span<const double> force_demand_N) {
   constexpr const char* kContext = "identify_feedforward";
   if (reference.size() != force_demand_N.size()) {
     throw std::invalid_argument(std::string(kContext) + ": reference has " + std::to_string(reference.size()) +
@@ -196,7 +200,31 @@ FeedforwardParameters identify_feedforward(std::span<const ReferenceSample> refe
   }
   const Eigen::Vector3d scaled = qr.solve(force);
   const Eigen::Vector3d theta = scaled.cwiseQuotient(column_norms);
-  return {theta(0), theta(1), theta(2)};
+  FeedforwardFit fit;
+  fit.parameters = {theta(0), theta(1), theta(2)};
+  fit.samples = static_cast<std::size_t>(rows);
+  const Eigen::VectorXd residual = force - regressors * theta;
+  fit.residual_rms_N = std::sqrt(residual.squaredNorm() / static_cast<double>(rows));
+  fit.condition = 1.0 / ratio;
+  // Cov(θ) = s²·(XᵀX)⁻¹ with s² = RSS/(n − 3); in the normalised columns
+  // XᵀX = D·NᵀN·D, and NᵀN has the singular values of R squared.
+  const double variance = rows > 3 ? residual.squaredNorm() / static_cast<double>(rows - 3) : 0.0;
+  const Eigen::Matrix3d normal = normalised.transpose() * normalised;
+  const Eigen::Vector3d diagonal = normal.inverse().diagonal();
+  const Eigen::Vector3d error = (variance * diagonal).cwiseSqrt().cwiseQuotient(column_norms);
+  fit.standard_error = {error(0), error(1), error(2)};
+  return fit;
+}
+
+std::vector<std::string> unexcited_parameters(const FeedforwardFit& fit, double relative) {
+  std::vector<std::string> names;
+  const auto check = [&](const char* name, double value, double error) {
+    if (!(error <= relative * std::abs(value))) names.emplace_back(name);
+  };
+  check("mass_kg", fit.parameters.mass_kg, fit.standard_error.mass_kg);
+  check("viscous_N_s_per_m", fit.parameters.viscous_N_s_per_m, fit.standard_error.viscous_N_s_per_m);
+  check("coulomb_N", fit.parameters.coulomb_N, fit.standard_error.coulomb_N);
+  return names;
 }
 
 // ---------------------------------------------------------------------------

@@ -9,6 +9,7 @@
 // std::invalid_argument with the offending value.
 
 #include <span>
+#include <string>
 #include <vector>
 
 #include "daemon/control/trajectory.hpp"
@@ -134,6 +135,28 @@ double feedforward_force_N(const FeedforwardParameters& parameters, const Refere
 /// are collinear (e.g. constant velocity in one direction only).
 FeedforwardParameters identify_feedforward(std::span<const ReferenceSample> reference,
                                            std::span<const double> force_demand_N);
+
+/// The fit of identify_feedforward with its quality: what a user needs to
+/// judge whether the data excited each parameter.
+struct FeedforwardFit {
+  FeedforwardParameters parameters;
+  double residual_rms_N = 0.0;  ///< RMS of F* − the fitted feedforward [N]
+  /// σ_max/σ_min of the column-normalised regressors [a, v, sgn v]: 1 for
+  /// orthogonal regressors, large when two of them move together.
+  double condition = 0.0;
+  /// One standard error of m [kg], f_v [N·s/m] and f_c [N], from the residual
+  /// and (XᵀX)⁻¹ (independent residuals assumed, so a lower bound).
+  FeedforwardParameters standard_error;
+  std::size_t samples = 0;
+};
+
+/// identify_feedforward, with the fit's quality. Throws as it does.
+FeedforwardFit fit_feedforward(std::span<const ReferenceSample> reference, std::span<const double> force_demand_N);
+
+/// The parameters whose standard error exceeds `relative` of their value
+/// (0.1: ten per cent), as "mass_kg", "viscous_N_s_per_m", "coulomb_N": the
+/// ones the data did not excite.
+std::vector<std::string> unexcited_parameters(const FeedforwardFit& fit, double relative = 0.1);
 
 /// Velocity, acceleration and jerk of a sampled position reference (e.g. a CSV
 /// with only t_s, r_m) by finite differences of the quadratic through three

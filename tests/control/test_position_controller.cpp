@@ -3,6 +3,8 @@
 // reference derivatives, and the combined position controller.
 #include <Eigen/Dense>
 #include <catch2/catch.hpp>
+
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <limits>
@@ -308,6 +310,39 @@ TEST_CASE("identify_feedforward on derivatives from sampled positions only (CSV 
   CHECK_THAT(fit.mass_kg, WithinRel(truth.mass_kg, 0.01));
   CHECK_THAT(fit.viscous_N_s_per_m, WithinRel(truth.viscous_N_s_per_m, 0.01));
   CHECK_THAT(fit.coulomb_N, WithinRel(truth.coulomb_N, 0.01));
+}
+
+TEST_CASE("fit_feedforward's standard errors match the spread over noise seeds and flag what the data do not excite",
+          "[feedforward][identification]") {
+  const FeedforwardParameters truth{12.3, 45.6, 7.8};
+  const SampledReference r = sample_program(fig8_program(), 1e-3);
+  const auto fits_with_noise = [&](double noise_N, int seeds) {
+    std::vector<FeedforwardFit> fits;
+    for (int seed = 0; seed < seeds; ++seed) {
+      std::vector<double> force = synthetic_force(truth, r.exact);
+      std::mt19937_64 rng(100 + seed);
+      std::normal_distribution<double> noise(0.0, noise_N);
+      for (double& f : force) f += noise(rng);
+      fits.push_back(fit_feedforward(r.exact, force));
+    }
+    return fits;
+  };
+  // The reported standard error of m against the spread of m over 40 seeds
+  // (independent white noise, so the two agree up to sampling).
+  const auto fits = fits_with_noise(5.0, 40);
+  double mean = 0.0, square = 0.0;
+  for (const auto& fit : fits) mean += fit.parameters.mass_kg / fits.size();
+  for (const auto& fit : fits) square += std::pow(fit.parameters.mass_kg - mean, 2) / (fits.size() - 1);
+  const double spread = std::sqrt(square);
+  CHECK(fits[0].standard_error.mass_kg == Approx(spread).epsilon(0.35));
+  CHECK(fits[0].residual_rms_N == Approx(5.0).epsilon(0.05));
+  CHECK(fits[0].condition >= 1.0);
+  CHECK(fits[0].samples == r.exact.size() - 1);
+  // 0.5 N of noise: every parameter excited. 300 N: the short accelerations of
+  // Fig. 8 no longer pin the mass.
+  CHECK(unexcited_parameters(fits_with_noise(0.5, 1)[0]).empty());
+  const auto noisy = unexcited_parameters(fits_with_noise(300.0, 1)[0]);
+  CHECK(std::find(noisy.begin(), noisy.end(), "mass_kg") != noisy.end());
 }
 
 TEST_CASE("identify_feedforward names the reason when the data cannot determine the parameters",

@@ -37,17 +37,29 @@ void add_ff_identify(CLI::App& app) {
     }
     const auto samples = control::reference_from_positions(time, reference);
     servod::FeedforwardFile file;
+    control::FeedforwardFit fit;
     try {
-      file.parameters = control::identify_feedforward(samples, force);
+      fit = control::fit_feedforward(samples, force);
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(options->data + ": " + e.what());
     }
+    file.parameters = fit.parameters;
     file.data_sha256 = sha256_file(options->data);
     file.created_utc = data::utc_timestamp();
     file.generator = generator_name("ff-identify");
     write_file_atomically(options->output, servod::format_feedforward_file(file));
-    std::printf("mass_kg %.6g  viscous_N_s_per_m %.6g  coulomb_N %.6g\nwrote %s\n", file.parameters.mass_kg,
-                file.parameters.viscous_N_s_per_m, file.parameters.coulomb_N, options->output.c_str());
+    const auto& e = fit.standard_error;
+    std::printf("mass_kg %.6g +- %.2g  viscous_N_s_per_m %.6g +- %.2g  coulomb_N %.6g +- %.2g (one standard error)\n"
+                "fit: %zu samples, residual RMS %.3g N, condition %.3g of the normalised regressors [a, v, sgn v]\n",
+                file.parameters.mass_kg, e.mass_kg, file.parameters.viscous_N_s_per_m, e.viscous_N_s_per_m,
+                file.parameters.coulomb_N, e.coulomb_N, fit.samples, fit.residual_rms_N, fit.condition);
+    for (const auto& name : control::unexcited_parameters(fit)) {
+      std::fprintf(stderr,
+                   "clm ff-identify: warning: %s is not excited by these data (standard error over 10 %% of the "
+                   "value); record moves with more acceleration, speeds and both directions\n",
+                   name.c_str());
+    }
+    std::printf("wrote %s\n", options->output.c_str());
   });
 }
 
