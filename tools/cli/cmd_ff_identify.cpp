@@ -59,6 +59,17 @@ void add_ff_identify(CLI::App& app) {
                    "value); record moves with more acceleration, speeds and both directions\n",
                    name.c_str());
     }
+    // The standard errors assume independent residuals; a model mismatch that
+    // follows the motion is not in them, and collinear regressors let the
+    // values trade against each other whatever the noise.
+    constexpr double kMaxCondition = 20.0;
+    if (fit.condition > kMaxCondition) {
+      std::fprintf(stderr,
+                   "clm ff-identify: warning: the regressors [a, v, sgn v] move together (condition %.3g > %.3g): "
+                   "the three values trade against each other; record moves at several speeds and accelerations in "
+                   "both directions\n",
+                   fit.condition, kMaxCondition);
+    }
     std::printf("wrote %s\n", options->output.c_str());
   });
 }
