@@ -30,6 +30,7 @@ Outcome commission_with(const std::string& config, const test::TemporaryDirector
   options.config_path = source(config);
   options.out_dir = directory.file("commission");
   options.program_path = source("tests/support/one_stroke_program.yaml");
+  options.experiment_program_path = options.program_path;  // the unit tier: one stroke for the experiments too
   options.validation_program_path = "none";
   const commission::Report report = commission::run(options);
   Outcome outcome{0.0, 0.0, data::CsvTable::load(options.out_dir + "/experiments.csv")};
