@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <utility>
 
 #include "commutation/classical.hpp"
 #include "commutation/identification/nuisance.hpp"
@@ -138,15 +139,18 @@ double static_error(const ElectromagneticModel& truth, const ElectromagneticMode
   return std::sqrt(sum / count);
 }
 
+// Training and validation data: 20 % held out in contiguous blocks.
+std::pair<CoilSetDataset, CoilSetDataset> held_out(const CoilSetDataset& data) {
+  const auto split = split_contiguous_blocks(data, 0.2);
+  return {data.subset(split.training), data.subset(split.validation)};
+}
+
 }  // namespace
 
 TEST_CASE("the spline fit identifies the direction-dependent force beside the model", "[nuisance]") {
   std::mt19937_64 rng(61);
   const auto truth = test::random_spline_model(1, kPolePitch, rng);
-  const auto data = data_with_direction_force(truth, rng);
-  const auto split = split_contiguous_blocks(data, 0.2);
-  const auto training = data.subset(split.training);
-  const auto validation = data.subset(split.validation);
+  const auto [training, validation] = held_out(data_with_direction_force(truth, rng));
   const auto basis = truth.spline_basis;
   const auto model_of = [&](const CoilSetModel& part) { return single_coil_set_model(ModelKind::kSpline, kPolePitch, {}, basis, part); };
 
@@ -169,10 +173,7 @@ TEST_CASE("the spline fit identifies the direction-dependent force beside the mo
 TEST_CASE("the PGNN identifies the direction-dependent force beside the model", "[nuisance]") {
   std::mt19937_64 rng(62);
   const auto truth = test::random_pgnn_model(1, kPolePitch, rng);
-  const auto data = data_with_direction_force(truth, rng);
-  const auto split = split_contiguous_blocks(data, 0.2);
-  const auto training = data.subset(split.training);
-  const auto validation = data.subset(split.validation);
+  const auto [training, validation] = held_out(data_with_direction_force(truth, rng));
   PgnnOptions options;
   options.restarts = 2;
   options.restart_iterations = 20;
