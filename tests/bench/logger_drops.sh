@@ -45,7 +45,7 @@ names=(default buffer nice19 nice19-buffer fifo-buffer)
 prefixes=("" "" "nice -n 19" "nice -n 19" "chrt -f 10")
 options=("" "&recv_buf_size=$buffer" "" "&recv_buf_size=$buffer" "&recv_buf_size=$buffer")
 
-missing=$(config_edit config/motor-sim.yaml "$work/motor-sim.yaml" "  watchdog_timeout_s: 0.1") ||
+missing=$(loaded_host_motor config/motor-sim.yaml "$work/motor-sim.yaml") ||
     fail "motor: no line '$missing' after editing"
 missing=$(config_edit config/servod.yaml "$work/servod.yaml" \
           "motor_file: $work/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \

@@ -43,13 +43,15 @@ fail() {
 }
 
 # config/servod.yaml with an absolute motor file, no real-time rights, our
-# port, overruns tolerated (a loaded test host; as commission_live_test.sh),
-# and EXTRA lines (config_edit).
+# port, overruns and the drive's watchdog relaxed for a loaded test host
+# (loaded_host_motor), and EXTRA lines (config_edit).
 make_config() {  # OUT EXTRA...
   local out=$1
   shift
+  loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" > /dev/null ||
+      fail "motor: the watchdog line is missing after editing"
   config_edit "$source_dir/config/servod.yaml" "$out" \
-      "motor_file: $source_dir/config/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
+      "motor_file: $work/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
       "  lcm_url: \"$url\"" "  overrun_limit: 1000" "$@" > /dev/null || fail "config: a line is missing after editing $out"
 }
 

@@ -53,7 +53,7 @@ phase2=("push:80:650 204 quick")
 # is about fault reactions, not about the loop's timing without real-time
 # rights. For the same reason 20 consecutive overruns make fault 205, not 5:
 # a loaded host makes single late cycles, the stall step 30 in a row.
-missing=$(config_edit "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "  watchdog_timeout_s: 0.1") ||
+missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml") ||
     fail "motor: no line '$missing' after editing"
 end_min=$(config_value "$work/motor-sim.yaml" "    end_stop_min_m")
 end_max=$(config_value "$work/motor-sim.yaml" "    end_stop_max_m")

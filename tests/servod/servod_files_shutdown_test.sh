@@ -45,7 +45,7 @@ now_ms() { date +%s%3N; }
 # host otherwise latches 206 or 205 between two steps (seen once: a fault
 # between clear-fault and run-program), and this test is about files and
 # shutdown, not about timing.
-missing=$(config_edit "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "  watchdog_timeout_s: 0.1") ||
+missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml") ||
     fail "motor: no line '$missing' after editing"
 missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" \
           "motor_file: $work/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \

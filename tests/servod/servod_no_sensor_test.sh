@@ -36,7 +36,7 @@ fail() { fail_with_status "$*" "$work"/servod-*.log; }
 # The simulated drive's watchdog at 0.1 s and 1000 overruns before fault 205,
 # as the other process tests: this test is about the sensor, not about the
 # loop's timing without real-time rights on a loaded host.
-missing=$(config_edit "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "  watchdog_timeout_s: 0.1") ||
+missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml") ||
     fail "motor: no line '$missing' after editing"
 write_config() {  # write_config OUT PORT
   missing=$(config_edit "$source_dir/config/servod.yaml" "$1" \

@@ -26,9 +26,10 @@ fail() {
 }
 
 # config/servod.yaml with an absolute motor file, no real-time rights, our port.
-missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" \
-          "motor_file: $source_dir/config/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
-          "  lcm_url: \"$url\"" && config_require "$work/servod.yaml" "  rate_hz: 1000") ||
+missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" &&
+          config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" \
+          "motor_file: $work/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
+          "  lcm_url: \"$url\"" "  overrun_limit: 1000" && config_require "$work/servod.yaml" "  rate_hz: 1000") ||
     fail "config: no line '$missing' after editing"
 
 # 0.01 m out and back at 0.05 m/s: about 1 s.

@@ -27,7 +27,7 @@ fail() { fail_with_status "$*" "$work/servod.log"; }
 # and the HIL suite keep the 5 ms). For the same reason up to 1000
 # consecutive overruns (the largest accepted) instead of 5: in a clean-clone
 # CI run at load 3-4 a case latched a fault while it waited for the next move.
-missing=$(config_edit "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "  watchdog_timeout_s: 0.1") ||
+missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml") ||
     fail "motor: no line '$missing' after editing"
 missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" \
           "motor_file: $work/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \

@@ -185,5 +185,11 @@ config_edit() {
   config_require "$out" "$@"
 }
 
+# A copy OUT of the simulated motor file IN for a daemon without real-time
+# rights on a loaded test host: the drive's setpoint watchdog at 0.1 s instead
+# of 5 ms, so that a descheduled loop does not trip the simulated drive (a real
+# axis keeps its own watchdog). Prints the line it could not set and returns 1.
+loaded_host_motor() { config_edit "$1" "$2" "  watchdog_timeout_s: 0.1"; }
+
 # The value of the first line "KEY: value" of FILE, KEY with its indentation, comment aside.
 config_value() { sed -n "s/^$2: \([^ #]*\).*/\1/p" "$1" | head -n 1; }

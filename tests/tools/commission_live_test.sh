@@ -67,7 +67,7 @@ url="udpm://239.255.76.67:$((9920 + $$ % 30))?ttl=0"
 # some runs; in a clean-clone CI run beside other tests 5 consecutive
 # overruns latched fault 205, so the copy allows 1000 (the largest accepted).
 # This test is about the LCM path, not about real-time timing.
-config_edit "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "  watchdog_timeout_s: 0.1" > /dev/null ||
+loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" > /dev/null ||
     fail "motor copy: watchdog not relaxed"
 missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" "motor_file: $work/motor-sim.yaml" \
           "  clock: realtime" "  lcm_url: \"$url\"" "  overrun_limit: 1000" &&
