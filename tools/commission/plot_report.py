@@ -174,7 +174,8 @@ def panel_grid(rows, columns, header=False, panel_size=(4.2, 1.55), sharex=True,
                 axes[r][c].tick_params(labelbottom=False)
     if top is not None:
         top.grid(True, alpha=0.3)
-        top.tick_params(labelbottom=False)
+        if columns == 1:  # a header over several columns is wider than they are: it keeps its time labels
+            top.tick_params(labelbottom=False)
     return fig, top, axes
 
 
@@ -443,7 +444,8 @@ def lcm_events(path, channel):
 
 
 def status_timing(payload):
-    """(wake-up latency p50, p99, max, compute time p50, p99, max) [s] and overruns of one servo_status_t."""
+    """utime [us], (wake-up latency p50, p99, max, compute time p50, p99, max) [s] and overruns of one
+    servo_status_t."""
     if payload[:8] != STATUS_FINGERPRINT:
         raise ValueError("CLM_SERVO_STATUS has another type fingerprint than this plotter knows")
     offset = 8
@@ -456,7 +458,8 @@ def status_timing(payload):
         nonlocal offset
         offset += 4 + struct.unpack_from(">i", payload, offset)[0]
 
-    skip(">q")                        # utime
+    utime = struct.unpack_from(">q", payload, offset)[0]
+    skip(">q")
     skip_string()                     # axis
     for fmt in (">q", ">b", ">h"):    # session, state, fault
         skip(fmt)
@@ -466,46 +469,54 @@ def status_timing(payload):
     for _ in range(8):                # the files and their SHA-256
         skip_string()
     timing = struct.unpack_from(">6dq", payload, offset)
-    return timing[:6], timing[6]
+    return utime, timing[:6], timing[6]
 
 
 def latency_figure(directory, report, filename):
-    """Wake-up latency and compute time of the daemon's loop, from the status
-    messages in logs/*.lcm; only a live run's clock makes them meaningful."""
+    """The loop's wake-up latency, compute time and overruns over a live
+    commissioning, as the daemon's status messages in logs/*.lcm give them.
+    clm-servod never resets its latency histograms, so those quantiles are
+    cumulative since the daemon started, and neither they nor the states
+    carry a cycle's own timing (a state's utime is stamped by the telemetry
+    thread): a histogram of single cycles cannot be drawn from the logs."""
     if "live" not in report:
         print(f"plot_report: {filename} skipped: the in-process commissioning runs on a virtual clock, so the "
               "loop has no wake-up latency to show (the status messages carry zeros); made with --live only")
         return
-    windows = []
-    overruns = 0
+    samples = []
     for path in sorted(glob.glob(os.path.join(directory, "logs", "*.lcm"))):
         for payload in lcm_events(path, "CLM_SERVO_STATUS"):
             try:
-                timing, overrun_count = status_timing(payload)
+                utime, timing, overruns = status_timing(payload)
             except (ValueError, struct.error) as error:
                 print(f"plot_report: {filename} skipped: {path}: {error}")
                 return
-            windows.append(timing)
-            overruns = max(overruns, overrun_count)
-    windows = np.array(windows)
-    if len(windows) == 0 or not np.any(windows > 0):
+            samples.append((utime, *timing, overruns))
+    samples = np.array(sorted(samples))
+    if len(samples) == 0 or not np.any(samples[:, 1:7] > 0):
         print(f"plot_report: {filename} skipped: the logs' CLM_SERVO_STATUS messages carry no loop timing")
         return
-    fig, _, axes = panel_grid(1, 2, sharex=False, panel_size=(4.5, 3.2), legend_width=1.9)
-    for axis, columns, name in ((axes[0][0], (0, 1, 2), "wake-up latency"), (axes[0][1], (3, 4, 5), "compute time")):
-        values_us = windows[:, columns] * 1e6
-        bins = np.logspace(np.log10(max(np.min(values_us[values_us > 0]), 0.1)), np.log10(np.max(values_us)) + 0.05,
-                           40)
+    t = (samples[:, 0] - samples[0, 0]) * 1e-6
+    fig, _, axes = panel_grid(3, 1, sharey=None, panel_size=(9.0, 1.9), legend_width=2.6)
+    for axis, first, name in ((axes[0][0], 1, "wake-up latency"), (axes[1][0], 4, "compute time")):
         for k, quantile in enumerate(("p50", "p99", "max")):
-            axis.hist(values_us[:, k], bins=bins, histtype="step", linewidth=1.2,
-                      label=f"window {quantile}, largest {np.max(values_us[:, k]):.3g} µs")
-        axis.set_xscale("log")
-        axis.set_xlabel(f"{name} [µs]")
-        axis.set_ylabel("status windows (100 ms each) [–]")
-        legend_outside(axis, fontsize=7)
+            values_us = samples[:, first + k] * 1e6
+            axis.plot(t, values_us, ".", markersize=2, label=f"{quantile}, at the end {values_us[-1]:.3g} µs")
+        shown = samples[:, first:first + 3][samples[:, first:first + 3] > 0]
+        if len(shown) and np.max(shown) > 30 * np.min(shown):  # a wide range (stalls): a log axis
+            axis.set_yscale("log")
+        axis.set_ylabel(f"{name} [µs]")
+        legend_outside(axis)
+    axes[2][0].plot(t, samples[:, 7], ".", markersize=2, color="tab:red",
+                    label=f"overruns: {int(samples[0, 7])} at the first,\n{int(samples[-1, 7])} at the last "
+                          "logged status")
+    axes[2][0].set_ylabel("overruns since start [–]")
+    axes[2][0].set_xlabel("wall-clock time since the first logged status message [s] (gaps: between runs)")
+    legend_outside(axes[2][0])
     save(fig, directory, filename,
-         f"Loop timing of clm-servod during live commissioning: {len(windows)} status windows of the logs, "
-         f"overruns counted by the daemon {overruns}")
+         "Loop timing of clm-servod during live commissioning: the daemon's own statistics since it started "
+         f"({len(samples)} status messages of logs/*.lcm). Its quantiles are cumulative and the logs carry no "
+         "single cycle's timing, so no histogram of cycles can be drawn from them")
 
 
 def main():
