@@ -1,0 +1,172 @@
+#!/usr/bin/env python3
+"""plot_report.py on a small synthetic commissioning directory.
+
+Usage: plot_report_test.py PLOT_REPORT_PY WORK_DIR
+
+Two directories, made here from sine waves (no clm run): an in-process one
+with four laws (one of them a name the plotter does not know), two coil
+sets and the truth comparison; and a "live" one with three laws, no truth
+comparison, no held-out runs, and an LCM log whose status messages carry
+loop timing. Checks that every expected PNG is written and not empty, that
+nothing else is, and that the skipped plots say why.
+"""
+import json
+import os
+import shutil
+import struct
+import subprocess
+import sys
+
+import numpy as np
+
+POLE_PITCH_M = 0.03
+STATUS_FINGERPRINT = bytes.fromhex("c6bd46f28351d644")  # lcmtypes/servo_status_t.lcm
+
+
+def write_csv(path, columns):
+    names = list(columns)
+    np.savetxt(path, np.column_stack([columns[n] for n in names]), delimiter=",", header=",".join(names),
+               comments="")
+
+
+def program(seconds=3.0, period_s=0.001):
+    """Two steps on [-0.05, 0.05] m: slowly out over half the time, fast back, then at rest."""
+    t = np.arange(0.0, seconds, period_s)
+    half_s = seconds / 2
+    back = np.maximum(0.05 - 0.1 * (t - half_s) / (0.3 * seconds), -0.05)
+    r = np.where(t < half_s, -0.05 + 0.1 * t / half_s, back)
+    return t, r, (t >= half_s).astype(float)
+
+
+def run_columns(law_index, rng):
+    t, r, step = program()
+    y = r - 1e-7 * (law_index + 1) * np.sin(2 * np.pi * r / POLE_PITCH_M)
+    f_star = 20 * np.sin(3 * t)
+    ripple = (law_index + 1) * 0.5 * np.sin(2 * np.pi * y / POLE_PITCH_M)
+    return {"t_s": t, "step": step, "r_m": r, "y_m": y, "e_m": r - y, "F_star_N": f_star, "u_ff_N": f_star,
+            "Fy_star_N": f_star, "Fy_N": f_star + ripple + rng.normal(0, 0.1, len(t)),
+            "Fx_N": rng.normal(0, 0.1, len(t)), "Tz_Nm": rng.normal(0, 0.05, len(t)),
+            "current_square_sum_A2": np.ones_like(t)}
+
+
+def calibration_yaml(coil_sets):
+    lines = ["format: clm-servo-calibration", "format_version: 1", "method: algorithm1", "motor:",
+             f"  pole_pitch_m: {POLE_PITCH_M}", f"  coil_sets: {coil_sets}", "experiment_drive_commutation:",
+             "  motor_constant_N_per_A: 60", "  phase_offset_rad: -0.5", "coil_sets:"]
+    for _ in range(coil_sets):
+        lines += ["  - motor_constant_N_per_A: 55.5", "    phase_offset_rad: -0.55",
+                  "    delta_rad: [-0.78539816339744828, 0.78539816339744828]",
+                  "    gain_ratio: [0.62, 0.6]", "    residual_rms_N: [4.8, 4.9]"]
+    return "\n".join(lines) + "\n"
+
+
+def experiments(coil_sets, rng):
+    columns = {k: [] for k in ("t_s", "coil_set", "delta_rad", "magnitude_N", "y_m", "Fy_N", "Fx_N", "Tz_Nm")}
+    for coil_set in range(1, coil_sets + 1):
+        for delta, ratio in ((-np.pi / 4, 0.62), (np.pi / 4, 0.6)):
+            t, r, _ = program(1.0)
+            magnitude = 30 * np.sin(5 * t)
+            for name, values in (("t_s", t), ("coil_set", np.full_like(t, coil_set)), ("delta_rad", np.full_like(t, delta)),
+                                 ("magnitude_N", magnitude), ("y_m", r),
+                                 ("Fy_N", ratio * magnitude + rng.normal(0, 1, len(t))),
+                                 ("Fx_N", np.zeros_like(t)), ("Tz_Nm", np.zeros_like(t))):
+                columns[name].append(values)
+    return {k: np.concatenate(v) for k, v in columns.items()}
+
+
+def truth_comparison(coil_sets):
+    y = np.arange(-0.06, 0.06 + 1e-9, 0.00025)
+    columns = {"y_m": y}
+    for model, wrong in (("true", 0.0), ("pgnn", 0.02), ("spline", -0.02)):
+        for component in ("Fy_N", "Fx_N", "Tz_Nm"):
+            columns[f"cogging_{model}_{component}"] = np.sin(2 * np.pi * y / POLE_PITCH_M * 6) * (1 + wrong)
+    for coil_set in range(1, coil_sets + 1):
+        for model, wrong in (("true", 0.0), ("pgnn", 0.01), ("spline", -0.01)):
+            for direction in "yxz":
+                for phase, shift in (("a", 0.0), ("b", 2.1)):
+                    columns[f"K{direction}{phase}_{model}_{coil_set}"] = \
+                        60 * np.cos(2 * np.pi * y / POLE_PITCH_M + shift) * (1 + wrong) + 500 * wrong * (y > 0.05)
+    return columns
+
+
+def lcm_string(text):
+    data = text.encode() + b"\0"
+    return struct.pack(">i", len(data)) + data
+
+
+def status_message(k):
+    """A servo_status_t as far as the fields the plotter reads, with loop timing."""
+    payload = STATUS_FINGERPRINT + struct.pack(">q", 1_800_000_000_000_000 + k * 100_000) + lcm_string("axis0")
+    payload += struct.pack(">qbh", 7, 1, 0) + lcm_string("") + struct.pack(">qb", -1, 2)
+    payload += b"".join(lcm_string("") for _ in range(8))
+    latency_s = 20e-6 * (1 + (k % 7))
+    payload += struct.pack(">6dqq", latency_s, 2 * latency_s, 5 * latency_s, 8e-6, 12e-6, 30e-6, 0, 100 * k)
+    return payload
+
+
+def lcm_log(path, payloads):
+    with open(path, "wb") as f:
+        for number, payload in enumerate(payloads):
+            channel = b"CLM_SERVO_STATUS"
+            f.write(struct.pack(">IqqII", 0xEDA1DA01, number, number * 100_000, len(channel), len(payload)))
+            f.write(channel + payload)
+
+
+def make_directory(directory, laws, held_out, coil_sets, truth, live):
+    shutil.rmtree(directory, ignore_errors=True)
+    os.makedirs(os.path.join(directory, "logs"))
+    rng = np.random.default_rng(1)
+    for index, law in enumerate(laws):
+        write_csv(os.path.join(directory, f"evaluation-{law}.csv"), run_columns(index, rng))
+    for index, law in enumerate(held_out):
+        write_csv(os.path.join(directory, f"validation-{law}.csv"), run_columns(index, rng))
+    write_csv(os.path.join(directory, "experiments.csv"), experiments(coil_sets, rng))
+    with open(os.path.join(directory, "calibration.yaml"), "w") as f:
+        f.write(calibration_yaml(coil_sets))
+    if truth:
+        write_csv(os.path.join(directory, "truth-comparison.csv"), truth_comparison(coil_sets))
+    report = {"schema": "clm-servo-report", "schema_version": 1, "coil_sets": coil_sets}
+    if live:
+        report["live"] = {"runs": 1}
+        lcm_log(os.path.join(directory, "logs", "evaluation-pgnn.lcm"), [status_message(k) for k in range(50)])
+    with open(os.path.join(directory, "report.json"), "w") as f:
+        json.dump(report, f)
+
+
+def check(script, directory, expected, said):
+    result = subprocess.run([sys.executable, script, directory], capture_output=True, text=True)
+    if result.returncode != 0:
+        sys.exit(f"FAIL: plot_report.py {directory}: exit {result.returncode}\n{result.stderr}")
+    written = sorted(name for name in os.listdir(directory) if name.endswith(".png"))
+    if written != sorted(expected):
+        sys.exit(f"FAIL: {directory}: wrote {written}, expected {sorted(expected)}")
+    for name in written:
+        if os.path.getsize(os.path.join(directory, name)) < 10_000:
+            sys.exit(f"FAIL: {directory}/{name} is nearly empty")
+    for text in said:
+        if text not in result.stdout:
+            sys.exit(f"FAIL: plot_report.py {directory} did not say '{text}':\n{result.stdout}")
+    leftovers = [name for name in os.listdir(directory) if ".tmp" in name]
+    if leftovers:
+        sys.exit(f"FAIL: {directory}: temporary files left: {leftovers}")
+    print(f"plot_report.py {os.path.basename(directory)}: {len(written)} plots: {', '.join(written)}")
+
+
+def main():
+    script, work = sys.argv[1], sys.argv[2]
+    always = ["commutation-error-slow.png", "commutation-error-fast.png", "tracking-error.png", "position-error.png",
+              "calibration.png"]
+    simulated = os.path.join(work, "simulated")
+    make_directory(simulated, ["original", "classical", "pgnn", "my-law"], ["classical", "pgnn"], 2, True, False)
+    check(script, simulated,
+          always + ["validation.png", "cogging.png", "cogging-error.png", "gain.png", "gain-error.png"],
+          ["latency.png skipped: the in-process commissioning runs on a virtual clock"])
+    live = os.path.join(work, "live")
+    make_directory(live, ["original", "classical", "pgnn"], [], 3, False, True)
+    check(script, live, always + ["latency.png"],
+          ["validation.png skipped", "cogging and gain plots skipped"])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
