@@ -151,13 +151,13 @@ def legend_outside(axis, fontsize=8):
     axis.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=fontsize, frameon=False)
 
 
-def panel_grid(rows, columns, header=False, panel_size=(4.2, 1.55), sharex=True, sharey="column",
+def panel_grid(rows, columns, header=False, panel_size=(4.2, 1.55), sharex="all", sharey="column",
                legend_width=1.8):
     """The "one panel per law (or entry)" layout: rows x columns panels, with
-    room on the right of every panel for a legend; the x-axis shared by all
-    (sharex) and the y-axis by the panels of a "column", of a "row" or by none
-    (None); with `header` an extra top row of one panel spanning every column.
-    Returns (figure, header axis or None, 2-D axes)."""
+    room on the right of every panel for a legend; each axis shared by "all"
+    panels, by those of a "column", of a "row", or by none (None); with
+    `header` an extra top row of one panel spanning every column (its x-axis
+    shared with all). Returns (figure, header axis or None, 2-D axes)."""
     width = columns * (panel_size[0] + legend_width)
     height = (rows + (1 if header else 0)) * panel_size[1] + 1.0
     fig = plt.figure(figsize=(width, height))
@@ -166,11 +166,13 @@ def panel_grid(rows, columns, header=False, panel_size=(4.2, 1.55), sharex=True,
     axes = np.empty((rows, columns), dtype=object)
     for r in range(rows):
         for c in range(columns):
-            share_x = (top if top is not None else axes[0][0]) if sharex and (r or c or top is not None) else None
-            share_y = {"column": axes[0][c] if r else None, "row": axes[r][0] if c else None}.get(sharey)
-            axes[r][c] = fig.add_subplot(grid[r + (1 if header else 0), c], sharex=share_x, sharey=share_y)
+            first = top if top is not None else axes[0][0]
+            shared = {"all": first if (r or c or top is not None) else None,
+                      "column": axes[0][c] if r else None, "row": axes[r][0] if c else None}
+            axes[r][c] = fig.add_subplot(grid[r + (1 if header else 0), c], sharex=shared.get(sharex),
+                                         sharey=shared.get(sharey))
             axes[r][c].grid(True, alpha=0.3)
-            if sharex and r < rows - 1:
+            if sharex in ("all", "column") and r < rows - 1:
                 axes[r][c].tick_params(labelbottom=False)
     if top is not None:
         top.grid(True, alpha=0.3)
@@ -200,13 +202,9 @@ def steps_by_speed(data):
     return sorted(groups.items())
 
 
-def experiments_range_m(directory):
-    """The positions the experiments covered [m] (min, max of experiments.csv y_m), or None."""
-    path = os.path.join(directory, "experiments.csv")
-    if not os.path.exists(path):
-        return None
-    y = load_csv(path)["y_m"]
-    return float(np.min(y)), float(np.max(y))
+def identified_range_m(experiments):
+    """The positions the experiments covered [m]: min and max of experiments.csv y_m."""
+    return float(np.min(experiments["y_m"])), float(np.max(experiments["y_m"]))
 
 
 # -------------------------------------------------------------- figures ----
@@ -267,12 +265,7 @@ def position_error_figure(directory, laws, evaluations, pole_pitch_m, range_m, f
     """Per law: the driving-direction error F_y - F_y* averaged in position bins
     over the whole evaluation run, and its amplitude spectrum over spatial
     frequency with the multiples of 1/pole pitch marked."""
-    fig, _, axes = panel_grid(len(laws), 2, sharex=False)
-    for row in range(len(laws) - 1):  # the position axes alike, the frequency axes alike
-        axes[row][0].sharex(axes[-1][0])
-        axes[row][1].sharex(axes[-1][1])
-        for axis in axes[row]:
-            axis.tick_params(labelbottom=False)
+    fig, _, axes = panel_grid(len(laws), 2, sharex="column")
     harmonics_shown = 12
     for row, law in enumerate(laws):
         d = evaluations[law]
@@ -377,17 +370,16 @@ def truth_figures(directory, range_m):
         truth_grid_figure(directory, truth, range_m, entries, filename, what, error)
 
 
-def calibration_figure(directory, calibration, filename):
+def calibration_figure(directory, calibration, data, filename):
     """Algorithm 1 per coil set (columns): measured F_y against the commanded
     magnitude for each phase offset, with the fitted ratio c_i (eq. 14) as a
     line; below, c against the offset with the cosine
     (k/k_drive)*cos(zeta - zeta_drive - delta) that the fitted k and zeta
-    imply (eq. 15), through the two measured ratios."""
-    data = load_csv(os.path.join(directory, "experiments.csv"))
+    imply (eq. 15), through the two measured ratios. `data` is experiments.csv."""
     drive_k = calibration["drive"]["motor_constant_N_per_A"]
     drive_zeta = calibration["drive"]["phase_offset_rad"]
     sets = calibration["coil_sets"]
-    fig, _, axes = panel_grid(2, len(sets), sharex=False, sharey=None, panel_size=(3.9, 3.0), legend_width=0.3)
+    fig, _, axes = panel_grid(2, len(sets), sharex=None, sharey=None, panel_size=(3.9, 3.0), legend_width=0.3)
     offset_colours = ["tab:blue", "tab:orange"]
     delta_axis = np.linspace(-np.pi, np.pi, 361)
     for column, entry in enumerate(sets):
@@ -530,7 +522,8 @@ def main():
         return 1
     report = read_report(directory)
     calibration = read_calibration(os.path.join(directory, "calibration.yaml"))
-    range_m = experiments_range_m(directory)
+    experiments = load_csv(os.path.join(directory, "experiments.csv"))
+    range_m = identified_range_m(experiments)
     evaluations = {law: load_csv(os.path.join(directory, f"evaluation-{law}.csv")) for law in laws}
     for which in ("slow", "fast"):
         commutation_error_figure(directory, laws, evaluations, which, f"commutation-error-{which}.png")
@@ -546,7 +539,7 @@ def main():
     else:
         print("plot_report: no validation-<law>.csv (--validation-program none): validation.png skipped")
     truth_figures(directory, range_m)
-    calibration_figure(directory, calibration, "calibration.png")
+    calibration_figure(directory, calibration, experiments, "calibration.png")
     latency_figure(directory, report, "latency.png")
     return 0
 
