@@ -1,7 +1,9 @@
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <cstdio>
 #include <sstream>
+#include <vector>
 
 #include "tools/commission/commission.hpp"
 #include "tools/data/csv_table.hpp"
@@ -412,11 +414,17 @@ std::string report_markdown(const Report& report) {
   out << "\n## Wall time\n\n| step | s |\n|---|---|\n";
   for (const auto& step : report.steps) out << "| " << step.step << " | " << fixed(step.wall_s, "%.1f") << " |\n";
   out << "| total | " << fixed(report.total_wall_s, "%.1f") << " |\n";
-  out << "\n## Plots\n\n";
-  for (const char* plot : {"commutation-error-slow.png", "commutation-error-fast.png", "cogging.png", "gain.png",
-                           "tracking-error.png"}) {
-    out << "![" << plot << "](" << plot << ")\n";
+  // The PNGs tools/commission/plot_report.py draws from these files; what
+  // each answers is in docs/report-format.md, "Plots".
+  out << "\n## Plots\n\nWhat each plot answers and what to look for: docs/report-format.md, \"Plots\".\n\n";
+  std::vector<std::string> plots{"calibration.png", "commutation-error-slow.png", "commutation-error-fast.png",
+                                 "position-error.png", "tracking-error.png"};
+  if (!report.validation.empty()) plots.push_back("validation.png");
+  if (std::find(report.files.begin(), report.files.end(), "truth-comparison.csv") != report.files.end()) {
+    plots.insert(plots.end(), {"cogging.png", "cogging-error.png", "gain.png", "gain-error.png"});
   }
+  if (report.live.live) plots.push_back("latency.png");  // the loop's timing means something on a real-time clock only
+  for (const auto& plot : plots) out << "![" << plot << "](" << plot << ")\n";
   return out.str();
 }
 
