@@ -19,6 +19,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
 # Known laws in the report's order; a law not listed here is plotted after them.
@@ -233,8 +234,10 @@ def commutation_error_figure(directory, laws, evaluations, which, filename):
             legend_outside(axis)
     for axis in axes[-1]:
         axis.set_xlabel("time [s]")
+    only = " (the program has this one speed: the slow and fast figures show the same steps)" \
+        if len(groups) == 1 else ""
     save(fig, directory, filename,
-         f"Commutation error F − F* on the {which} steps (peak reference speed {speed:g} m/s; "
+         f"Commutation error F − F* on the {which} steps (peak reference speed {speed:g} m/s{only}; "
          "low-pass filtered at 50 Hz as in Table 2)")
 
 
@@ -313,7 +316,8 @@ def truth_grid_figure(directory, truth, range_m, entries, filename, title, error
     y = truth["y_m"]
     inside = (y >= range_m[0]) & (y <= range_m[1]) if range_m is not None else np.ones_like(y, dtype=bool)
     columns = len(entries[0][1])
-    fig, _, axes = panel_grid(len(entries), columns, sharey="row", panel_size=(4.0, 1.7), legend_width=2.0)
+    fig, _, axes = panel_grid(len(entries), columns, sharey="row", panel_size=(4.0 if columns > 1 else 5.5, 1.7),
+                              legend_width=2.0)
     for row, (label, cells, unit) in enumerate(entries):
         row_curves = []
         for column, (prefix, suffix) in enumerate(cells):
@@ -335,8 +339,10 @@ def truth_grid_figure(directory, truth, range_m, entries, filename, title, error
         low, high = limits_within(row_curves, inside)
         axes[row][0].set_ylim(low, high)
         for column, axis in enumerate(axes[row]):
-            # What lies beyond the limits outside the identified range, per model, in the legend.
+            # How far a model goes beyond the limits outside the identified range, in the legend.
             for line in axis.get_lines():
+                if line.get_label().split(",")[0] not in ("pgnn", "spline"):
+                    continue
                 values = line.get_ydata()[~inside]
                 if len(values) and (np.max(values) > high or np.min(values) < low):
                     far = values[np.argmax(np.abs(values))]
@@ -345,6 +351,7 @@ def truth_grid_figure(directory, truth, range_m, entries, filename, title, error
             legend_outside(axis, fontsize=7)
     for axis in axes[-1]:
         axis.set_xlabel("position y [m]")
+        axis.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(6))
     save(fig, directory, filename, title)
 
 
@@ -512,10 +519,22 @@ def latency_figure(directory, report, filename):
 
 
 def main():
-    if len(sys.argv) != 2 or sys.argv[1] in ("-h", "--help"):
+    if len(sys.argv) == 2 and sys.argv[1] in ("-h", "--help"):
+        print(__doc__.strip())
+        return 0
+    if len(sys.argv) != 2:
         print("usage: plot_report.py DIR  (the output directory of clm commission)", file=sys.stderr)
         return 2
-    directory = sys.argv[1]
+    try:
+        return plot_all(sys.argv[1])
+    except (OSError, ValueError, KeyError, IndexError) as error:
+        # A missing file, a malformed CSV or YAML, a missing column: one line, no traceback.
+        print(f"plot_report: error: {sys.argv[1]}: {type(error).__name__}: {error}", file=sys.stderr)
+        return 1
+
+
+def plot_all(directory):
+    """Every plot for the output directory of clm commission; 0, or 1 when there is nothing to plot."""
     laws = laws_present(directory, "evaluation")
     if not laws:
         print(f"plot_report: error: no evaluation-<law>.csv in {directory}", file=sys.stderr)
