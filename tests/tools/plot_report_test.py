@@ -66,8 +66,8 @@ def experiments(coil_sets, rng):
         for delta, ratio in ((-np.pi / 4, 0.62), (np.pi / 4, 0.6)):
             t, r, _ = program(1.0)
             magnitude = 30 * np.sin(5 * t)
-            for name, values in (("t_s", t), ("coil_set", np.full_like(t, coil_set)), ("delta_rad", np.full_like(t, delta)),
-                                 ("magnitude_N", magnitude), ("y_m", r),
+            for name, values in (("t_s", t), ("coil_set", np.full_like(t, coil_set)),
+                                 ("delta_rad", np.full_like(t, delta)), ("magnitude_N", magnitude), ("y_m", r),
                                  ("Fy_N", ratio * magnitude + rng.normal(0, 1, len(t))),
                                  ("Fx_N", np.zeros_like(t)), ("Tz_Nm", np.zeros_like(t))):
                 columns[name].append(values)
