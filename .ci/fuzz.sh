@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer harnesses of tests/fuzz (docs/fuzzing.md) with
-# clang++-14 into build-fuzz/ and runs each for FUZZ_SECONDS (default 10)
-# seconds on its seed corpus: 8 harnesses, 80 s of fuzzing. Exits non-zero
-# if any harness finds a crash, a sanitizer report, a leak, a timeout or a
-# broken invariant; the input is kept in build-fuzz/artifacts/.
+# Builds the libFuzzer harnesses of tests/fuzz (docs/fuzzing.md) in
+# build-asan/ (.ci/asan_tree.sh; after .ci/sanitize.sh they are built
+# already) and runs each for FUZZ_SECONDS (default 10) seconds on its seed
+# corpus: 8 harnesses, 80 s of fuzzing. Exits non-zero if any harness finds a
+# crash, a sanitizer report, a leak, a timeout or a broken invariant; the
+# input is kept in build-asan/artifacts/.
 #
 #   FUZZ_SECONDS=60 bash .ci/fuzz.sh   # longer runs of every harness
 #   FUZZ_SEED=0 bash .ci/fuzz.sh       # a fresh random seed (default: fixed, 1)
@@ -11,22 +12,16 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# clang-14 and its runtimes (libFuzzer, ASan, UBSan) come from .ci/install-deps.sh.
-command -v clang++-14 > /dev/null || { echo "fuzz: no clang++-14: run bash .ci/install-deps.sh" >&2; exit 1; }
-
-# -O1 -gline-tables-only as OSS-Fuzz builds: fast to compile, line numbers
-# in reports; no -DNDEBUG, so assert() and Eigen's index checks are findings too.
-cmake -S . -B build-fuzz -DCMAKE_CXX_COMPILER=clang++-14 -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-      "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -gline-tables-only" -DCLM_FUZZ=ON \
-      -DCLM_BUILD_TESTS=OFF -DCLM_BUILD_BENCHMARKS=OFF >/dev/null
-cmake --build build-fuzz -j2 --target fuzzers
+source .ci/asan_tree.sh
+configure_asan_tree
+cmake --build build-asan -j2 --target fuzzers
 
 seconds="${FUZZ_SECONDS:-10}"
 seed="${FUZZ_SEED:-1}"
 fuzz_dir=tests/fuzz
-out=build-fuzz/fuzz-run
+out=build-asan/fuzz-run
 rm -rf "$out"
-mkdir -p "$out" build-fuzz/artifacts
+mkdir -p "$out" build-asan/artifacts
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=0:symbolize=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 
@@ -44,16 +39,16 @@ run() {
   # The inputs of fixed findings seed the run too.
   if [ -d "$fuzz_dir/regressions/$name" ]; then cp "$fuzz_dir/regressions/$name"/* "$corpus/"; fi
   local options=(-max_total_time="$seconds" -seed="$seed" -timeout=10 -rss_limit_mb=2048 -max_len="$max_len"
-                 -print_final_stats=1 -artifact_prefix="build-fuzz/artifacts/$name-")
+                 -print_final_stats=1 -artifact_prefix="build-asan/artifacts/$name-")
   if [ -n "$dict" ]; then options+=(-dict="$fuzz_dir/$dict"); fi
   ran=$((ran + 1))
   echo "fuzz: $name for ${seconds} s"
-  if ./build-fuzz/tests/fuzz/"$name" "${options[@]}" "$corpus" >"$out/$name.log" 2>&1; then
+  if ./build-asan/tests/fuzz/"$name" "${options[@]}" "$corpus" >"$out/$name.log" 2>&1; then
     { grep -E "^stat::number_of_executed_units|^stat::new_units_added" "$out/$name.log" || true; } |
       tr -s ' \n' ' ' | sed 's/^/fuzz:   /'
     echo
   else
-    echo "fuzz: $name FAILED; log $out/$name.log, input in build-fuzz/artifacts/$name-*"
+    echo "fuzz: $name FAILED; log $out/$name.log, input in build-asan/artifacts/$name-*"
     grep -E -A25 "^==[0-9]+==ERROR|runtime error|fuzz invariant broken|terminate called|ERROR: libFuzzer" \
       "$out/$name.log" | head -60 || true
     failed+=("$name")

@@ -1,16 +1,14 @@
 #!/usr/bin/env bash
 # The unit tests under AddressSanitizer and UndefinedBehaviorSanitizer
-# (docs/fuzzing.md): configures build-asan/ with CLM_SANITIZE=address;undefined
-# (GCC; every target instrumented; any finding aborts), builds with -j2 and
-# runs `ctest -L unit -LE lcm` (the tests labelled lcm need UDP multicast).
-# Exits non-zero on a failed test or any sanitizer report.
-#
-# -O1 -g1: half the compile time of -O2 -g with line numbers in every report;
-# no -DNDEBUG, so assert() and Eigen's index checks are on as well.
+# (docs/fuzzing.md): configures build-asan/ (.ci/asan_tree.sh: clang++-14,
+# every target instrumented, any finding aborts), builds it with -j2 (the
+# fuzz harnesses of .ci/fuzz.sh included) and runs `ctest -L unit -LE lcm`
+# (the tests labelled lcm need UDP multicast). Exits non-zero on a failed
+# test or any sanitizer report.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1" \
-      "-DCLM_SANITIZE=address;undefined" -DCLM_BUILD_BENCHMARKS=OFF >/dev/null
+source .ci/asan_tree.sh
+configure_asan_tree
 cmake --build build-asan -j2
 cd build-asan
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=1:check_initialization_order=1"

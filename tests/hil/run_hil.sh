@@ -351,6 +351,7 @@ phase_current_suite() {
      [ ! -f "$pc_artifacts/calibration.yaml" ] || [ ! -f "$pc_artifacts/feedforward-classical.yaml" ]; then
     echo "HIL: commissioning the phase-current drive into $pc_artifacts (clm commission --config config/servod-phase-current.yaml)"
     if ! "$clm" commission --config "$source_dir/config/servod-phase-current.yaml" --program "$pc_program" \
+         --experiment-program "$pc_program" \
          --validation-program none --out "$pc_artifacts" --no-plots > "$work/commission-phase-current.log" 2>&1; then
       tail -5 "$work/commission-phase-current.log"
       fail "phase_current: clm commission failed"

@@ -10,7 +10,7 @@
 #
 # Environment (optional): CLM_SYSTEMD_CACHE_DIR (the root image's cache,
 # default ${XDG_CACHE_HOME:-~/.cache}/clm-servo/systemd), CLM_SYSTEMD_MIRROR
-# (build_rootfs.sh), SYSTEMD_QEMU_TIMEOUT_S (default 600), SYSTEMD_KERNEL_VERSION
+# (build_rootfs.sh), SYSTEMD_QEMU_TIMEOUT_S (default 1200), SYSTEMD_KERNEL_VERSION
 # (default: the newest /boot/vmlinuz-* with virtio_blk and ext4 modules),
 # SYSTEMD_QEMU_DRIVE_OPTIONS (more -drive options, e.g. throttling.iops-total=20
 # to see the guest on a slow host disk).
@@ -21,7 +21,7 @@
 set -uo pipefail
 build=$1 source_dir=$2 work=$3
 here=$(cd "$(dirname "$0")" && pwd)
-timeout_s=${SYSTEMD_QEMU_TIMEOUT_S:-600}
+timeout_s=${SYSTEMD_QEMU_TIMEOUT_S:-1200}
 cache=${CLM_SYSTEMD_CACHE_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/clm-servo/systemd}
 start_s=$(date +%s)
 

@@ -1,5 +1,5 @@
 // `clm commission` in process on the embedded motor behind each drive
-// profile (default tier: a one-stroke experiment program, no held-out run,
+// profile (slow tier: a one-stroke experiment program, no held-out run,
 // about 8 s per profile). With phase_current the experiment data carry the
 // currents the daemon sent, and the PGNN improves on the calibrated
 // classical law by the same order as with magnitude_phase.
@@ -40,6 +40,7 @@ Outcome commission_with(const std::string& config, const test::TemporaryDirector
   }
   REQUIRE(outcome.classical_y > 0.0);
   REQUIRE(outcome.pgnn_y > 0.0);
+  CHECK_FALSE(std::filesystem::exists(options.out_dir + "/" + commission::kIncompleteMarker));
   // Its logs hold the runs only, with the pauses between them marked: no gap.
   for (const auto& entry : std::filesystem::directory_iterator(options.out_dir + "/logs")) {
     INFO(entry.path().string());

@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "config/atomic_file.hpp"
 #include "config/command_line.hpp"
 #include "config/yaml_edit.hpp"
 #include "tools/servod_client/config_update.hpp"
@@ -158,7 +159,11 @@ void add_commission(CLI::App& app) {
       // The plotter runs for seconds without output of its own: say so first.
       std::fprintf(stderr, "plots: drawing the PNG files into %s ...\n", options->run.out_dir.c_str());
       const auto plot_start = std::chrono::steady_clock::now();
+      // The directory is incomplete again until every plot is drawn.
+      const std::string marker = options->run.out_dir + "/" + commission::kIncompleteMarker;
+      write_file_atomically(marker, "clm commission has not finished drawing the plots in this directory.\n");
       plotted = make_plots(options->run.out_dir);
+      std::filesystem::remove(marker);
       plot_s = seconds_since(plot_start);
     }
     const commission::CommutationResult* oracle = nullptr;

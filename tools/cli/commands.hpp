@@ -3,6 +3,7 @@
 // std::exception with a one-line message on bad input, which main prints.
 
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <string>
 
 namespace clm::cli {
@@ -30,6 +31,7 @@ class ProgressBar {
   std::string label_;
   bool terminal_;
   int last_percent_ = -1;
+  std::chrono::steady_clock::time_point start_;
 };
 
 }  // namespace clm::cli

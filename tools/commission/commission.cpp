@@ -270,6 +270,11 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   // The first command: live, it proves the daemon answers before anything is written.
   runner.enable();
   std::filesystem::create_directories(dir);
+  // Until the report is written the directory says it is incomplete: a run
+  // stopped early (Ctrl-C, a refusal, a crash) leaves this file behind.
+  const std::string incomplete = dir + "/" + std::string(kIncompleteMarker);
+  write_file_atomically(incomplete, "clm commission has not finished in this directory: its files may be partial or "
+                                    "from an earlier run. A finished run removes this file after report.json.\n");
 
   // 1. Experiments of Algorithms 1 and 2.
   auto step_start = Clock::now();
@@ -437,6 +442,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   report.total_wall_s = seconds_since(start);
   write_file_atomically(written("report.json"), report_json(report));
   write_file_atomically(written("report.md"), report_markdown(report));
+  std::filesystem::remove(incomplete);
   return report;
 }
 

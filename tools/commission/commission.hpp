@@ -87,6 +87,10 @@ struct Report {
   LiveSummary live;                        ///< live commissioning only (live.live)
 };
 
+/// The file a run keeps in its output directory from the directory's
+/// creation until report.json and report.md are written.
+inline constexpr const char* kIncompleteMarker = "INCOMPLETE";
+
 struct Progress {
   std::string step;
   double fraction = 0.0;

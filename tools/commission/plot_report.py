@@ -14,6 +14,7 @@ import os
 import struct
 import sys
 import textwrap
+import time
 
 import matplotlib
 
@@ -182,6 +183,32 @@ def panel_grid(rows, columns, header=False, panel_size=(4.2, 1.55), sharex="all"
     return fig, top, axes
 
 
+class Progress:
+    """One line per figure written: how many of the planned, and the time left
+    extrapolated from the time per figure so far (the figures differ, so it is
+    an estimate)."""
+
+    def __init__(self):
+        self.planned = 0
+        self.done = 0
+        self.start_s = time.monotonic()
+
+    def plan(self, figures):
+        self.planned, self.done, self.start_s = figures, 0, time.monotonic()
+
+    def wrote(self, path):
+        self.done += 1
+        elapsed_s = time.monotonic() - self.start_s
+        left = ""
+        if 0 < self.done < self.planned:
+            left = f", about {elapsed_s / self.done * (self.planned - self.done):.0f} s left"
+        print(f"plot_report: wrote {path} ({self.done}/{max(self.planned, self.done)}, {elapsed_s:.1f} s{left})",
+              flush=True)
+
+
+PROGRESS = Progress()
+
+
 def save(fig, directory, filename, title):
     fig.suptitle(textwrap.fill(title, int(fig.get_figwidth() * 11)))
     fig.tight_layout()
@@ -190,7 +217,7 @@ def save(fig, directory, filename, title):
     fig.savefig(temporary, dpi=DPI)
     os.replace(temporary, path)  # a failed run never leaves half a file
     plt.close(fig)
-    print(f"plot_report: wrote {path}")
+    PROGRESS.wrote(path)
 
 
 def steps_by_speed(data):
@@ -544,13 +571,17 @@ def plot_all(directory):
     experiments = load_csv(os.path.join(directory, "experiments.csv"))
     range_m = identified_range_m(experiments)
     evaluations = {law: load_csv(os.path.join(directory, f"evaluation-{law}.csv")) for law in laws}
+    held_out = laws_present(directory, "validation")
+    truth = os.path.exists(os.path.join(directory, "truth-comparison.csv"))
+    # commutation error slow and fast, tracking, position error, calibration;
+    # validation; cogging, its error, gain, its error; latency (live runs).
+    PROGRESS.plan(5 + bool(held_out) + 4 * truth + (not truth))
     for which in ("slow", "fast"):
         commutation_error_figure(directory, laws, evaluations, which, f"commutation-error-{which}.png")
     tracking_figure(directory, laws, evaluations, "tracking-error.png",
                     "Tracking error on the evaluation reference, each law with its own feedforward (40)")
     position_error_figure(directory, laws, evaluations, calibration["pole_pitch_m"], range_m, "position-error.png")
     del evaluations
-    held_out = laws_present(directory, "validation")
     if held_out:
         runs = {law: load_csv(os.path.join(directory, f"validation-{law}.csv")) for law in held_out}
         tracking_figure(directory, held_out, runs, "validation.png",

@@ -8,7 +8,7 @@
 #   run_qemu.sh CLM CLM_SERVOD HIL_CANDUMP_CHECK SOURCE_DIR WORK_DIR
 #
 # Environment (optional): HIL_SUITE (fig8, default, or faults: run_faults.sh,
-# which needs no commissioning), HIL_QEMU_TIMEOUT_S (default 720), HIL_KERNEL_VERSION
+# which needs no commissioning), HIL_QEMU_TIMEOUT_S (default 1500), HIL_KERNEL_VERSION
 # (default: the newest /boot/vmlinuz-* whose modules include vcan), and the
 # HIL_* variables of run_hil.sh, which are handed to the guest.
 #
@@ -21,7 +21,7 @@ suite=${HIL_SUITE:-fig8}
 suffix=""
 [ "$suite" = fig8 ] || suffix=-$suite
 here=$(cd "$(dirname "$0")" && pwd)
-timeout_s=${HIL_QEMU_TIMEOUT_S:-720}
+timeout_s=${HIL_QEMU_TIMEOUT_S:-1500}
 start_s=$(date +%s)
 
 skip() { echo "HIL: skipped: $*"; exit 77; }
@@ -58,7 +58,8 @@ if [ "$suite" = fig8 ] && { [ ! -f "$pc_artifacts/report.json" ] || [ "$clm" -nt
   echo "HIL: commissioning the phase-current drive on the host into $pc_artifacts"
   commission_start=$(date +%s)
   if ! "$clm" commission --config "$source_dir/config/servod-phase-current.yaml" \
-       --program "$source_dir/tests/support/one_stroke_program.yaml" --validation-program none \
+       --program "$source_dir/tests/support/one_stroke_program.yaml" \
+       --experiment-program "$source_dir/tests/support/one_stroke_program.yaml" --validation-program none \
        --out "$pc_artifacts" --no-plots > "$work/commission-phase-current.log" 2>&1; then
     tail -5 "$work/commission-phase-current.log"
     echo "HIL: 0 passed, 1 failed (clm commission of the phase-current drive on the host)"
