@@ -1,7 +1,10 @@
 #include "commutation/calibration.hpp"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <string>
 
 #include "commutation/transform.hpp"
@@ -24,6 +27,41 @@ double sum_squares(std::span<const double> values) {
 }
 
 }  // namespace
+
+double separation_condition(double delta_1_rad, double delta_2_rad) {
+  const double separation = delta_2_rad - delta_1_rad;
+  Eigen::Matrix2d map;
+  map << 1.0, 0.0, std::cos(separation), std::sin(separation);
+  const Eigen::Vector2d singular = Eigen::JacobiSVD<Eigen::Matrix2d>(map).singularValues();
+  return singular(1) > 0.0 ? singular(0) / singular(1) : std::numeric_limits<double>::infinity();
+}
+
+std::vector<std::string> calibration_warnings(const double gain_ratio[2], const CalibrationQuality& quality) {
+  std::vector<std::string> warnings;
+  char text[200];
+  for (int g = 0; g < 2; ++g) {
+    const double relative = quality.gain_ratio_standard_error[g] / std::abs(gain_ratio[g]);
+    if (!(relative <= kMaxGainRatioRelativeError)) {
+      std::snprintf(text, sizeof text,
+                    "group %d: the gain ratio is known to %.0f %% only: the commanded force hardly varies, or the "
+                    "sensor is noisy", g + 1, 100.0 * relative);
+      warnings.emplace_back(text);
+    }
+    if (!(quality.offset_inflation[g] <= kMaxOffsetInflation)) {
+      std::snprintf(text, sizeof text,
+                    "group %d: the fitted offset inflates the gain ratio's variance %.1f-fold: the command moves "
+                    "with the position", g + 1, quality.offset_inflation[g]);
+      warnings.emplace_back(text);
+    }
+  }
+  if (!(quality.separation_condition <= kMaxSeparationCondition)) {
+    std::snprintf(text, sizeof text,
+                  "the two phase offsets separate k and zeta poorly (condition %.0f; pi/2 apart gives 1)",
+                  quality.separation_condition);
+    warnings.emplace_back(text);
+  }
+  return warnings;
+}
 
 void calibration_update(double drive_motor_constant_N_per_A, double drive_phase_offset_rad,
                         double delta_1_rad, double c_1, double delta_2_rad, double c_2,
@@ -64,9 +102,12 @@ CalibrationResult calibrate_classical(double drive_motor_constant_N_per_A, doubl
       const double e = group.driving_force_N[t] - c * group.magnitude_N[t];
       residual += e * e;
     }
+    const auto n = static_cast<double>(group.magnitude_N.size());
     result.gain_ratio[g] = c;
-    result.residual_rms_N[g] = std::sqrt(residual / static_cast<double>(group.magnitude_N.size()));
+    result.residual_rms_N[g] = std::sqrt(residual / n);
+    result.quality.gain_ratio_standard_error[g] = std::sqrt(residual / std::max(1.0, n - 1.0) / denominator);
   }
+  result.quality.separation_condition = separation_condition(first.delta_rad, second.delta_rad);
   calibration_update(drive_motor_constant_N_per_A, drive_phase_offset_rad, first.delta_rad,
                      result.gain_ratio[0], second.delta_rad, result.gain_ratio[1],
                      result.motor_constant_N_per_A, result.phase_offset_rad);
@@ -109,6 +150,7 @@ CalibrationResult calibrate_classical_offset_robust(double drive_motor_constant_
   if (!solution.allFinite()) throw CalibrationError("offset-robust calibration is singular");
 
   CalibrationResult result;
+  double residual_total = 0.0;
   for (int g = 0; g < 2; ++g) {
     const auto& group = *groups[g];
     double residual = 0.0;
@@ -121,7 +163,17 @@ CalibrationResult calibrate_classical_offset_robust(double drive_motor_constant_
     }
     result.gain_ratio[g] = solution(g);
     result.residual_rms_N[g] = std::sqrt(residual / static_cast<double>(group.position_m.size()));
+    residual_total += residual;
   }
+  // Standard errors from σ²·(normal)⁻¹ (the ridge included); the inflation
+  // compares each with the error the ratio would have alone, σ²/Σ m².
+  const double variance = residual_total / std::max(1.0, total_samples - unknowns);
+  const Eigen::MatrixXd covariance = normal.ldlt().solve(Eigen::MatrixXd::Identity(unknowns, unknowns));
+  for (int g = 0; g < 2; ++g) {
+    result.quality.gain_ratio_standard_error[g] = std::sqrt(variance * std::max(0.0, covariance(g, g)));
+    result.quality.offset_inflation[g] = covariance(g, g) * normal(g, g);
+  }
+  result.quality.separation_condition = separation_condition(first.delta_rad, second.delta_rad);
   calibration_update(drive_motor_constant_N_per_A, drive_phase_offset_rad, first.delta_rad,
                      result.gain_ratio[0], second.delta_rad, result.gain_ratio[1],
                      result.motor_constant_N_per_A, result.phase_offset_rad);

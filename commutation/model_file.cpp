@@ -171,6 +171,16 @@ std::string format_calibration_file(const CalibrationFile& file) {
     yaml::emit_double_list(out, coil_set.gain_ratio.data(), 2);
     out << YAML::Key << "residual_rms_N" << YAML::Value;
     yaml::emit_double_list(out, coil_set.residual_rms_N.data(), 2);
+    if (coil_set.quality) {
+      const CalibrationQuality& q = *coil_set.quality;
+      out << YAML::Key << "fit_quality" << YAML::Value << YAML::BeginMap;
+      out << YAML::Key << "gain_ratio_standard_error" << YAML::Value;
+      yaml::emit_double_list(out, q.gain_ratio_standard_error, 2);
+      out << YAML::Key << "separation_condition" << YAML::Value << yaml::format_double(q.separation_condition);
+      out << YAML::Key << "offset_inflation" << YAML::Value;
+      yaml::emit_double_list(out, q.offset_inflation, 2);
+      out << YAML::EndMap;
+    }
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
@@ -206,13 +216,28 @@ CalibrationFile parse_calibration_file(const yaml::Node& root) {
   }
   for (std::size_t l = 0; l < list.size(); ++l) {
     const yaml::Node entry = list.at(l);
-    entry.expect_keys({"motor_constant_N_per_A", "phase_offset_rad", "delta_rad", "gain_ratio", "residual_rms_N"});
+    entry.expect_keys(
+        {"motor_constant_N_per_A", "phase_offset_rad", "delta_rad", "gain_ratio", "residual_rms_N", "fit_quality"});
     CalibrationFile::CoilSet coil_set;
     coil_set.estimate.motor_constant_N_per_A = entry["motor_constant_N_per_A"].as_positive();
     coil_set.estimate.phase_offset_rad = entry["phase_offset_rad"].as_double_in(-2.0 * kPi, 2.0 * kPi);
     coil_set.delta_rad = parse_pair(entry["delta_rad"]);
     coil_set.gain_ratio = parse_pair(entry["gain_ratio"]);
     coil_set.residual_rms_N = parse_pair(entry["residual_rms_N"]);
+    if (const auto quality = entry.optional("fit_quality")) {
+      quality->expect_keys({"gain_ratio_standard_error", "separation_condition", "offset_inflation"});
+      CalibrationQuality q;
+      for (const char* key : {"gain_ratio_standard_error", "offset_inflation"}) {
+        const yaml::Node node = (*quality)[key];
+        const auto pair = parse_pair(node);
+        if (pair[0] < 0.0 || pair[1] < 0.0) node.fail("expected two values >= 0");
+        double* target = key == std::string("offset_inflation") ? q.offset_inflation : q.gain_ratio_standard_error;
+        target[0] = pair[0];
+        target[1] = pair[1];
+      }
+      q.separation_condition = (*quality)["separation_condition"].as_positive();
+      coil_set.quality = q;
+    }
     file.coil_sets.push_back(coil_set);
   }
   if (const auto provenance = root.optional("provenance")) {

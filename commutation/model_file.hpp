@@ -6,9 +6,11 @@
 // so a file round-trips bit for bit.
 
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "commutation/calibration.hpp"
 #include "commutation/classical.hpp"
 #include "commutation/model.hpp"
 #include "config/yaml_reader.hpp"
@@ -43,6 +45,8 @@ struct CalibrationFile {
     std::array<double, 2> delta_rad{};
     std::array<double, 2> gain_ratio{};
     std::array<double, 2> residual_rms_N{};
+    /// `fit_quality` (optional: files written before it have none).
+    std::optional<CalibrationQuality> quality;
   };
   std::vector<CoilSet> coil_sets;
   std::string data_sha256;

@@ -158,8 +158,8 @@ TEST_CASE("calibration files round-trip and refuse a wrong coil-set count", "[mo
   file.pole_pitch_m = 0.032;
   file.drive = {67.0, -0.52};
   file.method = "algorithm1";
-  file.coil_sets = {{{61.34, -0.54}, {-0.785, 0.785}, {0.9, 0.8}, {1.5, 1.6}},
-                    {{61.62, -0.55}, {-0.785, 0.785}, {0.91, 0.81}, {1.4, 1.7}}};
+  file.coil_sets = {{{61.34, -0.54}, {-0.785, 0.785}, {0.9, 0.8}, {1.5, 1.6}, {}},
+                    {{61.62, -0.55}, {-0.785, 0.785}, {0.91, 0.81}, {1.4, 1.7}, {}}};
   file.data_sha256 = "ff";
   const std::string text = format_calibration_file(file);
   const CalibrationFile parsed = parse_calibration_file(yaml::Node::load_string(text, "calib.yaml"));
@@ -167,6 +167,22 @@ TEST_CASE("calibration files round-trip and refuse a wrong coil-set count", "[mo
   CHECK(parsed.coil_sets[1].estimate.motor_constant_N_per_A == 61.62);
   CHECK(parsed.coil_sets[0].gain_ratio[1] == 0.8);
   CHECK(format_calibration_file(parsed) == text);
+  CHECK_FALSE(parsed.coil_sets[0].quality.has_value());  // a file without fit_quality reads as before
+  // With the fit quality, every figure comes back exactly.
+  CalibrationFile with_quality = file;
+  with_quality.coil_sets[1].quality = CalibrationQuality{{0.0012, 0.0031}, 1.0000000000000002, {1.7, 2.25}};
+  const std::string quality_text = format_calibration_file(with_quality);
+  const CalibrationFile quality_parsed = parse_calibration_file(yaml::Node::load_string(quality_text, "calib.yaml"));
+  REQUIRE(quality_parsed.coil_sets[1].quality.has_value());
+  CHECK(quality_parsed.coil_sets[1].quality->gain_ratio_standard_error[1] == 0.0031);
+  CHECK(quality_parsed.coil_sets[1].quality->separation_condition == 1.0000000000000002);
+  CHECK(quality_parsed.coil_sets[1].quality->offset_inflation[1] == 2.25);
+  CHECK_FALSE(quality_parsed.coil_sets[0].quality.has_value());
+  CHECK(format_calibration_file(quality_parsed) == quality_text);
+  std::string negative = quality_text;
+  negative.replace(negative.find("2.25"), 4, "-2.5");
+  CHECK_THROWS_WITH(parse_calibration_file(yaml::Node::load_string(negative, "calib.yaml")),
+                    Catch::Contains("offset_inflation") && Catch::Contains(">= 0"));
   std::string broken = text;
   broken.replace(broken.find("coil_sets: 2"), 12, "coil_sets: 3");
   CHECK_THROWS_WITH(parse_calibration_file(yaml::Node::load_string(broken, "calib.yaml")),

@@ -160,7 +160,7 @@ inline CalibrationFile truth_calibration(const sim::MotorParameters& motor) {
   file.drive = motor.drive.commutation;
   file.method = "algorithm1";
   for (const auto& set : motor.electromagnetics.coil_sets) {
-    file.coil_sets.push_back({{set.motor_constant_N_per_A, set.phase_offset_rad}, {-kPi / 4, kPi / 4}, {1.0, 1.0}, {0.0, 0.0}});
+    file.coil_sets.push_back({{set.motor_constant_N_per_A, set.phase_offset_rad}, {-kPi / 4, kPi / 4}, {1.0, 1.0}, {0.0, 0.0}, {}});
   }
   file.data_sha256 = "truth";
   file.generator = "daemon tests";

@@ -49,6 +49,22 @@ void add_calibrate(CLI::App& app) {
                     c.residual_rms_N[0], c.residual_rms_N[1]);
       }
     }
+    // Fit quality: the ratios' standard errors, the conditioning of the
+    // offsets' separation and the inflation by the fitted offset.
+    std::printf("\ncoil set  method         se c1     se c2     separation  offset inflation\n");
+    for (std::size_t l = 0; l < paper.coil_sets.size(); ++l) {
+      for (const CalibrationFile* file : {&paper, &robust}) {
+        const auto& c = file->coil_sets[l];
+        const CalibrationQuality& q = *c.quality;
+        std::printf("%-9zu %-14s %-9.2g %-9.2g %-11.2f %.2f / %.2f\n", l + 1, file->method.c_str(),
+                    q.gain_ratio_standard_error[0], q.gain_ratio_standard_error[1], q.separation_condition,
+                    q.offset_inflation[0], q.offset_inflation[1]);
+        for (const auto& warning : calibration_warnings(c.gain_ratio.data(), q)) {
+          std::fprintf(stderr, "clm calibrate: warning: coil set %zu (%s): %s\n", l + 1, file->method.c_str(),
+                       warning.c_str());
+        }
+      }
+    }
     std::printf("wrote %s (%s)\n", options->output.c_str(), chosen.method.c_str());
   });
 }

@@ -201,6 +201,16 @@ void add_commission(CLI::App& app) {
       }
       std::printf("\n");
     }
+    for (const CalibrationFile* file : {&report.calibration_paper, &report.calibration_robust}) {
+      for (std::size_t l = 0; l < file->coil_sets.size(); ++l) {
+        const auto& c = file->coil_sets[l];
+        if (!c.quality) continue;
+        for (const auto& warning : calibration_warnings(c.gain_ratio.data(), *c.quality)) {
+          std::fprintf(stderr, "clm commission: warning: calibration (%s), coil set %zu: %s\n", file->method.c_str(),
+                       l + 1, warning.c_str());
+        }
+      }
+    }
     if (!report.recommended.empty()) {
       std::printf("recommended for service: %s; %s\n", report.recommended.c_str(), report.recommendation.c_str());
     }

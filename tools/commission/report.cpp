@@ -120,7 +120,18 @@ void calibration_json(std::ostringstream& out, const CalibrationFile& file) {
         << ", \"motor_constant_N_per_A\": " << number(c.estimate.motor_constant_N_per_A)
         << ", \"phase_offset_rad\": " << number(c.estimate.phase_offset_rad) << ", \"gain_ratio\": ["
         << number(c.gain_ratio[0]) << ", " << number(c.gain_ratio[1]) << "], \"residual_rms_N\": ["
-        << number(c.residual_rms_N[0]) << ", " << number(c.residual_rms_N[1]) << "]}";
+        << number(c.residual_rms_N[0]) << ", " << number(c.residual_rms_N[1]) << "]";
+    if (c.quality) {
+      const CalibrationQuality& q = *c.quality;
+      out << ", \"gain_ratio_standard_error\": [" << number(q.gain_ratio_standard_error[0]) << ", "
+          << number(q.gain_ratio_standard_error[1]) << "], \"separation_condition\": "
+          << number(q.separation_condition) << ", \"offset_inflation\": [" << number(q.offset_inflation[0]) << ", "
+          << number(q.offset_inflation[1]) << "], \"warnings\": [";
+      const auto warnings = calibration_warnings(c.gain_ratio.data(), q);
+      for (std::size_t w = 0; w < warnings.size(); ++w) out << (w ? ", " : "") << quoted(warnings[w]);
+      out << "]";
+    }
+    out << "}";
   }
   out << "]";
 }

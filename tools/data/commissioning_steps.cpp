@@ -39,6 +39,7 @@ CalibrationFile calibrate_motor(const ExperimentData& data, const MotorDescripti
     entry.delta_rad = experiment.delta_rad;
     entry.gain_ratio = {result.gain_ratio[0], result.gain_ratio[1]};
     entry.residual_rms_N = {result.residual_rms_N[0], result.residual_rms_N[1]};
+    entry.quality = result.quality;
     file.coil_sets.push_back(entry);
   }
   file.created_utc = utc_timestamp();
