@@ -146,7 +146,8 @@ CalibrationResult calibrate_classical_offset_robust(double drive_motor_constant_
   if (normal(0, 0) <= 0.0 || normal(1, 1) <= 0.0) {
     throw CalibrationError("a group's commanded magnitude is zero throughout");
   }
-  const Eigen::VectorXd solution = normal.ldlt().solve(rhs);
+  const Eigen::LDLT<Eigen::MatrixXd> factor = normal.ldlt();
+  const Eigen::VectorXd solution = factor.solve(rhs);
   if (!solution.allFinite()) throw CalibrationError("offset-robust calibration is singular");
 
   CalibrationResult result;
@@ -168,7 +169,7 @@ CalibrationResult calibrate_classical_offset_robust(double drive_motor_constant_
   // Standard errors from σ²·(normal)⁻¹ (the ridge included); the inflation
   // compares each with the error the ratio would have alone, σ²/Σ m².
   const double variance = residual_total / std::max(1.0, total_samples - unknowns);
-  const Eigen::MatrixXd covariance = normal.ldlt().solve(Eigen::MatrixXd::Identity(unknowns, unknowns));
+  const Eigen::MatrixXd covariance = factor.solve(Eigen::MatrixXd::Identity(unknowns, unknowns));
   for (int g = 0; g < 2; ++g) {
     result.quality.gain_ratio_standard_error[g] = std::sqrt(variance * std::max(0.0, covariance(g, g)));
     result.quality.offset_inflation[g] = covariance(g, g) * normal(g, g);
