@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace clm::servo {
 
@@ -20,6 +21,23 @@ void LatencyHistogram::reset() noexcept {
 }
 
 double LatencyHistogram::bin_upper_s(int bin) noexcept { return kMin_s * std::pow(10.0, static_cast<double>(bin) / kBinsPerDecade); }
+
+std::array<std::int64_t, LatencyHistogram::kCoarseBins> LatencyHistogram::coarse_counts() const noexcept {
+  // Fine bin b holds (kMin_s 10^((b-1)/50), kMin_s 10^(b/50)], so coarse bin
+  // j gathers the fine bins with ceil(b / 10) == j.
+  constexpr int kFinePerCoarse = kBinsPerDecade / kCoarseBinsPerDecade;
+  std::array<std::int64_t, kCoarseBins> coarse{};
+  for (int bin = 0; bin < kBins; ++bin) {
+    const int j = (bin + kFinePerCoarse - 1) / kFinePerCoarse;
+    coarse[static_cast<std::size_t>(j)] += static_cast<std::int64_t>(bins_[static_cast<std::size_t>(bin)]);
+  }
+  return coarse;
+}
+
+double LatencyHistogram::coarse_bin_upper_s(int bin) noexcept {
+  if (bin >= kCoarseBins - 1) return std::numeric_limits<double>::infinity();
+  return kMin_s * std::pow(10.0, static_cast<double>(bin) / kCoarseBinsPerDecade);
+}
 
 double LatencyHistogram::quantile_s(double q) const noexcept {
   if (count_ == 0) return 0.0;

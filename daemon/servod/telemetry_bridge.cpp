@@ -35,6 +35,9 @@ void TelemetryBridge::fill_status(const servo::ServoCycle& cycle, const LoopTimi
   out.compute_time_p50_s = timing.compute_time.quantile_s(0.5);
   out.compute_time_p99_s = timing.compute_time.quantile_s(0.99);
   out.compute_time_max_s = timing.compute_time.max_s();
+  static_assert(servo::LatencyHistogram::kCoarseBins == telemetry::kTimingHistogramBins);
+  out.wakeup_latency_histogram = timing.wakeup_latency.coarse_counts();
+  out.compute_time_histogram = timing.compute_time.coarse_counts();
   out.overruns = c.overruns;
   out.cycles = c.cycles;
   out.frames_sent = c.frames_sent;

@@ -1,5 +1,6 @@
 #include "daemon/telemetry/lcm_conversion.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <utility>
@@ -174,6 +175,8 @@ clm_lcm::servo_status_t to_message(const ServoStatusSample& sample, std::int64_t
   m.compute_time_max_s = sample.compute_time_max_s;
   m.overruns = sample.overruns;
   m.cycles = sample.cycles;
+  std::copy(sample.wakeup_latency_histogram.begin(), sample.wakeup_latency_histogram.end(), m.wakeup_latency_histogram);
+  std::copy(sample.compute_time_histogram.begin(), sample.compute_time_histogram.end(), m.compute_time_histogram);
   m.frames_sent = sample.frames_sent;
   m.frames_received = sample.frames_received;
   m.frames_missing = sample.frames_missing;

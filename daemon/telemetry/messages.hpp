@@ -4,6 +4,8 @@
 // structs the real-time thread can fill without allocating, and the LCM
 // channels they go out on (docs/telemetry.md).
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <string_view>
 
@@ -57,6 +59,9 @@ struct CommandAuthorityStatus {
   std::int64_t refused_by_daemon = 0;
 };
 
+/// Bins of the timing histograms in ServoStatusSample (servo_status_t's arrays).
+inline constexpr std::size_t kTimingHistogramBins = 31;
+
 struct ServoStatusSample {
   std::int64_t utime = 0;  ///< [µs since the UNIX epoch]; 0 = stamp at publication
   FixedText<33> axis;
@@ -78,6 +83,9 @@ struct ServoStatusSample {
   double compute_time_max_s = 0.0;
   std::int64_t overruns = 0;
   std::int64_t cycles = 0;
+  /// Cumulative histograms, bins as clm_lcm::servo_status_t documents them.
+  std::array<std::int64_t, kTimingHistogramBins> wakeup_latency_histogram{};
+  std::array<std::int64_t, kTimingHistogramBins> compute_time_histogram{};
   std::int64_t frames_sent = 0;
   std::int64_t frames_received = 0;
   std::int64_t frames_missing = 0;

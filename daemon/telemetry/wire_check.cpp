@@ -8,6 +8,7 @@
 
 #include "commutation/types.hpp"
 #include "daemon/servo/command.hpp"
+#include "daemon/telemetry/messages.hpp"
 
 namespace clm::telemetry {
 namespace {
@@ -30,11 +31,16 @@ constexpr WireField finite(const char* name) { return {WireKind::kDouble, name};
 /// A measured value: NaN when there was no measurement.
 constexpr WireField measured(const char* name) { return {WireKind::kDouble, name, 0, 0, true}; }
 constexpr WireField text(const char* name, double max_bytes) { return {WireKind::kString, name, 0, max_bytes}; }
+/// Counts in an array of fixed length: each one 0 or more.
+constexpr WireField counts(const char* name, int length) {
+  return {WireKind::kInt64FixedArray, name, 0, kAny, false, length};
+}
 constexpr WireField doubles(const char* name, int length_field) {
   return {WireKind::kDoubleArray, name, 0, 0, false, length_field};
 }
 
-constexpr double kCommutationMax = 5;  // servo_state_t.COMMUTATION_EXPERIMENT
+constexpr double kCommutationMax = 5;
+constexpr int kHistogramBins = static_cast<int>(kTimingHistogramBins);  // servo_state_t.COMMUTATION_EXPERIMENT
 
 /// Axis names: 1..32 characters (config axis.name); 0 is let through here so
 /// that the refusal names the axis rule rather than the layout.
@@ -62,7 +68,8 @@ constexpr std::array kStatusFields{
     text("feedforward_file", kMaxTextBytes), text("feedforward_sha256", 64),
     finite("wakeup_latency_p50_s"), finite("wakeup_latency_p99_s"), finite("wakeup_latency_max_s"),
     finite("compute_time_p50_s"), finite("compute_time_p99_s"), finite("compute_time_max_s"),
-    i64("overruns"), i64("cycles"), i64("frames_sent"), i64("frames_received"), i64("frames_missing"),
+    i64("overruns"), i64("cycles"), counts("wakeup_latency_histogram", kHistogramBins),
+    counts("compute_time_histogram", kHistogramBins), i64("frames_sent"), i64("frames_received"), i64("frames_missing"),
     i64("frames_late"), i64("frames_rejected"), i64("telemetry_dropped"), i8("bus_state", -1, 3),
     i64("damping_cycles"), boolean("program_running"), finite("program_time_s"), boolean("restricted"),
     i8("force_sensor", 0, 2), i16("force_sensor_warning", 0), i64("force_sensor_losses"),
@@ -119,7 +126,8 @@ std::size_t width(WireKind kind) noexcept {
     case WireKind::kInt64:
     case WireKind::kDouble: return 8;
     case WireKind::kString:
-    case WireKind::kDoubleArray: return 0;
+    case WireKind::kDoubleArray:
+    case WireKind::kInt64FixedArray: return 0;
   }
   return 0;
 }
@@ -216,6 +224,19 @@ std::string check_wire(const WireLayout& layout, std::span<const std::uint8_t> d
           if (!std::isfinite(value)) return where() + "[" + std::to_string(i) + "]: " + number_text(value) + " is not finite";
         }
         pos += 8 * static_cast<std::size_t>(count);
+        break;
+      }
+      case WireKind::kInt64FixedArray: {
+        const auto count = static_cast<std::size_t>(field.length_field);
+        if (count > (size - pos) / 8) return where() + ": datagram ends inside the array";
+        for (std::size_t i = 0; i < count; ++i) {
+          const std::int64_t value = read_signed(p + 8 * i, 8);
+          if (static_cast<double>(value) < field.min || static_cast<double>(value) > field.max) {
+            return where() + "[" + std::to_string(i) + "]: " + std::to_string(value) + " is outside [" +
+                   number_text(field.min) + ", " + number_text(field.max) + "]";
+          }
+        }
+        pos += 8 * count;
         break;
       }
     }

@@ -9,7 +9,7 @@
 //  - a string whose length is < 1, beyond the datagram, over the field's
 //    limit, without its terminating NUL, or with a control character;
 //  - an array whose length field is outside its range;
-//  - an integer (enum, counter, flag) outside the field's range;
+//  - an integer (enum, counter, flag, histogram count) outside the field's range;
 //  - a non-finite number where the field must be finite.
 // The layouts are written here from lcmtypes/*.lcm; a test checks each one
 // against lcm-gen's encoding of random messages.
@@ -28,19 +28,23 @@
 
 namespace clm::telemetry {
 
-enum class WireKind : std::uint8_t { kInt8, kInt16, kInt32, kInt64, kBoolean, kDouble, kString, kDoubleArray };
+enum class WireKind : std::uint8_t {
+  kInt8, kInt16, kInt32, kInt64, kBoolean, kDouble, kString, kDoubleArray, kInt64FixedArray
+};
 
 /// One field of an LCM struct, in encoding order.
 struct WireField {
   WireKind kind;
   const char* name;
-  /// kInt*: accepted range. kString: longest accepted length in bytes,
-  /// without the NUL (in `max`). kDoubleArray: unused.
+  /// kInt*, kInt64FixedArray: accepted range (of each element). kString:
+  /// longest accepted length in bytes, without the NUL (in `max`).
+  /// kDoubleArray: unused.
   double min = 0.0;
   double max = 0.0;
   /// kDouble, kDoubleArray: NaN is accepted (infinities never are).
   bool nan_allowed = false;
   /// kDoubleArray: index of the earlier integer field that holds the length.
+  /// kInt64FixedArray: the length itself.
   int length_field = -1;
 };
 

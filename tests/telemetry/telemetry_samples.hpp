@@ -156,6 +156,10 @@ inline telemetry::ServoStatusSample make_status() {
   s.compute_time_max_s = 53e-6;
   s.overruns = 3;
   s.cycles = 1000001;
+  for (std::size_t j = 0; j < s.wakeup_latency_histogram.size(); ++j) {
+    s.wakeup_latency_histogram[j] = static_cast<std::int64_t>(3 * j + 1);
+    s.compute_time_histogram[j] = static_cast<std::int64_t>(1000 - j);
+  }
   s.frames_sent = 3000003;
   s.frames_received = 2000002;
   s.frames_missing = 5;
@@ -204,6 +208,10 @@ inline void check_status(const telemetry::ServoStatusSample& s, const clm_lcm::s
   CHECK(m.compute_time_max_s == s.compute_time_max_s);
   CHECK(m.overruns == s.overruns);
   CHECK(m.cycles == s.cycles);
+  for (std::size_t j = 0; j < s.wakeup_latency_histogram.size(); ++j) {
+    CHECK(m.wakeup_latency_histogram[j] == s.wakeup_latency_histogram[j]);
+    CHECK(m.compute_time_histogram[j] == s.compute_time_histogram[j]);
+  }
   CHECK(m.frames_sent == s.frames_sent);
   CHECK(m.frames_received == s.frames_received);
   CHECK(m.frames_missing == s.frames_missing);

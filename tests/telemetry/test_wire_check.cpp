@@ -104,6 +104,10 @@ clm_lcm::servo_status_t random_status(Random& random) {
     *d = random.number();
   }
   s.overruns = random.integer(0, 1 << 30);
+  for (std::size_t j = 0; j < 31; ++j) {
+    s.wakeup_latency_histogram[j] = random.integer(0, 1 << 30);
+    s.compute_time_histogram[j] = random.integer(0, 1 << 30);
+  }
   s.bus_state = static_cast<std::int8_t>(random.integer(-1, 3));
   s.program_running = random.integer(0, 1) != 0;
   return s;
@@ -229,6 +233,13 @@ TEST_CASE("enum ranges, booleans and non-finite numbers are refused before decod
   REQUIRE(bytes.back() == 1);
   bytes.back() = 2;
   CHECK_THAT(check_wire(layout, bytes), Catch::Contains("drive_profile"));
+
+  // A histogram count is 0 or more.
+  clm_lcm::servo_status_t status{};
+  const auto& status_layout = wire_layout(static_cast<const clm_lcm::servo_status_t*>(nullptr));
+  REQUIRE(check_wire(status_layout, encode(status)) == "");
+  status.compute_time_histogram[5] = -1;
+  CHECK_THAT(check_wire(status_layout, encode(status)), Catch::Contains("compute_time_histogram[5]"));
 
   clm_lcm::servo_command_ack_t ack{};
   auto ack_bytes = encode(ack);

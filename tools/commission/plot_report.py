@@ -450,7 +450,7 @@ def calibration_figure(directory, calibration, data, filename):
 
 # LCM servo_status_t as far as the timing fields (lcmtypes/servo_status_t.lcm),
 # and its fingerprint: a different type is not decoded.
-STATUS_FINGERPRINT = bytes.fromhex("c6bd46f28351d644")
+STATUS_FINGERPRINT = bytes.fromhex("0975de882cefc7e9")  # lcmtypes/servo_status_t.lcm
 LCM_SYNC = 0xEDA1DA01
 
 
@@ -469,42 +469,79 @@ def lcm_events(path, channel):
         offset = start + data_length
 
 
+HISTOGRAM_BINS = 31  # servo_status_t.wakeup_latency_histogram, compute_time_histogram
+
+
+def histogram_upper_edges_s():
+    """Upper edges of the status message's histogram bins [s]: bin j holds
+    (1e-7 10^((j-1)/5), 1e-7 10^(j/5)] s, the last bin everything beyond."""
+    edges = 1e-7 * 10.0 ** (np.arange(HISTOGRAM_BINS) / 5.0)
+    edges[-1] = np.inf
+    return edges
+
+
 def status_timing(payload):
-    """utime [us], (wake-up latency p50, p99, max, compute time p50, p99, max) [s] and overruns of one
-    servo_status_t."""
+    """The loop-timing fields of one servo_status_t: utime [us], session,
+    (wake-up latency p50, p99, max, compute time p50, p99, max) [s],
+    overruns, cycles and the two cumulative histograms."""
     if payload[:8] != STATUS_FINGERPRINT:
         raise ValueError("CLM_SERVO_STATUS has another type fingerprint than this plotter knows")
     offset = 8
 
-    def skip(fmt):
+    def read(fmt):
         nonlocal offset
+        values = struct.unpack_from(fmt, payload, offset)
         offset += struct.calcsize(fmt)
+        return values
 
     def skip_string():
         nonlocal offset
         offset += 4 + struct.unpack_from(">i", payload, offset)[0]
 
-    utime = struct.unpack_from(">q", payload, offset)[0]
-    skip(">q")
-    skip_string()                     # axis
-    for fmt in (">q", ">b", ">h"):    # session, state, fault
-        skip(fmt)
-    skip_string()                     # fault_reason
-    skip(">q")                        # fault_cycle
-    skip(">b")                        # commutation
-    for _ in range(8):                # the files and their SHA-256
+    utime, = read(">q")
+    skip_string()                                # axis
+    session, _state, _fault = read(">qbh")
+    skip_string()                                # fault_reason
+    read(">qb")                                  # fault_cycle, commutation
+    for _ in range(8):                           # the files and their SHA-256
         skip_string()
-    timing = struct.unpack_from(">6dq", payload, offset)
-    return utime, timing[:6], timing[6]
+    quantiles = read(">6d")
+    overruns, cycles = read(">qq")
+    wakeup = np.array(read(f">{HISTOGRAM_BINS}q"), dtype=np.int64)
+    compute = np.array(read(f">{HISTOGRAM_BINS}q"), dtype=np.int64)
+    return {"utime": utime, "session": session, "quantiles": quantiles, "overruns": overruns, "cycles": cycles,
+            "wakeup": wakeup, "compute": compute}
+
+
+def histogram_quantile_text(counts, q):
+    """'≤ upper edge' of the bin holding quantile q of a status histogram, in µs."""
+    cumulative = np.cumsum(counts)
+    if cumulative[-1] == 0:
+        return "n/a (no cycles)"
+    edges_s = histogram_upper_edges_s()
+    bin_index = int(np.searchsorted(cumulative, max(1, np.ceil(q * cumulative[-1]))))
+    if bin_index == HISTOGRAM_BINS - 1:
+        return f"> {edges_s[-2] * 1e6:.3g} µs"
+    return f"≤ {edges_s[bin_index] * 1e6:.3g} µs"
+
+
+def logged_cycle_histograms(samples):
+    """The histograms of the cycles the logs span: per daemon session, the
+    last status's cumulative counts minus the first's, summed over sessions."""
+    wakeup = np.zeros(HISTOGRAM_BINS, dtype=np.int64)
+    compute = np.zeros(HISTOGRAM_BINS, dtype=np.int64)
+    for session in {s["session"] for s in samples}:
+        mine = sorted((s for s in samples if s["session"] == session), key=lambda s: s["cycles"])
+        wakeup += mine[-1]["wakeup"] - mine[0]["wakeup"]
+        compute += mine[-1]["compute"] - mine[0]["compute"]
+    return wakeup, compute
 
 
 def latency_figure(directory, report, filename):
-    """The loop's wake-up latency, compute time and overruns over a live
-    commissioning, as the daemon's status messages in logs/*.lcm give them.
-    clm-servod never resets its latency histograms, so those quantiles are
-    cumulative since the daemon started, and neither they nor the states
-    carry a cycle's own timing (a state's utime is stamped by the telemetry
-    thread): a histogram of single cycles cannot be drawn from the logs."""
+    """The loop's wake-up latency and compute time over a live commissioning:
+    histograms of the cycles between the first and the last logged status
+    of each daemon session (the status messages carry cumulative counts),
+    and the overruns over time."""
     if "live" not in report:
         print(f"plot_report: {filename} skipped: the in-process commissioning runs on a virtual clock, so the "
               "loop has no wake-up latency to show (the status messages carry zeros); made with --live only")
@@ -513,36 +550,50 @@ def latency_figure(directory, report, filename):
     for path in sorted(glob.glob(os.path.join(directory, "logs", "*.lcm"))):
         for payload in lcm_events(path, "CLM_SERVO_STATUS"):
             try:
-                utime, timing, overruns = status_timing(payload)
+                samples.append(status_timing(payload))
             except (ValueError, struct.error) as error:
                 print(f"plot_report: {filename} skipped: {path}: {error}")
                 return
-            samples.append((utime, *timing, overruns))
-    samples = np.array(sorted(samples))
-    if len(samples) == 0 or not np.any(samples[:, 1:7] > 0):
-        print(f"plot_report: {filename} skipped: the logs' CLM_SERVO_STATUS messages carry no loop timing")
+    wakeup, compute = logged_cycle_histograms(samples) if samples else (np.zeros(1), np.zeros(1))
+    if wakeup.sum() == 0:
+        print(f"plot_report: {filename} skipped: the logs' CLM_SERVO_STATUS messages span no timed cycle")
         return
-    t = (samples[:, 0] - samples[0, 0]) * 1e-6
-    fig, _, axes = panel_grid(3, 1, sharey=None, panel_size=(9.0, 1.9), legend_width=2.6)
-    for axis, first, name in ((axes[0][0], 1, "wake-up latency"), (axes[1][0], 4, "compute time")):
-        for k, quantile in enumerate(("p50", "p99", "max")):
-            values_us = samples[:, first + k] * 1e6
-            axis.plot(t, values_us, ".", markersize=2, label=f"{quantile}, at the end {values_us[-1]:.3g} µs")
-        shown = samples[:, first:first + 3][samples[:, first:first + 3] > 0]
-        if len(shown) and np.max(shown) > 30 * np.min(shown):  # a wide range (stalls): a log axis
-            axis.set_yscale("log")
-        axis.set_ylabel(f"{name} [µs]")
+    samples.sort(key=lambda s: s["utime"])
+    edges_s = histogram_upper_edges_s()
+    lower_s = np.concatenate(([edges_s[0] / 10 ** 0.2], edges_s[:-1]))
+    upper_s = np.concatenate((edges_s[:-1], [edges_s[-2] * 10 ** 0.2]))  # the last bin drawn one bin wide
+    fig, _, axes = panel_grid(3, 1, sharex=None, sharey=None, panel_size=(9.0, 2.1), legend_width=2.8)
+    cycles = int(wakeup.sum())
+    for axis, counts, name in ((axes[0][0], wakeup, "wake-up latency"), (axes[1][0], compute, "compute time")):
+        first, last = np.flatnonzero(counts > 0)[[0, -1]]
+        first, last = max(first - 1, 0), min(last + 1, HISTOGRAM_BINS - 1)  # an empty bin either side
+        # Log counts: a bar starts at 0.5, below one cycle, so a single cycle shows.
+        axis.bar(lower_s[first:last + 1] * 1e6, counts[first:last + 1], bottom=0.5,
+                 width=(upper_s - lower_s)[first:last + 1] * 1e6, align="edge", edgecolor="black", linewidth=0.4,
+                 label=f"{int(counts.sum())} cycles\n" + "\n".join(
+                     f"{name_q} {histogram_quantile_text(counts, q)}"
+                     for name_q, q in (("p50", 0.5), ("p99", 0.99), ("p99.9", 0.999))))
+        axis.set_xscale("log")
+        axis.set_yscale("log")
+        axis.set_xlim(lower_s[first] * 1e6, upper_s[last] * 1e6)
+        axis.set_ylim(0.5, None)
+        axis.set_xlabel(f"{name} [µs] (5 bins a decade)")
+        axis.set_ylabel("cycles [–]")
         legend_outside(axis)
-    axes[2][0].plot(t, samples[:, 7], ".", markersize=2, color="tab:red",
-                    label=f"overruns: {int(samples[0, 7])} at the first,\n{int(samples[-1, 7])} at the last "
+    t = np.array([(s["utime"] - samples[0]["utime"]) * 1e-6 for s in samples])
+    overruns = np.array([s["overruns"] for s in samples])
+    axes[2][0].plot(t, overruns, ".", markersize=2, color="tab:red",
+                    label=f"overruns: {int(overruns[0])} at the first,\n{int(overruns[-1])} at the last "
                           "logged status")
     axes[2][0].set_ylabel("overruns since start [–]")
     axes[2][0].set_xlabel("wall-clock time since the first logged status message [s] (gaps: between runs)")
     legend_outside(axes[2][0])
+    print(f"plot_report: {filename}: {cycles} cycles in the logged runs, wake-up latency p99 "
+          f"{histogram_quantile_text(wakeup, 0.99)}, compute time p99 {histogram_quantile_text(compute, 0.99)}")
     save(fig, directory, filename,
-         "Loop timing of clm-servod during live commissioning: the daemon's own statistics since it started "
-         f"({len(samples)} status messages of logs/*.lcm). Its quantiles are cumulative and the logs carry no "
-         "single cycle's timing, so no histogram of cycles can be drawn from them")
+         f"Loop timing of clm-servod during live commissioning: histograms of the {cycles} cycles between the "
+         f"first and the last status message of each daemon session in logs/*.lcm ({len(samples)} messages), "
+         "and the overruns since the daemon started")
 
 
 def main():
