@@ -201,7 +201,11 @@ wait_idle "frozen jog"
 stopped_s=$(echo "$(date +%s.%N) - $frozen" | bc)
 kill -KILL $jogger 2>/dev/null || true
 wait $jogger 2>/dev/null || true
-[ "$(echo "$stopped_s < 1.0" | bc)" = 1 ] || fail "frozen jog: the axis still moved $stopped_s s after the client froze"
+# The jog asked for 10 s; the daemon's own timeout (0.25 s) and stop end it
+# much sooner. The exact timing is judged from the state log in the case
+# above; here wall-clock time, polled through clm ctl status, which on a
+# loaded host takes up to a second per poll: 3 s tells the two apart.
+[ "$(echo "$stopped_s < 3.0" | bc)" = 1 ] || fail "frozen jog: the axis still moved $stopped_s s after the client froze"
 echo "jog: a frozen client's jog stopped by the daemon, at rest within $stopped_s s (status polled every 0.05 s)"
 
 rc=0
