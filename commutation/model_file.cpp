@@ -315,6 +315,12 @@ std::string format_model_file(const ModelFile& file) {
     emit_costs(out, "model_training_N2", costs.model_training);
     emit_costs(out, "physics_validation_N2", costs.physics_validation);
     emit_costs(out, "model_validation_N2", costs.model_validation);
+    if (costs.regressor_condition > 0.0) {
+      out << YAML::Key << "regressor_condition" << YAML::Value << yaml::format_double(costs.regressor_condition);
+    }
+    if (costs.unexcited_parameters >= 0) {
+      out << YAML::Key << "unexcited_parameters" << YAML::Value << costs.unexcited_parameters;
+    }
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
@@ -394,11 +400,19 @@ ModelFile parse_model_file(const yaml::Node& root) {
   if (const auto costs = provenance.optional("costs")) {
     for (std::size_t l = 0; l < costs->size(); ++l) {
       const yaml::Node entry = costs->at(l);
-      entry.expect_keys({"physics_training_N2", "model_training_N2", "physics_validation_N2", "model_validation_N2"});
-      file.provenance.costs.push_back({parse_triple(entry["physics_training_N2"]),
-                                       parse_triple(entry["model_training_N2"]),
-                                       parse_triple(entry["physics_validation_N2"]),
-                                       parse_triple(entry["model_validation_N2"])});
+      entry.expect_keys({"physics_training_N2", "model_training_N2", "physics_validation_N2", "model_validation_N2",
+                         "regressor_condition", "unexcited_parameters"});
+      CoilSetCosts record{parse_triple(entry["physics_training_N2"]), parse_triple(entry["model_training_N2"]),
+                          parse_triple(entry["physics_validation_N2"]), parse_triple(entry["model_validation_N2"])};
+      // A condition number is 1 or more.
+      if (const auto condition = entry.optional("regressor_condition")) {
+        record.regressor_condition = condition->as_double();
+        if (!(record.regressor_condition >= 1.0)) condition->fail("a condition number is 1 or more");
+      }
+      if (const auto unexcited = entry.optional("unexcited_parameters")) {
+        record.unexcited_parameters = static_cast<int>(unexcited->as_integer_in(0, 1000000));
+      }
+      file.provenance.costs.push_back(record);
     }
   }
   if (const auto nuisance = provenance.optional("nuisance")) {

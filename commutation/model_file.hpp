@@ -68,6 +68,11 @@ struct CoilSetCosts {
   std::array<double, 3> model_training{};
   std::array<double, 3> physics_validation{};
   std::array<double, 3> model_validation{};
+  /// Fit quality of the model put to use (optional in the file: 0 and -1 when
+  /// absent): the condition of its column-scaled linear regressors and the
+  /// linear parameters its data leave unexcited (docs/commutation.md).
+  double regressor_condition = 0.0;
+  int unexcited_parameters = -1;
 };
 
 /// Nuisance terms identified beside the model (docs/commutation.md,

@@ -20,12 +20,11 @@ PgnnFeatures features_of(const CoilSetDataset& data, double pole_pitch_m, const 
   return f;
 }
 
-void ridge_linear(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnLayout& layout, const double* nonlinear,
-                  const CoilGain& physics_a, const CoilGain& physics_b, double regularisation,
-                  Eigen::Matrix<double, Eigen::Dynamic, 3>& linear) {
+void linear_normal_equations(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnLayout& layout,
+                             const double* nonlinear, Eigen::MatrixXd& gram, Eigen::MatrixXd& rhs) {
   const int p = layout.linear_size();
-  Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(p, p);
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(p, 3);
+  gram = Eigen::MatrixXd::Zero(p, p);
+  rhs = Eigen::MatrixXd::Zero(p, 3);
   double m[kMaxRegressor];
   double ha[Network::kMaxWidth], hb[Network::kMaxWidth], hc[Network::kMaxWidth];
   const double inv_n = 1.0 / static_cast<double>(data.size());
@@ -37,6 +36,24 @@ void ridge_linear(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnL
     rhs.noalias() += mv * (data.wrench.col(t).transpose() * inv_n);
   }
   gram = gram.selfadjointView<Eigen::Lower>();
+}
+
+RegressorQuality linear_regressor_quality(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnLayout& layout,
+                                          const double* nonlinear, const DirectionForce& direction) {
+  Eigen::MatrixXd gram, rhs;
+  linear_normal_equations(data, f, layout, nonlinear, gram, rhs);
+  const int columns = direction.identified() ? layout.linear_size() : layout.direction_offset();
+  std::vector<ColumnGroup> groups;
+  for (int k = 0; k < columns; ++k) groups.push_back({k, 1});
+  return regressor_quality(gram.topLeftCorner(columns, columns), groups);
+}
+
+void ridge_linear(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnLayout& layout, const double* nonlinear,
+                  const CoilGain& physics_a, const CoilGain& physics_b, double regularisation,
+                  Eigen::Matrix<double, Eigen::Dynamic, 3>& linear) {
+  const int p = layout.linear_size();
+  Eigen::MatrixXd gram, rhs;
+  linear_normal_equations(data, f, layout, nonlinear, gram, rhs);
   const double lambda2 = regularisation * regularisation;
   for (int k = 0; k < 4; ++k) gram(k, k) += lambda2;
   for (int q = 0; q < 3; ++q) rhs.block<4, 1>(0, q) += lambda2 * physics_target(physics_a, physics_b, q);

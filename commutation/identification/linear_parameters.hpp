@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "commutation/identification/dataset.hpp"
+#include "commutation/identification/excitation.hpp"
 #include "commutation/identification/nuisance.hpp"
 #include "commutation/model.hpp"
 
@@ -93,6 +94,17 @@ inline void regressor(const PgnnLayout& layout, const double* nonlinear, double 
   m[layout.cogging_offset() + nc] = 1.0;
   m[layout.direction_offset()] = d;
 }
+
+/// The data part of eq. (31)'s normal matrix, 1/N Σ M Mᵀ, and its right-hand
+/// side 1/N Σ M wrenchᵀ (one column per direction), given the hidden layers.
+void linear_normal_equations(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnLayout& layout,
+                             const double* nonlinear, Eigen::MatrixXd& gram, Eigen::MatrixXd& rhs);
+
+/// RegressorQuality of the linear parameters at the hidden layers in
+/// `nonlinear`, each column judged on its own; the direction-dependent
+/// force's column only when `direction` is identified.
+RegressorQuality linear_regressor_quality(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnLayout& layout,
+                                          const double* nonlinear, const DirectionForce& direction);
 
 /// Eq. (31) for one coil set, given the hidden layers in `nonlinear`; writes the
 /// three directions' linear parameters (one column per direction).

@@ -470,6 +470,9 @@ CoilSetModel refit_pgnn_coil_set(const CoilSetModel& trained, const DirectionFor
     prior += options.regularisation * options.regularisation * deviation.squaredNorm();
   }
   report.regularised_cost = report.model_fit.sum() + prior;
+  report.regressors = linear_regressor_quality(fitted, features_of(fitted, pole_pitch_m, normalisation, direction),
+                                               layout, nonlinear.data(), direction);
+  report.excitation_gaps = excitation_gaps(fitted, pole_pitch_m);
   return result;
 }
 

@@ -6,6 +6,7 @@
 // spline fits. No I/O.
 
 #include "commutation/identification/dataset.hpp"
+#include "commutation/identification/excitation.hpp"
 #include "commutation/identification/nuisance.hpp"
 #include "commutation/model.hpp"
 
@@ -32,6 +33,10 @@ struct IdentificationReport {
   /// the physics-only fit of the same data.
   DirectionForce direction_force;
   DirectionForce physics_direction_force;
+  /// The model put to use: its linear parameters' regressors on the data
+  /// it was fit on, and the stretches of the stroke those data do not excite.
+  RegressorQuality regressors;
+  std::vector<ExcitationGap> excitation_gaps;
   int best_restart = -1;
   int iterations = 0;             ///< LM iterations over all steps
   /// Proposition 4.1 per direction for the model put to use: its data term

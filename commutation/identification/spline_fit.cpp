@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 #include "commutation/identification/physics_fit.hpp"
 
@@ -26,6 +27,7 @@ struct SplineFit {
   DirectionForce direction;  ///< identified beside the model
   CoilSetModel physics;      ///< the physics-only fit the model is pulled towards
   DirectionForce physics_direction;
+  RegressorQuality regressors;  ///< of the data, before the penalties
 };
 
 // One regularised linear least-squares problem per direction on `data`.
@@ -66,6 +68,12 @@ SplineFit fit_spline(const CoilSetDataset& data, double pole_pitch_m, const Unif
       for (int q = 0; q < 3; ++q) rhs(index[r], q) += inv_n * value[r] * data.wrench(q, t);
     }
   }
+  // The data alone: each spline function's coefficients judged together,
+  // the direction-dependent force's column only when it is identified.
+  const int columns = direction.identified() ? p : p - 1;
+  std::vector<ColumnGroup> groups{{0, 1}, {1, 1}, {2, 1}, {3, 1}, {4, n}, {4 + n, n}, {4 + 2 * n, n}};
+  if (direction.identified()) groups.push_back({p - 1, 1});
+  const RegressorQuality regressors = regressor_quality(gram.topLeftCorner(columns, columns), groups);
   // Roughness penalty: squared second differences of each coefficient row.
   for (int block = 0; block < 3; ++block) {
     const int first = 4 + block * n;
@@ -104,6 +112,7 @@ SplineFit fit_spline(const CoilSetDataset& data, double pole_pitch_m, const Unif
   }
   fit.direction = direction;
   fit.physics_direction = physics_fit.direction;
+  fit.regressors = regressors;
   CoilSetModel& physics = fit.physics;
   physics.a_N_per_A = physics_a;
   physics.b_N_per_A = physics_b;
@@ -138,6 +147,8 @@ CoilSetModel identify_spline_coil_set(const CoilSetDataset& training, const Coil
   if (report.refit_on_all_data) fit = fit_spline(fitted, pole_pitch_m, basis, options);
   fill_fit_costs({as_model(fit.model), fit.direction}, {as_model(fit.physics), fit.physics_direction}, fitted, report);
   report.regularised_cost = report.model_fit.sum();
+  report.regressors = fit.regressors;
+  report.excitation_gaps = excitation_gaps(fitted, pole_pitch_m);
   report.best_restart = 0;
   report.iterations = 0;
   return fit.model;

@@ -211,6 +211,15 @@ void add_commission(CLI::App& app) {
         }
       }
     }
+    for (const auto* entries : {&report.pgnn, &report.spline}) {
+      for (std::size_t l = 0; l < entries->size(); ++l) {
+        const auto& r = (*entries)[l].report;
+        for (const auto& warning : identification::identification_warnings(r.regressors, r.excitation_gaps)) {
+          std::fprintf(stderr, "clm commission: warning: identification (%s), coil set %zu: %s\n",
+                       entries == &report.pgnn ? "pgnn" : "spline", l + 1, warning.c_str());
+        }
+      }
+    }
     if (!report.recommended.empty()) {
       std::printf("recommended for service: %s; %s\n", report.recommended.c_str(), report.recommendation.c_str());
     }

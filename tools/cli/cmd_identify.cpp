@@ -96,6 +96,17 @@ void add_identify(CLI::App& app) {
                   r.physics_fit[2], r.model_fit[0], r.model_fit[1], r.model_fit[2], holds ? "holds" : "VIOLATED",
                   r.iterations, r.best_restart + 1);
     }
+    // Fit quality of the model put to use (docs/commutation.md, "Fit quality").
+    for (std::size_t l = 0; l < reports.size(); ++l) {
+      const auto& r = reports[l].report;
+      std::printf("coil set %zu: regressor condition %.3g over %d linear parameters, %d unexcited; %zu excitation "
+                  "gaps\n",
+                  l + 1, r.regressors.condition, r.regressors.parameters, r.regressors.unexcited,
+                  r.excitation_gaps.size());
+      for (const auto& warning : identification::identification_warnings(r.regressors, r.excitation_gaps)) {
+        std::fprintf(stderr, "clm identify: warning: coil set %zu: %s\n", l + 1, warning.c_str());
+      }
+    }
     if (summary.nuisance) {
       const auto& offset = summary.sensor_offset;
       std::printf("nuisance: sensor F_y offset %.4g N from the mechanics (m %.4g kg, f_v %.4g N s/m, f_c %.4g N, "

@@ -72,7 +72,19 @@ void identification_json(std::ostringstream& out, const std::vector<data::CoilSe
         << ", \"physics_fit_N2\": " << triple(r.physics_fit) << ", \"model_fit_N2\": " << triple(r.model_fit)
         << ", \"regularised_cost\": " << number(r.regularised_cost) << ", \"best_restart\": " << r.best_restart
         << ", \"proposition_4_1_holds\": "
-        << ((r.proposition_holds[0] && r.proposition_holds[1] && r.proposition_holds[2]) ? "true" : "false") << "}";
+        << ((r.proposition_holds[0] && r.proposition_holds[1] && r.proposition_holds[2]) ? "true" : "false")
+        << ", \"regressor_condition\": " << number(r.regressors.condition)
+        << ", \"linear_parameters\": " << r.regressors.parameters
+        << ", \"unexcited_parameters\": " << r.regressors.unexcited << ", \"excitation_gaps\": [";
+    for (std::size_t g = 0; g < r.excitation_gaps.size(); ++g) {
+      const auto& gap = r.excitation_gaps[g];
+      out << (g ? ", " : "") << "{\"low_m\": " << number(gap.low_m) << ", \"high_m\": " << number(gap.high_m)
+          << ", \"lack\": " << quoted(identification::describe(gap.lack)) << "}";
+    }
+    out << "], \"warnings\": [";
+    const auto warnings = identification::identification_warnings(r.regressors, r.excitation_gaps);
+    for (std::size_t w = 0; w < warnings.size(); ++w) out << (w ? ", " : "") << quoted(warnings[w]);
+    out << "]}";
   }
   out << "]";
 }
@@ -368,8 +380,11 @@ std::string report_markdown(const Report& report) {
     out << "\n## Identification: " << title << "\n\nData-term cost (mean squared error) per direction y/x/z, physics-only "
            "model vs identified model, fit on the training data, on them and on held-out validation data; then the "
            "model put to use, fit on every sample (docs/commutation.md, \"Identification\").\n\n"
+           "The last two columns: the condition of the column-scaled regressors the model is linear in, on the data "
+           "it was fit on, with the parameters the data leave unexcited, and what the data lack along the stroke "
+           "(docs/commutation.md, \"Fit quality\").\n\n"
            "| coil set | physics train | model train | physics valid | model valid | physics all | model put to use, all "
-           "| Prop. 4.1 |\n|---|---|---|---|---|---|---|---|\n";
+           "| Prop. 4.1 | regressor condition (unexcited) | excitation |\n|---|---|---|---|---|---|---|---|---|---|\n";
     for (std::size_t l = 0; l < entries.size(); ++l) {
       const auto& r = entries[l].report;
       const auto cell = [&](const identification::DirectionCost& c) {
@@ -378,7 +393,16 @@ std::string report_markdown(const Report& report) {
       out << "| " << l + 1 << " | " << cell(r.physics_training) << " | " << cell(r.model_training) << " | "
           << cell(r.physics_validation) << " | " << cell(r.model_validation) << " | " << cell(r.physics_fit)
           << " | " << cell(r.model_fit) << " | "
-          << ((r.proposition_holds[0] && r.proposition_holds[1] && r.proposition_holds[2]) ? "holds" : "violated") << " |\n";
+          << ((r.proposition_holds[0] && r.proposition_holds[1] && r.proposition_holds[2]) ? "holds" : "violated")
+          << " | " << fixed(r.regressors.condition, "%.3g") << " (" << r.regressors.unexcited << " of "
+          << r.regressors.parameters << ") | ";
+      if (r.excitation_gaps.empty()) out << "every stretch excited";
+      for (std::size_t g = 0; g < r.excitation_gaps.size(); ++g) {
+        const auto& gap = r.excitation_gaps[g];
+        out << (g ? "; " : "") << identification::describe(gap.lack) << " in [" << fixed(gap.low_m, "%.4g") << ", "
+            << fixed(gap.high_m, "%.4g") << "] m";
+      }
+      out << " |\n";
     }
   };
   identification("PGNN", report.pgnn);

@@ -202,6 +202,8 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
         costs.physics_validation[q] = entry.report.physics_validation[i];
         costs.model_validation[q] = entry.report.model_validation[i];
       }
+      costs.regressor_condition = entry.report.regressors.condition;
+      costs.unexcited_parameters = entry.report.regressors.unexcited;
       file.provenance.costs.push_back(costs);
       const auto& c = entry.report.direction_force.amplitude;
       nuisance.direction_force_N_N_Nm.push_back({c[0], c[1], c[2]});
