@@ -14,6 +14,7 @@ RegressorQuality regressor_quality(const Eigen::MatrixXd& data_gram, const std::
   const Eigen::VectorXd diagonal = data_gram.diagonal();
   const double largest = p > 0 ? diagonal.maxCoeff() : 0.0;
   std::vector<bool> excited(static_cast<std::size_t>(p), false);
+  int unexcited = 0;
   Eigen::Index covered = 0;
   for (const ColumnGroup& group : groups) {
     if (group.first < 0 || group.count < 1 || group.first + group.count > p) {
@@ -25,8 +26,9 @@ RegressorQuality regressor_quality(const Eigen::MatrixXd& data_gram, const std::
     const double median = values[static_cast<std::size_t>(group.count / 2)];
     for (int k = group.first; k < group.first + group.count; ++k) {
       const double d = diagonal[k];
-      excited[static_cast<std::size_t>(k)] =
-          d > 1e-12 * largest && (group.count < 3 || d >= kUnexcitedShare * median);
+      const bool excited_k = d > 1e-12 * largest && (group.count < 3 || d >= kUnexcitedShare * median);
+      excited[static_cast<std::size_t>(k)] = excited_k;
+      if (!excited_k && group.counted) ++unexcited;
     }
   }
   if (covered != p) throw std::invalid_argument("regressor_quality: the column groups do not cover every column once");
@@ -36,7 +38,7 @@ RegressorQuality regressor_quality(const Eigen::MatrixXd& data_gram, const std::
   for (Eigen::Index k = 0; k < p; ++k) {
     if (excited[static_cast<std::size_t>(k)]) kept.push_back(k);
   }
-  quality.unexcited = static_cast<int>(p) - static_cast<int>(kept.size());
+  quality.unexcited = unexcited;
   if (kept.empty()) return quality;
   const auto n = static_cast<Eigen::Index>(kept.size());
   Eigen::MatrixXd scaled(n, n);
@@ -47,8 +49,15 @@ RegressorQuality regressor_quality(const Eigen::MatrixXd& data_gram, const std::
   }
   const Eigen::VectorXd eigenvalues = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(scaled, Eigen::EigenvaluesOnly).eigenvalues();
   const double high = eigenvalues.maxCoeff();
-  // Rounding leaves the smallest eigenvalue of a singular matrix near ±1e-16.
-  const double low = std::max(eigenvalues.minCoeff(), high * 1e-32);
+  const double floor = high / (kMaxRegressorCondition * kMaxRegressorCondition);
+  double low = high;
+  for (const double value : eigenvalues) {
+    if (value < floor) {
+      ++quality.dependent;
+    } else {
+      low = std::min(low, value);
+    }
+  }
   quality.condition = std::sqrt(high / low);
   return quality;
 }
@@ -109,13 +118,6 @@ std::vector<std::string> identification_warnings(const RegressorQuality& regress
                   "%d of %d linear parameters are not excited by the data: the smoothness penalty and the "
                   "regularisation set them, not the measurement",
                   regressors.unexcited, regressors.parameters);
-    warnings.emplace_back(text);
-  }
-  if (regressors.condition > kMaxRegressorCondition) {
-    std::snprintf(text, sizeof text,
-                  "regressor condition %.3g > %.3g: the parameters are not determined one by one (the prediction "
-                  "may still be); more varied currents and positions separate them",
-                  regressors.condition, kMaxRegressorCondition);
     warnings.emplace_back(text);
   }
   for (const ExcitationGap& gap : gaps) {

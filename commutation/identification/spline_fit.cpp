@@ -71,7 +71,14 @@ SplineFit fit_spline(const CoilSetDataset& data, double pole_pitch_m, const Unif
   // The data alone: each spline function's coefficients judged together,
   // the direction-dependent force's column only when it is identified.
   const int columns = direction.identified() ? p : p - 1;
-  std::vector<ColumnGroup> groups{{0, 1}, {1, 1}, {2, 1}, {3, 1}, {4, n}, {4 + n, n}, {4 + 2 * n, n}};
+  // The first and the last function of each are centred a knot beyond the
+  // data's range (spline_basis_for): never counted as unexcited.
+  std::vector<ColumnGroup> groups{{0, 1}, {1, 1}, {2, 1}, {3, 1}};
+  for (int first = 4; first < 4 + 3 * n; first += n) {
+    groups.push_back({first, 1, false});
+    groups.push_back({first + 1, n - 2});
+    groups.push_back({first + n - 1, 1, false});
+  }
   if (direction.identified()) groups.push_back({p - 1, 1});
   const RegressorQuality regressors = regressor_quality(gram.topLeftCorner(columns, columns), groups);
   // Roughness penalty: squared second differences of each coefficient row.

@@ -80,6 +80,18 @@ TEST_CASE("the regressor condition is the closed form of two correlated columns,
   CHECK(regressor_quality(gram, {{0, 5}}).condition == Approx(1.0));
   CHECK(regressor_quality(gram, {{0, 4}, {4, 1}}).unexcited == 0);  // alone, it is judged absolutely
   CHECK_THROWS_AS(regressor_quality(gram, {{0, 4}}), std::invalid_argument);
+  // A column duplicated (a saturated neuron beside its bias): one dependent direction.
+  Eigen::MatrixXd twins = Eigen::MatrixXd::Identity(3, 3);
+  twins(1, 2) = twins(2, 1) = 1.0;  // columns 1 and 2 are the same
+  const auto dependent = regressor_quality(twins, {{0, 1}, {1, 1}, {2, 1}});
+  CHECK(dependent.dependent == 1);
+  CHECK(dependent.unexcited == 0);
+  CHECK(dependent.condition == Approx(std::sqrt(2.0)));  // eigenvalues 2, 1 and the dependent 0
+  // An uncounted column (beyond the data by construction) is never unexcited.
+  Eigen::MatrixXd empty_end = gram;
+  empty_end(4, 4) = 0.0;
+  CHECK(regressor_quality(empty_end, {{0, 4}, {4, 1}}).unexcited == 1);
+  CHECK(regressor_quality(empty_end, {{0, 4}, {4, 1, false}}).unexcited == 0);
 }
 
 TEST_CASE("excitation gaps find the stretch without samples and the one without a coil's current",
@@ -108,7 +120,7 @@ TEST_CASE("excitation gaps find the stretch without samples and the one without 
                                                   kPolePitch);
   }
   CHECK(excitation_gaps(full, kPolePitch).empty());
-  CHECK(identification_warnings({1.0, 10, 0}, {}).empty());
+  CHECK(identification_warnings({1.0, 10, 0, 0}, {}).empty());
 }
 
 TEST_CASE("the spline and the PGNN fits report the unexcited coefficients and the gaps of holed data",

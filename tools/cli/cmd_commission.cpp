@@ -160,10 +160,9 @@ void add_commission(CLI::App& app) {
       std::fprintf(stderr, "plots: drawing the PNG files into %s ...\n", options->run.out_dir.c_str());
       const auto plot_start = std::chrono::steady_clock::now();
       // The directory is incomplete again until every plot is drawn.
-      const std::string marker = options->run.out_dir + "/" + commission::kIncompleteMarker;
-      write_file_atomically(marker, "clm commission has not finished drawing the plots in this directory.\n");
+      commission::IncompleteMarker incomplete(options->run.out_dir, "drawing the plots");
       plotted = make_plots(options->run.out_dir);
-      std::filesystem::remove(marker);
+      incomplete.finished();
       plot_s = seconds_since(plot_start);
     }
     const commission::CommutationResult* oracle = nullptr;

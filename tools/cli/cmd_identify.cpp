@@ -99,10 +99,10 @@ void add_identify(CLI::App& app) {
     // Fit quality of the model put to use (docs/commutation.md, "Fit quality").
     for (std::size_t l = 0; l < reports.size(); ++l) {
       const auto& r = reports[l].report;
-      std::printf("coil set %zu: regressor condition %.3g over %d linear parameters, %d unexcited; %zu excitation "
-                  "gaps\n",
-                  l + 1, r.regressors.condition, r.regressors.parameters, r.regressors.unexcited,
-                  r.excitation_gaps.size());
+      std::printf("coil set %zu: regressor condition %.3g over %d linear parameters (%d dependent directions, %d "
+                  "unexcited); %zu excitation gaps\n",
+                  l + 1, r.regressors.condition, r.regressors.parameters, r.regressors.dependent,
+                  r.regressors.unexcited, r.excitation_gaps.size());
       for (const auto& warning : identification::identification_warnings(r.regressors, r.excitation_gaps)) {
         std::fprintf(stderr, "clm identify: warning: coil set %zu: %s\n", l + 1, warning.c_str());
       }

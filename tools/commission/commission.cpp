@@ -18,6 +18,15 @@
 #include "tools/data/csv_table.hpp"
 
 namespace clm::commission {
+
+IncompleteMarker::IncompleteMarker(const std::string& dir, const std::string& stage)
+    : path_(dir + "/" + kIncompleteMarker) {
+  write_file_atomically(path_, "clm commission has not finished " + stage +
+                                   " in this directory: its files may be partial or from an earlier run. The "
+                                   "finished stage removes this file.\n");
+}
+
+void IncompleteMarker::finished() { std::filesystem::remove(path_); }
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -270,11 +279,8 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   // The first command: live, it proves the daemon answers before anything is written.
   runner.enable();
   std::filesystem::create_directories(dir);
-  // Until the report is written the directory says it is incomplete: a run
-  // stopped early (Ctrl-C, a refusal, a crash) leaves this file behind.
-  const std::string incomplete = dir + "/" + std::string(kIncompleteMarker);
-  write_file_atomically(incomplete, "clm commission has not finished in this directory: its files may be partial or "
-                                    "from an earlier run. A finished run removes this file after report.json.\n");
+  // Until the report is written the directory says it is incomplete.
+  IncompleteMarker incomplete(dir, "commissioning");
 
   // 1. Experiments of Algorithms 1 and 2.
   auto step_start = Clock::now();
@@ -442,7 +448,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   report.total_wall_s = seconds_since(start);
   write_file_atomically(written("report.json"), report_json(report));
   write_file_atomically(written("report.md"), report_markdown(report));
-  std::filesystem::remove(incomplete);
+  incomplete.finished();
   return report;
 }
 

@@ -88,8 +88,21 @@ struct Report {
 };
 
 /// The file a run keeps in its output directory from the directory's
-/// creation until report.json and report.md are written.
+/// creation until report.json and report.md are written, and again while
+/// the plots are drawn.
 inline constexpr const char* kIncompleteMarker = "INCOMPLETE";
+
+/// Writes kIncompleteMarker into `dir`, saying which `stage` has not
+/// finished; finished() removes it. A run stopped before (Ctrl-C, a
+/// refusal, a crash) leaves it behind: the destructor does not remove it.
+class IncompleteMarker {
+ public:
+  IncompleteMarker(const std::string& dir, const std::string& stage);
+  void finished();
+
+ private:
+  std::string path_;
+};
 
 struct Progress {
   std::string step;

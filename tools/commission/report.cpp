@@ -75,6 +75,7 @@ void identification_json(std::ostringstream& out, const std::vector<data::CoilSe
         << ((r.proposition_holds[0] && r.proposition_holds[1] && r.proposition_holds[2]) ? "true" : "false")
         << ", \"regressor_condition\": " << number(r.regressors.condition)
         << ", \"linear_parameters\": " << r.regressors.parameters
+        << ", \"dependent_directions\": " << r.regressors.dependent
         << ", \"unexcited_parameters\": " << r.regressors.unexcited << ", \"excitation_gaps\": [";
     for (std::size_t g = 0; g < r.excitation_gaps.size(); ++g) {
       const auto& gap = r.excitation_gaps[g];
@@ -381,10 +382,10 @@ std::string report_markdown(const Report& report) {
            "model vs identified model, fit on the training data, on them and on held-out validation data; then the "
            "model put to use, fit on every sample (docs/commutation.md, \"Identification\").\n\n"
            "The last two columns: the condition of the column-scaled regressors the model is linear in, on the data "
-           "it was fit on, with the parameters the data leave unexcited, and what the data lack along the stroke "
+           "it was fit on, the directions it cannot tell apart, the parameters the data leave unexcited, and what the data lack along the stroke "
            "(docs/commutation.md, \"Fit quality\").\n\n"
            "| coil set | physics train | model train | physics valid | model valid | physics all | model put to use, all "
-           "| Prop. 4.1 | regressor condition (unexcited) | excitation |\n|---|---|---|---|---|---|---|---|---|---|\n";
+           "| Prop. 4.1 | regressor condition (dependent, unexcited) | excitation |\n|---|---|---|---|---|---|---|---|---|---|\n";
     for (std::size_t l = 0; l < entries.size(); ++l) {
       const auto& r = entries[l].report;
       const auto cell = [&](const identification::DirectionCost& c) {
@@ -394,8 +395,8 @@ std::string report_markdown(const Report& report) {
           << cell(r.physics_validation) << " | " << cell(r.model_validation) << " | " << cell(r.physics_fit)
           << " | " << cell(r.model_fit) << " | "
           << ((r.proposition_holds[0] && r.proposition_holds[1] && r.proposition_holds[2]) ? "holds" : "violated")
-          << " | " << fixed(r.regressors.condition, "%.3g") << " (" << r.regressors.unexcited << " of "
-          << r.regressors.parameters << ") | ";
+          << " | " << fixed(r.regressors.condition, "%.3g") << " (" << r.regressors.dependent << " dependent, "
+          << r.regressors.unexcited << " unexcited of " << r.regressors.parameters << ") | ";
       if (r.excitation_gaps.empty()) out << "every stretch excited";
       for (std::size_t g = 0; g < r.excitation_gaps.size(); ++g) {
         const auto& gap = r.excitation_gaps[g];

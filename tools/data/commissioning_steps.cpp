@@ -48,6 +48,12 @@ CalibrationFile calibrate_motor(const ExperimentData& data, const MotorDescripti
 
 namespace {
 
+/// The fit quality of the model put to use, into its model file's costs.
+void record_fit_quality(const identification::IdentificationReport& report, CoilSetCosts& costs) {
+  costs.regressor_condition = report.regressors.condition;
+  costs.unexcited_parameters = report.regressors.unexcited;
+}
+
 // One coil set's data, split into training and held-out blocks.
 struct SplitData {
   int coil_set = 0;  // 1-based
@@ -202,8 +208,7 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
         costs.physics_validation[q] = entry.report.physics_validation[i];
         costs.model_validation[q] = entry.report.model_validation[i];
       }
-      costs.regressor_condition = entry.report.regressors.condition;
-      costs.unexcited_parameters = entry.report.regressors.unexcited;
+      record_fit_quality(entry.report, costs);
       file.provenance.costs.push_back(costs);
       const auto& c = entry.report.direction_force.amplitude;
       nuisance.direction_force_N_N_Nm.push_back({c[0], c[1], c[2]});
@@ -283,6 +288,7 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
                                                        entry.report);
         const auto& c = entry.report.direction_force.amplitude;
         kept.model.provenance.nuisance.direction_force_N_N_Nm[l] = {c[0], c[1], c[2]};
+        record_fit_quality(entry.report, kept.model.provenance.costs[l]);
       }
       kept.model.model.validate();
     }
