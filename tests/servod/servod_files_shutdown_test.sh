@@ -133,7 +133,7 @@ median_disable_ms() {
 }
 baseline_ms=$(median_disable_ms)
 enable_axis
-ctl --timeout-s 30 load-model "$work/big.yaml" > /dev/null 2> "$work/big.reply" &
+ctl --timeout-s 90 load-model "$work/big.yaml" > /dev/null 2> "$work/big.reply" &
 loader_ctl=$!
 sleep 0.2
 refused load-model "$work/secret.yaml"
@@ -148,7 +148,7 @@ wait "$loader_ctl" || true
 
 # 6. SIGTERM during a slow load, the axis enabled.
 enable_axis
-ctl --timeout-s 30 load-model "$work/big.yaml" > "$work/big.reply" 2>/dev/null &
+ctl --timeout-s 90 load-model "$work/big.yaml" > "$work/big.reply" 2>/dev/null &
 loader_ctl=$!
 sleep 0.2
 sent=$(now_ms)
