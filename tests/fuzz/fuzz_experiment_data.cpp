@@ -52,7 +52,7 @@ void check(const clm::data::ExperimentData& data, const clm::data::CsvTable& tab
     }
     samples += static_cast<std::size_t>(set.size());
   }
-  require(samples == table.rows(), "rows lost or duplicated");
+  require(samples + data.unpaired_rows == table.rows(), "rows lost or duplicated");
 }
 
 }  // namespace

@@ -1,7 +1,10 @@
 #include "tools/data/experiment_data.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <stdexcept>
+#include <vector>
 
 #include "commutation/classical.hpp"
 #include "commutation/identification/nuisance.hpp"
@@ -23,6 +26,22 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
   if (measured) {
     ia = table.numbers("ia_A");
     ib = table.numbers("ib_A");
+  }
+
+  // A setpoint acts over the period after the cycle that computed it (the
+  // drive holds it until the next): the force measured in row r was made by
+  // the setpoint of the cycle before, at row r's position. That cycle is row
+  // r − 1 when it belongs to the same run: same coil set and offset, a time
+  // step above 0 and at most 1.5 median steps (differentiate's rule). A row
+  // without one, the first of each run, carries no usable pair.
+  std::vector<double> steps;
+  for (std::size_t r = 1; r < table.rows(); ++r) {
+    if (time[r] > time[r - 1]) steps.push_back(time[r] - time[r - 1]);
+  }
+  double median_step_s = 0.0;
+  if (!steps.empty()) {
+    std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
+    median_step_s = steps[steps.size() / 2];
   }
 
   ExperimentData data;
@@ -58,9 +77,15 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
       experiment.delta_rad[static_cast<std::size_t>(group)] = delta[r];
     }
     row_group[r] = group;
+    const bool paired = r > 0 && coil_set[r - 1] == value && row_group[r - 1] == group &&
+                        time[r] > time[r - 1] && time[r] - time[r - 1] <= 1.5 * median_step_s;
+    if (!paired) {
+      ++data.unpaired_rows;
+      continue;
+    }
     const auto g = static_cast<std::size_t>(group);
     experiment.position_m[g].push_back(position[r]);
-    experiment.magnitude_N[g].push_back(magnitude[r]);
+    experiment.magnitude_N[g].push_back(magnitude[r - 1]);
     experiment.driving_force_N[g].push_back(fy[r]);
     rows[l].push_back(r);
   }
@@ -75,6 +100,14 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
       throw std::runtime_error(file + ": column 'delta_rad': coil set " + std::to_string(l + 1) +
                                " has a single phase offset (" + shortest_double(experiment.delta_rad[0]) +
                                " rad); calibration and identification need two distinct offsets");
+    }
+    for (std::size_t g = 0; g < 2; ++g) {
+      if (experiment.position_m[g].empty()) {
+        throw std::runtime_error(file + ": column 't_s': coil set " + std::to_string(l + 1) + ", offset " +
+                                 shortest_double(experiment.delta_rad[g]) +
+                                 " rad: no two consecutive cycles (one period apart); the force of a row is made by "
+                                 "the setpoint of the row before it");
+      }
     }
     auto& set = experiment.dataset;
     const auto n = static_cast<Eigen::Index>(rows[l].size());
@@ -93,11 +126,12 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
       motion.position_m[k] = position[r];
       motion.force_N[k] = fy[r];
       set.position_m[k] = position[r];
+      // The previous cycle's setpoint, at this row's position (above).
       if (measured) {
-        set.currents_A.col(k) << ia[r], ib[r];
+        set.currents_A.col(k) << ia[r - 1], ib[r - 1];
       } else {
         set.currents_A.col(k) =
-            drive_phase_currents(motor.drive, {magnitude[r], delta[r]}, position[r], motor.pole_pitch_m);
+            drive_phase_currents(motor.drive, {magnitude[r - 1], delta[r - 1]}, position[r], motor.pole_pitch_m);
       }
       set.wrench.col(k) << fy[r], fx[r], tz[r];
       set.group[static_cast<std::size_t>(k)] = group;

@@ -31,12 +31,20 @@ struct ExperimentData {
   std::string origin;
   bool measured_currents = false;
   std::vector<CoilSetExperiment> coil_sets;  ///< index l − 1
+  /// Rows whose previous cycle is not in the table (the first row of each
+  /// run): their force has no setpoint to pair with, so they are left out.
+  std::size_t unpaired_rows = 0;
 };
 
-/// Validates and groups the rows. Throws std::runtime_error with one line
-/// naming file, row and column: missing column, non-finite value, coil_set
-/// not an integer in 1..L, a coil set without rows or without exactly two
-/// distinct offsets.
+/// Validates and groups the rows. A row's setpoint (magnitude_N, delta_rad,
+/// or ia_A/ib_A) is the one its cycle computed, which the drive applies over
+/// the period after it; the force of a row is paired with the setpoint of
+/// the row before it (the previous cycle of the same run) and with its own
+/// position (docs/commissioning.md, "Experiment data"). Throws
+/// std::runtime_error with one line naming file, row and column: missing
+/// column, non-finite value, coil_set not an integer in 1..L, a coil set
+/// without rows, without exactly two distinct offsets, or with an offset of
+/// no two consecutive cycles.
 ExperimentData read_experiment_data(const CsvTable& table, const MotorDescription& motor);
 
 }  // namespace clm::data
