@@ -1,0 +1,154 @@
+#include "commutation/identification/motion_fit.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "commutation/classical.hpp"
+
+namespace clm::identification {
+namespace {
+
+/// Regressor of the driving force of currents `i` at `position_m` into the
+/// y-row parameters [A_y0, A_y1, B_y0, B_y1, C_a (n), C_b (n), G (n)], added
+/// with `weight` into `row`.
+void add_force_regressor(double position_m, const Eigen::Vector2d& i, double pole_pitch_m,
+                         const UniformCubicBasis& basis, double weight, Eigen::VectorXd& row) {
+  const double theta = electrical_angle_rad(position_m, pole_pitch_m);
+  const double c = std::cos(theta), s = std::sin(theta);
+  const int n = basis.size();
+  row[0] += weight * c * i[0];
+  row[1] += weight * c * i[1];
+  row[2] += weight * s * i[0];
+  row[3] += weight * s * i[1];
+  const auto span = basis.evaluate(position_m);
+  for (int k = 0; k < 4; ++k) {
+    const double b = weight * span.value[static_cast<std::size_t>(k)];
+    row[4 + span.first + k] += b * i[0];
+    row[4 + n + span.first + k] += b * i[1];
+    row[4 + 2 * n + span.first + k] += b;
+  }
+}
+
+}  // namespace
+
+Eigen::Matrix<double, 1, 2> MotionFit::gain(double position_m, double pole_pitch_m,
+                                            const UniformCubicBasis& basis) const {
+  const double theta = electrical_angle_rad(position_m, pole_pitch_m);
+  Eigen::Matrix<double, 1, 2> k = a_y * std::cos(theta) + b_y * std::sin(theta);
+  const auto span = basis.evaluate(position_m);
+  for (int j = 0; j < 4; ++j) {
+    const double b = span.value[static_cast<std::size_t>(j)];
+    k[0] += b * column_a[span.first + j];
+    k[1] += b * column_b[span.first + j];
+  }
+  return k;
+}
+
+double MotionFit::cogging_N(double position_m, const UniformCubicBasis& basis) const {
+  const auto span = basis.evaluate(position_m);
+  double force = 0.0;
+  for (int j = 0; j < 4; ++j) force += span.value[static_cast<std::size_t>(j)] * cogging[span.first + j];
+  return force;
+}
+
+MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, double pole_pitch_m,
+                                            const UniformCubicBasis& basis, const MotionFitOptions& options) {
+  if (!(options.mass_kg >= 0.0) || !(options.smoothing >= 0.0) ||
+      !(options.direction_smoothing_m_per_s > 0.0)) {
+    throw std::invalid_argument("motion fit: negative mass or smoothing, or v_d not positive");
+  }
+  const int n = basis.size();
+  const int model = 4 + 3 * n;
+  // The balance divided by the mass: the measured acceleration is the
+  // target, so the positions' noise stays out of the regressors (a mass
+  // fitted beside a noisy acceleration would be biased towards zero).
+  // Unknowns: the model's y-row over m, then f_v/m and f_d/m.
+  const int p = model + 2;
+  Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(p, p);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(p);
+  Eigen::VectorXd row(p);
+  Eigen::Index rows = 0;
+  double rhs_square_sum = 0.0;
+  for (const MotionRun& run : runs) {
+    const Eigen::Index samples = run.position_m.size();
+    if (run.time_s.size() != samples || run.currents_A.cols() != samples) {
+      throw std::invalid_argument("motion fit: a run's times, positions and currents have different lengths");
+    }
+    if (samples < 3) continue;
+    const double period_s = (run.time_s[samples - 1] - run.time_s[0]) / static_cast<double>(samples - 1);
+    for (Eigen::Index k = 1; k < samples; ++k) {
+      const double step = run.time_s[k] - run.time_s[k - 1];
+      if (!(std::abs(step - period_s) <= 1e-6 * period_s)) {
+        throw std::invalid_argument("motion fit: a run's time steps are not equal");
+      }
+    }
+    for (Eigen::Index k = 1; k + 1 < samples; ++k) {
+      const double acceleration = (run.position_m[k + 1] - 2.0 * run.position_m[k] + run.position_m[k - 1]) /
+                                  (period_s * period_s);
+      const double velocity = (run.position_m[k + 1] - run.position_m[k - 1]) / (2.0 * period_s);
+      row.setZero();
+      // The forces of the two periods around row k, each at its middle position.
+      for (const Eigen::Index j : {k - 1, k}) {
+        const double middle_m = 0.5 * (run.position_m[j] + run.position_m[j + 1]);
+        add_force_regressor(middle_m, run.currents_A.col(j), pole_pitch_m, basis, 0.5, row);
+      }
+      row[model] = -velocity;
+      row[model + 1] = -std::tanh(velocity / options.direction_smoothing_m_per_s);
+      gram.selfadjointView<Eigen::Lower>().rankUpdate(row);
+      rhs += row * acceleration;
+      rhs_square_sum += acceleration * acceleration;
+      ++rows;
+    }
+  }
+  if (rows < 10) throw std::invalid_argument("motion fit: fewer than 10 rows of three consecutive positions");
+  gram = gram.selfadjointView<Eigen::Lower>();
+  const Eigen::MatrixXd data_gram = gram;
+  const Eigen::VectorXd data_rhs = rhs;
+  // Roughness of each coefficient row, scaled to the data so that the
+  // weight means what it means in the spline fit.
+  const double scale = gram.diagonal().head(model).maxCoeff();
+  for (int block = 0; block < 3; ++block) {
+    const int first = 4 + block * n;
+    for (int j = 0; j + 2 < n; ++j) {
+      const int idx[3] = {first + j, first + j + 1, first + j + 2};
+      const double d[3] = {1.0, -2.0, 1.0};
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) gram(idx[r], idx[c]) += options.smoothing * scale * d[r] * d[c];
+      }
+    }
+  }
+  for (int k = 0; k < p; ++k) gram(k, k) += 1e-12 * (1.0 + gram(k, k));
+  const Eigen::VectorXd x = gram.ldlt().solve(rhs);
+  if (!x.allFinite()) throw std::invalid_argument("motion fit: singular problem");
+  // The scale: the given mass, or the one that brings A_y, B_y closest to
+  // the drive's nominal commutation (least squares over the four).
+  CoilGain prior_a, prior_b;
+  classical_physics_parameters({options.drive.motor_constant_N_per_A, options.drive.phase_offset_rad, 0.0, 0.0},
+                               prior_a, prior_b);
+  const Eigen::Vector4d prior(prior_a(0, 0), prior_a(0, 1), prior_b(0, 0), prior_b(0, 1));
+  const Eigen::Vector4d per_kg = x.head<4>();
+  const double mass_kg = options.mass_kg > 0.0 ? options.mass_kg : per_kg.dot(prior) / per_kg.squaredNorm();
+  if (!(mass_kg > 0.0) || !std::isfinite(mass_kg)) {
+    throw std::invalid_argument("motion fit: the gains identified point against the drive's commutation; no mass");
+  }
+
+  MotionFit fit;
+  const Eigen::VectorXd scaled = mass_kg * x;
+  fit.a_y << scaled[0], scaled[1];
+  fit.b_y << scaled[2], scaled[3];
+  fit.column_a = scaled.segment(4, n).transpose();
+  fit.column_b = scaled.segment(4 + n, n).transpose();
+  fit.cogging = scaled.segment(4 + 2 * n, n).transpose();
+  fit.viscous_N_s_per_m = scaled[model];
+  fit.direction_N = scaled[model + 1];
+  fit.mass_kg = mass_kg;
+  // Σ (row·x − acceleration)² from the data's normal equations, as a force.
+  const double square_sum = x.dot(data_gram * x) - 2.0 * x.dot(data_rhs) + rhs_square_sum;
+  fit.residual_rms_N = mass_kg * std::sqrt(std::max(0.0, square_sum) / static_cast<double>(rows));
+  fit.rows = rows;
+  return fit;
+}
+
+}  // namespace clm::identification

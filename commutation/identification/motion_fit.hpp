@@ -1,0 +1,67 @@
+#pragma once
+// Position-based identification of the driving direction, for axes without
+// a force sensor (paper Remarks 2.1 and 4.3; docs/commutation.md, "Without
+// a force sensor"): the y-row of the spline model of one coil set (A_y, B_y
+// and the coefficients of the two gain columns and the cogging) identified
+// jointly with the mechanics of the translator from its positions alone.
+//
+// Between two cycles the drive holds the setpoint of the first, so with
+// piecewise-constant forces the second difference of three positions is
+//   (y_{k+1} − 2 y_k + y_{k−1}) / T² = [½ (F_{k−1} + F_k) − f_v v_k − f_d tanh(v_k/v_d)] / m,
+// F_j the electromagnetic driving force of setpoint j over the period after
+// row j, v_k = (y_{k+1} − y_{k−1}) / 2T. Linear in every unknown over m, with
+// the measured acceleration as the target (so that the positions' noise
+// stays out of the regressors). Bearing Coulomb friction and the
+// direction-dependent force C·tanh(ẏ/v_c) act alike on the motion and are
+// one term f_d here; neither enters the law. From positions only K/m is
+// observable: a given mass fixes the scale, otherwise the mass that brings
+// A_y, B_y closest to the drive's nominal commutation (k̂_d, ζ̂_d) does. No I/O.
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "commutation/bspline.hpp"
+#include "commutation/types.hpp"
+
+namespace clm::identification {
+
+/// One run of consecutive cycles of one coil set, driven alone.
+struct MotionRun {
+  Eigen::VectorXd time_s;      ///< equal steps (the control period)
+  Eigen::VectorXd position_m;  ///< measured at each row
+  /// [i_a; i_b] that the setpoint computed at each row drives over the
+  /// period after it, at that period's middle position (a magnitude/phase
+  /// drive commutates with the true position as the translator moves).
+  Eigen::Matrix<double, 2, Eigen::Dynamic> currents_A;
+};
+
+struct MotionFitOptions {
+  double mass_kg = 0.0;             ///< > 0: the translator's mass, known; 0: identified
+  double smoothing = 1e-6;          ///< roughness weight of the spline coefficients (as SplineOptions)
+  /// The drive's nominal commutation (k̂_d, ζ̂_d): the scale when the mass is not given.
+  DriveCommutation drive;
+  double direction_smoothing_m_per_s = 1e-3;  ///< v_d of f_d·tanh(v/v_d)
+};
+
+struct MotionFit {
+  Eigen::Matrix<double, 1, 2> a_y = Eigen::Matrix<double, 1, 2>::Zero();  ///< A_y [N/A]
+  Eigen::Matrix<double, 1, 2> b_y = Eigen::Matrix<double, 1, 2>::Zero();  ///< B_y [N/A]
+  Eigen::RowVectorXd column_a, column_b, cogging;  ///< y-row spline coefficients [N/A, N/A, N]
+  double mass_kg = 0.0;
+  double viscous_N_s_per_m = 0.0;
+  double direction_N = 0.0;      ///< f_d: Coulomb friction and the direction-dependent force together
+  double residual_rms_N = 0.0;   ///< of the force balance, over the rows used
+  Eigen::Index rows = 0;         ///< second differences used
+
+  /// K_y(y) [N/A] and F_cog,y(y) [N] of the fit on `basis`.
+  Eigen::Matrix<double, 1, 2> gain(double position_m, double pole_pitch_m, const UniformCubicBasis& basis) const;
+  double cogging_N(double position_m, const UniformCubicBasis& basis) const;
+};
+
+/// Fits MotionFit over `runs` on `basis`. Throws std::invalid_argument for
+/// runs of unequal steps or lengths, fewer than 10 usable rows, a singular
+/// problem, or gains that give no positive mass.
+MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, double pole_pitch_m,
+                                            const UniformCubicBasis& basis, const MotionFitOptions& options);
+
+}  // namespace clm::identification
