@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "commutation/classical.hpp"
+#include "commutation/identification/spline_fit.hpp"
 
 namespace clm::identification {
 namespace {
@@ -106,19 +107,9 @@ MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, 
   gram = gram.selfadjointView<Eigen::Lower>();
   const Eigen::MatrixXd data_gram = gram;
   const Eigen::VectorXd data_rhs = rhs;
-  // Roughness of each coefficient row, scaled to the data so that the
-  // weight means what it means in the spline fit.
-  const double scale = gram.diagonal().head(model).maxCoeff();
-  for (int block = 0; block < 3; ++block) {
-    const int first = 4 + block * n;
-    for (int j = 0; j + 2 < n; ++j) {
-      const int idx[3] = {first + j, first + j + 1, first + j + 2};
-      const double d[3] = {1.0, -2.0, 1.0};
-      for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) gram(idx[r], idx[c]) += options.smoothing * scale * d[r] * d[c];
-      }
-    }
-  }
+  // Roughness of each coefficient row, relative to the largest diagonal of
+  // the data's normal matrix (the unknowns are per kilogram here).
+  add_roughness_penalty(gram, 4, n, 3, options.smoothing * gram.diagonal().head(model).maxCoeff());
   for (int k = 0; k < p; ++k) gram(k, k) += 1e-12 * (1.0 + gram(k, k));
   const Eigen::VectorXd x = gram.ldlt().solve(rhs);
   if (!x.allFinite()) throw std::invalid_argument("motion fit: singular problem");

@@ -37,7 +37,7 @@ struct MotionRun {
 
 struct MotionFitOptions {
   double mass_kg = 0.0;             ///< > 0: the translator's mass, known; 0: identified
-  double smoothing = 1e-6;          ///< roughness weight of the spline coefficients (as SplineOptions)
+  double smoothing = 1e-6;          ///< roughness weight, relative to the largest diagonal of the normal matrix
   /// The drive's nominal commutation (k̂_d, ζ̂_d): the scale when the mass is not given.
   DriveCommutation drive;
   double direction_smoothing_m_per_s = 1e-3;  ///< v_d of f_d·tanh(v/v_d)

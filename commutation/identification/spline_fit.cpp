@@ -20,6 +20,20 @@ UniformCubicBasis spline_basis_for(const Eigen::VectorXd& position_m, double pol
   return {centre - half, centre + half, intervals};
 }
 
+void add_roughness_penalty(Eigen::MatrixXd& gram, int first, int n, int blocks, double weight) {
+  constexpr double kSecondDifference[3] = {1.0, -2.0, 1.0};
+  for (int block = 0; block < blocks; ++block) {
+    const int start = first + block * n;
+    for (int j = 0; j + 2 < n; ++j) {
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) {
+          gram(start + j + r, start + j + c) += weight * kSecondDifference[r] * kSecondDifference[c];
+        }
+      }
+    }
+  }
+}
+
 namespace {
 
 struct SplineFit {
@@ -81,17 +95,7 @@ SplineFit fit_spline(const CoilSetDataset& data, double pole_pitch_m, const Unif
   }
   if (direction.identified()) groups.push_back({p - 1, 1});
   const RegressorQuality regressors = regressor_quality(gram.topLeftCorner(columns, columns), groups);
-  // Roughness penalty: squared second differences of each coefficient row.
-  for (int block = 0; block < 3; ++block) {
-    const int first = 4 + block * n;
-    for (int j = 0; j + 2 < n; ++j) {
-      const int idx[3] = {first + j, first + j + 1, first + j + 2};
-      const double d[3] = {1.0, -2.0, 1.0};
-      for (int r = 0; r < 3; ++r) {
-        for (int k = 0; k < 3; ++k) gram(idx[r], idx[k]) += options.smoothing * d[r] * d[k];
-      }
-    }
-  }
+  add_roughness_penalty(gram, 4, n, 3, options.smoothing);
   const double lambda2 = options.regularisation * options.regularisation;
   for (int k = 0; k < 4; ++k) gram(k, k) += lambda2;
   for (int q = 0; q < 3; ++q) rhs.block<4, 1>(0, q) += lambda2 * physics_target(physics_a, physics_b, q);

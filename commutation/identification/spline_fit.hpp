@@ -28,6 +28,11 @@ CoilSetModel identify_spline_coil_set(const CoilSetDataset& training, const Coil
                                       double pole_pitch_m, const UniformCubicBasis& basis,
                                       const SplineOptions& options, IdentificationReport& report);
 
+/// Adds weight·Σ_j (c_j − 2c_{j+1} + c_{j+2})² to `gram` for each of `blocks`
+/// consecutive runs of `n` spline coefficients starting at column `first`:
+/// the roughness penalty of the spline model's coefficient rows.
+void add_roughness_penalty(Eigen::MatrixXd& gram, int first, int n, int blocks, double weight);
+
 /// Knot grid covering `position_m` with spacing options.knot_spacing_m (or d_m/8).
 UniformCubicBasis spline_basis_for(const Eigen::VectorXd& position_m, double pole_pitch_m, const SplineOptions& options);
 
