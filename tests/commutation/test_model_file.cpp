@@ -17,6 +17,11 @@ ModelFile random_model_file(ModelKind kind, int coil_sets, std::mt19937_64& rng)
                                         : test::random_spline_model(coil_sets, 0.032, rng);
   file.provenance = {"0123abcd", "2026-11-21T00:00:00Z", "test", {}, {}};
   for (int l = 0; l < coil_sets; ++l) file.provenance.costs.push_back({{1.0 / 3, 2, 3}, {0.1, 0.2, 0.3}, {4, 5, 6}, {0.4, 0.5, 0.6}});
+  // Fit quality on every other file (optional keys), so that both forms are read back.
+  if (rng() % 2 == 0) {
+    file.provenance.costs[0].regressor_condition = 2719.0 + 1.0 / 3;
+    file.provenance.costs[0].unexcited_parameters = 3;
+  }
   // Nuisance terms on every other file, so that both forms are read back.
   if (rng() % 2 == 0) {
     auto& nuisance = file.provenance.nuisance;
@@ -70,6 +75,8 @@ TEST_CASE("model files round-trip bit for bit", "[model_file]") {
       }
       REQUIRE(parsed.provenance.costs.size() == static_cast<std::size_t>(coil_sets));
       REQUIRE(parsed.provenance.costs[0].physics_training[0] == 1.0 / 3);
+      REQUIRE(parsed.provenance.costs[0].regressor_condition == original.provenance.costs[0].regressor_condition);
+      REQUIRE(parsed.provenance.costs[0].unexcited_parameters == original.provenance.costs[0].unexcited_parameters);
       const auto& nuisance = original.provenance.nuisance;
       REQUIRE(parsed.provenance.nuisance.identified == nuisance.identified);
       REQUIRE(parsed.provenance.nuisance.sensor_offset_y_N == nuisance.sensor_offset_y_N);
@@ -82,7 +89,10 @@ TEST_CASE("model files round-trip bit for bit", "[model_file]") {
 
 TEST_CASE("corrupted model files are refused with file, line and key", "[model_file]") {
   std::mt19937_64 rng(31);
-  const std::string text = format_model_file(random_model_file(ModelKind::kPgnn, 2, rng));
+  ModelFile file = random_model_file(ModelKind::kPgnn, 2, rng);
+  for (auto& costs : file.provenance.costs) costs = {costs.physics_training, costs.model_training,
+                                                     costs.physics_validation, costs.model_validation};  // no fit quality
+  const std::string text = format_model_file(file);
   const auto replace_first = [&](const std::string& from, const std::string& to) {
     std::string copy = text;
     const auto at = copy.find(from);
@@ -122,6 +132,16 @@ TEST_CASE("corrupted model files are refused with file, line and key", "[model_f
 
   error = error_of(text.substr(0, text.size() / 2));
   CHECK_FALSE(error.empty());
+
+  // Fit quality: a condition number is 1 or more, an unexcited count 0 or more.
+  const std::string costs_entry = "      model_validation_N2: [0.40000000000000002, 0.5, 0.59999999999999998]\n";
+  REQUIRE(text.find(costs_entry) != std::string::npos);
+  error = error_of(replace_first(costs_entry, costs_entry + "      regressor_condition: 0.5\n"));
+  CHECK(std::regex_search(error, located));
+  CHECK(error.find("regressor_condition") != std::string::npos);
+  error = error_of(replace_first(costs_entry, costs_entry + "      unexcited_parameters: -1\n"));
+  CHECK(error.find("unexcited_parameters") != std::string::npos);
+  CHECK(error_of(replace_first(costs_entry, costs_entry + "      regressor_condition: 12.5\n")).empty());
 }
 
 TEST_CASE("spline knots whose spacing overflows or underflows are refused", "[model_file]") {
