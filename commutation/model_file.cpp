@@ -199,8 +199,8 @@ CalibrationFile parse_calibration_file(const yaml::Node& root) {
                     "provenance"});
   CalibrationFile file;
   file.method = root["method"].as_string();
-  if (file.method != "algorithm1" && file.method != "offset_robust") {
-    root["method"].fail("expected 'algorithm1' or 'offset_robust', got '" + file.method + "'");
+  if (file.method != "algorithm1" && file.method != "offset_robust" && file.method != "position") {
+    root["method"].fail("expected 'algorithm1', 'offset_robust' or 'position', got '" + file.method + "'");
   }
   const yaml::Node motor = root["motor"];
   motor.expect_keys({"pole_pitch_m", "coil_sets"});
@@ -324,6 +324,11 @@ std::string format_model_file(const ModelFile& file) {
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
+  if (provenance.rows_from != ModelProvenance{}.rows_from) {
+    out << YAML::Key << "rows_from" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (const RowSource source : provenance.rows_from) out << name(source);
+    out << YAML::EndSeq;
+  }
   if (provenance.nuisance.identified) {
     const auto& nuisance = provenance.nuisance;
     out << YAML::Key << "nuisance" << YAML::Value << YAML::BeginMap;
@@ -339,6 +344,18 @@ std::string format_model_file(const ModelFile& file) {
   out << YAML::EndMap;
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
+}
+
+const char* name(RowSource source) {
+  switch (source) {
+    case RowSource::kForceSensor:
+      return "force_sensor";
+    case RowSource::kPosition:
+      return "position";
+    case RowSource::kDriveConstants:
+      return "drive_constants";
+  }
+  return "?";
 }
 
 ModelFile parse_model_file(const yaml::Node& root) {
@@ -393,7 +410,7 @@ ModelFile parse_model_file(const yaml::Node& root) {
     model.coil_sets.push_back(std::move(coil_set));
   }
   const yaml::Node provenance = root["provenance"];
-  provenance.expect_keys({"data_sha256", "created_utc", "generator", "costs", "nuisance"});
+  provenance.expect_keys({"data_sha256", "created_utc", "generator", "costs", "nuisance", "rows_from"});
   file.provenance.data_sha256 = optional_string(provenance, "data_sha256");
   file.provenance.created_utc = optional_string(provenance, "created_utc");
   file.provenance.generator = optional_string(provenance, "generator");
@@ -413,6 +430,21 @@ ModelFile parse_model_file(const yaml::Node& root) {
         record.unexcited_parameters = static_cast<int>(unexcited->as_integer_in(0, 1000000));
       }
       file.provenance.costs.push_back(record);
+    }
+  }
+  if (const auto rows_from = provenance.optional("rows_from")) {
+    if (rows_from->size() != 3) rows_from->fail("three entries (F_y, F_x, T_z), not " + std::to_string(rows_from->size()));
+    for (std::size_t q = 0; q < 3; ++q) {
+      const yaml::Node entry = rows_from->at(q);
+      const std::string text = entry.as_string();
+      bool known = false;
+      for (const RowSource source : {RowSource::kForceSensor, RowSource::kPosition, RowSource::kDriveConstants}) {
+        if (text == name(source)) {
+          file.provenance.rows_from[q] = source;
+          known = true;
+        }
+      }
+      if (!known) entry.fail("expected force_sensor, position or drive_constants");
     }
   }
   if (const auto nuisance = provenance.optional("nuisance")) {

@@ -39,7 +39,9 @@ MotorDescription load_motor_description(const std::string& path);
 struct CalibrationFile {
   double pole_pitch_m = 0.0;
   DriveCommutation drive;  ///< the commutation the experiments ran with
-  std::string method;      ///< "algorithm1" or "offset_robust"
+  /// "algorithm1", "offset_robust", or "position" (Algorithm 1 on the
+  /// driving force a position-identified model reconstructs).
+  std::string method;
   struct CoilSet {
     ClassicalEstimate estimate;
     std::array<double, 2> delta_rad{};
@@ -87,12 +89,22 @@ struct ModelNuisance {
   std::vector<std::array<double, 3>> direction_force_N_N_Nm;  ///< C per coil set [N, N, N·m]
 };
 
+/// What each row of a model (F_y, F_x, T_z) was identified from.
+enum class RowSource {
+  kForceSensor,     ///< measured forces (the paper's identification)
+  kPosition,        ///< positions and times through the mechanics (docs/commutation.md, "Without a force sensor")
+  kDriveConstants,  ///< not identified: the physics model of the drive's constants, zero off the driving direction
+};
+const char* name(RowSource source);
+
 struct ModelProvenance {
   std::string data_sha256;
   std::string created_utc;
   std::string generator;
   std::vector<CoilSetCosts> costs;  ///< one per coil set, or empty
   ModelNuisance nuisance;           ///< written only when identified
+  /// `rows_from` (optional in the file: absent means all from the force sensor).
+  std::array<RowSource, 3> rows_from{RowSource::kForceSensor, RowSource::kForceSensor, RowSource::kForceSensor};
 };
 
 struct ModelFile {

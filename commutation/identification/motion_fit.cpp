@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 
@@ -11,28 +12,136 @@
 namespace clm::identification {
 namespace {
 
+/// One row of the balance as (index, value) pairs; an index may repeat, the
+/// row being their sum. 2 periods × (4 physics + 3 × 4 spline) + 2 friction.
+struct SparseRow {
+  static constexpr int kCapacity = 34;
+  std::array<int, kCapacity> index{};
+  std::array<double, kCapacity> value{};
+  int size = 0;
+  void add(int i, double v) {
+    index[static_cast<std::size_t>(size)] = i;
+    value[static_cast<std::size_t>(size)] = v;
+    ++size;
+  }
+  double dot(const Eigen::VectorXd& x) const {
+    double sum = 0.0;
+    for (int k = 0; k < size; ++k) sum += value[static_cast<std::size_t>(k)] * x[index[static_cast<std::size_t>(k)]];
+    return sum;
+  }
+};
+
 /// Regressor of the driving force of currents `i` at `position_m` into the
 /// y-row parameters [A_y0, A_y1, B_y0, B_y1, C_a (n), C_b (n), G (n)], added
 /// with `weight` into `row`.
 void add_force_regressor(double position_m, const Eigen::Vector2d& i, double pole_pitch_m,
-                         const UniformCubicBasis& basis, double weight, Eigen::VectorXd& row) {
+                         const UniformCubicBasis& basis, double weight, SparseRow& row) {
   const double theta = electrical_angle_rad(position_m, pole_pitch_m);
   const double c = std::cos(theta), s = std::sin(theta);
   const int n = basis.size();
-  row[0] += weight * c * i[0];
-  row[1] += weight * c * i[1];
-  row[2] += weight * s * i[0];
-  row[3] += weight * s * i[1];
+  row.add(0, weight * c * i[0]);
+  row.add(1, weight * c * i[1]);
+  row.add(2, weight * s * i[0]);
+  row.add(3, weight * s * i[1]);
   const auto span = basis.evaluate(position_m);
   for (int k = 0; k < 4; ++k) {
     const double b = weight * span.value[static_cast<std::size_t>(k)];
-    row[4 + span.first + k] += b * i[0];
-    row[4 + n + span.first + k] += b * i[1];
-    row[4 + 2 * n + span.first + k] += b;
+    row.add(4 + span.first + k, b * i[0]);
+    row.add(4 + n + span.first + k, b * i[1]);
+    row.add(4 + 2 * n + span.first + k, b);
   }
 }
 
+/// Calls `use(acceleration)` for every row of `runs` the fit uses, with
+/// `row` set to its regressor: the model's y-row parameters over m, then
+/// −v and −tanh(v/v_d) (the header's balance).
+template <typename Use>
+void for_each_balance(const std::vector<MotionRun>& runs, double pole_pitch_m, const UniformCubicBasis& basis,
+                      const MotionFitOptions& options, SparseRow& row, Use&& use) {
+  const int model = 4 + 3 * basis.size();
+  for (const MotionRun& run : runs) {
+    const Eigen::Index samples = run.position_m.size();
+    if (run.time_s.size() != samples || run.currents_A.cols() != samples) {
+      throw std::invalid_argument("motion fit: a run's times, positions and currents have different lengths");
+    }
+    if (samples < 3) continue;
+    const double period_s = (run.time_s[samples - 1] - run.time_s[0]) / static_cast<double>(samples - 1);
+    for (Eigen::Index k = 1; k < samples; ++k) {
+      const double step = run.time_s[k] - run.time_s[k - 1];
+      if (!(std::abs(step - period_s) <= 1e-6 * period_s)) {
+        throw std::invalid_argument("motion fit: a run's time steps are not equal");
+      }
+    }
+    for (Eigen::Index k = 1; k + 1 < samples; ++k) {
+      const double acceleration = (run.position_m[k + 1] - 2.0 * run.position_m[k] + run.position_m[k - 1]) /
+                                  (period_s * period_s);
+      const double velocity = (run.position_m[k + 1] - run.position_m[k - 1]) / (2.0 * period_s);
+      if (std::abs(velocity) < options.min_speed_m_per_s) continue;
+      row.size = 0;
+      // The forces of the two periods around row k, each at its middle position.
+      for (const Eigen::Index j : {k - 1, k}) {
+        const double middle_m = 0.5 * (run.position_m[j] + run.position_m[j + 1]);
+        add_force_regressor(middle_m, run.currents_A.col(j), pole_pitch_m, basis, 0.5, row);
+      }
+      row.add(model, -velocity);
+      row.add(model + 1, -std::tanh(velocity / options.direction_smoothing_m_per_s));
+      use(acceleration);
+    }
+  }
+}
+
+/// [A_y, B_y] of the drive's nominal commutation (eq. 7 with k̂_d, ζ̂_d).
+Eigen::Vector4d nominal_physics(const DriveCommutation& drive) {
+  CoilGain a, b;
+  classical_physics_parameters({drive.motor_constant_N_per_A, drive.phase_offset_rad, 0.0, 0.0}, a, b);
+  return {a(0, 0), a(0, 1), b(0, 0), b(0, 1)};
+}
+
 }  // namespace
+
+MotionFit MotionFit::scaled_to_mass(double new_mass_kg) const {
+  const double s = new_mass_kg / mass_kg;
+  MotionFit fit = *this;
+  fit.a_y *= s;
+  fit.b_y *= s;
+  fit.column_a *= s;
+  fit.column_b *= s;
+  fit.cogging *= s;
+  fit.viscous_N_s_per_m *= s;
+  fit.direction_N *= s;
+  fit.residual_rms_N *= s;
+  fit.mass_kg = new_mass_kg;
+  return fit;
+}
+
+double motion_residual_rms_N(const MotionFit& fit, const std::vector<MotionRun>& runs, double pole_pitch_m,
+                             const UniformCubicBasis& basis, const MotionFitOptions& options) {
+  const int n = basis.size();
+  const int model = 4 + 3 * n;
+  Eigen::VectorXd x(model + 2);
+  x << fit.a_y.transpose(), fit.b_y.transpose(), fit.column_a.transpose(), fit.column_b.transpose(),
+      fit.cogging.transpose(), fit.viscous_N_s_per_m, fit.direction_N;
+  SparseRow row;
+  double square_sum = 0.0;
+  Eigen::Index rows = 0;
+  for_each_balance(runs, pole_pitch_m, basis, options, row, [&](double acceleration) {
+    const double residual = row.dot(x) - fit.mass_kg * acceleration;
+    square_sum += residual * residual;
+    ++rows;
+  });
+  return rows > 0 ? std::sqrt(square_sum / static_cast<double>(rows)) : std::nan("");
+}
+
+double common_mass_kg(const std::vector<MotionFit>& fits, const DriveCommutation& drive) {
+  const Eigen::Vector4d prior = nominal_physics(drive);
+  double numerator = 0.0, denominator = 0.0;
+  for (const MotionFit& fit : fits) {
+    const Eigen::Vector4d per_kg = Eigen::Vector4d(fit.a_y[0], fit.a_y[1], fit.b_y[0], fit.b_y[1]) / fit.mass_kg;
+    numerator += per_kg.dot(prior);
+    denominator += per_kg.squaredNorm();
+  }
+  return numerator / denominator;
+}
 
 Eigen::Matrix<double, 1, 2> MotionFit::gain(double position_m, double pole_pitch_m,
                                             const UniformCubicBasis& basis) const {
@@ -57,8 +166,8 @@ double MotionFit::cogging_N(double position_m, const UniformCubicBasis& basis) c
 MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, double pole_pitch_m,
                                             const UniformCubicBasis& basis, const MotionFitOptions& options) {
   if (!(options.mass_kg >= 0.0) || !(options.smoothing >= 0.0) ||
-      !(options.direction_smoothing_m_per_s > 0.0)) {
-    throw std::invalid_argument("motion fit: negative mass or smoothing, or v_d not positive");
+      !(options.direction_smoothing_m_per_s > 0.0) || !(options.min_speed_m_per_s >= 0.0)) {
+    throw std::invalid_argument("motion fit: negative mass, smoothing or minimum speed, or v_d not positive");
   }
   const int n = basis.size();
   const int model = 4 + 3 * n;
@@ -69,42 +178,24 @@ MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, 
   const int p = model + 2;
   Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(p, p);
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(p);
-  Eigen::VectorXd row(p);
+  SparseRow row;
   Eigen::Index rows = 0;
   double rhs_square_sum = 0.0;
-  for (const MotionRun& run : runs) {
-    const Eigen::Index samples = run.position_m.size();
-    if (run.time_s.size() != samples || run.currents_A.cols() != samples) {
-      throw std::invalid_argument("motion fit: a run's times, positions and currents have different lengths");
-    }
-    if (samples < 3) continue;
-    const double period_s = (run.time_s[samples - 1] - run.time_s[0]) / static_cast<double>(samples - 1);
-    for (Eigen::Index k = 1; k < samples; ++k) {
-      const double step = run.time_s[k] - run.time_s[k - 1];
-      if (!(std::abs(step - period_s) <= 1e-6 * period_s)) {
-        throw std::invalid_argument("motion fit: a run's time steps are not equal");
+  for_each_balance(runs, pole_pitch_m, basis, options, row, [&](double acceleration) {
+    for (int a = 0; a < row.size; ++a) {
+      const auto ia = static_cast<std::size_t>(a);
+      rhs[row.index[ia]] += row.value[ia] * acceleration;
+      for (int b = 0; b < row.size; ++b) {
+        const auto ib = static_cast<std::size_t>(b);
+        gram(row.index[ia], row.index[ib]) += row.value[ia] * row.value[ib];
       }
     }
-    for (Eigen::Index k = 1; k + 1 < samples; ++k) {
-      const double acceleration = (run.position_m[k + 1] - 2.0 * run.position_m[k] + run.position_m[k - 1]) /
-                                  (period_s * period_s);
-      const double velocity = (run.position_m[k + 1] - run.position_m[k - 1]) / (2.0 * period_s);
-      row.setZero();
-      // The forces of the two periods around row k, each at its middle position.
-      for (const Eigen::Index j : {k - 1, k}) {
-        const double middle_m = 0.5 * (run.position_m[j] + run.position_m[j + 1]);
-        add_force_regressor(middle_m, run.currents_A.col(j), pole_pitch_m, basis, 0.5, row);
-      }
-      row[model] = -velocity;
-      row[model + 1] = -std::tanh(velocity / options.direction_smoothing_m_per_s);
-      gram.selfadjointView<Eigen::Lower>().rankUpdate(row);
-      rhs += row * acceleration;
-      rhs_square_sum += acceleration * acceleration;
-      ++rows;
-    }
+    rhs_square_sum += acceleration * acceleration;
+    ++rows;
+  });
+  if (rows < 10) {
+    throw std::invalid_argument("motion fit: fewer than 10 rows of three consecutive positions in motion");
   }
-  if (rows < 10) throw std::invalid_argument("motion fit: fewer than 10 rows of three consecutive positions");
-  gram = gram.selfadjointView<Eigen::Lower>();
   const Eigen::MatrixXd data_gram = gram;
   const Eigen::VectorXd data_rhs = rhs;
   // Roughness of each coefficient row, relative to the largest diagonal of
@@ -115,10 +206,7 @@ MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, 
   if (!x.allFinite()) throw std::invalid_argument("motion fit: singular problem");
   // The scale: the given mass, or the one that brings A_y, B_y closest to
   // the drive's nominal commutation (least squares over the four).
-  CoilGain prior_a, prior_b;
-  classical_physics_parameters({options.drive.motor_constant_N_per_A, options.drive.phase_offset_rad, 0.0, 0.0},
-                               prior_a, prior_b);
-  const Eigen::Vector4d prior(prior_a(0, 0), prior_a(0, 1), prior_b(0, 0), prior_b(0, 1));
+  const Eigen::Vector4d prior = nominal_physics(options.drive);
   const Eigen::Vector4d per_kg = x.head<4>();
   const double mass_kg = options.mass_kg > 0.0 ? options.mass_kg : per_kg.dot(prior) / per_kg.squaredNorm();
   if (!(mass_kg > 0.0) || !std::isfinite(mass_kg)) {

@@ -41,6 +41,9 @@ struct MotionFitOptions {
   /// The drive's nominal commutation (k̂_d, ζ̂_d): the scale when the mass is not given.
   DriveCommutation drive;
   double direction_smoothing_m_per_s = 1e-3;  ///< v_d of f_d·tanh(v/v_d)
+  /// Rows slower than this are left out: near standstill static friction
+  /// takes any value up to its limit, which no smooth friction law follows.
+  double min_speed_m_per_s = 5e-3;
 };
 
 struct MotionFit {
@@ -53,6 +56,9 @@ struct MotionFit {
   double residual_rms_N = 0.0;   ///< of the force balance, over the rows used
   Eigen::Index rows = 0;         ///< second differences used
 
+  /// The same motor at another mass: every force term scaled by mass_kg/mass.
+  MotionFit scaled_to_mass(double mass_kg) const;
+
   /// K_y(y) [N/A] and F_cog,y(y) [N] of the fit on `basis`.
   Eigen::Matrix<double, 1, 2> gain(double position_m, double pole_pitch_m, const UniformCubicBasis& basis) const;
   double cogging_N(double position_m, const UniformCubicBasis& basis) const;
@@ -63,5 +69,14 @@ struct MotionFit {
 /// problem, or gains that give no positive mass.
 MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, double pole_pitch_m,
                                             const UniformCubicBasis& basis, const MotionFitOptions& options);
+
+/// RMS of the force balance of `fit` over the rows of `runs` that the fit
+/// would use [N] (held-out scoring); 0 rows give NaN.
+double motion_residual_rms_N(const MotionFit& fit, const std::vector<MotionRun>& runs, double pole_pitch_m,
+                             const UniformCubicBasis& basis, const MotionFitOptions& options);
+
+/// The mass that brings the per-kilogram A_y, B_y of several coil sets (one
+/// translator) together closest to the drive's nominal commutation.
+double common_mass_kg(const std::vector<MotionFit>& fits, const DriveCommutation& drive);
 
 }  // namespace clm::identification

@@ -131,10 +131,20 @@ CsvLines desired_force_lines() {
 }  // namespace
 
 TEST_CASE("calibrate and identify refuse a missing column naming the file, line 1 and the column", "[cli]") {
-  for (const char* column : {"t_s", "coil_set", "delta_rad", "magnitude_N", "y_m", "Fy_N", "Fx_N", "Tz_Nm"}) {
+  for (const char* column : {"t_s", "coil_set", "delta_rad", "magnitude_N", "y_m"}) {
     auto lines = synthetic_experiment_lines(3);
     drop_column(lines, column);
     check_experiment_data_refused(lines, kMotor, std::string(":1: missing column '") + column + "'");
+  }
+  // The force columns go together: one or two of them missing is refused
+  // (all three missing is data without a force sensor).
+  for (const char* column : {"Fy_N", "Fx_N", "Tz_Nm"}) {
+    auto lines = synthetic_experiment_lines(3);
+    drop_column(lines, column);
+    check_experiment_data_refused(lines, kMotor,
+                                  std::string(":1: missing column '") + column +
+                                      "': the force columns Fy_N, Fx_N and Tz_Nm go together (all, or none without "
+                                      "a force sensor)");
   }
 }
 

@@ -4,9 +4,11 @@
 
 #include "commutation/model_file.hpp"
 #include "config/atomic_file.hpp"
+#include "config/command_line.hpp"
 #include "config/sha256.hpp"
 #include "tools/cli/commands.hpp"
 #include "tools/data/commissioning_steps.hpp"
+#include "tools/data/position_model.hpp"
 #include "tools/lcmlog/data_input.hpp"
 
 namespace clm::cli {
@@ -16,6 +18,7 @@ void add_calibrate(CLI::App& app) {
   struct Options {
     std::string motor, data, output;
     bool robust = false;
+    double mass_kg = 0.0;
     data::DataLimits limits;
     lcmlog::GapPolicy gaps;
   };
@@ -26,13 +29,41 @@ void add_calibrate(CLI::App& app) {
   sub->add_option("--output", options->output, "calibration file to write (YAML)")->required();
   sub->add_flag("--robust", options->robust,
                 "write the offset-robust fit (a position-dependent offset fitted beside c_i) instead of the paper's");
+  sub->add_option("--mass-kg", options->mass_kg,
+                  "data without force columns: the translator's mass, which fixes the force scale (default: the "
+                  "drive's nominal commutation does)")
+      ->check(clm::non_negative_number())->capture_default_str();
   lcmlog::add_data_limit_options(*sub, options->limits, "--data");
   lcmlog::add_gap_option(*sub, options->gaps);
   sub->callback([options] {
     const auto motor = load_motor_description(options->motor);
     // The table (the file's text) is dropped once its rows are grouped.
-    const auto data = data::read_experiment_data(
+    auto data = data::read_experiment_data(
         lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment, options->limits, options->gaps), motor);
+    if (!data.measured_forces) {
+      // Algorithm 1 on the driving force a model identified from positions reconstructs.
+      if (options->robust) {
+        throw std::runtime_error("--robust: " + options->data + " has no force columns; the force reconstructed "
+                                 "from positions has no offset to fit");
+      }
+      data::PositionIdentifyOptions position;
+      position.mass_kg = options->mass_kg;
+      const auto identified = data::identify_from_position(data, motor, position);
+      print_position_identification(identified);
+      data::reconstruct_driving_force(data, motor, identified);
+      CalibrationFile file = data::calibrate_motor(data, motor, data::CalibrationMethod::kPosition);
+      file.data_sha256 = sha256_file(options->data);
+      file.generator = generator_name("calibrate");
+      write_file_atomically(options->output, format_calibration_file(file));
+      std::printf("coil set  method     k [N/A]   zeta [rad]  c1       c2\n");
+      for (std::size_t l = 0; l < file.coil_sets.size(); ++l) {
+        const auto& c = file.coil_sets[l];
+        std::printf("%-9zu %-10s %-9.4f %-11.4f %-8.5f %-8.5f\n", l + 1, file.method.c_str(),
+                    c.estimate.motor_constant_N_per_A, c.estimate.phase_offset_rad, c.gain_ratio[0], c.gain_ratio[1]);
+      }
+      std::printf("wrote %s (position)\n", options->output.c_str());
+      return;
+    }
     const auto paper = data::calibrate_motor(data, motor, data::CalibrationMethod::kAlgorithm1);
     const auto robust = data::calibrate_motor(data, motor, data::CalibrationMethod::kOffsetRobust);
     CalibrationFile chosen = options->robust ? robust : paper;

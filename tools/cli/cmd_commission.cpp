@@ -129,11 +129,19 @@ void add_commission(CLI::App& app) {
   sub->add_flag("!--no-selection", options->run.identify.select_capacity,
                 "the paper's PGNN (2/16 neurons, Lambda 0.1) and knots at pole pitch / 8 (default: chosen from a grid "
                 "by validation error)");
+  sub->add_flag("--no-force-sensor", options->run.no_force_sensor,
+                "also commission from positions alone: the experiments without their force columns give "
+                "classical-position and spline-position, evaluated beside the force-sensor laws");
+  auto* mass = sub->add_option("--mass-kg", options->run.position.mass_kg,
+                               "--no-force-sensor: the translator's mass, which fixes the force scale (default: "
+                               "control.mass_kg of --config; 0: the drive's nominal commutation sets the scale)")
+                   ->check(clm::non_negative_number());
   sub->add_flag("!--no-plots", options->plots, "skip the PNG plots");
   sub->add_flag("--save", options->save,
                 "keep the result: the calibration, both models, and the recommended law as the commutation mode with its "
                 "feedforward go into --config (the previous file stays as FILE.bak)");
-  sub->callback([options] {
+  sub->callback([options, mass] {
+    options->run.mass_from_config = mass->count() == 0;
     if (options->run.validation_program_path != "none" && !options->run.validation_program_path.empty() &&
         !std::filesystem::is_regular_file(options->run.validation_program_path)) {
       throw std::runtime_error("--validation-program: " + options->run.validation_program_path + ": no such file");
@@ -169,13 +177,13 @@ void add_commission(CLI::App& app) {
     for (const auto& r : report.results) {
       if (r.name == "oracle" && r.evaluated) oracle = &r;
     }
-    std::printf("\ncommutation  MSE y [N^2]  MSE x [N^2]  MSE z [N^2m^2]  true y [N^2]  tracking [m^2]  /oracle\n");
+    std::printf("\ncommutation         MSE y [N^2]  MSE x [N^2]  MSE z [N^2m^2]  true y [N^2]  tracking [m^2]  /oracle\n");
     for (const auto& r : report.results) {
       if (!r.evaluated) {
-        std::printf("%-11s  not evaluated: %s\n", r.name.c_str(), r.skipped_reason.c_str());
+        std::printf("%-18s  not evaluated: %s\n", r.name.c_str(), r.skipped_reason.c_str());
         continue;
       }
-      std::printf("%-11s  %s    %s    %s     %s     %s  %s\n", r.name.c_str(), cell(r.mse.filtered[0]).c_str(),
+      std::printf("%-18s  %s    %s    %s     %s     %s  %s\n", r.name.c_str(), cell(r.mse.filtered[0]).c_str(),
                   cell(r.mse.filtered[1]).c_str(), cell(r.mse.filtered[2]).c_str(),
                   r.truth_known ? cell(r.true_mse.filtered[0]).c_str() : "        -",
                   cell(r.tracking_mse_m2).c_str(),
@@ -192,6 +200,9 @@ void add_commission(CLI::App& app) {
       std::printf("\nPGNN vs calibrated classical: commutation MSE y %.1fx lower, tracking MSE %.1fx lower "
                   "(paper: 11.2x and 4.6x)\n",
                   classical->mse.filtered[0] / pgnn->mse.filtered[0], classical->tracking_mse_m2 / pgnn->tracking_mse_m2);
+    }
+    if (const std::string line = commission::position_summary(report); !line.empty()) {
+      std::printf("%s\n", line.c_str());
     }
     if (oracle) {
       std::printf("tracking MSE over the oracle's:");

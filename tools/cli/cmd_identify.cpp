@@ -8,15 +8,50 @@
 #include "config/sha256.hpp"
 #include "tools/cli/commands.hpp"
 #include "tools/data/commissioning_steps.hpp"
+#include "tools/data/position_model.hpp"
 #include "tools/lcmlog/data_input.hpp"
 
 namespace clm::cli {
+namespace {
+
+// Data without force columns: the F_y rows from positions (docs/commutation.md, "Without a force sensor").
+void identify_from_positions(const data::ExperimentData& data, const MotorDescription& motor,
+                             const data::PositionIdentifyOptions& options, const std::string& data_path,
+                             const std::string& output) {
+  data::PositionIdentification identified = data::identify_from_position(data, motor, options);
+  ModelFile& file = identified.model;
+  file.provenance.data_sha256 = sha256_file(data_path);
+  file.provenance.generator = generator_name("identify");
+  write_file_atomically(output, format_model_file(file));
+  print_position_identification(identified);
+  std::printf("wrote %s\n", output.c_str());
+}
+
+}  // namespace
+
+void print_position_identification(const data::PositionIdentification& identified) {
+  std::printf("spline model from positions (no force columns): F_y rows identified with the mechanics; F_x and T_z "
+              "rows zero (the drive's constants)\n");
+  std::printf("mass %.4g kg (%s)\n", identified.mass_kg,
+              identified.mass_given ? "given" : "scale from the drive's nominal commutation");
+  for (const auto& [spacing, score] : identified.spacing_scores) {
+    std::printf("knot spacing %.3g mm: held-out force balance RMS %.4g N%s\n", spacing * 1e3, score,
+                spacing == identified.knot_spacing_m ? "  chosen" : "");
+  }
+  std::printf("coil set  rows     f_v [N s/m]  f_d [N]   balance RMS [N]  held-out RMS [N]\n");
+  for (std::size_t l = 0; l < identified.fits.size(); ++l) {
+    const auto& fit = identified.fits[l];
+    std::printf("%-9zu %-8lld %-12.4g %-9.4g %-16.4g %.4g\n", l + 1, static_cast<long long>(fit.rows),
+                fit.viscous_N_s_per_m, fit.direction_N, fit.residual_rms_N, identified.validation_residual_rms_N[l]);
+  }
+}
 
 void add_identify(CLI::App& app) {
   auto* sub = app.add_subcommand("identify", "Algorithm 2: identify a PGNN (or spline) model of the electromagnetics");
   struct Options {
     std::string motor, data, output, model = "pgnn";
     data::IdentifyOptions identify;
+    double mass_kg = 0.0;
     data::DataLimits limits;
     lcmlog::GapPolicy gaps;
   };
@@ -48,6 +83,10 @@ void add_identify(CLI::App& app) {
   sub->add_option("--knot-spacing-m", o.spline.knot_spacing_m, "spline knot spacing (0: pole pitch / 8)")
       ->check(clm::non_negative_number())->capture_default_str();
   sub->add_option("--smoothing", o.spline.smoothing, "spline roughness penalty")->check(clm::non_negative_number())->capture_default_str();
+  sub->add_option("--mass-kg", options->mass_kg,
+                  "data without force columns: the translator's mass, which fixes the force scale (default: the "
+                  "drive's nominal commutation does)")
+      ->check(clm::non_negative_number())->capture_default_str();
   sub->add_flag("!--no-nuisance", o.nuisance,
                 "fit the model alone, as the paper does (default: the sensor's F_y offset and the direction-dependent "
                 "force are identified beside it)");
@@ -56,7 +95,7 @@ void add_identify(CLI::App& app) {
                 "chosen from a grid by validation error)");
   lcmlog::add_data_limit_options(*sub, options->limits, "--data");
   lcmlog::add_gap_option(*sub, options->gaps);
-  sub->callback([options] {
+  sub->callback([options, sub] {
     options->identify.kind = options->model == "pgnn" ? ModelKind::kPgnn : ModelKind::kSpline;
     options->identify.spline.regularisation = options->identify.pgnn.regularisation;
     const auto motor = load_motor_description(options->motor);
@@ -64,6 +103,19 @@ void add_identify(CLI::App& app) {
     // the identification's own matrices are made (docs/benchmarks.md, memory).
     const auto data = data::read_experiment_data(
         lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment, options->limits, options->gaps), motor);
+    if (!data.measured_forces) {
+      if (sub->count("--model") > 0 && options->model != "spline") {
+        throw std::runtime_error("--model " + options->model + ": " + options->data +
+                                 " has no force columns; from positions only the spline class is identified");
+      }
+      data::PositionIdentifyOptions position;
+      position.mass_kg = options->mass_kg;
+      position.knot_spacing_m = options->identify.select_capacity ? 0.0 : options->identify.spline.knot_spacing_m;
+      position.smoothing = options->identify.spline.smoothing;
+      position.validation_fraction = options->identify.validation_fraction;
+      identify_from_positions(data, motor, position, options->data, options->output);
+      return;
+    }
     std::vector<data::CoilSetIdentification> reports;
     ProgressBar bar("identify " + options->model);
     const auto on_progress = [&](const data::IdentifyProgress& p) {

@@ -6,6 +6,10 @@
 #include <chrono>
 #include <string>
 
+namespace clm::data {
+struct PositionIdentification;
+}
+
 namespace clm::cli {
 
 void add_calibrate(CLI::App& app);
@@ -15,6 +19,10 @@ void add_commutate(CLI::App& app);
 void add_commission(CLI::App& app);
 void add_ctl(CLI::App& app);
 void add_sim(CLI::App& app);
+
+/// The mechanics, knot choice and balance residuals of a position-based
+/// identification, on stdout (clm identify and clm calibrate).
+void print_position_identification(const data::PositionIdentification& identified);
 
 /// "clm <version>" for provenance records.
 std::string generator_name(const std::string& subcommand);

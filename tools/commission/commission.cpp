@@ -39,13 +39,14 @@ double seconds_since(Clock::time_point start) {
 // phase-current drive the currents the daemon sent (ia_A, ib_A of the
 // record) are the data; with magnitude_phase they are left out and
 // reconstructed from the setpoints through the drive's fixed commutation.
-void write_experiment_csv(const std::string& path, const std::vector<Recording>& runs, DriveProfile profile) {
-  std::vector<std::string> names = {"t_s", "coil_set", "delta_rad", "magnitude_N", "y_m", "Fy_N", "Fx_N", "Tz_Nm"};
-  const bool currents = profile == DriveProfile::kPhaseCurrent;
-  if (currents) {
-    names.push_back("ia_A");
-    names.push_back("ib_A");
-  }
+// Without `forces` the force columns are left out, as an axis without a
+// force sensor records them.
+void write_experiment_csv(const std::string& path, const std::vector<Recording>& runs, DriveProfile profile,
+                          bool forces) {
+  std::vector<std::string> names = {"t_s", "coil_set", "delta_rad", "magnitude_N", "y_m", "Fy_N", "Fx_N", "Tz_Nm",
+                                    "ia_A", "ib_A"};
+  std::vector<bool> keep = {true, true, true, true, true, forces, forces, forces,
+                            profile == DriveProfile::kPhaseCurrent, profile == DriveProfile::kPhaseCurrent};
   std::vector<std::vector<double>> columns(names.size());
   double offset_s = 0.0;
   for (const auto& run : runs) {
@@ -64,7 +65,14 @@ void write_experiment_csv(const std::string& path, const std::vector<Recording>&
     }
     if (!run.samples.empty()) offset_s += run.samples.back().program_time_s + 1.0;
   }
-  data::write_csv_atomically(path, names, columns);
+  std::vector<std::string> kept_names;
+  std::vector<std::vector<double>> kept_columns;
+  for (std::size_t c = 0; c < names.size(); ++c) {
+    if (!keep[c]) continue;
+    kept_names.push_back(names[c]);
+    kept_columns.push_back(std::move(columns[c]));
+  }
+  data::write_csv_atomically(path, kept_names, kept_columns);
 }
 
 void write_feedforward_csv(const std::string& path, const Recording& run) {
@@ -207,7 +215,9 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
   // Calibration and identification measure forces (docs/bring-up.md: commissioning with a borrowed sensor).
   if (!can::has_force_sensor(config.servo.protocol)) {
     throw std::runtime_error(options.config_path + ": can.force_sensor_node_id: absent, so the axis has no force "
-                             "sensor; commissioning measures forces: mount one and name its node");
+                             "sensor; clm commission measures forces (with --no-force-sensor too, for the comparison "
+                             "it reports): mount one and name its node, or run clm calibrate and clm identify on "
+                             "experiment data without force columns");
   }
   if (options.live) {
     LiveOptions live = options.live_options;
@@ -306,7 +316,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   runner.close_log();
   tell("experiments", 1.0, "done");
   const std::string experiment_csv = written("experiments.csv");
-  write_experiment_csv(experiment_csv, experiments, motor.drive_profile);
+  write_experiment_csv(experiment_csv, experiments, motor.drive_profile, true);
   report.steps.push_back({"experiments", seconds_since(step_start)});
 
   // 2. Calibration and identification, through the same code as the offline tools.
@@ -354,6 +364,34 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     write_file_atomically(written("model-pgnn-paper.yaml"), format_model_file(paper_pgnn->model));
   }
   recommend(report);
+  // 2b. Without a force sensor: the same experiments' positions alone.
+  if (options.no_force_sensor) {
+    step_start = Clock::now();
+    tell("identify from positions", 0.0, "");
+    const std::string position_csv = written("experiments-position.csv");
+    write_experiment_csv(position_csv, experiments, motor.drive_profile, false);
+    data::ExperimentData position_data = data::read_experiment_data(data::CsvTable::load(position_csv), motor);
+    report.from_position = true;
+    data::PositionIdentifyOptions position = options.position;
+    if (options.mass_from_config) position.mass_kg = config.control_mass_kg;
+    report.position_mass_source = !options.mass_from_config ? "--mass-kg"
+                                  : position.mass_kg > 0.0  ? "control.mass_kg of the configuration"
+                                                            : "none";
+    if (position.mass_kg <= 0.0) report.position_mass_source = "none: the scale of the drive's nominal commutation";
+    report.position = data::identify_from_position(position_data, motor, position);
+    ModelFile& model = report.position.model;
+    model.provenance.data_sha256 = sha256_file(position_csv);
+    model.provenance.generator = "clm commission";
+    write_file_atomically(written("model-spline-position.yaml"), format_model_file(model));
+    report.steps.push_back({"identify from positions", seconds_since(step_start)});
+    step_start = Clock::now();
+    data::reconstruct_driving_force(position_data, motor, report.position);
+    report.calibration_position = data::calibrate_motor(position_data, motor, data::CalibrationMethod::kPosition);
+    report.calibration_position.data_sha256 = model.provenance.data_sha256;
+    report.calibration_position.generator = "clm commission";
+    write_file_atomically(written("calibration-position.yaml"), format_calibration_file(report.calibration_position));
+    report.steps.push_back({"calibration from positions", seconds_since(step_start)});
+  }
   if (const sim::SimulatedMotor* simulated = runner.simulated_motor()) {
     write_truth_comparison(dir, *simulated, models[0], models[1], motor);
     report.files.push_back("truth-comparison.csv");
@@ -374,18 +412,25 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   struct Commutation {
     const char* name;
     servo::CommutationMode mode;
-    std::string model;  // loaded into the mode's slot first, when not empty
+    std::string model;        // loaded into the mode's slot first, when not empty
+    std::string calibration;  // loaded into the classical law first, when not empty
   };
-  const std::vector<Commutation> commutations = {
-      {"original", servo::CommutationMode::kOriginal, ""},
-      {"classical", servo::CommutationMode::kClassical, ""},
-      {"pgnn-paper", servo::CommutationMode::kPgnn, paper_is_chosen ? "" : dir + "/model-pgnn-paper.yaml"},
-      {"pgnn", servo::CommutationMode::kPgnn, dir + "/model-pgnn.yaml"},
-      {"spline", servo::CommutationMode::kSpline, ""},
-      {"oracle", servo::CommutationMode::kOracle, ""}};
+  std::vector<Commutation> commutations = {
+      {"original", servo::CommutationMode::kOriginal, "", ""},
+      {"classical", servo::CommutationMode::kClassical, "", ""},
+      {"pgnn-paper", servo::CommutationMode::kPgnn, paper_is_chosen ? "" : dir + "/model-pgnn-paper.yaml", ""},
+      {"pgnn", servo::CommutationMode::kPgnn, dir + "/model-pgnn.yaml", ""},
+      {"spline", servo::CommutationMode::kSpline, "", ""}};
+  if (report.from_position) {
+    commutations.push_back({"classical-position", servo::CommutationMode::kClassical, "",
+                            dir + "/calibration-position.yaml"});
+    commutations.push_back({"spline-position", servo::CommutationMode::kSpline,
+                            dir + "/model-spline-position.yaml", ""});
+  }
+  commutations.push_back({"oracle", servo::CommutationMode::kOracle, "", ""});
   const auto count = static_cast<double>(commutations.size());
   int index = 0;
-  for (const auto& [name, mode, model] : commutations) {
+  for (const auto& [name, mode, model, calibration] : commutations) {
     step_start = Clock::now();
     tell("evaluation", index / count, name);
     ++index;
@@ -397,6 +442,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     }
     if (std::string(name) == "pgnn-paper" && paper_is_chosen) continue;  // the same model as "pgnn": copied below
     if (!model.empty()) runner.load_model(mode, model);
+    if (!calibration.empty()) runner.load_calibration(calibration);
     runner.set_commutation(mode);
     runner.load_feedforward(no_feedforward.parameters, no_feedforward_path);
     open_log(std::string("feedforward-data-") + name + ".lcm");

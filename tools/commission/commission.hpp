@@ -15,6 +15,7 @@
 #include "tools/commission/runner.hpp"
 #include "tools/commission/runs.hpp"
 #include "tools/data/commissioning_steps.hpp"
+#include "tools/data/position_model.hpp"
 
 namespace clm::commission {
 
@@ -36,6 +37,15 @@ struct Options {
   /// (LcmRunner) instead of the in-process simulated motor.
   bool live = false;
   LiveOptions live_options;
+  /// Also commission from positions alone (docs/commutation.md, "Without a
+  /// force sensor"): the same experiments without their force columns give
+  /// classical-position and spline-position, evaluated beside the others.
+  bool no_force_sensor = false;
+  data::PositionIdentifyOptions position;
+  /// The mass prior of the identification from positions is the
+  /// configuration's control.mass_kg (the mass the loop is tuned for), not
+  /// position.mass_kg (whose 0 lets the drive's nominal commutation set the scale).
+  bool mass_from_config = true;
 };
 
 struct CommutationResult {
@@ -74,7 +84,7 @@ struct Report {
   std::string recommended;
   std::string recommendation;
   /// original, classical, pgnn-paper (the paper's 2/16 PGNN), pgnn (capacity
-  /// chosen by validation), spline, oracle
+  /// chosen by validation), spline, [classical-position, spline-position,] oracle
   std::vector<CommutationResult> results;
   std::vector<CommutationResult> validation;  ///< the same on the held-out trajectory
   std::string validation_program;
@@ -85,6 +95,11 @@ struct Report {
   std::vector<std::string> files;          ///< written, relative to the output directory
   std::vector<std::string> notes;          ///< adaptations made for this motor
   LiveSummary live;                        ///< live commissioning only (live.live)
+  /// Options::no_force_sensor only: the identification and calibration from positions.
+  bool from_position = false;
+  data::PositionIdentification position;
+  std::string position_mass_source;  ///< where the mass prior came from, or why there is none
+  CalibrationFile calibration_position;
 };
 
 /// The file a run keeps in its output directory from the directory's
@@ -128,6 +143,10 @@ std::string report_markdown(const Report& report);
 /// Feedforward (40) identified from a run without feedforward: the reference
 /// and the force command F* of every sample (control::identify_feedforward).
 control::FeedforwardParameters identify_ff(const Recording& run);
+
+/// One line comparing the laws from positions with the force-sensor ones
+/// (tracking, true y error, identification wall time); "" without them.
+std::string position_summary(const Report& report);
 
 /// Sets report.recommended and report.recommendation from the validation
 /// scores of the chosen PGNN and spline (docs/commutation.md, "Capacity").

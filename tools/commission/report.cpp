@@ -151,6 +151,37 @@ void calibration_json(std::ostringstream& out, const CalibrationFile& file) {
 
 }  // namespace
 
+std::string position_summary(const Report& report) {
+  if (!report.from_position) return "";
+  const auto* position = find(report, "spline-position");
+  const auto* classical_position = find(report, "classical-position");
+  const auto* classical = find(report, "classical");
+  const auto* recommended = find(report, report.recommended);
+  if (!position || !classical_position || !classical || !recommended) return "";
+  const auto wall = [&](const char* step) {
+    for (const auto& entry : report.steps) {
+      if (entry.step == step) return entry.wall_s;
+    }
+    return std::nan("");
+  };
+  char text[640];
+  std::snprintf(text, sizeof(text),
+                "from positions (mass %.4g kg from %s): spline-position tracking MSE %.2fx the force-sensor %s's; "
+                "classical / spline-position %.2fx (classical-position / spline-position %.2fx)%s; identification "
+                "wall time %.2fx the force-sensor spline's",
+                report.position.mass_kg, report.position_mass_source.c_str(),
+                position->tracking_mse_m2 / recommended->tracking_mse_m2, report.recommended.c_str(),
+                classical->tracking_mse_m2 / position->tracking_mse_m2,
+                classical_position->tracking_mse_m2 / position->tracking_mse_m2,
+                position->truth_known && recommended->truth_known
+                    ? ("; true y MSE " + fixed(position->true_mse.filtered[0] / recommended->true_mse.filtered[0], "%.2f") +
+                       "x the force-sensor " + report.recommended + "'s")
+                          .c_str()
+                    : "",
+                wall("identify from positions") / wall("identify spline"));
+  return text;
+}
+
 std::string report_json(const Report& report) {
   std::ostringstream out;
   out << "{\n  \"schema\": \"clm-servo-report\",\n  \"schema_version\": 1,\n";
@@ -243,7 +274,29 @@ std::string report_json(const Report& report) {
         << triple(std::array<double, 3>{row.unfiltered[0], row.unfiltered[1], row.unfiltered[2]})
         << "}, \"tracking_mse_m2\": " << number(row.tracking_mse_m2) << "}";
   }
-  out << "},\n  \"step_wall_time_s\": {";
+  out << "},\n";
+  if (report.from_position) {
+    const auto& position = report.position;
+    out << "  \"from_position\": {\"mass_kg\": " << number(position.mass_kg)
+        << ", \"mass_source\": " << quoted(report.position_mass_source)
+        << ", \"knot_spacing_m\": " << number(position.knot_spacing_m) << ", \"spacing_scores\": [";
+    for (std::size_t k = 0; k < position.spacing_scores.size(); ++k) {
+      out << (k ? ", " : "") << "{\"knot_spacing_m\": " << number(position.spacing_scores[k].first)
+          << ", \"held_out_balance_rms_N\": " << number(position.spacing_scores[k].second) << "}";
+    }
+    out << "], \"rows_from\": [\"position\", \"drive_constants\", \"drive_constants\"], \"coil_sets\": [";
+    for (std::size_t l = 0; l < position.fits.size(); ++l) {
+      const auto& fit = position.fits[l];
+      out << (l ? ", " : "") << "{\"viscous_N_s_per_m\": " << number(fit.viscous_N_s_per_m)
+          << ", \"direction_force_N\": " << number(fit.direction_N) << ", \"rows\": " << fit.rows
+          << ", \"balance_rms_N\": " << number(fit.residual_rms_N)
+          << ", \"held_out_balance_rms_N\": " << number(position.validation_residual_rms_N[l]) << "}";
+    }
+    out << "], \"calibration\": ";
+    calibration_json(out, report.calibration_position);
+    out << ", \"summary\": " << quoted(position_summary(report)) << "},\n";
+  }
+  out << "  \"step_wall_time_s\": {";
   for (std::size_t k = 0; k < report.steps.size(); ++k) {
     out << (k ? ", " : "") << quoted(report.steps[k].step) << ": " << number(report.steps[k].wall_s);
   }
@@ -447,6 +500,38 @@ std::string report_markdown(const Report& report) {
   };
   selection("PGNN", report.pgnn_selection);
   selection("spline", report.spline_selection);
+  if (report.from_position) {
+    const auto& position = report.position;
+    out << "\n## Without a force sensor\n\nThe same experiments without their force columns "
+           "(`experiments-position.csv`): the F_y rows of every coil set identified from positions and times jointly "
+           "with the mechanics; F_x and T_z rows zero, from the drive's constants (docs/commutation.md, \"Without a "
+           "force sensor\"). classical-position is Algorithm 1 on the driving force that model reconstructs.\n\n"
+        << position_summary(report) << ".\n\n";
+    out << "Mass " << fixed(position.mass_kg, "%.4g") << " kg (" << report.position_mass_source
+        << "; without a mass, the scale that brings A_y, B_y closest to the drive's nominal commutation); knots every " << fixed(position.knot_spacing_m * 1e3) << " mm";
+    if (!position.spacing_scores.empty()) {
+      out << " (held-out force balance RMS:";
+      for (const auto& [spacing, score] : position.spacing_scores) {
+        out << " " << fixed(spacing * 1e3) << " mm " << fixed(score, "%.4g") << " N;";
+      }
+      out << ")";
+    }
+    out << ".\n\n| coil set | f_v [N s/m] | f_d [N] | rows | balance RMS [N] | held-out RMS [N] | k̂ [N/A] | ζ̂ [rad] |\n"
+           "|---|---|---|---|---|---|---|---|\n";
+    for (std::size_t l = 0; l < position.fits.size(); ++l) {
+      const auto& fit = position.fits[l];
+      out << "| " << l + 1 << " | " << fixed(fit.viscous_N_s_per_m, "%.4g") << " | " << fixed(fit.direction_N, "%.4g")
+          << " | " << fit.rows << " | " << fixed(fit.residual_rms_N, "%.4g") << " | "
+          << fixed(position.validation_residual_rms_N[l], "%.4g") << " | ";
+      if (l < report.calibration_position.coil_sets.size()) {
+        const auto& estimate = report.calibration_position.coil_sets[l].estimate;
+        out << fixed(estimate.motor_constant_N_per_A, "%.4g") << " | " << fixed(estimate.phase_offset_rad, "%.4f");
+      } else {
+        out << "– | –";
+      }
+      out << " |\n";
+    }
+  }
   out << "\n## Wall time\n\n| step | s |\n|---|---|\n";
   for (const auto& step : report.steps) out << "| " << step.step << " | " << fixed(step.wall_s, "%.1f") << " |\n";
   out << "| total | " << fixed(report.total_wall_s, "%.1f") << " |\n";

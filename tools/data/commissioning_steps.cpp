@@ -15,15 +15,29 @@ CalibrationFile calibrate_motor(const ExperimentData& data, const MotorDescripti
   CalibrationFile file;
   file.pole_pitch_m = motor.pole_pitch_m;
   file.drive = motor.drive;
-  file.method = method == CalibrationMethod::kAlgorithm1 ? "algorithm1" : "offset_robust";
+  file.method = method == CalibrationMethod::kAlgorithm1    ? "algorithm1"
+                : method == CalibrationMethod::kOffsetRobust ? "offset_robust"
+                                                             : "position";
+  if ((method == CalibrationMethod::kPosition) == data.measured_forces) {
+    throw std::runtime_error(data.origin + (data.measured_forces
+                                                ? ": the data have force columns; calibration from positions is for "
+                                                  "data without"
+                                                : ": no force columns (Fy_N, Fx_N, Tz_Nm): calibrate from positions"));
+  }
   for (const auto& experiment : data.coil_sets) {
+    for (std::size_t g = 0; g < 2; ++g) {
+      if (experiment.driving_force_N[g].size() != experiment.position_m[g].size()) {
+        throw std::runtime_error(data.origin + ": coil set " + std::to_string(experiment.coil_set) +
+                                 ": no driving force: the position model has not reconstructed it");
+      }
+    }
     const CalibrationGroup first{experiment.delta_rad[0], experiment.position_m[0], experiment.magnitude_N[0],
                                  experiment.driving_force_N[0]};
     const CalibrationGroup second{experiment.delta_rad[1], experiment.position_m[1], experiment.magnitude_N[1],
                                   experiment.driving_force_N[1]};
     CalibrationResult result;
     try {
-      if (method == CalibrationMethod::kAlgorithm1) {
+      if (method != CalibrationMethod::kOffsetRobust) {
         result = calibrate_classical(motor.drive.motor_constant_N_per_A, motor.drive.phase_offset_rad, first, second);
       } else {
         identification::SplineOptions grid;
@@ -92,6 +106,10 @@ std::string millimetres(double length_m) {
 ModelFile identify_motor(const ExperimentData& data, const MotorDescription& motor, const IdentifyOptions& options,
                          std::vector<CoilSetIdentification>& reports,
                          const std::function<void(const IdentifyProgress&)>& progress, IdentifySummary* summary_out) {
+  if (!data.measured_forces) {
+    throw std::runtime_error(data.origin + ": no force columns (Fy_N, Fx_N, Tz_Nm): the model is identified from "
+                             "positions (spline class only)");
+  }
   IdentifySummary summary;
   // One normalisation and one knot grid for the whole model, from all positions.
   Eigen::Index total = 0;

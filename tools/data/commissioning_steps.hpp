@@ -17,10 +17,14 @@
 
 namespace clm::data {
 
-enum class CalibrationMethod { kAlgorithm1, kOffsetRobust };
+/// kPosition: Algorithm 1 on the driving force of data without force columns
+/// that reconstruct_driving_force (position_model.hpp) filled in.
+enum class CalibrationMethod { kAlgorithm1, kOffsetRobust, kPosition };
 
 /// Algorithm 1 for every coil set. The offset-robust variant expands the
-/// position-dependent offset on a knot grid of spacing pole_pitch/8.
+/// position-dependent offset on a knot grid of spacing pole_pitch/8. Throws
+/// std::runtime_error for data whose driving force is neither measured nor
+/// reconstructed, or measured data with kPosition.
 CalibrationFile calibrate_motor(const ExperimentData& data, const MotorDescription& motor, CalibrationMethod method);
 
 struct IdentifyOptions {
@@ -99,7 +103,8 @@ struct IdentifySummary {
 };
 
 /// Algorithm 2 (or the spline model) for every coil set, with the nuisance
-/// terms and the capacity chosen by validation as `options` says; fills the
+/// terms and the capacity chosen by validation as `options` says (data with
+/// force columns; without, identify_from_position); fills the
 /// model file's costs and nuisance record. `reports` receives one entry per
 /// coil set of the model returned; `summary` (optional) every trial.
 ModelFile identify_motor(const ExperimentData& data, const MotorDescription& motor, const IdentifyOptions& options,

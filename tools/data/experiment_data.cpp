@@ -17,9 +17,25 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
   const auto delta = table.numbers("delta_rad");
   const auto magnitude = table.numbers("magnitude_N");
   const auto position = table.numbers("y_m");
-  const auto fy = table.numbers("Fy_N");
-  const auto fx = table.numbers("Fx_N");
-  const auto tz = table.numbers("Tz_Nm");
+  // The force columns go together: all three (a force sensor) or none.
+  const int force_columns = static_cast<int>(table.has("Fy_N")) + static_cast<int>(table.has("Fx_N")) +
+                            static_cast<int>(table.has("Tz_Nm"));
+  if (force_columns == 1 || force_columns == 2) {
+    for (const char* column : {"Fy_N", "Fx_N", "Tz_Nm"}) {
+      if (!table.has(column)) {
+        throw std::runtime_error(file + ":1: missing column '" + column +
+                                 "': the force columns Fy_N, Fx_N and Tz_Nm go together (all, or none without a "
+                                 "force sensor)");
+      }
+    }
+  }
+  const bool forces = force_columns == 3;
+  std::vector<double> fy, fx, tz;
+  if (forces) {
+    fy = table.numbers("Fy_N");
+    fx = table.numbers("Fx_N");
+    tz = table.numbers("Tz_Nm");
+  }
   const auto time = table.numbers("t_s");
   const bool measured = table.has("ia_A") || table.has("ib_A");
   std::vector<double> ia, ib;
@@ -47,6 +63,7 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
   ExperimentData data;
   data.origin = file;
   data.measured_currents = measured;
+  data.measured_forces = forces;
   data.coil_sets.resize(static_cast<std::size_t>(motor.coil_sets));
   std::vector<std::vector<std::size_t>> rows(static_cast<std::size_t>(motor.coil_sets));
   std::vector<int> offsets_seen(static_cast<std::size_t>(motor.coil_sets), 0);
@@ -54,6 +71,8 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
   // of both offsets must land in the same group in the per-group columns and
   // in the dataset (docs/fuzzing.md, fuzz_experiment_data).
   std::vector<int> row_group(table.rows(), 0);
+  // Whether row r's previous cycle is row r − 1 (below).
+  std::vector<bool> follows(table.rows(), false);
   for (std::size_t r = 0; r < table.rows(); ++r) {
     const double value = coil_set[r];
     if (value != std::floor(value) || value < 1 || value > motor.coil_sets) {
@@ -77,17 +96,43 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
       experiment.delta_rad[static_cast<std::size_t>(group)] = delta[r];
     }
     row_group[r] = group;
-    const bool paired = r > 0 && coil_set[r - 1] == value && row_group[r - 1] == group &&
-                        time[r] > time[r - 1] && time[r] - time[r - 1] <= 1.5 * median_step_s;
-    if (!paired) {
+    follows[r] = r > 0 && coil_set[r - 1] == value && row_group[r - 1] == group && time[r] > time[r - 1] &&
+                 time[r] - time[r - 1] <= 1.5 * median_step_s;
+    if (!follows[r]) {
       ++data.unpaired_rows;
       continue;
     }
     const auto g = static_cast<std::size_t>(group);
     experiment.position_m[g].push_back(position[r]);
     experiment.magnitude_N[g].push_back(magnitude[r - 1]);
-    experiment.driving_force_N[g].push_back(fy[r]);
+    if (forces) experiment.driving_force_N[g].push_back(fy[r]);
     rows[l].push_back(r);
+  }
+  // The setpoint of row r as currents: measured, or through the drive's
+  // fixed commutation at `position` (eq. 19).
+  const auto currents_of = [&](std::size_t r, double at_position_m) -> Eigen::Vector2d {
+    if (measured) return {ia[r], ib[r]};
+    return drive_phase_currents(motor.drive, {magnitude[r], delta[r]}, at_position_m, motor.pole_pitch_m);
+  };
+  // Runs of consecutive cycles for the position-based identification: the
+  // setpoint of each row drives the period after it, whose middle position
+  // its currents are taken at (the last row of a run: its own position).
+  for (std::size_t first = 0; first < table.rows();) {
+    std::size_t end = first + 1;
+    while (end < table.rows() && follows[end]) ++end;
+    identification::MotionRun run;
+    const auto n = static_cast<Eigen::Index>(end - first);
+    run.time_s.resize(n);
+    run.position_m.resize(n);
+    run.currents_A.resize(2, n);
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const std::size_t r = first + static_cast<std::size_t>(k);
+      run.time_s[k] = time[r];
+      run.position_m[k] = position[r];
+      run.currents_A.col(k) = currents_of(r, r + 1 < end ? 0.5 * (position[r] + position[r + 1]) : position[r]);
+    }
+    data.coil_sets[static_cast<std::size_t>(coil_set[first]) - 1].runs.push_back(std::move(run));
+    first = end;
   }
   for (std::size_t l = 0; l < data.coil_sets.size(); ++l) {
     auto& experiment = data.coil_sets[l];
@@ -113,27 +158,24 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
     const auto n = static_cast<Eigen::Index>(rows[l].size());
     set.position_m.resize(n);
     set.currents_A.resize(2, n);
-    set.wrench.resize(3, n);
+    set.wrench.resize(3, forces ? n : 0);
     set.group.resize(rows[l].size());
     auto& motion = experiment.motion;
     motion.time_s.resize(n);
     motion.position_m.resize(n);
-    motion.force_N.resize(n);
+    motion.force_N.resize(forces ? n : 0);
     for (Eigen::Index k = 0; k < n; ++k) {
       const std::size_t r = rows[l][static_cast<std::size_t>(k)];
       const int group = row_group[r];
       motion.time_s[k] = time[r];
       motion.position_m[k] = position[r];
-      motion.force_N[k] = fy[r];
       set.position_m[k] = position[r];
       // The previous cycle's setpoint, at this row's position (above).
-      if (measured) {
-        set.currents_A.col(k) << ia[r - 1], ib[r - 1];
-      } else {
-        set.currents_A.col(k) =
-            drive_phase_currents(motor.drive, {magnitude[r - 1], delta[r - 1]}, position[r], motor.pole_pitch_m);
+      set.currents_A.col(k) = currents_of(r - 1, position[r]);
+      if (forces) {
+        motion.force_N[k] = fy[r];
+        set.wrench.col(k) << fy[r], fx[r], tz[r];
       }
-      set.wrench.col(k) << fy[r], fx[r], tz[r];
       set.group[static_cast<std::size_t>(k)] = group;
     }
     // Rows are in time order within each run; the gap between two runs

@@ -1,0 +1,182 @@
+#include "tools/data/position_model.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "commutation/identification/linear_parameters.hpp"
+#include "commutation/identification/spline_fit.hpp"
+#include "tools/data/commissioning_steps.hpp"
+
+namespace clm::data {
+namespace {
+
+// Runs `runs` cut into contiguous blocks (ten per run) of which
+// round(fraction·10), spread evenly, are held out.
+struct SplitRuns {
+  std::vector<identification::MotionRun> training, validation;
+};
+
+identification::MotionRun slice(const identification::MotionRun& run, Eigen::Index first, Eigen::Index count) {
+  return {run.time_s.segment(first, count), run.position_m.segment(first, count),
+          run.currents_A.middleCols(first, count)};
+}
+
+SplitRuns split_runs(const std::vector<identification::MotionRun>& runs, double fraction) {
+  constexpr int kBlocks = 10;
+  const int held = static_cast<int>(std::lround(fraction * kBlocks));
+  SplitRuns split;
+  for (const auto& run : runs) {
+    const Eigen::Index n = run.position_m.size();
+    if (held == 0 || n < 3 * kBlocks) {
+      split.training.push_back(run);
+      continue;
+    }
+    for (int b = 0; b < kBlocks; ++b) {
+      const Eigen::Index first = n * b / kBlocks, end = n * (b + 1) / kBlocks;
+      const bool held_out = (b + 1) * held / kBlocks > b * held / kBlocks;
+      (held_out ? split.validation : split.training).push_back(slice(run, first, end - first));
+    }
+  }
+  return split;
+}
+
+identification::MotionFitOptions fit_options(const PositionIdentifyOptions& options, const MotorDescription& motor) {
+  identification::MotionFitOptions fit;
+  fit.mass_kg = options.mass_kg;
+  fit.smoothing = options.smoothing;
+  fit.drive = motor.drive;
+  fit.direction_smoothing_m_per_s = options.direction_smoothing_m_per_s;
+  fit.min_speed_m_per_s = options.min_speed_m_per_s;
+  return fit;
+}
+
+// Every coil set on `basis`, at one mass: the given one, or the common one.
+std::vector<identification::MotionFit> fit_all(const std::vector<std::vector<identification::MotionRun>>& runs,
+                                               const ExperimentData& data, const MotorDescription& motor,
+                                               const UniformCubicBasis& basis,
+                                               const identification::MotionFitOptions& options) {
+  std::vector<identification::MotionFit> fits;
+  for (std::size_t l = 0; l < runs.size(); ++l) {
+    try {
+      fits.push_back(identification::fit_driving_direction_from_motion(runs[l], motor.pole_pitch_m, basis, options));
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(data.origin + ": coil set " + std::to_string(l + 1) + ": " + e.what());
+    }
+  }
+  if (options.mass_kg <= 0.0) {
+    const double mass_kg = identification::common_mass_kg(fits, motor.drive);
+    if (!(mass_kg > 0.0) || !std::isfinite(mass_kg)) {
+      throw std::runtime_error(data.origin + ": the gains identified from positions point against the drive's "
+                               "commutation; no mass fits them (give --mass-kg)");
+    }
+    for (auto& fit : fits) fit = fit.scaled_to_mass(mass_kg);
+  }
+  return fits;
+}
+
+}  // namespace
+
+PositionIdentification identify_from_position(const ExperimentData& data, const MotorDescription& motor,
+                                              const PositionIdentifyOptions& options) {
+  if (!(options.mass_kg >= 0.0) || !(options.knot_spacing_m >= 0.0) || !(options.validation_fraction >= 0.0) ||
+      !(options.validation_fraction < 1.0)) {
+    throw std::invalid_argument("position identification: negative mass or knot spacing, or a held-out share "
+                                "outside [0, 1)");
+  }
+  Eigen::Index total = 0;
+  for (const auto& experiment : data.coil_sets) {
+    for (const auto& run : experiment.runs) total += run.position_m.size();
+  }
+  Eigen::VectorXd all_positions(total);
+  Eigen::Index at = 0;
+  std::vector<std::vector<identification::MotionRun>> training, validation, all;
+  for (const auto& experiment : data.coil_sets) {
+    for (const auto& run : experiment.runs) {
+      all_positions.segment(at, run.position_m.size()) = run.position_m;
+      at += run.position_m.size();
+    }
+    SplitRuns split = split_runs(experiment.runs, options.validation_fraction);
+    training.push_back(std::move(split.training));
+    validation.push_back(std::move(split.validation));
+    all.push_back(experiment.runs);
+  }
+  const auto fit = fit_options(options, motor);
+  const auto basis_for = [&](double spacing) {
+    identification::SplineOptions grid;
+    grid.knot_spacing_m = spacing;
+    return identification::spline_basis_for(all_positions, motor.pole_pitch_m, grid);
+  };
+
+  PositionIdentification result;
+  result.mass_given = options.mass_kg > 0.0;
+  result.knot_spacing_m = options.knot_spacing_m;
+  if (result.knot_spacing_m == 0.0) {
+    // The spacing whose fit on the training blocks balances the held-out ones best.
+    double best = std::numeric_limits<double>::infinity();
+    for (const int per_pitch : kSplineKnotsPerPolePitch) {
+      const double spacing = motor.pole_pitch_m / per_pitch;
+      const UniformCubicBasis basis = basis_for(spacing);
+      const auto fits = fit_all(training, data, motor, basis, fit);
+      double square_sum = 0.0;
+      for (std::size_t l = 0; l < fits.size(); ++l) {
+        const double rms = identification::motion_residual_rms_N(fits[l], validation[l], motor.pole_pitch_m, basis, fit);
+        square_sum += std::isfinite(rms) ? rms * rms : 0.0;
+      }
+      const double score = std::sqrt(square_sum / static_cast<double>(fits.size()));
+      result.spacing_scores.emplace_back(spacing, score);
+      if (score < best) {
+        best = score;
+        result.knot_spacing_m = spacing;
+      }
+    }
+  }
+  const UniformCubicBasis basis = basis_for(result.knot_spacing_m);
+  // The model kept: fit on the training blocks for its held-out figure, then on everything.
+  const auto held_out_fits = fit_all(training, data, motor, basis, fit);
+  for (std::size_t l = 0; l < held_out_fits.size(); ++l) {
+    result.validation_residual_rms_N.push_back(
+        identification::motion_residual_rms_N(held_out_fits[l], validation[l], motor.pole_pitch_m, basis, fit));
+  }
+  result.fits = fit_all(all, data, motor, basis, fit);
+  result.mass_kg = result.fits.front().mass_kg;
+
+  ElectromagneticModel& model = result.model.model;
+  model.kind = ModelKind::kSpline;
+  model.pole_pitch_m = motor.pole_pitch_m;
+  model.normalisation = identification::normalisation_for(all_positions);
+  model.spline_basis = basis;
+  for (const auto& motion : result.fits) {
+    CoilSetModel coil_set;
+    coil_set.a_N_per_A.row(0) = motion.a_y;
+    coil_set.b_N_per_A.row(0) = motion.b_y;
+    coil_set.column_a_spline = SplineCoefficients::Zero(3, basis.size());
+    coil_set.column_b_spline = SplineCoefficients::Zero(3, basis.size());
+    coil_set.cogging_spline = SplineCoefficients::Zero(3, basis.size());
+    coil_set.column_a_spline.row(0) = motion.column_a;
+    coil_set.column_b_spline.row(0) = motion.column_b;
+    coil_set.cogging_spline.row(0) = motion.cogging;
+    model.coil_sets.push_back(std::move(coil_set));
+  }
+  model.validate();
+  result.model.provenance.rows_from = {RowSource::kPosition, RowSource::kDriveConstants, RowSource::kDriveConstants};
+  result.model.provenance.created_utc = utc_timestamp();
+  return result;
+}
+
+void reconstruct_driving_force(ExperimentData& data, const MotorDescription& motor,
+                               const PositionIdentification& identified) {
+  const UniformCubicBasis& basis = identified.model.model.spline_basis;
+  for (std::size_t l = 0; l < data.coil_sets.size(); ++l) {
+    auto& experiment = data.coil_sets[l];
+    const auto& set = experiment.dataset;
+    for (auto& forces : experiment.driving_force_N) forces.clear();
+    for (Eigen::Index k = 0; k < set.size(); ++k) {
+      const double force_N =
+          identified.fits[l].gain(set.position_m[k], motor.pole_pitch_m, basis).dot(set.currents_A.col(k));
+      experiment.driving_force_N[static_cast<std::size_t>(set.group[static_cast<std::size_t>(k)])].push_back(force_N);
+    }
+  }
+}
+
+}  // namespace clm::data

@@ -1,0 +1,58 @@
+#pragma once
+// Commissioning without a force sensor (docs/commutation.md, "Without a force
+// sensor"): the driving direction of every coil set identified from the
+// experiments' positions and times jointly with the translator's mechanics
+// (identification::fit_driving_direction_from_motion), and Algorithm 1 run on
+// the driving force that model reconstructs. No file I/O.
+
+#include <utility>
+#include <vector>
+
+#include "commutation/identification/motion_fit.hpp"
+#include "commutation/model_file.hpp"
+#include "tools/data/experiment_data.hpp"
+
+namespace clm::data {
+
+struct PositionIdentifyOptions {
+  /// The translator's mass, a prior that fixes the force scale; 0: the scale
+  /// that brings every coil set's A_y, B_y closest to the drive's nominal
+  /// commutation (one mass for the whole translator).
+  double mass_kg = 0.0;
+  /// Knot spacing of the y-row splines; 0: chosen by the held-out force
+  /// balance from kSplineKnotsPerPolePitch.
+  double knot_spacing_m = 0.0;
+  double smoothing = 1e-6;                    ///< MotionFitOptions::smoothing
+  double direction_smoothing_m_per_s = 1e-3;  ///< v_d of the direction-dependent force and friction
+  double min_speed_m_per_s = 5e-3;            ///< rows slower than this are left out
+  /// Share of every run held out, in contiguous blocks, for the spacing choice.
+  double validation_fraction = 0.2;
+};
+
+struct PositionIdentification {
+  /// A spline model: F_y rows from positions; F_x and T_z rows zero (the
+  /// drive's constants say nothing off the driving direction).
+  ModelFile model;
+  std::vector<identification::MotionFit> fits;  ///< per coil set, at the common mass
+  double mass_kg = 0.0;
+  bool mass_given = false;
+  double knot_spacing_m = 0.0;
+  /// Knot spacings tried and the held-out RMS of the force balance over all
+  /// coil sets [m, N]; empty when the spacing was given.
+  std::vector<std::pair<double, double>> spacing_scores;
+  std::vector<double> validation_residual_rms_N;  ///< per coil set, of the model kept (NaN without held-out rows)
+};
+
+/// Throws std::runtime_error naming the data file when a coil set's runs
+/// cannot be fit (too few rows in motion, a singular problem, no mass).
+PositionIdentification identify_from_position(const ExperimentData& data, const MotorDescription& motor,
+                                              const PositionIdentifyOptions& options);
+
+/// Fills every offset group's driving_force_N with the electromagnetic
+/// driving force the position model predicts for its rows (gain times the
+/// previous cycle's currents; no cogging, friction or direction force), the
+/// force Algorithm 1 (calibrate_motor) fits the command to.
+void reconstruct_driving_force(ExperimentData& data, const MotorDescription& motor,
+                               const PositionIdentification& identified);
+
+}  // namespace clm::data
