@@ -238,3 +238,62 @@ TEST_CASE("ff-identify on closed-loop data writes a feedforward file that load_f
   CHECK(file.parameters.mass_kg > 0.0);
   CHECK(format_feedforward_file(file) == read_file(output));
 }
+
+TEST_CASE("calibrate and identify on experiments without force columns work from positions, and say so",
+          "[cli]") {
+  const ExperimentFiles& experiments = experiment_files();
+  TemporaryDirectory dir;
+  // The daemon's experiments as an axis without a force sensor records them.
+  CsvLines lines;
+  {
+    const std::string text = read_file(experiments.csv);
+    std::size_t start = 0;
+    while (start < text.size()) {
+      const std::size_t end = text.find('\n', start);
+      lines.push_back(text.substr(start, end - start));
+      start = end == std::string::npos ? text.size() : end + 1;
+    }
+  }
+  for (const char* column : {"Fy_N", "Fx_N", "Tz_Nm"}) drop_column(lines, column);
+  const std::string data = dir.file("experiments-position.csv");
+  write_file(data, join_lines(lines));
+
+  const std::string calibration = dir.file("calibration.yaml");
+  const ProcessResult calibrated =
+      run_writing({"calibrate", "--motor", kMotor, "--data", data, "--output", calibration, "--mass-kg", "15"},
+                  dir.path(), calibration);
+  CHECK(calibrated.out.find("spline model from positions") != std::string::npos);
+  const CalibrationFile file = load_calibration_file(calibration);
+  CHECK(file.method == "position");
+  // The simulated truth (config/motor-sim.yaml), whose mass of 15 kg is given:
+  // k = 61.3, 61.6, 60.1 N/A; zeta = -0.54, -0.55, -0.55 rad.
+  const double k[] = {61.3, 61.6, 60.1}, zeta[] = {-0.54, -0.55, -0.55};
+  REQUIRE(file.coil_sets.size() == 3);
+  for (std::size_t l = 0; l < 3; ++l) {
+    CHECK(file.coil_sets[l].estimate.motor_constant_N_per_A == Approx(k[l]).epsilon(0.05));
+    CHECK(file.coil_sets[l].estimate.phase_offset_rad == Approx(zeta[l]).margin(0.03));
+  }
+
+  const std::string model_path = dir.file("model.yaml");
+  const ProcessResult identified =
+      run_writing({"identify", "--motor", kMotor, "--data", data, "--output", model_path}, dir.path(), model_path);
+  CHECK(identified.out.find("scale from the drive's nominal commutation") != std::string::npos);
+  const ModelFile model = load_model_file(model_path);
+  CHECK(model.model.kind == ModelKind::kSpline);
+  CHECK(model.provenance.rows_from ==
+        std::array<RowSource, 3>{RowSource::kPosition, RowSource::kDriveConstants, RowSource::kDriveConstants});
+  for (const auto& coil_set : model.model.coil_sets) {
+    CHECK(coil_set.a_N_per_A.bottomRows<2>().isZero());
+    CHECK(coil_set.cogging_spline.bottomRows<2>().isZero());
+  }
+
+  // What positions cannot give is refused with the reason (exit 2).
+  const ProcessResult pgnn = run_clm({"identify", "--motor", kMotor, "--data", data, "--output", model_path + ".pgnn",
+                                      "--model", "pgnn"});
+  CHECK(pgnn.exit_code == 2);
+  CHECK(pgnn.err.find("only the spline class") != std::string::npos);
+  const ProcessResult robust =
+      run_clm({"calibrate", "--motor", kMotor, "--data", data, "--output", calibration + ".robust", "--robust"});
+  CHECK(robust.exit_code == 2);
+  CHECK(robust.err.find("no offset to fit") != std::string::npos);
+}

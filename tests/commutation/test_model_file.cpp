@@ -22,6 +22,10 @@ ModelFile random_model_file(ModelKind kind, int coil_sets, std::mt19937_64& rng)
     file.provenance.costs[0].regressor_condition = 2719.0 + 1.0 / 3;
     file.provenance.costs[0].unexcited_parameters = 3;
   }
+  // Rows from positions on every other file (optional key).
+  if (rng() % 2 == 0) {
+    file.provenance.rows_from = {RowSource::kPosition, RowSource::kDriveConstants, RowSource::kForceSensor};
+  }
   // Nuisance terms on every other file, so that both forms are read back.
   if (rng() % 2 == 0) {
     auto& nuisance = file.provenance.nuisance;
@@ -82,6 +86,7 @@ TEST_CASE("model files round-trip bit for bit", "[model_file]") {
       REQUIRE(parsed.provenance.nuisance.sensor_offset_y_N == nuisance.sensor_offset_y_N);
       REQUIRE(parsed.provenance.nuisance.direction_smoothing_m_per_s == nuisance.direction_smoothing_m_per_s);
       REQUIRE(parsed.provenance.nuisance.direction_force_N_N_Nm == nuisance.direction_force_N_N_Nm);
+      REQUIRE(parsed.provenance.rows_from == original.provenance.rows_from);
       REQUIRE(format_model_file(parsed) == text);
     }
   }
@@ -142,6 +147,20 @@ TEST_CASE("corrupted model files are refused with file, line and key", "[model_f
   error = error_of(replace_first(costs_entry, costs_entry + "      unexcited_parameters: -1\n"));
   CHECK(error.find("unexcited_parameters") != std::string::npos);
   CHECK(error_of(replace_first(costs_entry, costs_entry + "      regressor_condition: 12.5\n")).empty());
+
+  // Where the rows came from: three known names.
+  const std::string generator = "  generator: \"test\"\n";
+  REQUIRE(text.find(generator) != std::string::npos);
+  const auto rows_from = [&](const std::string& list) {
+    return error_of(replace_first(generator, generator + "  rows_from: " + list + "\n"));
+  };
+  CHECK(rows_from("[position, drive_constants, force_sensor]").empty());
+  error = rows_from("[position, drive_constants]");
+  CHECK(std::regex_search(error, located));
+  CHECK(error.find("three entries") != std::string::npos);
+  error = rows_from("[position, guessed, force_sensor]");
+  CHECK(std::regex_search(error, located));
+  CHECK(error.find("expected force_sensor, position or drive_constants") != std::string::npos);
 }
 
 TEST_CASE("spline knots whose spacing overflows or underflows are refused", "[model_file]") {

@@ -5,7 +5,9 @@
 // Refusal: std::runtime_error (the header's promise). Invariants for accepted
 // data: every coil set has two offsets more than 1e-9 rad apart, every row
 // lands in exactly one group, and the dataset's group of a sample agrees with
-// the per-group columns Algorithm 1 uses (same sizes, same positions in order).
+// the per-group columns Algorithm 1 uses (same sizes, same positions in order);
+// every row lands in exactly one motion run, whose columns agree in length;
+// data without force columns carry no forces.
 
 #include <array>
 #include <cmath>
@@ -22,13 +24,13 @@ namespace {
 void check(const clm::data::ExperimentData& data, const clm::data::CsvTable& table,
            const clm::MotorDescription& motor) {
   require(static_cast<int>(data.coil_sets.size()) == motor.coil_sets, "coil sets lost");
-  std::size_t samples = 0;
+  std::size_t samples = 0, run_rows = 0;
   for (std::size_t l = 0; l < data.coil_sets.size(); ++l) {
     const auto& experiment = data.coil_sets[l];
     require(experiment.coil_set == static_cast<int>(l + 1), "coil sets out of order");
     require(std::abs(experiment.delta_rad[0] - experiment.delta_rad[1]) > 1e-9, "two offsets are one");
     const auto& set = experiment.dataset;
-    require(set.currents_A.cols() == set.size() && set.wrench.cols() == set.size() &&
+    require(set.currents_A.cols() == set.size() && set.wrench.cols() == (data.measured_forces ? set.size() : 0) &&
                 static_cast<Eigen::Index>(set.group.size()) == set.size(),
             "dataset columns of different lengths");
     std::array<std::size_t, 2> next{0, 0};
@@ -47,12 +49,20 @@ void check(const clm::data::ExperimentData& data, const clm::data::CsvTable& tab
             "group sizes disagree", "coil set " + std::to_string(l + 1));
     for (std::size_t g = 0; g < 2; ++g) {
       require(experiment.magnitude_N[g].size() == experiment.position_m[g].size() &&
-                  experiment.driving_force_N[g].size() == experiment.position_m[g].size(),
+                  experiment.driving_force_N[g].size() ==
+                      (data.measured_forces ? experiment.position_m[g].size() : std::size_t{0}),
               "per-group columns of different lengths");
     }
     samples += static_cast<std::size_t>(set.size());
+    for (const auto& run : experiment.runs) {
+      require(run.position_m.size() > 0 && run.time_s.size() == run.position_m.size() &&
+                  run.currents_A.cols() == run.position_m.size(),
+              "a motion run's columns of different lengths", "coil set " + std::to_string(l + 1));
+      run_rows += static_cast<std::size_t>(run.position_m.size());
+    }
   }
   require(samples + data.unpaired_rows == table.rows(), "rows lost or duplicated");
+  require(run_rows == table.rows(), "rows lost or duplicated in the motion runs");
 }
 
 }  // namespace

@@ -24,12 +24,14 @@ struct Row {
   std::vector<double> currents_A = {};  // ia_A, ib_A when given
 };
 
-std::string csv(const std::vector<Row>& rows, bool currents = false) {
+std::string csv(const std::vector<Row>& rows, bool currents = false, bool forces = true) {
   std::ostringstream out;
   out.precision(17);
-  out << "t_s,coil_set,delta_rad,magnitude_N,y_m,Fy_N,Fx_N,Tz_Nm" << (currents ? ",ia_A,ib_A" : "") << "\n";
+  out << "t_s,coil_set,delta_rad,magnitude_N,y_m" << (forces ? ",Fy_N,Fx_N,Tz_Nm" : "")
+      << (currents ? ",ia_A,ib_A" : "") << "\n";
   for (const Row& r : rows) {
-    out << r.t_s << ",1," << r.delta_rad << "," << r.magnitude_N << "," << r.y_m << "," << r.fy_N << ",0.5,0.25";
+    out << r.t_s << ",1," << r.delta_rad << "," << r.magnitude_N << "," << r.y_m;
+    if (forces) out << "," << r.fy_N << ",0.5,0.25";
     if (currents) out << "," << r.currents_A[0] << "," << r.currents_A[1];
     out << "\n";
   }
@@ -107,5 +109,51 @@ TEST_CASE("an offset without two consecutive cycles is refused naming file and c
     FAIL("not refused");
   } catch (const std::runtime_error& e) {
     CHECK_THAT(e.what(), Catch::StartsWith("data.csv: column 't_s': coil set 1, offset 0.75 rad: no two consecutive"));
+  }
+}
+
+TEST_CASE("without force columns the rows are runs of consecutive cycles, each setpoint at its period's middle",
+          "[experiment_data]") {
+  // Offset −0.75: cycles at 0, 1, 2 ms, a gap, 500 and 501 ms; offset 0.75: 2.0 and 2.001 s.
+  std::vector<Row> rows;
+  for (const double t : {0.0, 1e-3, 2e-3, 0.5, 0.501}) rows.push_back({t, -0.75, 10.0 + t, 0.1 * t, 0.0});
+  for (const double t : {2.0, 2.001}) rows.push_back({t, 0.75, 5.0, 0.01 + t, 0.0});
+  const MotorDescription motor = one_coil_set();
+  const ExperimentData data = read_experiment_data(CsvTable::parse(csv(rows, false, false), "data.csv"), motor);
+  CHECK_FALSE(data.measured_forces);
+  const CoilSetExperiment& experiment = data.coil_sets[0];
+  CHECK(experiment.dataset.wrench.cols() == 0);
+  CHECK(experiment.driving_force_N[0].empty());
+  // Every row in exactly one run, in order: [0, 1, 2], [3, 4], [5, 6].
+  const std::vector<std::vector<std::size_t>> expected_runs = {{0, 1, 2}, {3, 4}, {5, 6}};
+  REQUIRE(experiment.runs.size() == expected_runs.size());
+  for (std::size_t j = 0; j < expected_runs.size(); ++j) {
+    const auto& run = experiment.runs[j];
+    const auto& members = expected_runs[j];
+    REQUIRE(static_cast<std::size_t>(run.position_m.size()) == members.size());
+    for (std::size_t k = 0; k < members.size(); ++k) {
+      const Row& row = rows[members[k]];
+      const auto i = static_cast<Eigen::Index>(k);
+      CHECK(run.time_s[i] == row.t_s);
+      CHECK(run.position_m[i] == row.y_m);
+      // The row's own setpoint over the period after it, at that period's
+      // middle position; the last row of a run at its own.
+      const double at_m = k + 1 < members.size() ? 0.5 * (row.y_m + rows[members[k + 1]].y_m) : row.y_m;
+      const Eigen::Vector2d expected =
+          drive_phase_currents(motor.drive, {row.magnitude_N, row.delta_rad}, at_m, motor.pole_pitch_m);
+      CHECK(run.currents_A(0, i) == Approx(expected[0]).margin(1e-12));
+      CHECK(run.currents_A(1, i) == Approx(expected[1]).margin(1e-12));
+    }
+  }
+}
+
+TEST_CASE("one or two force columns without the others are refused", "[experiment_data]") {
+  const std::string header = "t_s,coil_set,delta_rad,magnitude_N,y_m,Fy_N\n";
+  try {
+    read_experiment_data(CsvTable::parse(header + "0,1,-0.75,1,0,1\n0.001,1,0.75,1,0,1\n", "data.csv"),
+                         one_coil_set());
+    FAIL("not refused");
+  } catch (const std::runtime_error& e) {
+    CHECK_THAT(e.what(), Catch::StartsWith("data.csv:1: missing column 'Fx_N': the force columns"));
   }
 }
