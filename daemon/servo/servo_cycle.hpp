@@ -72,7 +72,7 @@ enum class CommandStatus : std::uint8_t {
   kRejectedNoLaw,     ///< no calibration/model loaded for that mode
   kRejectedBusy,      ///< a program is running
   kRejectedInvalid,   ///< argument out of range
-  kRejectedNoForceSensor,  ///< an experiment, and the axis has no force sensor or has lost it
+  kRejectedNoForceSensor,  ///< an experiment, and the axis has lost its force sensor
 };
 const char* describe(CommandStatus status) noexcept;
 

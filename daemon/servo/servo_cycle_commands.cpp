@@ -29,7 +29,7 @@ const char* describe(CommandStatus status) noexcept {
     case CommandStatus::kRejectedBusy: return "rejected: a program is running";
     case CommandStatus::kRejectedInvalid: return "rejected: argument out of range";
     case CommandStatus::kRejectedNoForceSensor:
-      return "rejected: an experiment needs the force sensor, and this axis has none or has lost it";
+      return "rejected: the force sensor is lost, and an experiment would record no forces";
   }
   return "unknown";
 }
@@ -175,7 +175,9 @@ CommandStatus ServoCycle::request_mode(CommutationMode mode, int coil_set, doubl
         std::abs(delta_rad) > kPi) {
       return CommandStatus::kRejectedInvalid;
     }
-    if (!can::has_force_sensor(settings_.protocol) || force_warning_ != Fault::kNone) {
+    // An axis without a force sensor runs experiments for the identification
+    // from positions; one whose sensor is lost would record forces of nothing.
+    if (can::has_force_sensor(settings_.protocol) && force_warning_ != Fault::kNone) {
       return CommandStatus::kRejectedNoForceSensor;
     }
   } else if (laws_[static_cast<std::size_t>(mode)] == nullptr &&

@@ -260,7 +260,8 @@ TEST_CASE("calibrate and identify on experiments without force columns work from
 
   const std::string calibration = dir.file("calibration.yaml");
   const ProcessResult calibrated =
-      run_writing({"calibrate", "--motor", kMotor, "--data", data, "--output", calibration, "--mass-kg", "15"},
+      run_writing({"calibrate", "--motor", kMotor, "--data", data, "--output", calibration, "--mass-kg", "15",
+                   "--knot-spacing-m", "0.005"},
                   dir.path(), calibration);
   CHECK(calibrated.out.find("spline model from positions") != std::string::npos);
   const CalibrationFile file = load_calibration_file(calibration);
@@ -276,8 +277,11 @@ TEST_CASE("calibrate and identify on experiments without force columns work from
 
   const std::string model_path = dir.file("model.yaml");
   const ProcessResult identified =
-      run_writing({"identify", "--motor", kMotor, "--data", data, "--output", model_path}, dir.path(), model_path);
+      run_writing({"identify", "--motor", kMotor, "--data", data, "--output", model_path, "--no-selection",
+                   "--knot-spacing-m", "0.005"},
+                  dir.path(), model_path);
   CHECK(identified.out.find("scale from the drive's nominal commutation") != std::string::npos);
+  CHECK(identified.out.find("knot spacing") == std::string::npos);  // given, not chosen
   const ModelFile model = load_model_file(model_path);
   CHECK(model.model.kind == ModelKind::kSpline);
   CHECK(model.provenance.rows_from ==

@@ -43,7 +43,7 @@ inline servod::CommandReply command(servod::ServoDaemon& daemon, servo::CommandK
 }
 
 /// Submits SET_EXPERIMENT (coil set 1) and runs a cycle: the cycle must refuse
-/// it because the axis has no force sensor or has lost it.
+/// it because the axis has lost its force sensor.
 inline void require_experiment_refused_for_the_sensor(servod::ServoDaemon& daemon) {
   servo::Command experiment;
   experiment.kind = servo::CommandKind::kSetExperiment;

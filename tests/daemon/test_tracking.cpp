@@ -91,7 +91,7 @@ TEST_CASE("the daemon runs the Fig. 8 program in every commutation mode and trac
 }
 
 TEST_CASE("without a force sensor the axis tracks Fig. 8 with the PGNN law exactly as with one, nothing waits for "
-          "force frames and an experiment is refused",
+          "force frames and an experiment runs without forces",
           "[daemon][tracking][force_sensor]") {
   test::TemporaryDirectory dir("clm-daemon-no-sensor");
   const auto files = test::write_truth_laws(dir, test::source_path("config/motor-sim.yaml"));
@@ -118,6 +118,18 @@ TEST_CASE("without a force sensor the axis tracks Fig. 8 with the PGNN law exact
   // Per cycle the bus carries SYNC, one feedback frame and the setpoints.
   CHECK(counters.frames_received == counters.cycles);
 
-  test::require_experiment_refused_for_the_sensor(bare.daemon);
-  CHECK(bare.daemon.cycle().mode() == CommutationMode::kPgnn);
+  // An experiment (for the identification from positions) runs, and its
+  // records say they measured no force.
+  servo::Command experiment;
+  experiment.kind = servo::CommandKind::kSetExperiment;
+  experiment.coil_set = 2;
+  experiment.delta_rad = 0.5;
+  (void)bare.daemon.take_replies();
+  REQUIRE(bare.daemon.submit(experiment).accepted);
+  bare.daemon.run_cycles(2);
+  const auto replies = bare.daemon.take_replies();
+  REQUIRE(replies.size() == 1);
+  CHECK(replies[0].accepted);
+  CHECK(bare.daemon.cycle().mode() == CommutationMode::kExperiment);
+  CHECK_FALSE(bare.daemon.cycle().record().force_measured);
 }

@@ -4,6 +4,11 @@
 //   ctest --test-dir build -L slow        or   build/tests/commissioning_tests -s
 #include <catch2/catch.hpp>
 
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
 #include "drivers/sim/motor_file.hpp"
 #include "support/temporary_directory.hpp"
 #include "tools/commission/commission.hpp"
@@ -175,4 +180,49 @@ TEST_CASE("commissioning a third motor (four coil sets, 40 mm pole pitch, 25 kg)
   REQUIRE(report.coil_sets == 4);
   check_ratios(report, report.results, 10.0, 4.0);
   check_against_truth(report, "config/motor-sim-4coil.yaml", 0.05);
+}
+
+TEST_CASE("an axis without a force sensor is commissioned from positions alone", "[commission][slow]") {
+  const test::TemporaryDirectory directory("clm-commission-no-sensor");
+  // config/servod.yaml without can.force_sensor_node_id, its motor file by absolute path.
+  std::ifstream in(source("config/servod.yaml"));
+  std::ostringstream config;
+  for (std::string line; std::getline(in, line);) {
+    if (line.find("force_sensor_node_id:") != std::string::npos) continue;
+    if (line.rfind("motor_file:", 0) == 0) line = "motor_file: " + source("config/motor-sim.yaml");
+    config << line << "\n";
+  }
+  const std::string config_path = directory.file("servod-no-sensor.yaml");
+  std::ofstream(config_path) << config.str();
+
+  commission::Options options;
+  options.config_path = config_path;
+  options.out_dir = directory.file("commission");
+  options.program_path = source("config/programs/fig8.yaml");
+  options.experiment_program_path = source("config/programs/identification.yaml");
+  options.validation_program_path = "none";
+  CHECK_THROWS_WITH(commission::run(options), Catch::Contains("--no-force-sensor"));
+  options.no_force_sensor = true;
+  const commission::Report report = commission::run(options);
+
+  std::vector<std::string> names;
+  for (const auto& r : report.results) names.push_back(r.name);
+  CHECK(names == std::vector<std::string>{"original", "classical-position", "spline-position", "oracle"});
+  CHECK(report.recommended == "spline-position");
+  // Nothing measured a force: no force-sensor data, models or error figures.
+  CHECK_FALSE(std::filesystem::exists(options.out_dir + "/experiments.csv"));
+  CHECK_FALSE(std::filesystem::exists(options.out_dir + "/model-pgnn.yaml"));
+  CHECK(std::filesystem::exists(options.out_dir + "/model-spline-position.yaml"));
+  const auto& original = find(report.results, "original");
+  const auto& classical = find(report.results, "classical-position");
+  const auto& position = find(report.results, "spline-position");
+  CHECK(std::isnan(position.mse.filtered[0]));
+  // The simulator's truth: the law commands the force it is asked for, and
+  // tracks far better than the classical laws.
+  REQUIRE(position.truth_known);
+  INFO("true y " << position.true_mse.filtered[0] << " N², tracking " << position.tracking_mse_m2 << " m² against "
+                 << classical.tracking_mse_m2 << " (classical-position), " << original.tracking_mse_m2 << " (original)");
+  CHECK(position.true_mse.filtered[0] <= 0.01);
+  CHECK(classical.tracking_mse_m2 >= 4.0 * position.tracking_mse_m2);
+  CHECK(original.tracking_mse_m2 >= 4.0 * position.tracking_mse_m2);
 }

@@ -19,6 +19,7 @@ void add_calibrate(CLI::App& app) {
     std::string motor, data, output;
     bool robust = false;
     double mass_kg = 0.0;
+    double knot_spacing_m = 0.0;
     data::DataLimits limits;
     lcmlog::GapPolicy gaps;
   };
@@ -32,6 +33,10 @@ void add_calibrate(CLI::App& app) {
   sub->add_option("--mass-kg", options->mass_kg,
                   "data without force columns: the translator's mass, which fixes the force scale (default: the "
                   "drive's nominal commutation does)")
+      ->check(clm::non_negative_number())->capture_default_str();
+  sub->add_option("--knot-spacing-m", options->knot_spacing_m,
+                  "data without force columns: knot spacing of the model from positions (0: chosen by the held-out "
+                  "force balance)")
       ->check(clm::non_negative_number())->capture_default_str();
   lcmlog::add_data_limit_options(*sub, options->limits, "--data");
   lcmlog::add_gap_option(*sub, options->gaps);
@@ -48,6 +53,7 @@ void add_calibrate(CLI::App& app) {
       }
       data::PositionIdentifyOptions position;
       position.mass_kg = options->mass_kg;
+      position.knot_spacing_m = options->knot_spacing_m;
       const auto identified = data::identify_from_position(data, motor, position);
       print_position_identification(identified);
       data::reconstruct_driving_force(data, motor, identified);

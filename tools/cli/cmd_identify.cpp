@@ -110,7 +110,11 @@ void add_identify(CLI::App& app) {
       }
       data::PositionIdentifyOptions position;
       position.mass_kg = options->mass_kg;
-      position.knot_spacing_m = options->identify.select_capacity ? 0.0 : options->identify.spline.knot_spacing_m;
+      // As the force-sensor spline: chosen from the grid, or as given (pole pitch / 8 by default).
+      const double given_m = options->identify.spline.knot_spacing_m;
+      position.knot_spacing_m = options->identify.select_capacity ? 0.0
+                                : given_m > 0.0                    ? given_m
+                                                                   : motor.pole_pitch_m / 8.0;
       position.smoothing = options->identify.spline.smoothing;
       position.validation_fraction = options->identify.validation_fraction;
       identify_from_positions(data, motor, position, options->data, options->output);

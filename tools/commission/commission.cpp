@@ -166,6 +166,12 @@ CommutationResult evaluate(const Recording& run, double period_s) {
   }
   const double n = static_cast<double>(run.samples.size());
   result.mse = control::commutation_error_mse(measured, desired, period_s);
+  // An axis without a force sensor measured nothing to compare with.
+  const bool forces = std::any_of(run.samples.begin(), run.samples.end(), [](const auto& s) { return s.force_measured; });
+  if (!forces) {
+    constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+    result.mse.filtered = result.mse.unfiltered = {kNone, kNone, kNone};
+  }
   if (!run.samples.empty() && run.true_wrench.size() == run.samples.size()) {
     result.true_mse = control::commutation_error_mse(run.true_wrench, desired, period_s);
     result.truth_known = true;
@@ -212,12 +218,12 @@ void recommend(Report& report) {
 
 Report run(const Options& options, const std::function<void(const Progress&)>& progress) {
   const servod::ServodConfig config = servod::load_servod_config(options.config_path);
-  // Calibration and identification measure forces (docs/bring-up.md: commissioning with a borrowed sensor).
-  if (!can::has_force_sensor(config.servo.protocol)) {
+  // Calibration and identification measure forces (docs/bring-up.md:
+  // commissioning with a borrowed sensor), or positions alone when asked.
+  if (!can::has_force_sensor(config.servo.protocol) && !options.no_force_sensor) {
     throw std::runtime_error(options.config_path + ": can.force_sensor_node_id: absent, so the axis has no force "
-                             "sensor; clm commission measures forces (with --no-force-sensor too, for the comparison "
-                             "it reports): mount one and name its node, or run clm calibrate and clm identify on "
-                             "experiment data without force columns");
+                             "sensor; commissioning measures forces: mount one and name its node, or commission from "
+                             "positions alone with --no-force-sensor");
   }
   if (options.live) {
     LiveOptions live = options.live_options;
@@ -252,6 +258,12 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   const servod::ServodConfig config = servod::load_servod_config(options.config_path);
   const MotorDescription motor = config.motor;
   report.coil_sets = motor.coil_sets;
+  // Without a force sensor only the laws from positions are commissioned.
+  const bool sensor = can::has_force_sensor(config.servo.protocol);
+  if (!sensor && !options.no_force_sensor) {
+    throw std::runtime_error(options.config_path + ": can.force_sensor_node_id: absent; commission from positions "
+                             "alone with --no-force-sensor");
+  }
   // The reference must fit this motor's soft limits; a program made for a
   // longer stroke is scaled about the stroke centre (and the report says so).
   // A running daemon reads the program file itself, so live it must fit as it is.
@@ -315,55 +327,61 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   }
   runner.close_log();
   tell("experiments", 1.0, "done");
-  const std::string experiment_csv = written("experiments.csv");
-  write_experiment_csv(experiment_csv, experiments, motor.drive_profile, true);
   report.steps.push_back({"experiments", seconds_since(step_start)});
 
   // 2. Calibration and identification, through the same code as the offline tools.
-  step_start = Clock::now();
-  const data::ExperimentData data = data::read_experiment_data(data::CsvTable::load(experiment_csv), motor);
-  const std::string data_hash = sha256_file(experiment_csv);
-  report.calibration_paper = data::calibrate_motor(data, motor, data::CalibrationMethod::kAlgorithm1);
-  report.calibration_robust = data::calibrate_motor(data, motor, data::CalibrationMethod::kOffsetRobust);
-  for (CalibrationFile* file : {&report.calibration_paper, &report.calibration_robust}) {
-    file->data_sha256 = data_hash;
-    file->generator = "clm commission";
-  }
-  write_file_atomically(written("calibration.yaml"), format_calibration_file(report.calibration_paper));
-  write_file_atomically(written("calibration-robust.yaml"), format_calibration_file(report.calibration_robust));
-  report.steps.push_back({"calibration", seconds_since(step_start)});
-
   ModelFile models[2];
-  for (int k = 0; k < 2; ++k) {
+  bool paper_is_chosen = true;
+  if (sensor) {
+    const std::string experiment_csv = written("experiments.csv");
+    write_experiment_csv(experiment_csv, experiments, motor.drive_profile, true);
     step_start = Clock::now();
-    data::IdentifyOptions identify = options.identify;
-    identify.kind = k == 0 ? ModelKind::kPgnn : ModelKind::kSpline;
-    const std::string label = k == 0 ? "identify pgnn" : "identify spline";
-    auto& reports = k == 0 ? report.pgnn : report.spline;
-    auto& selection = k == 0 ? report.pgnn_selection : report.spline_selection;
-    models[k] = data::identify_motor(data, motor, identify, reports, [&](const data::IdentifyProgress& p) {
-      tell(label, p.fraction(), p.what + ", coil set " + std::to_string(p.coil_set));
-    }, &selection);
-    for (auto& trial : selection.trials) {
-      trial.model.provenance.data_sha256 = data_hash;
-      trial.model.provenance.generator = "clm commission";
+    const data::ExperimentData data = data::read_experiment_data(data::CsvTable::load(experiment_csv), motor);
+    const std::string data_hash = sha256_file(experiment_csv);
+    report.calibration_paper = data::calibrate_motor(data, motor, data::CalibrationMethod::kAlgorithm1);
+    report.calibration_robust = data::calibrate_motor(data, motor, data::CalibrationMethod::kOffsetRobust);
+    for (CalibrationFile* file : {&report.calibration_paper, &report.calibration_robust}) {
+      file->data_sha256 = data_hash;
+      file->generator = "clm commission";
     }
-    models[k].provenance.data_sha256 = data_hash;
-    models[k].provenance.generator = "clm commission";
-    write_file_atomically(written(k == 0 ? "model-pgnn.yaml" : "model-spline.yaml"), format_model_file(models[k]));
-    report.steps.push_back({label, seconds_since(step_start)});
+    write_file_atomically(written("calibration.yaml"), format_calibration_file(report.calibration_paper));
+    write_file_atomically(written("calibration-robust.yaml"), format_calibration_file(report.calibration_robust));
+    report.steps.push_back({"calibration", seconds_since(step_start)});
+
+    for (int k = 0; k < 2; ++k) {
+      step_start = Clock::now();
+      data::IdentifyOptions identify = options.identify;
+      identify.kind = k == 0 ? ModelKind::kPgnn : ModelKind::kSpline;
+      const std::string label = k == 0 ? "identify pgnn" : "identify spline";
+      auto& reports = k == 0 ? report.pgnn : report.spline;
+      auto& selection = k == 0 ? report.pgnn_selection : report.spline_selection;
+      models[k] = data::identify_motor(data, motor, identify, reports, [&](const data::IdentifyProgress& p) {
+        tell(label, p.fraction(), p.what + ", coil set " + std::to_string(p.coil_set));
+      }, &selection);
+      for (auto& trial : selection.trials) {
+        trial.model.provenance.data_sha256 = data_hash;
+        trial.model.provenance.generator = "clm commission";
+      }
+      models[k].provenance.data_sha256 = data_hash;
+      models[k].provenance.generator = "clm commission";
+      write_file_atomically(written(k == 0 ? "model-pgnn.yaml" : "model-spline.yaml"), format_model_file(models[k]));
+      report.steps.push_back({label, seconds_since(step_start)});
+    }
+    // The paper's PGNN (2/16 neurons) is always evaluated, for Table 2.
+    const data::CapacityTrial* paper_pgnn = nullptr;
+    for (const auto& trial : report.pgnn_selection.trials) {
+      if (trial.is_paper_pgnn()) paper_pgnn = &trial;
+    }
+    paper_is_chosen =
+        paper_pgnn == nullptr || paper_pgnn == &report.pgnn_selection.trials[report.pgnn_selection.chosen];
+    if (paper_pgnn != nullptr) {
+      write_file_atomically(written("model-pgnn-paper.yaml"), format_model_file(paper_pgnn->model));
+    }
+    recommend(report);
+  } else {
+    report.recommended = "spline-position";
+    report.recommendation = "the axis has no force sensor: the spline model from positions is the one model";
   }
-  // The paper's PGNN (2/16 neurons) is always evaluated, for Table 2.
-  const data::CapacityTrial* paper_pgnn = nullptr;
-  for (const auto& trial : report.pgnn_selection.trials) {
-    if (trial.is_paper_pgnn()) paper_pgnn = &trial;
-  }
-  const bool paper_is_chosen = paper_pgnn == nullptr ||
-                               paper_pgnn == &report.pgnn_selection.trials[report.pgnn_selection.chosen];
-  if (paper_pgnn != nullptr) {
-    write_file_atomically(written("model-pgnn-paper.yaml"), format_model_file(paper_pgnn->model));
-  }
-  recommend(report);
   // 2b. Without a force sensor: the same experiments' positions alone.
   if (options.no_force_sensor) {
     step_start = Clock::now();
@@ -392,14 +410,17 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     write_file_atomically(written("calibration-position.yaml"), format_calibration_file(report.calibration_position));
     report.steps.push_back({"calibration from positions", seconds_since(step_start)});
   }
-  if (const sim::SimulatedMotor* simulated = runner.simulated_motor()) {
+  const sim::SimulatedMotor* simulated = runner.simulated_motor();
+  if (simulated != nullptr && sensor) {
     write_truth_comparison(dir, *simulated, models[0], models[1], motor);
     report.files.push_back("truth-comparison.csv");
   }
 
   // 3. Load the results into the daemon.
-  runner.load_calibration(dir + "/calibration.yaml");
-  runner.load_model(servo::CommutationMode::kSpline, dir + "/model-spline.yaml");
+  if (sensor) {
+    runner.load_calibration(dir + "/calibration.yaml");
+    runner.load_model(servo::CommutationMode::kSpline, dir + "/model-spline.yaml");
+  }
   // The feedforward runs' zero feedforward, as a file a running daemon can load.
   servod::FeedforwardFile no_feedforward;
   no_feedforward.generator = "clm commission";
@@ -415,12 +436,15 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     std::string model;        // loaded into the mode's slot first, when not empty
     std::string calibration;  // loaded into the classical law first, when not empty
   };
-  std::vector<Commutation> commutations = {
-      {"original", servo::CommutationMode::kOriginal, "", ""},
-      {"classical", servo::CommutationMode::kClassical, "", ""},
-      {"pgnn-paper", servo::CommutationMode::kPgnn, paper_is_chosen ? "" : dir + "/model-pgnn-paper.yaml", ""},
-      {"pgnn", servo::CommutationMode::kPgnn, dir + "/model-pgnn.yaml", ""},
-      {"spline", servo::CommutationMode::kSpline, "", ""}};
+  std::vector<Commutation> commutations = {{"original", servo::CommutationMode::kOriginal, "", ""}};
+  if (sensor) {
+    commutations.insert(
+        commutations.end(),
+        {{"classical", servo::CommutationMode::kClassical, "", ""},
+         {"pgnn-paper", servo::CommutationMode::kPgnn, paper_is_chosen ? "" : dir + "/model-pgnn-paper.yaml", ""},
+         {"pgnn", servo::CommutationMode::kPgnn, dir + "/model-pgnn.yaml", ""},
+         {"spline", servo::CommutationMode::kSpline, "", ""}});
+  }
   if (report.from_position) {
     commutations.push_back({"classical-position", servo::CommutationMode::kClassical, "",
                             dir + "/calibration-position.yaml"});

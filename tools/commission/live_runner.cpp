@@ -80,10 +80,17 @@ void LcmRunner::enable() {
   // The first command of commissioning: take control for all of it.
   client_.take_control(options_.ack_timeout_s, "ENABLE");
   took_control_ = true;
-  // Commissioning measures forces: a daemon without a working sensor is
-  // refused before the axis is enabled (control, taken above from a status of
-  // the axis, is given back by the destructor).
-  if (const auto status = client_.latest_status()) {
+  // A configuration with a force sensor measures forces: a daemon without a
+  // working sensor is refused before the axis is enabled (control, taken
+  // above from a status of the axis, is given back by the destructor). One
+  // without (commissioning from positions) runs on the encoder alone.
+  const auto status = client_.latest_status();
+  if (status && !can::has_force_sensor(config_.servo.protocol)) {
+    if (status->force_sensor != servo_status_t::FORCE_SENSOR_NONE) {
+      throw RunTimeFailure("clm-servod's axis '" + status->axis + "' has a force sensor, which this configuration "
+                           "does not name (can.force_sensor_node_id): the daemon runs another configuration");
+    }
+  } else if (status) {
     if (status->force_sensor == servo_status_t::FORCE_SENSOR_NONE) {
       throw RunTimeFailure("clm-servod's axis '" + status->axis + "' has no force sensor (can.force_sensor_node_id "
                                "absent in its configuration); commissioning measures forces");
@@ -231,7 +238,7 @@ Recording LcmRunner::attempt(const servod::ProgramFile& program, const std::stri
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error("run '" + name + "': CLM_SERVO_STATE of cycle " + std::to_string(s.cycle) + ": " + e.what());
     }
-    if (!s.force_measured) ++gaps.force_unmeasured;
+    if (!s.force_measured && can::has_force_sensor(config_.servo.protocol)) ++gaps.force_unmeasured;
     if (s.damping_engaged) ++recording.damping_cycles;
     if (s.force_limited) ++recording.force_limited_cycles;
   }
