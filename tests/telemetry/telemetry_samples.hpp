@@ -27,6 +27,7 @@ inline servo::CycleRecord make_state(std::int64_t cycle, int coil_sets = 3) {
   s.Fy_star_N = 6.5 + k;
   s.Fx_star_N = -7.5 - k;
   s.Tz_star_Nm = 0.125 + k;
+  s.force_measured = true;  // its Fy_N, Fx_N, Tz_Nm are a sensor frame
   s.Fy_N = 6.25 + k;
   s.Fx_N = -7.25 - k;
   s.Tz_Nm = 0.375 + k;

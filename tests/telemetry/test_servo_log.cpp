@@ -131,6 +131,23 @@ TEST_CASE("log2csv --format experiment writes the experiment-mode states in the 
   }
 }
 
+TEST_CASE("experiment columns carry forces only when every experiment state measured one", "[lcmlog]") {
+  std::vector<clm::servo::CycleRecord> states;
+  for (int i = 0; i < 6; ++i) {
+    auto state = clm::test::make_state(i);
+    state.force_measured = false;  // an axis without a force sensor: the record carries zeros
+    state.Fy_N = state.Fx_N = state.Tz_Nm = 0.0;
+    states.push_back(state);
+  }
+  const auto columns = clm::lcmlog::experiment_columns(states);
+  CHECK(columns.names == std::vector<std::string>{"t_s", "coil_set", "delta_rad", "magnitude_N", "y_m", "ia_A", "ib_A"});
+  CHECK(columns.rows() == states.size());
+  // Some measured and some not: the force columns would hold zeros for forces.
+  states[2].force_measured = true;
+  CHECK_THROWS_WITH(clm::lcmlog::experiment_columns(states),
+                    Catch::StartsWith("5 of 6 states in experiment mode carry no force measurement"));
+}
+
 TEST_CASE("log2csv --format feedforward writes t_s, r_m, F_star_N of every state", "[lcmlog]") {
   const clm::test::TemporaryDirectory directory("clm_lcmlog_feedforward");
   const std::string log = directory.file("run.lcm");

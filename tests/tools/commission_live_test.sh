@@ -8,6 +8,12 @@
 #       --save; checks the report, the logs, the daemon's clean exit, and that
 #       a daemon restarted on the saved configuration commutates with the
 #       commissioned PGNN and feedforward. About 2.5 min.
+#   commission_live_test.sh no-sensor CLM_SERVOD CLM SOURCE_DIR WORK_DIR
+#       the same daemon configured without a force sensor, commissioned from
+#       positions alone (--no-force-sensor --save): experiments run on the
+#       encoder, only the laws from positions are evaluated, and a daemon
+#       restarted on the saved configuration runs the spline law from
+#       positions. About 1.5 min.
 #   commission_live_test.sh no-daemon CLM_SERVOD CLM SOURCE_DIR WORK_DIR
 #       nobody answers: one stderr line naming the command, a non-zero exit
 #       within the ack timeout, nothing written.
@@ -56,7 +62,7 @@ if [ "$mode" = no-daemon ]; then
   exit 0
 fi
 
-[ "$mode" = run ] || fail "unknown mode $mode"
+[ "$mode" = run ] || [ "$mode" = no-sensor ] || fail "unknown mode $mode"
 url="udpm://239.255.76.67:$((9920 + $$ % 30))?ttl=0"
 
 # config/servod.yaml as it is (SCHED_FIFO 80 and mlockall where allowed, else
@@ -73,6 +79,11 @@ missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" "moto
           "  clock: realtime" "  lcm_url: \"$url\"" "  overrun_limit: 1000" &&
           config_require "$work/servod.yaml" "  rate_hz: 1000" "  state_decimation: 1") ||
     fail "config: no line '$missing' after editing"
+
+if [ "$mode" = no-sensor ]; then
+  sed -i '/^  force_sensor_node_id:/d' "$work/servod.yaml"
+  ! grep -q "force_sensor_node_id" "$work/servod.yaml" || fail "config: force_sensor_node_id still there"
+fi
 
 # The Fig. 8 stroke once out and back (4.6 s a run instead of Fig. 8's 26 s),
 # for the experiments and the evaluation, so the 14-16 runs fit in about two
@@ -92,8 +103,10 @@ start=$(date +%s.%N)
 commission() {
   rm -rf "$out"
   cp "$work/servod.yaml" "$work/servod.before.yaml"
+  local sensorless=()
+  [ "$mode" = run ] || sensorless=(--no-force-sensor)
   "$clm" commission --live --save --lcm-url "$url" --config "$work/servod.yaml" --program "$work/program.yaml" \
-      --experiment-program "$work/program.yaml" \
+      --experiment-program "$work/program.yaml" "${sensorless[@]}" \
       --validation-program none --out "$out" --no-plots > "$work/commission.out" 2> "$work/commission.err"
 }
 # On the real-time clock a loop stall of the shared host can latch a fault in
@@ -126,6 +139,55 @@ stop_process $pid 20 || rc=$?
 trap - EXIT
 [ $rc = 0 ] || fail "clm-servod exit status $rc after SIGTERM"
 if grep -q "error" "$work/servod.log"; then fail "an error line in clm-servod's stderr"; fi
+
+if [ "$mode" = no-sensor ]; then
+  # The report: the laws from positions alone, no force anywhere, no state missing.
+  python3 - "$out/report.json" <<'CHECK' || fail "report.json: see above"
+import json, sys
+report = json.load(open(sys.argv[1]))
+c = report["commutations"]
+assert sorted(c) == ["classical-position", "oracle", "original", "spline-position"], sorted(c)
+for name in ("original", "classical-position", "spline-position"):
+    assert c[name]["evaluated"], f"{name} not evaluated"
+    assert c[name]["commutation_mse"]["filtered"] == [None, None, None], c[name]["commutation_mse"]
+assert report["recommended"]["law"] == "spline-position", report["recommended"]
+position = report["from_position"]
+assert position["mass_source"] == "control.mass_kg of the configuration" and position["mass_kg"] == 15, position
+tracking = c["original"]["tracking_mse_m2"] / c["spline-position"]["tracking_mse_m2"]
+print(f"live, no force sensor: original/spline-position tracking MSE {tracking:.1f}x; {position['summary']}")
+assert tracking >= 2.0, f"spline-position tracks only {tracking:.2f}x better than the drive's own law"
+live = report["live"]
+assert live["runs"] == 6 + 2 * 3, live  # experiments, then original, classical-position, spline-position
+assert live["states_missing"] == 0, live
+CHECK
+  for file in experiments.csv model-pgnn.yaml calibration.yaml model-spline.yaml; do
+    [ ! -e "$out/$file" ] || fail "$file written without a force sensor"
+  done
+  "$clm" log2csv --log "$out/logs/experiments.lcm" --format experiment --output "$work/experiments-from-log.csv" ||
+      fail "log2csv of logs/experiments.lcm"
+  [ "$(head -n 1 "$work/experiments-from-log.csv")" = "t_s,coil_set,delta_rad,magnitude_N,y_m,ia_A,ib_A" ] ||
+      fail "log2csv of a sensorless log: header $(head -n 1 "$work/experiments-from-log.csv")"
+  outdir=$(cd "$out" && pwd -P)
+  for line in "  calibration_file: \"$outdir/calibration-position.yaml\"" \
+              "  spline_model_file: \"$outdir/model-spline-position.yaml\"" \
+              "  feedforward_file: \"$outdir/feedforward-spline-position.yaml\"" "  mode: spline"; do
+    grep -qxF -- "$line" <(sed 's/ *#.*//' "$work/servod.yaml") || fail "--save: no line '$line' in servod.yaml"
+  done
+  start_daemon "$work/servod.yaml" "$work/servod-saved.log"
+  pid=$servod_pid
+  trap 'kill -KILL $pid 2>/dev/null || true' EXIT
+  rc=0
+  wait_for_status $pid 5 || rc=$?
+  [ $rc = 0 ] || fail "no status from a daemon on the saved configuration (wait_for_status: $rc)"
+  status=$(ctl status) || fail "no status on the saved configuration"
+  [ "$(field commutation "$status")" = spline ] || fail "saved configuration: commutation $(field commutation "$status")"
+  rc=0
+  stop_process $pid 20 || rc=$?
+  trap - EXIT
+  [ $rc = 0 ] || fail "clm-servod on the saved configuration: exit status $rc after SIGTERM"
+  echo "clm commission --live --no-force-sensor --save: $elapsed s wall time; restarted on the saved spline law"
+  exit 0
+fi
 
 # The report: PGNN against the calibrated classical law, no state missing.
 [ -f "$out/report.json" ] || fail "no report.json"

@@ -154,31 +154,38 @@ void calibration_json(std::ostringstream& out, const CalibrationFile& file) {
 std::string position_summary(const Report& report) {
   if (!report.from_position) return "";
   const auto* position = find(report, "spline-position");
-  const auto* classical_position = find(report, "classical-position");
-  const auto* classical = find(report, "classical");
-  const auto* recommended = find(report, report.recommended);
-  if (!position || !classical_position || !classical || !recommended) return "";
-  const auto wall = [&](const char* step) {
-    for (const auto& entry : report.steps) {
-      if (entry.step == step) return entry.wall_s;
+  if (!position) return "";
+  const auto ratio = [](double value) { return fixed(value, "%.2f") + "x"; };
+  std::string text = "from positions (mass " + fixed(report.position.mass_kg, "%.4g") + " kg from " +
+                     report.position_mass_source + "):";
+  // Beside the force-sensor laws of the same run, when there are any.
+  const auto* recommended = report.recommended == "spline-position" ? nullptr : find(report, report.recommended);
+  if (recommended) {
+    text += " spline-position tracking MSE " + ratio(position->tracking_mse_m2 / recommended->tracking_mse_m2) +
+            " the force-sensor " + report.recommended + "'s;";
+    if (position->truth_known && recommended->truth_known) {
+      text += " true y MSE " + ratio(position->true_mse.filtered[0] / recommended->true_mse.filtered[0]) +
+              " the force-sensor " + report.recommended + "'s;";
     }
-    return std::nan("");
-  };
-  char text[640];
-  std::snprintf(text, sizeof(text),
-                "from positions (mass %.4g kg from %s): spline-position tracking MSE %.2fx the force-sensor %s's; "
-                "classical / spline-position %.2fx (classical-position / spline-position %.2fx)%s; identification "
-                "wall time %.2fx the force-sensor spline's",
-                report.position.mass_kg, report.position_mass_source.c_str(),
-                position->tracking_mse_m2 / recommended->tracking_mse_m2, report.recommended.c_str(),
-                classical->tracking_mse_m2 / position->tracking_mse_m2,
-                classical_position->tracking_mse_m2 / position->tracking_mse_m2,
-                position->truth_known && recommended->truth_known
-                    ? ("; true y MSE " + fixed(position->true_mse.filtered[0] / recommended->true_mse.filtered[0], "%.2f") +
-                       "x the force-sensor " + report.recommended + "'s")
-                          .c_str()
-                    : "",
-                wall("identify from positions") / wall("identify spline"));
+  }
+  if (const auto* classical = find(report, "classical")) {
+    text += " classical / spline-position tracking " + ratio(classical->tracking_mse_m2 / position->tracking_mse_m2) + ";";
+  }
+  for (const char* other : {"classical-position", "original"}) {
+    if (const auto* law = find(report, other)) {
+      text += std::string(" ") + other + " / spline-position tracking " +
+              ratio(law->tracking_mse_m2 / position->tracking_mse_m2) + ";";
+    }
+  }
+  double from_position_s = 0.0, from_force_s = 0.0;
+  for (const auto& entry : report.steps) {
+    if (entry.step == "identify from positions") from_position_s = entry.wall_s;
+    if (entry.step == "identify spline") from_force_s = entry.wall_s;
+  }
+  if (from_force_s > 0.0) {
+    text += " identification wall time " + ratio(from_position_s / from_force_s) + " the force-sensor spline's;";
+  }
+  text.pop_back();
   return text;
 }
 

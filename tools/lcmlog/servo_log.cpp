@@ -338,6 +338,21 @@ class ColumnBuilder {
 }  // namespace
 
 CsvColumns experiment_columns(std::span<const servo::CycleRecord> states) {
+  // The force columns when every experiment state measured a force; none
+  // from an axis without a force sensor (docs/data-formats.md).
+  std::size_t experiment_states = 0, measured = 0;
+  for (const auto& s : states) {
+    if (s.commutation != servo::CommutationMode::kExperiment || s.coil_set < 1) continue;
+    ++experiment_states;
+    if (s.force_measured) ++measured;
+  }
+  if (measured != 0 && measured != experiment_states) {
+    throw std::invalid_argument(std::to_string(experiment_states - measured) + " of " +
+                                std::to_string(experiment_states) +
+                                " states in experiment mode carry no force measurement (force_measured false): the "
+                                "force columns would hold zeros there");
+  }
+  const bool forces = measured != 0;
   ColumnBuilder out;
   for (std::size_t k = 0; k < states.size(); ++k) {
     const auto& s = states[k];
@@ -349,9 +364,11 @@ CsvColumns experiment_columns(std::span<const servo::CycleRecord> states) {
     out.add("delta_rad", s.delta_rad);
     out.add("magnitude_N", s.magnitude_N.at(l));
     out.add("y_m", s.y_m);
-    out.add("Fy_N", s.Fy_N);
-    out.add("Fx_N", s.Fx_N);
-    out.add("Tz_Nm", s.Tz_Nm);
+    if (forces) {
+      out.add("Fy_N", s.Fy_N);
+      out.add("Fx_N", s.Fx_N);
+      out.add("Tz_Nm", s.Tz_Nm);
+    }
     out.add("ia_A", s.ia_A.at(l));
     out.add("ib_A", s.ib_A.at(l));
     out.end_row();

@@ -118,8 +118,10 @@ CsvFormat parse_csv_format(std::string_view name);
 /// Experiment data for `clm calibrate` / `clm identify`: one row per state in
 /// experiment mode (commutation 5) with a coil set; magnitude_N, ia_A, ib_A
 /// are those of the driven coil set, delta_rad the experiment's offset. ia_A,
-/// ib_A are the commanded currents. Throws std::invalid_argument when no
-/// state is in experiment mode.
+/// ib_A are the commanded currents. Fy_N, Fx_N, Tz_Nm when every such state
+/// measured a force, none when no state did (an axis without a force
+/// sensor). Throws std::invalid_argument when no state is in experiment mode
+/// or only some measured a force.
 CsvColumns experiment_columns(std::span<const servo::CycleRecord> states);
 
 /// Feedforward identification data for `clm ff-identify`: every state.
