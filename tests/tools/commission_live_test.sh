@@ -30,6 +30,30 @@ fail() {
   exit 1
 }
 
+# --save: the configuration holds each LINE (comments aside), and a daemon
+# started on it comes up with commutation MODE; its status is left in
+# saved_status, and it exits cleanly on SIGTERM.
+check_saved() {
+  local mode=$1 line rc
+  shift
+  for line in "$@"; do
+    grep -qxF -- "$line" <(sed 's/ *#.*//' "$work/servod.yaml") || fail "--save: no line '$line' in servod.yaml"
+  done
+  start_daemon "$work/servod.yaml" "$work/servod-saved.log"
+  pid=$servod_pid
+  trap 'kill -KILL $pid 2>/dev/null || true' EXIT
+  rc=0
+  wait_for_status $pid 5 || rc=$?
+  [ $rc = 0 ] || fail "no status from a daemon on the saved configuration (wait_for_status: $rc)"
+  saved_status=$(ctl status) || fail "no status on the saved configuration"
+  [ "$(field commutation "$saved_status")" = "$mode" ] ||
+      fail "saved configuration: commutation $(field commutation "$saved_status")"
+  rc=0
+  stop_process $pid 20 || rc=$?
+  trap - EXIT
+  [ $rc = 0 ] || fail "clm-servod on the saved configuration: exit status $rc after SIGTERM"
+}
+
 rm -rf "$work"
 mkdir -p "$work"
 
@@ -167,24 +191,11 @@ CHECK
       fail "log2csv of logs/experiments.lcm"
   [ "$(head -n 1 "$work/experiments-from-log.csv")" = "t_s,coil_set,delta_rad,magnitude_N,y_m,ia_A,ib_A" ] ||
       fail "log2csv of a sensorless log: header $(head -n 1 "$work/experiments-from-log.csv")"
+  cmp -s "$work/servod.yaml.bak" "$work/servod.before.yaml" || fail "--save: servod.yaml.bak is not the previous file"
   outdir=$(cd "$out" && pwd -P)
-  for line in "  calibration_file: \"$outdir/calibration-position.yaml\"" \
-              "  spline_model_file: \"$outdir/model-spline-position.yaml\"" \
-              "  feedforward_file: \"$outdir/feedforward-spline-position.yaml\"" "  mode: spline"; do
-    grep -qxF -- "$line" <(sed 's/ *#.*//' "$work/servod.yaml") || fail "--save: no line '$line' in servod.yaml"
-  done
-  start_daemon "$work/servod.yaml" "$work/servod-saved.log"
-  pid=$servod_pid
-  trap 'kill -KILL $pid 2>/dev/null || true' EXIT
-  rc=0
-  wait_for_status $pid 5 || rc=$?
-  [ $rc = 0 ] || fail "no status from a daemon on the saved configuration (wait_for_status: $rc)"
-  status=$(ctl status) || fail "no status on the saved configuration"
-  [ "$(field commutation "$status")" = spline ] || fail "saved configuration: commutation $(field commutation "$status")"
-  rc=0
-  stop_process $pid 20 || rc=$?
-  trap - EXIT
-  [ $rc = 0 ] || fail "clm-servod on the saved configuration: exit status $rc after SIGTERM"
+  check_saved spline "  calibration_file: \"$outdir/calibration-position.yaml\"" \
+      "  spline_model_file: \"$outdir/model-spline-position.yaml\"" \
+      "  feedforward_file: \"$outdir/feedforward-spline-position.yaml\"" "  mode: spline"
   echo "clm commission --live --no-force-sensor --save: $elapsed s wall time; restarted on the saved spline law"
   exit 0
 fi
@@ -195,7 +206,7 @@ python3 - "$out/report.json" <<'CHECK' || fail "report.json: see above"
 import json, sys
 report = json.load(open(sys.argv[1]))
 c = report["commutations"]
-for name in ("original", "classical", "pgnn", "spline"):
+for name in ("original", "classical", "pgnn", "spline", "spline-position"):
     assert c[name]["evaluated"], f"{name} not evaluated"
 assert not c["oracle"]["evaluated"] and "simulation" in c["oracle"]["reason"], c["oracle"]
 classical, pgnn = c["classical"]["commutation_mse"]["filtered"][0], c["pgnn"]["commutation_mse"]["filtered"][0]
@@ -206,13 +217,14 @@ print(f"live: classical/pgnn driving-direction commutation MSE {ratio:.1f}x "
 assert ratio >= 5.0, f"classical/pgnn y-MSE only {ratio:.2f}x"
 live = report["live"]
 # 6 experiments, then (feedforward data, evaluation) for original, classical,
-# pgnn and spline, and for the paper's PGNN when it is not the one chosen.
+# pgnn, spline and spline-position, and for the paper's PGNN when it is not
+# the one chosen.
 chosen = [t for t in report["selection"]["pgnn"]["trials"] if t["chosen"]][0]["capacity"]
-evaluated = 4 if chosen == "pgnn 2/16 Lambda 0.1" else 5
+evaluated = 5 if chosen == "pgnn 2/16 Lambda 0.1" else 6
 assert live["runs"] == 6 + 2 * evaluated, (chosen, live)
 assert live["states_missing"] == 0, live
-assert live["states_recorded"] > 14 * 4000, live
-assert report["total_wall_time_s"] > 14 * 4.5, "faster than the runs' real time: not live?"
+assert live["states_recorded"] > 16 * 4000, live
+assert report["total_wall_time_s"] > 16 * 4.5, "faster than the runs' real time: not live?"
 CHECK
 
 # The logs, read back independently: every cycle of each run, none missing.
@@ -247,27 +259,16 @@ CHECK
 # backup, and a daemon started on it commutates with them.
 cmp -s "$work/servod.yaml.bak" "$work/servod.before.yaml" || fail "--save: servod.yaml.bak is not the previous file"
 outdir=$(cd "$out" && pwd -P)
-# The law saved is the one the report recommends (pgnn, spline or classical).
+# The law saved is the one the report recommends (pgnn, spline, spline-position or classical).
 law=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["recommended"]["law"])' "$out/report.json") ||
     fail "report.json: no recommended law"
-for line in "  pgnn_model_file: \"$outdir/model-pgnn.yaml\"" "  calibration_file: \"$outdir/calibration.yaml\"" \
-            "  feedforward_file: \"$outdir/feedforward-$law.yaml\"" "  mode: $law"; do
-  grep -qxF -- "$line" <(sed 's/ *#.*//' "$work/servod.yaml") || fail "--save: no line '$line' in servod.yaml"
-done
-start_daemon "$work/servod.yaml" "$work/servod-saved.log"
-pid=$servod_pid
-trap 'kill -KILL $pid 2>/dev/null || true' EXIT
-rc=0
-wait_for_status $pid 5 || rc=$?
-[ $rc = 0 ] || fail "no status from a daemon on the saved configuration (wait_for_status: $rc)"
-status=$(ctl status) || fail "no status on the saved configuration"
-[ "$(field commutation "$status")" = "$law" ] || fail "saved configuration: commutation $(field commutation "$status")"
-[ "$(field pgnn_model_file "$status" | cut -d' ' -f1)" = "$outdir/model-pgnn.yaml" ] ||
-    fail "saved configuration: pgnn_model_file $(field pgnn_model_file "$status")"
-[ "$(field feedforward_file "$status" | cut -d' ' -f1)" = "$outdir/feedforward-$law.yaml" ] ||
-    fail "saved configuration: feedforward_file $(field feedforward_file "$status")"
-rc=0
-stop_process $pid 20 || rc=$?
-trap - EXIT
-[ $rc = 0 ] || fail "clm-servod on the saved configuration: exit status $rc after SIGTERM"
+# The spline from positions runs in the spline law's slot.
+mode=$law spline=model-spline.yaml
+[ "$law" != spline-position ] || { mode=spline; spline=model-spline-position.yaml; }
+check_saved "$mode" "  pgnn_model_file: \"$outdir/model-pgnn.yaml\"" "  calibration_file: \"$outdir/calibration.yaml\"" \
+    "  spline_model_file: \"$outdir/$spline\"" "  feedforward_file: \"$outdir/feedforward-$law.yaml\"" "  mode: $mode"
+[ "$(field pgnn_model_file "$saved_status" | cut -d' ' -f1)" = "$outdir/model-pgnn.yaml" ] ||
+    fail "saved configuration: pgnn_model_file $(field pgnn_model_file "$saved_status")"
+[ "$(field feedforward_file "$saved_status" | cut -d' ' -f1)" = "$outdir/feedforward-$law.yaml" ] ||
+    fail "saved configuration: feedforward_file $(field feedforward_file "$saved_status")"
 echo "clm commission --live --save: $elapsed s wall time; daemon exit 0 after SIGTERM; restarted on the saved configuration with the commissioned PGNN"

@@ -65,21 +65,21 @@ std::string cell(double value) {
 /// --save: the commissioned laws and the recommended law's feedforward into
 /// the daemon's configuration, as absolute paths, with the recommended law as
 /// the mode (the daemon reads them at its next start; with --live it has them
-/// loaded already). Without a force sensor the laws are those from positions.
+/// loaded already). The force sensor's calibration and PGNN when there are
+/// any, else the calibration from positions; the spline model of the law.
 void save_result(const std::string& config_path, const std::string& out_dir, const std::string& law) {
   const std::string dir = std::filesystem::canonical(out_dir).string();
+  const auto file = [&](const char* name) { return yaml::quoted(dir + "/" + name); };
+  const bool forces = std::filesystem::exists(dir + "/calibration.yaml");
   const bool from_position = law == "spline-position";
   std::vector<servod_client::ConfigEdit> edits{
-      {"commutation.calibration_file",
-       yaml::quoted(dir + (from_position ? "/calibration-position.yaml" : "/calibration.yaml"))},
-      {"commutation.pgnn_model_file", yaml::quoted(dir + "/model-pgnn.yaml")},
-      {"commutation.spline_model_file",
-       yaml::quoted(dir + (from_position ? "/model-spline-position.yaml" : "/model-spline.yaml"))},
+      {"commutation.calibration_file", file(forces ? "calibration.yaml" : "calibration-position.yaml")},
+      {"commutation.spline_model_file", file(from_position ? "model-spline-position.yaml" : "model-spline.yaml")},
       {"control.feedforward_file", yaml::quoted(dir + "/feedforward-" + law + ".yaml")},
       {"control.feedforward", std::nullopt},
       {"commutation.mode", from_position ? std::string("spline") : law},
   };
-  if (from_position) edits.erase(edits.begin() + 1);  // no PGNN without forces
+  if (forces) edits.insert(edits.begin() + 1, {"commutation.pgnn_model_file", file("model-pgnn.yaml")});
   const auto update = servod_client::update_config_file(config_path, edits);
   std::printf("saved: %s now starts with the %s law and feedforward of %s (the previous file is %s)\n",
               update.path.c_str(), law.c_str(), dir.c_str(), update.backup_path.c_str());

@@ -141,6 +141,107 @@ void write_truth_comparison(const std::string& directory, const sim::SimulatedMo
   data::write_csv_atomically(directory + "/truth-comparison.csv", names, columns);
 }
 
+// Writes a file into the output directory (recorded in the report) and
+// returns its absolute path; reports a step's progress.
+using WrittenFile = std::function<std::string(const std::string&)>;
+using Tell = std::function<void(const std::string&, double, const std::string&)>;
+
+// Step 2 with the force sensor: Algorithm 1 and its offset-robust variant,
+// the PGNN and spline identification. Returns the experiment data.
+data::ExperimentData identify_from_forces(const Options& options, const MotorDescription& motor,
+                                          const std::vector<Recording>& experiments, const WrittenFile& written,
+                                          const Tell& tell, Report& report, ModelFile (&models)[2],
+                                          bool& paper_is_chosen) {
+  const std::string experiment_csv = written("experiments.csv");
+  write_experiment_csv(experiment_csv, experiments, motor.drive_profile, true);
+  auto step_start = Clock::now();
+  data::ExperimentData data = data::read_experiment_data(data::CsvTable::load(experiment_csv), motor);
+  const std::string data_hash = sha256_file(experiment_csv);
+  report.calibration_paper = data::calibrate_motor(data, motor, data::CalibrationMethod::kAlgorithm1);
+  report.calibration_robust = data::calibrate_motor(data, motor, data::CalibrationMethod::kOffsetRobust);
+  for (CalibrationFile* file : {&report.calibration_paper, &report.calibration_robust}) {
+    file->data_sha256 = data_hash;
+    file->generator = "clm commission";
+  }
+  write_file_atomically(written("calibration.yaml"), format_calibration_file(report.calibration_paper));
+  write_file_atomically(written("calibration-robust.yaml"), format_calibration_file(report.calibration_robust));
+  report.steps.push_back({"calibration", seconds_since(step_start)});
+
+  for (int k = 0; k < 2; ++k) {
+    step_start = Clock::now();
+    data::IdentifyOptions identify = options.identify;
+    identify.kind = k == 0 ? ModelKind::kPgnn : ModelKind::kSpline;
+    const std::string label = k == 0 ? "identify pgnn" : "identify spline";
+    auto& reports = k == 0 ? report.pgnn : report.spline;
+    auto& selection = k == 0 ? report.pgnn_selection : report.spline_selection;
+    models[k] = data::identify_motor(data, motor, identify, reports, [&](const data::IdentifyProgress& p) {
+      tell(label, p.fraction(), p.what + ", coil set " + std::to_string(p.coil_set));
+    }, &selection);
+    for (auto& trial : selection.trials) {
+      trial.model.provenance.data_sha256 = data_hash;
+      trial.model.provenance.generator = "clm commission";
+    }
+    models[k].provenance.data_sha256 = data_hash;
+    models[k].provenance.generator = "clm commission";
+    write_file_atomically(written(k == 0 ? "model-pgnn.yaml" : "model-spline.yaml"), format_model_file(models[k]));
+    report.steps.push_back({label, seconds_since(step_start)});
+  }
+  // The paper's PGNN (2/16 neurons) is always evaluated, for Table 2.
+  const data::CapacityTrial* paper_pgnn = nullptr;
+  for (const auto& trial : report.pgnn_selection.trials) {
+    if (trial.is_paper_pgnn()) paper_pgnn = &trial;
+  }
+  paper_is_chosen =
+      paper_pgnn == nullptr || paper_pgnn == &report.pgnn_selection.trials[report.pgnn_selection.chosen];
+  if (paper_pgnn != nullptr) {
+    write_file_atomically(written("model-pgnn-paper.yaml"), format_model_file(paper_pgnn->model));
+  }
+  return data;
+}
+
+// Step 2 from positions (docs/commissioning.md, "Without a force sensor"):
+// the experiments without their force columns, the spline model and
+// Algorithm 1 on the force it reconstructs. Beside the force models
+// (`force_spline`) the mass that sets the scale is their mechanics fit's and
+// the F_x and T_z rows are the force spline's, on its knot grid; else the
+// mass is the configuration's or --mass-kg and those rows are zero.
+void identify_from_positions(const Options& options, const servod::ServodConfig& config,
+                             const std::vector<Recording>& experiments, const WrittenFile& written, const Tell& tell,
+                             const ModelFile* force_spline, Report& report) {
+  const MotorDescription& motor = config.motor;
+  auto step_start = Clock::now();
+  tell("identify from positions", 0.0, "");
+  const std::string position_csv = written("experiments-position.csv");
+  write_experiment_csv(position_csv, experiments, motor.drive_profile, false);
+  data::ExperimentData position_data = data::read_experiment_data(data::CsvTable::load(position_csv), motor);
+  report.from_position = true;
+  data::PositionIdentifyOptions position = options.position;
+  if (force_spline != nullptr) {
+    position.mass_kg = report.spline_selection.sensor_offset.mass_kg;
+    position.basis = force_spline->model.spline_basis;
+    report.position_mass_source = "the force sensor's mechanics fit";
+  } else {
+    if (options.mass_from_config) position.mass_kg = config.control_mass_kg;
+    report.position_mass_source = position.mass_kg <= 0.0   ? "none: the scale of the drive's nominal commutation"
+                                  : options.mass_from_config ? "control.mass_kg of the configuration"
+                                                             : "--mass-kg";
+  }
+  report.position = data::identify_from_position(position_data, motor, position);
+  ModelFile& model = report.position.model;
+  if (force_spline != nullptr) data::take_off_axis_rows(model, *force_spline);
+  model.provenance.data_sha256 = sha256_file(position_csv);
+  model.provenance.generator = "clm commission";
+  write_file_atomically(written("model-spline-position.yaml"), format_model_file(model));
+  report.steps.push_back({"identify from positions", seconds_since(step_start)});
+  step_start = Clock::now();
+  data::reconstruct_driving_force(position_data, motor, report.position);
+  report.calibration_position = data::calibrate_motor(position_data, motor, data::CalibrationMethod::kPosition);
+  report.calibration_position.data_sha256 = model.provenance.data_sha256;
+  report.calibration_position.generator = "clm commission";
+  write_file_atomically(written("calibration-position.yaml"), format_calibration_file(report.calibration_position));
+  report.steps.push_back({"calibration from positions", seconds_since(step_start)});
+}
+
 }  // namespace
 
 control::FeedforwardParameters identify_ff(const Recording& run) {
@@ -167,7 +268,8 @@ CommutationResult evaluate(const Recording& run, double period_s) {
   const double n = static_cast<double>(run.samples.size());
   result.mse = control::commutation_error_mse(measured, desired, period_s);
   // An axis without a force sensor measured nothing to compare with.
-  const bool forces = std::any_of(run.samples.begin(), run.samples.end(), [](const auto& s) { return s.force_measured; });
+  const bool forces =
+      std::any_of(run.samples.begin(), run.samples.end(), [](const auto& s) { return s.force_measured; });
   if (!forces) {
     constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
     result.mse.filtered = result.mse.unfiltered = {kNone, kNone, kNone};
@@ -185,35 +287,48 @@ CommutationResult evaluate(const Recording& run, double period_s) {
 }
 
 void recommend(Report& report) {
-  const auto score_of = [](const data::IdentifySummary& s) {
-    return s.trials.empty() ? std::numeric_limits<double>::infinity() : s.trials[s.chosen].validation_score;
+  const double inf = std::numeric_limits<double>::infinity();
+  const auto score_of = [&](const data::IdentifySummary& s) {
+    return s.trials.empty() ? inf : s.trials[s.chosen].validation_score;
   };
   const double pgnn = score_of(report.pgnn_selection);
   const double spline = score_of(report.spline_selection);
+  const double position = std::isfinite(report.position_validation_score) ? report.position_validation_score : inf;
   // The physics-only fit scores 1 per coil set.
   const double physics = 1.0 * report.coil_sets;
   const auto name_of = [](const data::IdentifySummary& s) { return s.trials[s.chosen].capacity; };
-  char text[400];
-  if (!(std::min(pgnn, spline) < physics)) {
+  char scores[400];
+  std::snprintf(scores, sizeof(scores),
+                "validation score (sum over coil sets of the model's held-out F_y MSE over the physics-only fit's) "
+                "spline (%s) %.3g, PGNN (%s) %.3g, spline from positions %.3g, physics-only %.3g",
+                name_of(report.spline_selection).c_str(), spline, name_of(report.pgnn_selection).c_str(), pgnn,
+                position, physics);
+  const bool spline_better = spline < 1.05 * pgnn;
+  report.force_recommended = !(std::min(pgnn, spline) < physics) ? "classical" : spline_better ? "spline" : "pgnn";
+  if (!(std::min({pgnn, spline, position}) < physics)) {
     report.recommended = "classical";
-    std::snprintf(text, sizeof(text),
-                  "neither model predicts the held-out blocks better than the physics-only fit (validation score "
-                  "PGNN %.3g, spline %.3g, physics-only %.3g): keep the calibrated classical law",
-                  pgnn, spline, physics);
-  } else {
-    // Near-ties go to the spline: its linear least squares has one optimum,
-    // the PGNN's restarts find one of many, and within a few per cent the
-    // held-out error cannot tell which model commands the better force.
-    const bool spline_better = spline < 1.05 * pgnn;
-    report.recommended = spline_better ? "spline" : "pgnn";
-    std::snprintf(text, sizeof(text),
-                  "validation score (sum over coil sets of the model's held-out F_y MSE over the physics-only fit's) "
-                  "spline (%s) %.3g, PGNN (%s) %.3g, physics-only %.3g; the PGNN must be 5 %% lower to be preferred, "
-                  "since the spline's least squares has one optimum and the PGNN's restarts find one of many",
-                  name_of(report.spline_selection).c_str(), spline, name_of(report.pgnn_selection).c_str(), pgnn,
-                  physics);
+    report.recommendation = std::string(scores) + ": no model predicts the held-out blocks better than the "
+                                                  "physics-only fit; keep the calibrated classical law";
+    return;
   }
-  report.recommendation = text;
+  // Near-ties go to the spline (spline_better above): its linear least
+  // squares has one optimum, the PGNN's restarts find one of many, and within
+  // a few per cent the held-out error cannot tell which model commands the
+  // better force.
+  const double force_best = spline_better ? spline : pgnn;
+  if (position < force_best) {
+    // The model from positions predicts the sensor's held-out forces better
+    // than the models fitted to the sensor (docs/commutation.md, "Without a
+    // force sensor": the encoder's noise has little power where the model varies).
+    report.recommended = "spline-position";
+    report.recommendation = std::string(scores) + "; the spline from positions (mass from " +
+                            report.position_mass_source + ") predicts the held-out forces best";
+    return;
+  }
+  report.recommended = spline_better ? "spline" : "pgnn";
+  report.recommendation = std::string(scores) +
+                          "; the PGNN must be 5 % lower than the spline to be preferred, since the spline's least "
+                          "squares has one optimum and the PGNN's restarts find one of many";
 }
 
 Report run(const Options& options, const std::function<void(const Progress&)>& progress) {
@@ -332,83 +447,25 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   // 2. Calibration and identification, through the same code as the offline tools.
   ModelFile models[2];
   bool paper_is_chosen = true;
+  std::optional<data::ExperimentData> force_data;
   if (sensor) {
-    const std::string experiment_csv = written("experiments.csv");
-    write_experiment_csv(experiment_csv, experiments, motor.drive_profile, true);
-    step_start = Clock::now();
-    const data::ExperimentData data = data::read_experiment_data(data::CsvTable::load(experiment_csv), motor);
-    const std::string data_hash = sha256_file(experiment_csv);
-    report.calibration_paper = data::calibrate_motor(data, motor, data::CalibrationMethod::kAlgorithm1);
-    report.calibration_robust = data::calibrate_motor(data, motor, data::CalibrationMethod::kOffsetRobust);
-    for (CalibrationFile* file : {&report.calibration_paper, &report.calibration_robust}) {
-      file->data_sha256 = data_hash;
-      file->generator = "clm commission";
-    }
-    write_file_atomically(written("calibration.yaml"), format_calibration_file(report.calibration_paper));
-    write_file_atomically(written("calibration-robust.yaml"), format_calibration_file(report.calibration_robust));
-    report.steps.push_back({"calibration", seconds_since(step_start)});
-
-    for (int k = 0; k < 2; ++k) {
-      step_start = Clock::now();
-      data::IdentifyOptions identify = options.identify;
-      identify.kind = k == 0 ? ModelKind::kPgnn : ModelKind::kSpline;
-      const std::string label = k == 0 ? "identify pgnn" : "identify spline";
-      auto& reports = k == 0 ? report.pgnn : report.spline;
-      auto& selection = k == 0 ? report.pgnn_selection : report.spline_selection;
-      models[k] = data::identify_motor(data, motor, identify, reports, [&](const data::IdentifyProgress& p) {
-        tell(label, p.fraction(), p.what + ", coil set " + std::to_string(p.coil_set));
-      }, &selection);
-      for (auto& trial : selection.trials) {
-        trial.model.provenance.data_sha256 = data_hash;
-        trial.model.provenance.generator = "clm commission";
-      }
-      models[k].provenance.data_sha256 = data_hash;
-      models[k].provenance.generator = "clm commission";
-      write_file_atomically(written(k == 0 ? "model-pgnn.yaml" : "model-spline.yaml"), format_model_file(models[k]));
-      report.steps.push_back({label, seconds_since(step_start)});
-    }
-    // The paper's PGNN (2/16 neurons) is always evaluated, for Table 2.
-    const data::CapacityTrial* paper_pgnn = nullptr;
-    for (const auto& trial : report.pgnn_selection.trials) {
-      if (trial.is_paper_pgnn()) paper_pgnn = &trial;
-    }
-    paper_is_chosen =
-        paper_pgnn == nullptr || paper_pgnn == &report.pgnn_selection.trials[report.pgnn_selection.chosen];
-    if (paper_pgnn != nullptr) {
-      write_file_atomically(written("model-pgnn-paper.yaml"), format_model_file(paper_pgnn->model));
-    }
+    force_data = identify_from_forces(options, motor, experiments, written, tell, report, models, paper_is_chosen);
+  }
+  // 2b. From the same experiments' positions: without a force sensor, or
+  // beside the force models when their mechanics fit gives the mass.
+  if (options.no_force_sensor || report.spline_selection.nuisance) {
+    const bool beside_forces = sensor && !options.no_force_sensor;
+    identify_from_positions(options, config, experiments, written, tell, beside_forces ? &models[1] : nullptr, report);
+  }
+  if (force_data && report.from_position) {
+    report.position_validation_score = data::position_validation_score(
+        *force_data, options.identify, report.spline_selection, report.spline, report.position.model.model);
+  }
+  if (sensor) {
     recommend(report);
   } else {
     report.recommended = "spline-position";
     report.recommendation = "the axis has no force sensor: the spline model from positions is the one model";
-  }
-  // 2b. Without a force sensor: the same experiments' positions alone.
-  if (options.no_force_sensor) {
-    step_start = Clock::now();
-    tell("identify from positions", 0.0, "");
-    const std::string position_csv = written("experiments-position.csv");
-    write_experiment_csv(position_csv, experiments, motor.drive_profile, false);
-    data::ExperimentData position_data = data::read_experiment_data(data::CsvTable::load(position_csv), motor);
-    report.from_position = true;
-    data::PositionIdentifyOptions position = options.position;
-    if (options.mass_from_config) position.mass_kg = config.control_mass_kg;
-    report.position_mass_source = !options.mass_from_config ? "--mass-kg"
-                                  : position.mass_kg > 0.0  ? "control.mass_kg of the configuration"
-                                                            : "none";
-    if (position.mass_kg <= 0.0) report.position_mass_source = "none: the scale of the drive's nominal commutation";
-    report.position = data::identify_from_position(position_data, motor, position);
-    ModelFile& model = report.position.model;
-    model.provenance.data_sha256 = sha256_file(position_csv);
-    model.provenance.generator = "clm commission";
-    write_file_atomically(written("model-spline-position.yaml"), format_model_file(model));
-    report.steps.push_back({"identify from positions", seconds_since(step_start)});
-    step_start = Clock::now();
-    data::reconstruct_driving_force(position_data, motor, report.position);
-    report.calibration_position = data::calibrate_motor(position_data, motor, data::CalibrationMethod::kPosition);
-    report.calibration_position.data_sha256 = model.provenance.data_sha256;
-    report.calibration_position.generator = "clm commission";
-    write_file_atomically(written("calibration-position.yaml"), format_calibration_file(report.calibration_position));
-    report.steps.push_back({"calibration from positions", seconds_since(step_start)});
   }
   const sim::SimulatedMotor* simulated = runner.simulated_motor();
   if (simulated != nullptr && sensor) {
@@ -445,9 +502,11 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
          {"pgnn", servo::CommutationMode::kPgnn, dir + "/model-pgnn.yaml", ""},
          {"spline", servo::CommutationMode::kSpline, "", ""}});
   }
-  if (report.from_position) {
+  if (options.no_force_sensor) {
     commutations.push_back({"classical-position", servo::CommutationMode::kClassical, "",
                             dir + "/calibration-position.yaml"});
+  }
+  if (report.from_position) {
     commutations.push_back({"spline-position", servo::CommutationMode::kSpline,
                             dir + "/model-spline-position.yaml", ""});
   }

@@ -7,6 +7,7 @@
 //  4. report.json, report.md, CSV data for the plots.
 
 #include <functional>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -37,9 +38,13 @@ struct Options {
   /// (LcmRunner) instead of the in-process simulated motor.
   bool live = false;
   LiveOptions live_options;
-  /// Also commission from positions alone (docs/commutation.md, "Without a
-  /// force sensor"): the same experiments without their force columns give
-  /// classical-position and spline-position, evaluated beside the others.
+  /// Commission from positions as an axis without a force sensor would
+  /// (docs/commissioning.md, "Without a force sensor"): the same experiments
+  /// without their force columns give classical-position and
+  /// spline-position, with the mass of the configuration or position.mass_kg,
+  /// evaluated beside the force-sensor laws when there is a sensor.
+  /// Without this flag a force sensor's commissioning identifies
+  /// spline-position too, with the mass of its mechanics fit.
   bool no_force_sensor = false;
   data::PositionIdentifyOptions position;
   /// The mass prior of the identification from positions is the
@@ -80,11 +85,14 @@ struct Report {
   /// Nuisance terms and the capacity trials of each class (docs/commutation.md).
   data::IdentifySummary pgnn_selection;
   data::IdentifySummary spline_selection;
-  /// The law recommended for service ("pgnn", "spline" or "classical") and why.
+  /// The law recommended for service ("pgnn", "spline", "spline-position" or "classical") and why.
   std::string recommended;
   std::string recommendation;
+  /// The law the force models alone would be recommended by ("pgnn",
+  /// "spline", "classical"; "" without a force sensor).
+  std::string force_recommended;
   /// original, classical, pgnn-paper (the paper's 2/16 PGNN), pgnn (capacity
-  /// chosen by validation), spline, [classical-position, spline-position,] oracle
+  /// chosen by validation), spline, [classical-position,] spline-position, oracle
   std::vector<CommutationResult> results;
   std::vector<CommutationResult> validation;  ///< the same on the held-out trajectory
   std::string validation_program;
@@ -95,10 +103,14 @@ struct Report {
   std::vector<std::string> files;          ///< written, relative to the output directory
   std::vector<std::string> notes;          ///< adaptations made for this motor
   LiveSummary live;                        ///< live commissioning only (live.live)
-  /// Options::no_force_sensor only: the identification and calibration from positions.
+  /// The identification and calibration from positions (Options::no_force_sensor,
+  /// or beside the force models when their mechanics fit gives the mass).
   bool from_position = false;
   data::PositionIdentification position;
-  std::string position_mass_source;  ///< where the mass prior came from, or why there is none
+  std::string position_mass_source;  ///< where the mass came from, or why there is none
+  /// The model from positions scored as the force models' capacity trials
+  /// (data::position_validation_score); NaN without force data.
+  double position_validation_score = std::numeric_limits<double>::quiet_NaN();
   CalibrationFile calibration_position;
 };
 
@@ -148,8 +160,10 @@ control::FeedforwardParameters identify_ff(const Recording& run);
 /// (tracking, true y error, identification wall time); "" without them.
 std::string position_summary(const Report& report);
 
-/// Sets report.recommended and report.recommendation from the validation
-/// scores of the chosen PGNN and spline (docs/commutation.md, "Capacity").
+/// Sets report.recommended, report.recommendation and
+/// report.force_recommended from the validation scores of the chosen PGNN
+/// and spline and of the spline from positions (docs/commutation.md,
+/// "Capacity chosen by validation").
 void recommend(Report& report);
 
 /// Commutation MSE (filtered and unfiltered, y/x/z), tracking MSE and mean

@@ -24,9 +24,11 @@ import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
 # Known laws in the report's order; a law not listed here is plotted after them.
-LAW_ORDER = ["original", "classical", "pgnn-paper", "pgnn", "spline", "oracle"]
+LAW_ORDER = ["original", "classical", "pgnn-paper", "pgnn", "spline", "classical-position", "spline-position",
+             "oracle"]
 LAW_COLOURS = {"original": "tab:gray", "classical": "tab:blue", "pgnn-paper": "tab:orange", "pgnn": "tab:red",
-               "spline": "tab:green", "oracle": "black"}
+               "spline": "tab:green", "classical-position": "tab:cyan", "spline-position": "tab:purple",
+               "oracle": "black"}
 SPARE_COLOURS = ["tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan"]
 MODEL_COLOURS = {"truth": "black", "pgnn": "tab:red", "spline": "tab:green"}
 # The wrench directions: CSV column of the measured value and of the demand

@@ -158,14 +158,14 @@ std::string position_summary(const Report& report) {
   const auto ratio = [](double value) { return fixed(value, "%.2f") + "x"; };
   std::string text = "from positions (mass " + fixed(report.position.mass_kg, "%.4g") + " kg from " +
                      report.position_mass_source + "):";
-  // Beside the force-sensor laws of the same run, when there are any.
-  const auto* recommended = report.recommended == "spline-position" ? nullptr : find(report, report.recommended);
-  if (recommended) {
-    text += " spline-position tracking MSE " + ratio(position->tracking_mse_m2 / recommended->tracking_mse_m2) +
-            " the force-sensor " + report.recommended + "'s;";
-    if (position->truth_known && recommended->truth_known) {
-      text += " true y MSE " + ratio(position->true_mse.filtered[0] / recommended->true_mse.filtered[0]) +
-              " the force-sensor " + report.recommended + "'s;";
+  // Beside the force-sensor law of the same run, when there is one.
+  if (const auto* forces = find(report, report.force_recommended)) {
+    const std::string law = report.force_recommended;
+    text += " spline-position tracking MSE " + ratio(position->tracking_mse_m2 / forces->tracking_mse_m2) +
+            " the force-sensor " + law + "'s;";
+    if (position->truth_known && forces->truth_known) {
+      text += " true y MSE " + ratio(position->true_mse.filtered[0] / forces->true_mse.filtered[0]) +
+              " the force-sensor " + law + "'s;";
     }
   }
   if (const auto* classical = find(report, "classical")) {
@@ -259,7 +259,7 @@ std::string report_json(const Report& report) {
   }
   out << "},\n";
   out << "  \"recommended\": {\"law\": " << quoted(report.recommended) << ", \"why\": " << quoted(report.recommendation)
-      << "},\n";
+      << ", \"force_sensor_law\": " << quoted(report.force_recommended) << "},\n";
   out << "  \"selection\": {\"pgnn\": ";
   selection_json(out, report.pgnn_selection);
   out << ", \"spline\": ";
@@ -285,13 +285,17 @@ std::string report_json(const Report& report) {
   if (report.from_position) {
     const auto& position = report.position;
     out << "  \"from_position\": {\"mass_kg\": " << number(position.mass_kg)
+        << ", \"validation_score\": " << number(report.position_validation_score)
         << ", \"mass_source\": " << quoted(report.position_mass_source)
         << ", \"knot_spacing_m\": " << number(position.knot_spacing_m) << ", \"spacing_scores\": [";
     for (std::size_t k = 0; k < position.spacing_scores.size(); ++k) {
       out << (k ? ", " : "") << "{\"knot_spacing_m\": " << number(position.spacing_scores[k].first)
           << ", \"held_out_balance_rms_N\": " << number(position.spacing_scores[k].second) << "}";
     }
-    out << "], \"rows_from\": [\"position\", \"drive_constants\", \"drive_constants\"], \"coil_sets\": [";
+    out << "], \"rows_from\": [";
+    const auto& rows_from = position.model.provenance.rows_from;
+    for (std::size_t q = 0; q < rows_from.size(); ++q) out << (q ? ", " : "") << quoted(name(rows_from[q]));
+    out << "], \"coil_sets\": [";
     for (std::size_t l = 0; l < position.fits.size(); ++l) {
       const auto& fit = position.fits[l];
       out << (l ? ", " : "") << "{\"viscous_N_s_per_m\": " << number(fit.viscous_N_s_per_m)
@@ -509,10 +513,13 @@ std::string report_markdown(const Report& report) {
   selection("spline", report.spline_selection);
   if (report.from_position) {
     const auto& position = report.position;
-    out << "\n## Without a force sensor\n\nThe same experiments without their force columns "
+    const bool off_axis_from_forces = position.model.provenance.rows_from[1] == RowSource::kForceSensor;
+    out << "\n## From positions\n\nThe same experiments without their force columns "
            "(`experiments-position.csv`): the F_y rows of every coil set identified from positions and times jointly "
-           "with the mechanics; F_x and T_z rows zero, from the drive's constants (docs/commutation.md, \"Without a "
-           "force sensor\"). classical-position is Algorithm 1 on the driving force that model reconstructs.\n\n"
+           "with the mechanics (docs/commutation.md, \"Without a force sensor\"); "
+        << (off_axis_from_forces ? "F_x and T_z rows the force-sensor spline's, on its knot grid"
+                                 : "F_x and T_z rows zero, from the drive's constants")
+        << ". classical-position is Algorithm 1 on the driving force that model reconstructs.\n\n"
         << position_summary(report) << ".\n\n";
     out << "Mass " << fixed(position.mass_kg, "%.4g") << " kg (" << report.position_mass_source
         << "; without a mass, the scale that brings A_y, B_y closest to the drive's nominal commutation); knots every " << fixed(position.knot_spacing_m * 1e3) << " mm";

@@ -4,6 +4,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "commutation/identification/dataset.hpp"
 #include "commutation/identification/linear_parameters.hpp"
 #include "commutation/identification/spline_fit.hpp"
 #include "tools/data/commissioning_steps.hpp"
@@ -110,7 +111,11 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
 
   PositionIdentification result;
   result.mass_given = options.mass_kg > 0.0;
-  result.knot_spacing_m = options.knot_spacing_m;
+  result.knot_spacing_m = options.basis ? options.basis->spacing_m() : options.knot_spacing_m;
+  // Nothing held out, nothing to choose by: the force-sensor spline's default.
+  if (result.knot_spacing_m == 0.0 && options.validation_fraction == 0.0) {
+    result.knot_spacing_m = motor.pole_pitch_m / 8.0;
+  }
   if (result.knot_spacing_m == 0.0) {
     // The spacing whose fit on the training blocks balances the held-out ones best.
     double best = std::numeric_limits<double>::infinity();
@@ -120,7 +125,8 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
       const auto fits = fit_all(training, data, motor, basis, fit);
       double square_sum = 0.0;
       for (std::size_t l = 0; l < fits.size(); ++l) {
-        const double rms = identification::motion_residual_rms_N(fits[l], validation[l], motor.pole_pitch_m, basis, fit);
+        const double rms =
+            identification::motion_residual_rms_N(fits[l], validation[l], motor.pole_pitch_m, basis, fit);
         square_sum += std::isfinite(rms) ? rms * rms : 0.0;
       }
       const double score = std::sqrt(square_sum / static_cast<double>(fits.size()));
@@ -131,7 +137,7 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
       }
     }
   }
-  const UniformCubicBasis basis = basis_for(result.knot_spacing_m);
+  const UniformCubicBasis basis = options.basis ? *options.basis : basis_for(result.knot_spacing_m);
   // The model kept: fit on the training blocks for its held-out figure, then on everything.
   const auto held_out_fits = fit_all(training, data, motor, basis, fit);
   for (std::size_t l = 0; l < held_out_fits.size(); ++l) {
@@ -164,6 +170,31 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
   return result;
 }
 
+void take_off_axis_rows(ModelFile& position_model, const ModelFile& force_model) {
+  ElectromagneticModel& into = position_model.model;
+  const ElectromagneticModel& from = force_model.model;
+  const auto& a = into.spline_basis;
+  const auto& b = from.spline_basis;
+  if (from.kind != ModelKind::kSpline || into.kind != ModelKind::kSpline) {
+    throw std::invalid_argument("off-axis rows: both models must be splines");
+  }
+  if (from.coil_set_count() != into.coil_set_count() || a.start_m != b.start_m || a.end_m != b.end_m ||
+      a.intervals != b.intervals) {
+    throw std::invalid_argument("off-axis rows: the models differ in coil sets or knot grid");
+  }
+  for (std::size_t l = 0; l < into.coil_sets.size(); ++l) {
+    CoilSetModel& to = into.coil_sets[l];
+    const CoilSetModel& source = from.coil_sets[l];
+    to.a_N_per_A.bottomRows<2>() = source.a_N_per_A.bottomRows<2>();
+    to.b_N_per_A.bottomRows<2>() = source.b_N_per_A.bottomRows<2>();
+    to.column_a_spline.bottomRows<2>() = source.column_a_spline.bottomRows<2>();
+    to.column_b_spline.bottomRows<2>() = source.column_b_spline.bottomRows<2>();
+    to.cogging_spline.bottomRows<2>() = source.cogging_spline.bottomRows<2>();
+  }
+  into.validate();
+  position_model.provenance.rows_from = {RowSource::kPosition, RowSource::kForceSensor, RowSource::kForceSensor};
+}
+
 void reconstruct_driving_force(ExperimentData& data, const MotorDescription& motor,
                                const PositionIdentification& identified) {
   const UniformCubicBasis& basis = identified.model.model.spline_basis;
@@ -177,6 +208,49 @@ void reconstruct_driving_force(ExperimentData& data, const MotorDescription& mot
       experiment.driving_force_N[static_cast<std::size_t>(set.group[static_cast<std::size_t>(k)])].push_back(force_N);
     }
   }
+}
+
+double position_validation_score(const ExperimentData& data, const IdentifyOptions& options,
+                                 const IdentifySummary& summary, const std::vector<CoilSetIdentification>& reports,
+                                 const ElectromagneticModel& model) {
+  if (!data.measured_forces || reports.size() != data.coil_sets.size() || summary.trials.empty()) {
+    return std::nan("");
+  }
+  const double smoothing_m_per_s =
+      summary.trials[summary.chosen].model.provenance.nuisance.direction_smoothing_m_per_s;
+  double score = 0.0;
+  for (std::size_t l = 0; l < data.coil_sets.size(); ++l) {
+    identification::CoilSetDataset dataset = data.coil_sets[l].dataset;
+    if (summary.nuisance) dataset.wrench.row(0).array() -= summary.sensor_offset.offset_N;
+    const auto split = identification::split_contiguous_blocks(dataset, options.validation_fraction);
+    if (split.validation.empty()) return std::nan("");
+    // F_y − the model's F_y, and the shape of the direction-dependent force.
+    const auto residual = [&](Eigen::Index k, double& shape) {
+      CoilGain gain;
+      Wrench cogging;
+      model.evaluate_coil_set(static_cast<int>(l), dataset.position_m[k], gain, cogging);
+      const bool direction = summary.direction_force && dataset.velocity_m_per_s.size() == dataset.size();
+      shape = direction ? std::tanh(dataset.velocity_m_per_s[k] / smoothing_m_per_s) : 0.0;
+      return dataset.wrench(0, k) - gain.row(0).dot(dataset.currents_A.col(k)) - cogging[0];
+    };
+    double cross = 0.0, square = 0.0, shape = 0.0;
+    for (const Eigen::Index k : split.training) {
+      const double r = residual(k, shape);
+      cross += r * shape;
+      square += shape * shape;
+    }
+    const double direction_N = square > 0.0 ? cross / square : 0.0;
+    double held_out = 0.0;
+    for (const Eigen::Index k : split.validation) {
+      const double r = residual(k, shape) - direction_N * shape;
+      held_out += r * r;
+    }
+    held_out /= static_cast<double>(split.validation.size());
+    const double physics = reports[l].report.physics_validation[0];
+    if (!(physics > 0.0)) return std::nan("");
+    score += held_out / physics;
+  }
+  return score;
 }
 
 }  // namespace clm::data

@@ -5,11 +5,13 @@
 // (identification::fit_driving_direction_from_motion), and Algorithm 1 run on
 // the driving force that model reconstructs. No file I/O.
 
+#include <optional>
 #include <utility>
 #include <vector>
 
 #include "commutation/identification/motion_fit.hpp"
 #include "commutation/model_file.hpp"
+#include "tools/data/commissioning_steps.hpp"
 #include "tools/data/experiment_data.hpp"
 
 namespace clm::data {
@@ -20,13 +22,17 @@ struct PositionIdentifyOptions {
   /// commutation (one mass for the whole translator).
   double mass_kg = 0.0;
   /// Knot spacing of the y-row splines; 0: chosen by the held-out force
-  /// balance from kSplineKnotsPerPolePitch.
+  /// balance from kSplineKnotsPerPolePitch (pole pitch / 8 when nothing is
+  /// held out).
   double knot_spacing_m = 0.0;
   double smoothing = 1e-6;                    ///< MotionFitOptions::smoothing
   double direction_smoothing_m_per_s = 1e-3;  ///< v_d of the direction-dependent force and friction
   double min_speed_m_per_s = 5e-3;            ///< rows slower than this are left out
   /// Share of every run held out, in contiguous blocks, for the spacing choice.
   double validation_fraction = 0.2;
+  /// The knot grid to use instead (a force-sensor spline's, so that its F_x
+  /// and T_z rows can join the model: take_off_axis_rows).
+  std::optional<UniformCubicBasis> basis;
 };
 
 struct PositionIdentification {
@@ -48,11 +54,27 @@ struct PositionIdentification {
 PositionIdentification identify_from_position(const ExperimentData& data, const MotorDescription& motor,
                                               const PositionIdentifyOptions& options);
 
+/// The F_x and T_z rows of `force_model` (a spline model from the force
+/// sensor on the same knot grid) into `position_model`, whose rows_from says
+/// so. Throws std::invalid_argument naming what differs.
+void take_off_axis_rows(ModelFile& position_model, const ModelFile& force_model);
+
 /// Fills every offset group's driving_force_N with the electromagnetic
 /// driving force the position model predicts for its rows (gain times the
 /// previous cycle's currents; no cogging, friction or direction force), the
 /// force Algorithm 1 (calibrate_motor) fits the command to.
 void reconstruct_driving_force(ExperimentData& data, const MotorDescription& motor,
                                const PositionIdentification& identified);
+
+/// A model from positions scored on force data as identify_motor scores its
+/// capacity trials (CapacityTrial::validation_score): the sum over coil sets
+/// of its held-out F_y MSE over the physics-only fit's, on the same held-out
+/// blocks, with the sensor offset of `summary` removed and, where the force
+/// models carry one, a direction-dependent force C·tanh(ẏ/v_c) fitted to its
+/// residual on the training blocks. `reports` are the chosen force model's
+/// (their physics-only figures). NaN without held-out blocks.
+double position_validation_score(const ExperimentData& data, const IdentifyOptions& options,
+                                 const IdentifySummary& summary, const std::vector<CoilSetIdentification>& reports,
+                                 const ElectromagneticModel& model);
 
 }  // namespace clm::data
