@@ -12,6 +12,7 @@
 #include "commutation/calibration.hpp"
 #include "commutation/classical.hpp"
 #include "support/position_only_motor.hpp"
+#include "support/random_model.hpp"
 #include "tools/data/commissioning_steps.hpp"
 #include "tools/data/csv_table.hpp"
 #include "tools/data/position_model.hpp"
@@ -106,4 +107,44 @@ TEST_CASE("from positions alone the tools find the motor's gains and Algorithm 1
   const ClassicalEstimate& estimate = calibration.coil_sets[0].estimate;
   CHECK(estimate.motor_constant_N_per_A == Approx(expected.motor_constant_N_per_A).epsilon(0.01));
   CHECK(estimate.phase_offset_rad == Approx(expected.phase_offset_rad).margin(0.005));
+}
+
+TEST_CASE("a model is scored on the force sensor's held-out rows as the force models are", "[position]") {
+  // Forces of a known spline model, made by the previous row's setpoint at
+  // each row's position (the pairing), no noise, no sensor offset.
+  std::mt19937_64 rng(23);
+  const MotorDescription motor = description();
+  ElectromagneticModel truth = test::random_spline_model(1, motor.pole_pitch_m, rng);
+  std::ostringstream csv;
+  csv.precision(17);
+  csv << "t_s,coil_set,delta_rad,magnitude_N,y_m,Fy_N,Fx_N,Tz_Nm\n";
+  for (const double delta : {-kPi / 4, kPi / 4}) {
+    double previous_magnitude = 0.0;
+    for (int k = 0; k < 2000; ++k) {
+      const double t = (delta > 0 ? 10.0 : 0.0) + 1e-3 * k;
+      const double y = 0.05 * std::sin(2.0 * t);
+      const double magnitude = 40.0 * std::sin(7.0 * t);
+      const Eigen::Vector2d i = drive_phase_currents(motor.drive, {previous_magnitude, delta}, y, motor.pole_pitch_m);
+      CoilGain gain;
+      Wrench cogging;
+      truth.evaluate_coil_set(0, y, gain, cogging);
+      csv << t << ",1," << delta << "," << magnitude << "," << y << "," << gain.row(0).dot(i) + cogging[0]
+          << ",0,0\n";
+      previous_magnitude = magnitude;
+    }
+  }
+  const ExperimentData data = read_experiment_data(CsvTable::parse(csv.str(), "forces.csv"), motor);
+  IdentifyOptions options;  // 20 % held out
+  IdentifySummary summary;  // no nuisance terms: nothing removed or fitted beside the model
+  summary.trials.emplace_back();
+  std::vector<CoilSetIdentification> reports(1);
+  reports[0].report.physics_validation[0] = 2.0;  // the physics-only fit's held-out F_y MSE [N²]
+  // The truth scores 0; the truth with its cogging 0.5 N off scores 0.5²/2.
+  CHECK(position_validation_score(data, options, summary, reports, truth) == Approx(0.0).margin(1e-18));
+  ElectromagneticModel shifted = truth;
+  shifted.coil_sets[0].cogging_spline.row(0).array() += 0.5;  // B-splines sum to one
+  CHECK(position_validation_score(data, options, summary, reports, shifted) == Approx(0.125).epsilon(1e-9));
+  // Nothing held out, nothing to score.
+  options.validation_fraction = 0.0;
+  CHECK(std::isnan(position_validation_score(data, options, summary, reports, truth)));
 }
