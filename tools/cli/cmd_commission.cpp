@@ -66,11 +66,13 @@ std::string cell(double value) {
 /// the daemon's configuration, as absolute paths, with the recommended law as
 /// the mode (the daemon reads them at its next start; with --live it has them
 /// loaded already). The force sensor's calibration and PGNN when there are
-/// any, else the calibration from positions; the spline model of the law.
-void save_result(const std::string& config_path, const std::string& out_dir, const std::string& law) {
+/// any and the commissioning used them (not --no-force-sensor), else the
+/// calibration from positions; the spline model of the law.
+void save_result(const std::string& config_path, const std::string& out_dir, const std::string& law,
+                 bool from_positions_only) {
   const std::string dir = std::filesystem::canonical(out_dir).string();
   const auto file = [&](const char* name) { return yaml::quoted(dir + "/" + name); };
-  const bool forces = std::filesystem::exists(dir + "/calibration.yaml");
+  const bool forces = !from_positions_only && std::filesystem::exists(dir + "/calibration.yaml");
   const bool from_position = law == "spline-position";
   std::vector<servod_client::ConfigEdit> edits{
       {"commutation.calibration_file", file(forces ? "calibration.yaml" : "calibration-position.yaml")},
@@ -248,7 +250,9 @@ void add_commission(CLI::App& app) {
     std::printf("report: %s/report.md, %s/report.json%s; wall time %.1f s (commissioning %.1f s, plots %.1f s)\n",
                 options->run.out_dir.c_str(), options->run.out_dir.c_str(), plotted ? ", plots" : " (no plots)",
                 seconds_since(start), report.total_wall_s, plot_s);
-    if (options->save) save_result(options->run.config_path, options->run.out_dir, report.recommended);
+    if (options->save) {
+      save_result(options->run.config_path, options->run.out_dir, report.recommended, options->run.no_force_sensor);
+    }
   });
 }
 

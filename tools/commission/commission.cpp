@@ -457,15 +457,19 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     const bool beside_forces = sensor && !options.no_force_sensor;
     identify_from_positions(options, config, experiments, written, tell, beside_forces ? &models[1] : nullptr, report);
   }
-  if (force_data && report.from_position) {
+  if (force_data && report.from_position && !options.no_force_sensor) {
     report.position_validation_score = data::position_validation_score(
         *force_data, options.identify, report.spline_selection, report.spline, report.position.model.model);
   }
-  if (sensor) {
-    recommend(report);
-  } else {
+  if (sensor) recommend(report);
+  if (options.no_force_sensor) {
+    // Commissioned as an axis without a force sensor: the laws from positions
+    // are the result, the force-sensor ones (when there is a sensor) a comparison.
     report.recommended = "spline-position";
-    report.recommendation = "the axis has no force sensor: the spline model from positions is the one model";
+    report.recommendation =
+        sensor ? "commissioned from positions (--no-force-sensor); the force-sensor laws beside it are a comparison, "
+                 "and alone they would give " + report.force_recommended
+               : "the axis has no force sensor: the spline model from positions is the one model";
   }
   const sim::SimulatedMotor* simulated = runner.simulated_motor();
   if (simulated != nullptr && sensor) {
