@@ -132,13 +132,27 @@ double motion_residual_rms_N(const MotionFit& fit, const std::vector<MotionRun>&
   return rows > 0 ? std::sqrt(square_sum / static_cast<double>(rows)) : std::nan("");
 }
 
-double common_mass_kg(const std::vector<MotionFit>& fits, const DriveCommutation& drive) {
-  const Eigen::Vector4d prior = nominal_physics(drive);
+double common_mass_kg(const std::vector<MotionFit>& fits, const MotionFitOptions& options) {
+  if (options.mass_kg > 0.0) return options.mass_kg;
+  // Least squares of mass·(per-kilogram figures) against the reference: the
+  // friction given, else the nominal commutation's A_y, B_y.
+  const bool friction = options.viscous_N_s_per_m > 0.0 || options.direction_N > 0.0;
+  const Eigen::Vector4d nominal = nominal_physics(options.drive);
   double numerator = 0.0, denominator = 0.0;
   for (const MotionFit& fit : fits) {
-    const Eigen::Vector4d per_kg = Eigen::Vector4d(fit.a_y[0], fit.a_y[1], fit.b_y[0], fit.b_y[1]) / fit.mass_kg;
-    numerator += per_kg.dot(prior);
-    denominator += per_kg.squaredNorm();
+    const auto add = [&](double per_kg, double reference) {
+      numerator += per_kg * reference;
+      denominator += per_kg * per_kg;
+    };
+    if (friction) {
+      if (options.viscous_N_s_per_m > 0.0) add(fit.viscous_N_s_per_m / fit.mass_kg, options.viscous_N_s_per_m);
+      if (options.direction_N > 0.0) add(fit.direction_N / fit.mass_kg, options.direction_N);
+    } else {
+      add(fit.a_y[0] / fit.mass_kg, nominal[0]);
+      add(fit.a_y[1] / fit.mass_kg, nominal[1]);
+      add(fit.b_y[0] / fit.mass_kg, nominal[2]);
+      add(fit.b_y[1] / fit.mass_kg, nominal[3]);
+    }
   }
   return numerator / denominator;
 }
@@ -165,9 +179,12 @@ double MotionFit::cogging_N(double position_m, const UniformCubicBasis& basis) c
 
 MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, double pole_pitch_m,
                                             const UniformCubicBasis& basis, const MotionFitOptions& options) {
-  if (!(options.mass_kg >= 0.0) || !(options.smoothing >= 0.0) ||
-      !(options.direction_smoothing_m_per_s > 0.0) || !(options.min_speed_m_per_s >= 0.0)) {
-    throw std::invalid_argument("motion fit: negative mass, smoothing or minimum speed, or v_d not positive");
+  if (!(options.mass_kg >= 0.0) || !(options.smoothing >= 0.0) || !(options.direction_smoothing_m_per_s > 0.0) ||
+      !(options.min_speed_m_per_s >= 0.0) || !(options.viscous_N_s_per_m >= 0.0) || !(options.direction_N >= 0.0)) {
+    throw std::invalid_argument("motion fit: negative mass, smoothing, minimum speed or friction, or v_d not positive");
+  }
+  if (options.mass_kg > 0.0 && (options.viscous_N_s_per_m > 0.0 || options.direction_N > 0.0)) {
+    throw std::invalid_argument("motion fit: a mass and a friction given; each fixes the force scale, give one");
   }
   const int n = basis.size();
   const int model = 4 + 3 * n;
@@ -204,13 +221,18 @@ MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, 
   for (int k = 0; k < p; ++k) gram(k, k) += 1e-12 * (1.0 + gram(k, k));
   const Eigen::VectorXd x = gram.ldlt().solve(rhs);
   if (!x.allFinite()) throw std::invalid_argument("motion fit: singular problem");
-  // The scale: the given mass, or the one that brings A_y, B_y closest to
-  // the drive's nominal commutation (least squares over the four).
-  const Eigen::Vector4d prior = nominal_physics(options.drive);
-  const Eigen::Vector4d per_kg = x.head<4>();
-  const double mass_kg = options.mass_kg > 0.0 ? options.mass_kg : per_kg.dot(prior) / per_kg.squaredNorm();
+  // The scale (MotionFitOptions): the mass given, or the one that brings the
+  // per-kilogram friction or A_y, B_y closest to those given or nominal.
+  MotionFit per_kg;
+  per_kg.mass_kg = 1.0;
+  per_kg.a_y << x[0], x[1];
+  per_kg.b_y << x[2], x[3];
+  per_kg.viscous_N_s_per_m = x[model];
+  per_kg.direction_N = x[model + 1];
+  const double mass_kg = common_mass_kg({per_kg}, options);
   if (!(mass_kg > 0.0) || !std::isfinite(mass_kg)) {
-    throw std::invalid_argument("motion fit: the gains identified point against the drive's commutation; no mass");
+    throw std::invalid_argument("motion fit: the gains or friction identified point against the reference that "
+                                "sets the scale; no mass");
   }
 
   MotionFit fit;

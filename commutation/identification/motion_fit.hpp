@@ -36,6 +36,10 @@ struct MotionRun {
 };
 
 struct MotionFitOptions {
+  /// The force scale, which positions do not determine, comes from the
+  /// first given of: the translator's mass (> 0), the friction (viscous_N_s_per_m
+  /// and/or direction_N > 0: the mass that makes the identified friction
+  /// these), or the drive's nominal commutation.
   double mass_kg = 0.0;             ///< > 0: the translator's mass, known; 0: identified
   double smoothing = 1e-6;          ///< roughness weight, relative to the largest diagonal of the normal matrix
   /// The drive's nominal commutation (k̂_d, ζ̂_d): the scale when the mass is not given.
@@ -44,6 +48,8 @@ struct MotionFitOptions {
   /// Rows slower than this are left out: near standstill static friction
   /// takes any value up to its limit, which no smooth friction law follows.
   double min_speed_m_per_s = 5e-3;
+  double viscous_N_s_per_m = 0.0;  ///< > 0: the viscous friction f_v, known
+  double direction_N = 0.0;        ///< > 0: f_d (Coulomb friction and the direction-dependent force), known
 };
 
 struct MotionFit {
@@ -66,7 +72,8 @@ struct MotionFit {
 
 /// Fits MotionFit over `runs` on `basis`. Throws std::invalid_argument for
 /// runs of unequal steps or lengths, fewer than 10 usable rows, a singular
-/// problem, or gains that give no positive mass.
+/// problem, a mass and a friction both given, or a scale that gives no
+/// positive mass.
 MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, double pole_pitch_m,
                                             const UniformCubicBasis& basis, const MotionFitOptions& options);
 
@@ -75,8 +82,10 @@ MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, 
 double motion_residual_rms_N(const MotionFit& fit, const std::vector<MotionRun>& runs, double pole_pitch_m,
                              const UniformCubicBasis& basis, const MotionFitOptions& options);
 
-/// The mass that brings the per-kilogram A_y, B_y of several coil sets (one
-/// translator) together closest to the drive's nominal commutation.
-double common_mass_kg(const std::vector<MotionFit>& fits, const DriveCommutation& drive);
+/// One mass for several coil sets (one translator) when options.mass_kg is
+/// not given: the one that brings their per-kilogram friction together
+/// closest to the friction given, else their per-kilogram A_y, B_y closest
+/// to the drive's nominal commutation.
+double common_mass_kg(const std::vector<MotionFit>& fits, const MotionFitOptions& options);
 
 }  // namespace clm::identification

@@ -76,3 +76,23 @@ TEST_CASE("the motion fit refuses runs of unequal steps and too few rows", "[mot
   short_run.time_s[3] = 3.5e-3;
   CHECK_THROWS_AS(fit_driving_direction_from_motion({short_run}, kPolePitch, basis, options), std::invalid_argument);
 }
+
+TEST_CASE("a known friction sets the scale from positions without the mass", "[motion-fit]") {
+  std::mt19937_64 rng(13);
+  // A physics part away from the nominal commutation, which therefore cannot
+  // set the scale; the friction can.
+  const PositionOnlyMotor truth(rng, 55.0, -0.45);
+  const std::vector<MotionRun> runs{truth.run(-kPi / 4, 12.0, 0.0), truth.run(kPi / 4, 12.0, 1.0)};
+  MotionFitOptions options;
+  options.drive = truth.drive;
+  options.viscous_N_s_per_m = truth.viscous_N_s_per_m;
+  options.direction_N = truth.direction_N;
+  const MotionFit fit = fit_driving_direction_from_motion(runs, kPolePitch, truth.basis, options);
+  INFO("mass " << fit.mass_kg << " f_v " << fit.viscous_N_s_per_m << " f_d " << fit.direction_N << ", gain error "
+               << rms_gain_error(fit, truth) << " N/A");
+  CHECK(fit.mass_kg == Approx(truth.mass_kg).epsilon(0.03));
+  CHECK(rms_gain_error(fit, truth) < 1.5);  // of gains about 55 N/A: the scale within 3 %
+  // The mass and a friction together are refused: each fixes the scale.
+  options.mass_kg = truth.mass_kg;
+  CHECK_THROWS_AS(fit_driving_direction_from_motion(runs, kPolePitch, truth.basis, options), std::invalid_argument);
+}

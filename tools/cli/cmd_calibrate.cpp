@@ -20,6 +20,8 @@ void add_calibrate(CLI::App& app) {
     bool robust = false;
     double mass_kg = 0.0;
     double knot_spacing_m = 0.0;
+    double viscous_N_s_per_m = 0.0;
+    double direction_N = 0.0;
     data::DataLimits limits;
     lcmlog::GapPolicy gaps;
   };
@@ -38,6 +40,7 @@ void add_calibrate(CLI::App& app) {
                   "data without force columns: knot spacing of the model from positions (0: chosen by the held-out "
                   "force balance)")
       ->check(clm::non_negative_number())->capture_default_str();
+  add_friction_options(*sub, options->viscous_N_s_per_m, options->direction_N);
   lcmlog::add_data_limit_options(*sub, options->limits, "--data");
   lcmlog::add_gap_option(*sub, options->gaps);
   sub->callback([options] {
@@ -54,6 +57,8 @@ void add_calibrate(CLI::App& app) {
       data::PositionIdentifyOptions position;
       position.mass_kg = options->mass_kg;
       position.knot_spacing_m = options->knot_spacing_m;
+      position.viscous_N_s_per_m = options->viscous_N_s_per_m;
+      position.direction_N = options->direction_N;
       const auto identified = data::identify_from_position(data, motor, position);
       print_position_identification(identified);
       data::reconstruct_driving_force(data, motor, identified);

@@ -146,8 +146,12 @@ void add_commission(CLI::App& app) {
   sub->add_flag("--save", options->save,
                 "keep the result: the calibration, both models, and the recommended law as the commutation mode with its "
                 "feedforward go into --config (the previous file stays as FILE.bak)");
+  add_friction_options(*sub, options->run.position.viscous_N_s_per_m, options->run.position.direction_N);
   sub->callback([options, mass] {
-    options->run.mass_from_config = mass->count() == 0;
+    // A friction given sets the scale instead of the configuration's mass.
+    const auto& position = options->run.position;
+    options->run.mass_from_config =
+        mass->count() == 0 && position.viscous_N_s_per_m == 0.0 && position.direction_N == 0.0;
     if (options->run.validation_program_path != "none" && !options->run.validation_program_path.empty() &&
         !std::filesystem::is_regular_file(options->run.validation_program_path)) {
       throw std::runtime_error("--validation-program: " + options->run.validation_program_path + ": no such file");

@@ -33,7 +33,9 @@ void print_position_identification(const data::PositionIdentification& identifie
   std::printf("spline model from positions (no force columns): F_y rows identified with the mechanics; F_x and T_z "
               "rows zero (the drive's constants)\n");
   std::printf("mass %.4g kg (%s)\n", identified.mass_kg,
-              identified.mass_given ? "given" : "scale from the drive's nominal commutation");
+              identified.mass_given       ? "given"
+              : identified.friction_given ? "the one that makes the identified friction the friction given"
+                                          : "scale from the drive's nominal commutation");
   for (const auto& [spacing, score] : identified.spacing_scores) {
     std::printf("knot spacing %.3g mm: held-out force balance RMS %.4g N%s\n", spacing * 1e3, score,
                 spacing == identified.knot_spacing_m ? "  chosen" : "");
@@ -46,12 +48,25 @@ void print_position_identification(const data::PositionIdentification& identifie
   }
 }
 
+void add_friction_options(CLI::App& sub, double& viscous_N_s_per_m, double& direction_N) {
+  sub.add_option("--viscous-N-s-per-m", viscous_N_s_per_m,
+                 "data without force columns: the translator's viscous friction, known; it sets the force scale "
+                 "instead of the mass")
+      ->check(clm::non_negative_number());
+  sub.add_option("--direction-force-N", direction_N,
+                 "data without force columns: its Coulomb friction plus direction-dependent force, known; it sets "
+                 "the force scale instead of the mass")
+      ->check(clm::non_negative_number());
+}
+
 void add_identify(CLI::App& app) {
   auto* sub = app.add_subcommand("identify", "Algorithm 2: identify a PGNN (or spline) model of the electromagnetics");
   struct Options {
     std::string motor, data, output, model = "pgnn";
     data::IdentifyOptions identify;
     double mass_kg = 0.0;
+    double viscous_N_s_per_m = 0.0;
+    double direction_N = 0.0;
     data::DataLimits limits;
     lcmlog::GapPolicy gaps;
   };
@@ -87,6 +102,7 @@ void add_identify(CLI::App& app) {
                   "data without force columns: the translator's mass, which fixes the force scale (default: the "
                   "drive's nominal commutation does)")
       ->check(clm::non_negative_number())->capture_default_str();
+  add_friction_options(*sub, options->viscous_N_s_per_m, options->direction_N);
   sub->add_flag("!--no-nuisance", o.nuisance,
                 "fit the model alone, as the paper does (default: the sensor's F_y offset and the direction-dependent "
                 "force are identified beside it)");
@@ -110,6 +126,8 @@ void add_identify(CLI::App& app) {
       }
       data::PositionIdentifyOptions position;
       position.mass_kg = options->mass_kg;
+      position.viscous_N_s_per_m = options->viscous_N_s_per_m;
+      position.direction_N = options->direction_N;
       // As the force-sensor spline: chosen from the grid, or as given (pole pitch / 8 by default).
       const double given_m = options->identify.spline.knot_spacing_m;
       position.knot_spacing_m = options->identify.select_capacity ? 0.0

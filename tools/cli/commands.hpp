@@ -24,6 +24,10 @@ void add_sim(CLI::App& app);
 /// identification, on stdout (clm identify and clm calibrate).
 void print_position_identification(const data::PositionIdentification& identified);
 
+/// --viscous-N-s-per-m and --direction-force-N: the friction that sets the
+/// force scale of an identification from positions (clm identify, calibrate, commission).
+void add_friction_options(CLI::App& sub, double& viscous_N_s_per_m, double& direction_N);
+
 /// "clm <version>" for provenance records.
 std::string generator_name(const std::string& subcommand);
 

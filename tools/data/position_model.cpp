@@ -49,6 +49,8 @@ identification::MotionFitOptions fit_options(const PositionIdentifyOptions& opti
   fit.drive = motor.drive;
   fit.direction_smoothing_m_per_s = options.direction_smoothing_m_per_s;
   fit.min_speed_m_per_s = options.min_speed_m_per_s;
+  fit.viscous_N_s_per_m = options.viscous_N_s_per_m;
+  fit.direction_N = options.direction_N;
   return fit;
 }
 
@@ -66,10 +68,10 @@ std::vector<identification::MotionFit> fit_all(const std::vector<std::vector<ide
     }
   }
   if (options.mass_kg <= 0.0) {
-    const double mass_kg = identification::common_mass_kg(fits, motor.drive);
+    const double mass_kg = identification::common_mass_kg(fits, options);
     if (!(mass_kg > 0.0) || !std::isfinite(mass_kg)) {
-      throw std::runtime_error(data.origin + ": the gains identified from positions point against the drive's "
-                               "commutation; no mass fits them (give --mass-kg)");
+      throw std::runtime_error(data.origin + ": the gains or friction identified from positions point against the "
+                               "reference that sets the scale; no mass fits them (give --mass-kg)");
     }
     for (auto& fit : fits) fit = fit.scaled_to_mass(mass_kg);
   }
@@ -81,9 +83,13 @@ std::vector<identification::MotionFit> fit_all(const std::vector<std::vector<ide
 PositionIdentification identify_from_position(const ExperimentData& data, const MotorDescription& motor,
                                               const PositionIdentifyOptions& options) {
   if (!(options.mass_kg >= 0.0) || !(options.knot_spacing_m >= 0.0) || !(options.validation_fraction >= 0.0) ||
-      !(options.validation_fraction < 1.0)) {
-    throw std::invalid_argument("position identification: negative mass or knot spacing, or a held-out share "
-                                "outside [0, 1)");
+      !(options.validation_fraction < 1.0) || !(options.viscous_N_s_per_m >= 0.0) || !(options.direction_N >= 0.0)) {
+    throw std::invalid_argument("position identification: negative mass, friction or knot spacing, or a held-out "
+                                "share outside [0, 1)");
+  }
+  if (options.mass_kg > 0.0 && (options.viscous_N_s_per_m > 0.0 || options.direction_N > 0.0)) {
+    throw std::invalid_argument("position identification: a mass and a friction given; each fixes the force scale, "
+                                "give one");
   }
   Eigen::Index total = 0;
   for (const auto& experiment : data.coil_sets) {
@@ -111,6 +117,7 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
 
   PositionIdentification result;
   result.mass_given = options.mass_kg > 0.0;
+  result.friction_given = !result.mass_given && (options.viscous_N_s_per_m > 0.0 || options.direction_N > 0.0);
   result.knot_spacing_m = options.basis ? options.basis->spacing_m() : options.knot_spacing_m;
   // Nothing held out, nothing to choose by: the force-sensor spline's default.
   if (result.knot_spacing_m == 0.0 && options.validation_fraction == 0.0) {

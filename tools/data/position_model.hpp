@@ -17,10 +17,14 @@
 namespace clm::data {
 
 struct PositionIdentifyOptions {
-  /// The translator's mass, a prior that fixes the force scale; 0: the scale
-  /// that brings every coil set's A_y, B_y closest to the drive's nominal
-  /// commutation (one mass for the whole translator).
+  /// The force scale, from the first given of: the translator's mass; its
+  /// friction (the mass that makes every coil set's identified friction
+  /// closest to it); else the one that brings every coil set's A_y, B_y
+  /// closest to the drive's nominal commutation. One mass for the whole
+  /// translator.
   double mass_kg = 0.0;
+  double viscous_N_s_per_m = 0.0;  ///< > 0: known viscous friction
+  double direction_N = 0.0;        ///< > 0: known Coulomb friction plus direction-dependent force
   /// Knot spacing of the y-row splines; 0: chosen by the held-out force
   /// balance from kSplineKnotsPerPolePitch (pole pitch / 8 when nothing is
   /// held out).
@@ -42,6 +46,7 @@ struct PositionIdentification {
   std::vector<identification::MotionFit> fits;  ///< per coil set, at the common mass
   double mass_kg = 0.0;
   bool mass_given = false;
+  bool friction_given = false;  ///< the scale from the friction given
   double knot_spacing_m = 0.0;
   /// Knot spacings tried and the held-out RMS of the force balance over all
   /// coil sets [m, N]; empty when the spacing was given.
