@@ -246,16 +246,17 @@ TEST_CASE("calibrate and identify on experiments without force columns work from
   const ExperimentFiles& experiments = experiment_files();
   TemporaryDirectory dir;
   // The daemon's experiments as an axis without a force sensor records them.
-  CsvLines lines;
+  CsvLines with_forces;
   {
     const std::string text = read_file(experiments.csv);
     std::size_t start = 0;
     while (start < text.size()) {
       const std::size_t end = text.find('\n', start);
-      lines.push_back(text.substr(start, end - start));
+      with_forces.push_back(text.substr(start, end - start));
       start = end == std::string::npos ? text.size() : end + 1;
     }
   }
+  CsvLines lines = with_forces;
   for (const char* column : {"Fy_N", "Fx_N", "Tz_Nm"}) drop_column(lines, column);
   const std::string data = dir.file("experiments-position.csv");
   write_file(data, join_lines(lines));
@@ -295,7 +296,7 @@ TEST_CASE("calibrate and identify on experiments without force columns work from
 
   // What positions cannot give is refused with the reason (exit 2); the
   // first 500 rows of each coil set and offset say it as well as all.
-  CsvLines short_lines = {lines[0]};
+  CsvLines short_lines = {lines[0]}, short_with_forces = {with_forces[0]};
   {
     const std::size_t coil_set = column_index(lines, "coil_set"), delta = column_index(lines, "delta_rad");
     std::map<std::string, int> kept;
@@ -304,7 +305,9 @@ TEST_CASE("calibrate and identify on experiments without force columns work from
       std::stringstream row(lines[line]);
       for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
       if (cells.size() <= std::max(coil_set, delta)) continue;
-      if (kept[cells[coil_set] + "/" + cells[delta]]++ < 500) short_lines.push_back(lines[line]);
+      if (kept[cells[coil_set] + "/" + cells[delta]]++ >= 500) continue;
+      short_lines.push_back(lines[line]);
+      short_with_forces.push_back(with_forces[line]);
     }
   }
   const std::string head = dir.file("head.csv");
@@ -317,4 +320,35 @@ TEST_CASE("calibrate and identify on experiments without force columns work from
       run_clm({"calibrate", "--motor", kMotor, "--data", head, "--output", calibration + ".robust", "--robust"});
   CHECK(robust.exit_code == 2);
   CHECK(robust.err.find("no offset to fit") != std::string::npos);
+
+  // F_x and T_z from a force-sensor spline given (on its knot grid): the
+  // same rows, bit for bit, beside the F_y rows from positions.
+  const std::string forces_head = dir.file("forces-head.csv");
+  write_file(forces_head, join_lines(short_with_forces));
+  const std::string force_model = dir.file("force-spline.yaml");
+  run_writing({"identify", "--motor", kMotor, "--data", forces_head, "--output", force_model, "--model", "spline",
+               "--no-selection", "--knot-spacing-m", "0.005"},
+              dir.path(), force_model);
+  const std::string joined = dir.file("joined.yaml");
+  run_writing({"identify", "--motor", kMotor, "--data", head, "--output", joined, "--off-axis-model", force_model,
+               "--mass-kg", "15"},
+              dir.path(), joined);
+  const ModelFile off_axis = load_model_file(force_model);
+  const ModelFile both = load_model_file(joined);
+  CHECK(both.provenance.rows_from ==
+        std::array<RowSource, 3>{RowSource::kPosition, RowSource::kForceSensor, RowSource::kForceSensor});
+  REQUIRE(both.model.coil_sets.size() == off_axis.model.coil_sets.size());
+  for (std::size_t l = 0; l < both.model.coil_sets.size(); ++l) {
+    const auto& a = both.model.coil_sets[l];
+    const auto& b = off_axis.model.coil_sets[l];
+    CHECK(a.a_N_per_A.bottomRows<2>() == b.a_N_per_A.bottomRows<2>());
+    CHECK(a.column_a_spline.bottomRows<2>() == b.column_a_spline.bottomRows<2>());
+    CHECK(a.cogging_spline.bottomRows<2>() == b.cogging_spline.bottomRows<2>());
+    CHECK(a.column_a_spline.row(0) != b.column_a_spline.row(0));
+  }
+  // ... and refused for data with forces.
+  const ProcessResult misplaced = run_clm(
+      {"identify", "--motor", kMotor, "--data", forces_head, "--output", joined + ".x", "--off-axis-model", force_model});
+  CHECK(misplaced.exit_code == 2);
+  CHECK(misplaced.err.find("--off-axis-model") != std::string::npos);
 }

@@ -1,5 +1,6 @@
 // clm identify: Algorithm 2 (PGNN) or the spline model for every coil set.
 #include <cstdio>
+#include <optional>
 #include <iostream>
 
 #include "commutation/model_file.hpp"
@@ -16,10 +17,23 @@ namespace {
 
 // Data without force columns: the F_y rows from positions (docs/commutation.md, "Without a force sensor").
 void identify_from_positions(const data::ExperimentData& data, const MotorDescription& motor,
-                             const data::PositionIdentifyOptions& options, const std::string& data_path,
-                             const std::string& output) {
+                             data::PositionIdentifyOptions options, const std::string& data_path,
+                             const std::string& output, const std::string& off_axis_path,
+                             const std::string& motor_path) {
+  // A force-sensor spline given: its knot grid, and its F_x and T_z rows.
+  std::optional<ModelFile> off_axis;
+  if (!off_axis_path.empty()) {
+    off_axis = load_model_file(off_axis_path);
+    check_matches_motor(off_axis->model, motor, off_axis_path, motor_path);
+    if (off_axis->model.kind != ModelKind::kSpline || off_axis->provenance.rows_from[1] != RowSource::kForceSensor) {
+      throw std::runtime_error("--off-axis-model " + off_axis_path +
+                               ": a spline model whose F_x and T_z rows come from the force sensor is needed");
+    }
+    options.basis = off_axis->model.spline_basis;
+  }
   data::PositionIdentification identified = data::identify_from_position(data, motor, options);
   ModelFile& file = identified.model;
+  if (off_axis) data::take_off_axis_rows(file, *off_axis);
   file.provenance.data_sha256 = sha256_file(data_path);
   file.provenance.generator = generator_name("identify");
   write_file_atomically(output, format_model_file(file));
@@ -30,8 +44,10 @@ void identify_from_positions(const data::ExperimentData& data, const MotorDescri
 }  // namespace
 
 void print_position_identification(const data::PositionIdentification& identified) {
+  const bool off_axis = identified.model.provenance.rows_from[1] == RowSource::kForceSensor;
   std::printf("spline model from positions (no force columns): F_y rows identified with the mechanics; F_x and T_z "
-              "rows zero (the drive's constants)\n");
+              "rows %s\n",
+              off_axis ? "of the force-sensor model given" : "zero (the drive's constants)");
   std::printf("mass %.4g kg (%s)\n", identified.mass_kg,
               identified.mass_given       ? "given"
               : identified.friction_given ? "the one that makes the identified friction the friction given"
@@ -67,6 +83,7 @@ void add_identify(CLI::App& app) {
     double mass_kg = 0.0;
     double viscous_N_s_per_m = 0.0;
     double direction_N = 0.0;
+    std::string off_axis_model;
     data::DataLimits limits;
     lcmlog::GapPolicy gaps;
   };
@@ -103,6 +120,10 @@ void add_identify(CLI::App& app) {
                   "drive's nominal commutation does)")
       ->check(clm::non_negative_number())->capture_default_str();
   add_friction_options(*sub, options->viscous_N_s_per_m, options->direction_N);
+  sub->add_option("--off-axis-model", options->off_axis_model,
+                  "data without force columns: a spline model of a force-sensor identification whose F_x and T_z rows "
+                  "(and knot grid) the model takes (default: zero rows, the drive's constants)")
+      ->check(lcmlog::existing_input_file());
   sub->add_flag("!--no-nuisance", o.nuisance,
                 "fit the model alone, as the paper does (default: the sensor's F_y offset and the direction-dependent "
                 "force are identified beside it)");
@@ -119,6 +140,10 @@ void add_identify(CLI::App& app) {
     // the identification's own matrices are made (docs/benchmarks.md, memory).
     const auto data = data::read_experiment_data(
         lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment, options->limits, options->gaps), motor);
+    if (data.measured_forces && !options->off_axis_model.empty()) {
+      throw std::runtime_error("--off-axis-model: " + options->data +
+                               " has force columns; a model of F_x and T_z is for data without them");
+    }
     if (!data.measured_forces) {
       if (sub->count("--model") > 0 && options->model != "spline") {
         throw std::runtime_error("--model " + options->model + ": " + options->data +
@@ -135,7 +160,8 @@ void add_identify(CLI::App& app) {
                                                                    : motor.pole_pitch_m / 8.0;
       position.smoothing = options->identify.spline.smoothing;
       position.validation_fraction = options->identify.validation_fraction;
-      identify_from_positions(data, motor, position, options->data, options->output);
+      identify_from_positions(data, motor, position, options->data, options->output, options->off_axis_model,
+                              options->motor);
       return;
     }
     std::vector<data::CoilSetIdentification> reports;
