@@ -87,7 +87,13 @@ if [ "$mode" = no-daemon ]; then
 fi
 
 [ "$mode" = run ] || [ "$mode" = no-sensor ] || fail "unknown mode $mode"
-url="udpm://239.255.76.67:$((9920 + $$ % 30))?ttl=0"
+# A port range of each mode's own: ctest runs the two modes side by side
+# (no-sensor: 10300..10339, no other test's).
+if [ "$mode" = run ]; then
+  url="udpm://239.255.76.67:$((9920 + $$ % 30))?ttl=0"
+else
+  url="udpm://239.255.76.67:$((10300 + $$ % 40))?ttl=0"
+fi
 
 # config/servod.yaml as it is (SCHED_FIFO 80 and mlockall where allowed, else
 # a warning and without), with our port and a copy of the simulated motor
