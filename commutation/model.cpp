@@ -13,6 +13,21 @@ Eigen::Vector3d spline_value(const SplineCoefficients& coefficients, const Unifo
 
 }  // namespace
 
+void add_physics_harmonics(const HarmonicOrders& orders, const CoilSetModel& part, const double* cos_n,
+                           const double* sin_n, CoilGain& gain, Wrench& cogging) noexcept {
+  for (std::size_t k = 0; k < orders.gain.size(); ++k) {
+    const auto n = static_cast<std::size_t>(orders.gain[k]);
+    const auto first = static_cast<Eigen::Index>(4 * k);
+    gain += part.gain_harmonics_N_per_A.middleCols<2>(first) * cos_n[n] +
+            part.gain_harmonics_N_per_A.middleCols<2>(first + 2) * sin_n[n];
+  }
+  for (std::size_t k = 0; k < orders.cogging.size(); ++k) {
+    const auto m = static_cast<std::size_t>(orders.cogging[k]);
+    const auto first = static_cast<Eigen::Index>(2 * k);
+    cogging += part.cogging_harmonics_N.col(first) * cos_n[m] + part.cogging_harmonics_N.col(first + 1) * sin_n[m];
+  }
+}
+
 namespace {
 
 // What every coil set needs of the position, computed once per evaluation.
@@ -21,13 +36,16 @@ struct PositionFeatures {
   double sin_theta;
   double network_input;
   UniformCubicBasis::Span span;
+  double cos_n[kMaxHarmonicOrder + 1];  // the physics part's harmonics
+  double sin_n[kMaxHarmonicOrder + 1];
 };
 
 PositionFeatures features(const ElectromagneticModel& model, double position_m) {
   const double theta = electrical_angle_rad(position_m, model.pole_pitch_m);
-  PositionFeatures f{std::cos(theta), std::sin(theta), 0.0, {}};
+  PositionFeatures f{std::cos(theta), std::sin(theta), 0.0, {}, {}, {}};
   if (model.kind == ModelKind::kPgnn) {
     f.network_input = model.normalisation.apply(position_m);
+    angle_harmonics(f.cos_theta, f.sin_theta, model.harmonics.max_order(), f.cos_n, f.sin_n);
   } else {
     f.span = model.spline_basis.evaluate(position_m);
   }
@@ -41,6 +59,7 @@ void evaluate_part(const ElectromagneticModel& model, const CoilSetModel& part, 
     gain.col(0) += part.column_a.evaluate(f.network_input);
     gain.col(1) += part.column_b.evaluate(f.network_input);
     cogging = part.cogging.evaluate(f.network_input);
+    add_physics_harmonics(model.harmonics, part, f.cos_n, f.sin_n, gain, cogging);
   } else {
     gain.col(0) += spline_value(part.column_a_spline, f.span);
     gain.col(1) += spline_value(part.column_b_spline, f.span);
@@ -101,10 +120,29 @@ void ElectromagneticModel::validate() const {
       throw ModelError("spline knots: need start_m < end_m, at least one interval and a finite, non-zero knot spacing");
     }
   }
+  const auto check_orders = [&](const std::vector<int>& orders, int lowest, const char* name) {
+    for (std::size_t k = 0; k < orders.size(); ++k) {
+      const int previous = k == 0 ? lowest - 1 : orders[k - 1];
+      if (orders[k] <= previous || orders[k] > kMaxHarmonicOrder) {
+        throw ModelError(std::string("harmonic orders, ") + name + ": need ascending distinct orders in " +
+                         std::to_string(lowest) + ".." + std::to_string(kMaxHarmonicOrder));
+      }
+    }
+  };
+  if (kind != ModelKind::kPgnn && !harmonics.empty()) throw ModelError("harmonic orders: a PGNN's only");
+  check_orders(harmonics.gain, 2, "gain");  // order 1 is A·cos θ + B·sin θ
+  check_orders(harmonics.cogging, 1, "cogging");
   for (int l = 0; l < count; ++l) {
     const auto& model = coil_sets[static_cast<std::size_t>(l)];
     const std::string where = "coil set " + std::to_string(l + 1) + ": ";
     if (!model.a_N_per_A.allFinite() || !model.b_N_per_A.allFinite()) throw ModelError(where + "A or B not finite");
+    if (model.gain_harmonics_N_per_A.cols() != 4 * static_cast<Eigen::Index>(harmonics.gain.size()) ||
+        model.cogging_harmonics_N.cols() != 2 * static_cast<Eigen::Index>(harmonics.cogging.size())) {
+      throw ModelError(where + "harmonic coefficients do not match the harmonic orders");
+    }
+    if (!model.gain_harmonics_N_per_A.allFinite() || !model.cogging_harmonics_N.allFinite()) {
+      throw ModelError(where + "harmonic coefficients not finite");
+    }
     if (kind == ModelKind::kPgnn) {
       const Network* networks[3] = {&model.column_a, &model.column_b, &model.cogging};
       const char* names[3] = {"column_a", "column_b", "cogging"};
@@ -181,9 +219,16 @@ void FusedPgnnEvaluator::evaluate(double position_m, StackedGain& gain, Wrench& 
   tanh_array(hidden, hidden, padded);
   gain.resize(3, 2 * count);
   cogging.setZero();
+  double cos_n[kMaxHarmonicOrder + 1];
+  double sin_n[kMaxHarmonicOrder + 1];
+  angle_harmonics(c, s, model.harmonics.max_order(), cos_n, sin_n);
   for (int l = 0; l < count; ++l) {
     const auto& part = model.coil_sets[static_cast<std::size_t>(l)];
-    gain.middleCols<2>(2 * l) = part.a_N_per_A * c + part.b_N_per_A * s;
+    CoilGain coil_gain = part.a_N_per_A * c + part.b_N_per_A * s;
+    Wrench harmonic_cogging = Wrench::Zero();
+    add_physics_harmonics(model.harmonics, part, cos_n, sin_n, coil_gain, harmonic_cogging);
+    gain.middleCols<2>(2 * l) = coil_gain;
+    cogging += harmonic_cogging;
     for (int n = 0; n < 3; ++n) {
       const Output& out = outputs_[static_cast<std::size_t>(3 * l + n)];
       // Four independent lanes (the fourth weight is zero): the compiler keeps

@@ -271,6 +271,15 @@ std::string format_model_file(const ModelFile& file) {
     out << YAML::Key << "offset_m" << YAML::Value << yaml::format_double(model.normalisation.offset_m);
     out << YAML::Key << "scale_m" << YAML::Value << yaml::format_double(model.normalisation.scale_m);
     out << YAML::EndMap;
+    if (!model.harmonics.empty()) {
+      out << YAML::Key << "harmonic_orders" << YAML::Value << YAML::BeginMap;
+      for (const auto& [key, orders] : {std::pair{"gain", &model.harmonics.gain}, std::pair{"cogging", &model.harmonics.cogging}}) {
+        out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginSeq;
+        for (int n : *orders) out << n;
+        out << YAML::EndSeq;
+      }
+      out << YAML::EndMap;
+    }
   } else {
     out << YAML::Key << "spline_knots" << YAML::Value << YAML::BeginMap;
     out << YAML::Key << "start_m" << YAML::Value << yaml::format_double(model.spline_basis.start_m);
@@ -292,6 +301,14 @@ std::string format_model_file(const ModelFile& file) {
       emit_network(out, coil_set.column_b);
       out << YAML::Key << "cogging" << YAML::Value;
       emit_network(out, coil_set.cogging);
+      if (!model.harmonics.gain.empty()) {
+        out << YAML::Key << "gain_harmonics_N_per_A" << YAML::Value;
+        yaml::emit_matrix(out, coil_set.gain_harmonics_N_per_A);
+      }
+      if (!model.harmonics.cogging.empty()) {
+        out << YAML::Key << "cogging_harmonics_N_N_Nm" << YAML::Value;
+        yaml::emit_matrix(out, coil_set.cogging_harmonics_N);
+      }
     } else {
       out << YAML::Key << "column_a_spline" << YAML::Value;
       yaml::emit_matrix(out, coil_set.column_a_spline);
@@ -365,11 +382,30 @@ ModelFile parse_model_file(const yaml::Node& root) {
   const std::string kind = root["kind"].as_string();
   if (kind == "pgnn") {
     model.kind = ModelKind::kPgnn;
-    root.expect_keys({"format", "format_version", "kind", "motor", "position_normalisation", "coil_sets", "provenance"});
+    root.expect_keys({"format", "format_version", "kind", "motor", "position_normalisation", "harmonic_orders",
+                      "coil_sets", "provenance"});
     const yaml::Node normalisation = root["position_normalisation"];
     normalisation.expect_keys({"offset_m", "scale_m"});
     model.normalisation.offset_m = normalisation["offset_m"].as_double();
     model.normalisation.scale_m = normalisation["scale_m"].as_positive();
+    if (root.has("harmonic_orders")) {
+      const yaml::Node orders = root["harmonic_orders"];
+      orders.expect_keys({"gain", "cogging"});
+      const auto read = [&](const char* key, int lowest) {
+        const yaml::Node list = orders[key];
+        const auto values = list.as_int_list();
+        for (std::size_t k = 0; k < values.size(); ++k) {
+          const int previous = k == 0 ? lowest - 1 : values[k - 1];
+          if (values[k] <= previous || values[k] > kMaxHarmonicOrder) {
+            list.fail("need ascending distinct orders in " + std::to_string(lowest) + ".." +
+                      std::to_string(kMaxHarmonicOrder));
+          }
+        }
+        return values;
+      };
+      model.harmonics.gain = read("gain", 2);
+      model.harmonics.cogging = read("cogging", 1);
+    }
   } else if (kind == "spline") {
     model.kind = ModelKind::kSpline;
     root.expect_keys({"format", "format_version", "kind", "motor", "spline_knots", "coil_sets", "provenance"});
@@ -394,10 +430,22 @@ ModelFile parse_model_file(const yaml::Node& root) {
     const yaml::Node entry = list.at(l);
     CoilSetModel coil_set;
     if (model.kind == ModelKind::kPgnn) {
-      entry.expect_keys({"A_N_per_A", "B_N_per_A", "column_a", "column_b", "cogging"});
+      entry.expect_keys({"A_N_per_A", "B_N_per_A", "column_a", "column_b", "cogging", "gain_harmonics_N_per_A",
+                         "cogging_harmonics_N_N_Nm"});
       coil_set.column_a = parse_network(entry["column_a"]);
       coil_set.column_b = parse_network(entry["column_b"]);
       coil_set.cogging = parse_network(entry["cogging"]);
+      // Present exactly when harmonic_orders lists orders of their kind.
+      const auto harmonics = [&](const char* key, std::size_t orders, int per_order) {
+        if (orders == 0) {
+          if (entry.has(key)) entry[key].fail("no harmonic_orders of this kind are given");
+          return Eigen::Matrix<double, 3, Eigen::Dynamic>(3, 0);
+        }
+        return Eigen::Matrix<double, 3, Eigen::Dynamic>(
+            entry[key].as_matrix(3, per_order * static_cast<int>(orders)));
+      };
+      coil_set.gain_harmonics_N_per_A = harmonics("gain_harmonics_N_per_A", model.harmonics.gain.size(), 4);
+      coil_set.cogging_harmonics_N = harmonics("cogging_harmonics_N_N_Nm", model.harmonics.cogging.size(), 2);
     } else {
       entry.expect_keys({"A_N_per_A", "B_N_per_A", "column_a_spline", "column_b_spline", "cogging_spline"});
       const int n = model.spline_basis.size();

@@ -72,6 +72,8 @@ void unpack_parameters(const PgnnLayout& layout, const double* nonlinear,
   coil_set.column_a = Network::zeros({na});
   coil_set.column_b = Network::zeros({na});
   coil_set.cogging = Network::zeros({nc});
+  coil_set.gain_harmonics_N_per_A.resize(3, layout.gain_harmonic_count());
+  coil_set.cogging_harmonics_N.resize(3, layout.cogging_harmonic_count());
   for (int j = 0; j < na; ++j) {
     coil_set.column_a.layers[0].weights(j, 0) = nonlinear[j];
     coil_set.column_a.layers[0].biases[j] = nonlinear[na + j];
@@ -95,6 +97,12 @@ void unpack_parameters(const PgnnLayout& layout, const double* nonlinear,
     coil_set.column_b.layers[1].biases[q] = linear(layout.column_b_offset() + na, q);
     for (int j = 0; j < nc; ++j) coil_set.cogging.layers[1].weights(q, j) = linear(layout.cogging_offset() + j, q);
     coil_set.cogging.layers[1].biases[q] = linear(layout.cogging_offset() + nc, q);
+    for (int k = 0; k < layout.gain_harmonic_count(); ++k) {
+      coil_set.gain_harmonics_N_per_A(q, k) = linear(layout.gain_harmonics_offset() + k, q);
+    }
+    for (int k = 0; k < layout.cogging_harmonic_count(); ++k) {
+      coil_set.cogging_harmonics_N(q, k) = linear(layout.cogging_harmonics_offset() + k, q);
+    }
     direction.amplitude[q] = direction.identified() ? linear(layout.direction_offset(), q) : 0.0;
   }
 }
@@ -128,8 +136,19 @@ void pack_parameters(const PgnnLayout& layout, const CoilSetModel& coil_set, con
     linear(layout.column_b_offset() + na, q) = coil_set.column_b.layers[1].biases[q];
     for (int j = 0; j < nc; ++j) linear(layout.cogging_offset() + j, q) = coil_set.cogging.layers[1].weights(q, j);
     linear(layout.cogging_offset() + nc, q) = coil_set.cogging.layers[1].biases[q];
+    for (int k = 0; k < layout.gain_harmonic_count(); ++k) {
+      linear(layout.gain_harmonics_offset() + k, q) = coil_set.gain_harmonics_N_per_A(q, k);
+    }
+    for (int k = 0; k < layout.cogging_harmonic_count(); ++k) {
+      linear(layout.cogging_harmonics_offset() + k, q) = coil_set.cogging_harmonics_N(q, k);
+    }
     linear(layout.direction_offset(), q) = direction.amplitude[q];
   }
+}
+
+PgnnLayout PgnnLayout::of(const CoilSetModel& coil_set, const HarmonicOrders& harmonics) {
+  return {static_cast<int>(coil_set.column_a.layers[0].biases.size()),
+          static_cast<int>(coil_set.cogging.layers[0].biases.size()), harmonics};
 }
 
 PositionNormalisation normalisation_for(const Eigen::VectorXd& position_m) {
@@ -140,11 +159,10 @@ PositionNormalisation normalisation_for(const Eigen::VectorXd& position_m) {
 }
 
 void solve_linear_parameters(const CoilSetDataset& data, double pole_pitch_m,
-                             const PositionNormalisation& normalisation, const CoilGain& physics_a,
-                             const CoilGain& physics_b, double regularisation, CoilSetModel& coil_set,
-                             DirectionForce& direction) {
-  const PgnnLayout layout{static_cast<int>(coil_set.column_a.layers[0].biases.size()),
-                          static_cast<int>(coil_set.cogging.layers[0].biases.size())};
+                             const PositionNormalisation& normalisation, const HarmonicOrders& harmonics,
+                             const CoilGain& physics_a, const CoilGain& physics_b, double regularisation,
+                             CoilSetModel& coil_set, DirectionForce& direction) {
+  const PgnnLayout layout = PgnnLayout::of(coil_set, harmonics);
   std::vector<double> nonlinear;
   Eigen::Matrix<double, Eigen::Dynamic, 3> linear;
   pack_parameters(layout, coil_set, direction, nonlinear, linear);

@@ -20,14 +20,15 @@ namespace clm::identification {
 PositionNormalisation normalisation_for(const Eigen::VectorXd& position_m);
 
 /// Eq. (31): ridge least squares of every parameter in which the PGNN is
-/// linear (A, B and the output layers), direction by direction, with the
-/// hidden layers of `coil_set` held fixed. Modifies `coil_set` in place.
-/// `direction` gives v_c of the direction-dependent force fitted beside them;
-/// its amplitude is written back.
+/// linear (A, B, the physics-part harmonics of `harmonics` and the output
+/// layers), direction by direction, with the hidden layers of `coil_set`
+/// held fixed. Modifies `coil_set` in place. `direction` gives v_c of the
+/// direction-dependent force fitted beside them; its amplitude is written
+/// back.
 void solve_linear_parameters(const CoilSetDataset& data, double pole_pitch_m,
-                             const PositionNormalisation& normalisation, const CoilGain& physics_a,
-                             const CoilGain& physics_b, double regularisation, CoilSetModel& coil_set,
-                             DirectionForce& direction);
+                             const PositionNormalisation& normalisation, const HarmonicOrders& harmonics,
+                             const CoilGain& physics_a, const CoilGain& physics_b, double regularisation,
+                             CoilSetModel& coil_set, DirectionForce& direction);
 
 /// Per-sample quantities that do not depend on the parameters: cos θ, sin θ
 /// of the electrical angle, the normalised network input and the regressor
@@ -45,21 +46,32 @@ PgnnFeatures features_of(const CoilSetDataset& data, double pole_pitch_m, const 
 /// Layout of the parameters of one direction in which the PGNN is linear
 /// (eq. 29), then the direction-dependent force C_q (a nuisance term, not
 /// part of the model): [A_q (2), B_q (2), W_a (n_a), b_a, W_b (n_b), b_b,
-/// W_cog (n_c), b_cog, C_q].
+/// W_cog (n_c), b_cog, gain harmonics (4 per order: cos·i_a, cos·i_b,
+/// sin·i_a, sin·i_b), cogging harmonics (2 per order: cos, sin), C_q].
 struct PgnnLayout {
   int column_hidden;
   int cogging_hidden;
-  int linear_size() const { return 4 + 2 * (column_hidden + 1) + cogging_hidden + 2; }
+  HarmonicOrders harmonics = {};
+  int gain_harmonic_count() const { return 4 * static_cast<int>(harmonics.gain.size()); }
+  int cogging_harmonic_count() const { return 2 * static_cast<int>(harmonics.cogging.size()); }
+  int linear_size() const {
+    return 4 + 2 * (column_hidden + 1) + cogging_hidden + 1 + gain_harmonic_count() + cogging_harmonic_count() + 1;
+  }
   int column_a_offset() const { return 4; }
   int column_b_offset() const { return 4 + column_hidden + 1; }
   int cogging_offset() const { return 4 + 2 * (column_hidden + 1); }
+  int gain_harmonics_offset() const { return cogging_offset() + cogging_hidden + 1; }
+  int cogging_harmonics_offset() const { return gain_harmonics_offset() + gain_harmonic_count(); }
   int direction_offset() const { return linear_size() - 1; }
+  /// The layout of a PGNN coil set's networks with `harmonics` in its physics part.
+  static PgnnLayout of(const CoilSetModel& coil_set, const HarmonicOrders& harmonics);
   // Hidden layers (eq. 29's θ_NL): [w_a, b_a, w_b, b_b, w_cog, b_cog].
   int nonlinear_size() const { return 4 * column_hidden + 2 * cogging_hidden; }
 };
 
-/// Largest linear_size() for networks of at most Network::kMaxWidth neurons.
-constexpr int kMaxRegressor = 4 + 2 * (Network::kMaxWidth + 1) + Network::kMaxWidth + 2;
+/// Largest linear_size() for networks of at most Network::kMaxWidth neurons
+/// and every harmonic order.
+constexpr int kMaxRegressor = 4 + 2 * (Network::kMaxWidth + 1) + Network::kMaxWidth + 2 + 6 * kMaxHarmonicOrder;
 
 /// Regressor M(θ_NL, t) of eq. (28) (the same for all three directions) into
 /// m[0..linear_size()), and the hidden activations into hidden_a/b/cog.
@@ -92,6 +104,24 @@ inline void regressor(const PgnnLayout& layout, const double* nonlinear, double 
     m[layout.cogging_offset() + j] = hidden_cog[j];
   }
   m[layout.cogging_offset() + nc] = 1.0;
+  if (!layout.harmonics.empty()) {
+    double cos_n[kMaxHarmonicOrder + 1], sin_n[kMaxHarmonicOrder + 1];
+    angle_harmonics(c, s, layout.harmonics.max_order(), cos_n, sin_n);
+    double* gain = m + layout.gain_harmonics_offset();
+    for (const int n : layout.harmonics.gain) {
+      gain[0] = cos_n[n] * ia;
+      gain[1] = cos_n[n] * ib;
+      gain[2] = sin_n[n] * ia;
+      gain[3] = sin_n[n] * ib;
+      gain += 4;
+    }
+    double* cogging = m + layout.cogging_harmonics_offset();
+    for (const int n : layout.harmonics.cogging) {
+      cogging[0] = cos_n[n];
+      cogging[1] = sin_n[n];
+      cogging += 2;
+    }
+  }
   m[layout.direction_offset()] = d;
 }
 

@@ -305,6 +305,8 @@ CoilSetModel physics_coil_set(const PhysicsFit& fit, const PgnnLayout& layout) {
   physics.column_b = Network::zeros({layout.column_hidden});
   physics.cogging = Network::zeros({layout.cogging_hidden});
   physics.cogging.layers[1].biases = fit.constant;
+  physics.gain_harmonics_N_per_A = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, layout.gain_harmonic_count());
+  physics.cogging_harmonics_N = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, layout.cogging_harmonic_count());
   return physics;
 }
 
@@ -337,7 +339,7 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
   // The shape of the direction-dependent force fitted beside the model; its
   // amplitude comes out of eq. (31) with the other linear parameters.
   const DirectionForce shape = direction_shape(training, options.direction_smoothing_m_per_s);
-  const PgnnLayout layout{options.column_hidden, options.cogging_hidden};
+  const PgnnLayout layout{options.column_hidden, options.cogging_hidden, options.harmonics};
   const auto solve = options.solver == PgnnSolver::kVariableProjection ? variable_projection : levenberg_marquardt;
   const bool held_out = validation.size() > 0;
   // The model of parameters (θ_NL, θ_L) as ElectromagneticModel evaluates it,
@@ -350,7 +352,7 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
     CoilSetModel part;
     DirectionForce direction = shape;
     unpack_parameters(layout, nonlinear.data(), linear, part, direction);
-    return Candidate{single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, part), direction};
+    return Candidate{single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, part, layout.harmonics), direction};
   };
 
   const CoilSetDataset coarse = decimate(training, options.restart_decimation);
@@ -412,7 +414,8 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
   if (progress) progress({options.restarts, options.restarts, final_cost});
 
   const auto physics_model =
-      single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, physics_coil_set(physics_fit, layout));
+      single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, physics_coil_set(physics_fit, layout),
+                            layout.harmonics);
   // Training and validation costs are those of the model fit without the
   // validation blocks: the held-out estimate of how it predicts.
   const Candidate trained = model_of(best_nonlinear, best_linear);
@@ -430,8 +433,7 @@ CoilSetModel refit_pgnn_coil_set(const CoilSetModel& trained, const DirectionFor
                                  const CoilSetDataset& training, const CoilSetDataset& validation, double pole_pitch_m,
                                  const PositionNormalisation& normalisation, const PgnnOptions& options,
                                  IdentificationReport& report) {
-  const PgnnLayout layout{static_cast<int>(trained.column_a.layers[0].biases.size()),
-                          static_cast<int>(trained.cogging.layers[0].biases.size())};
+  const PgnnLayout layout = PgnnLayout::of(trained, options.harmonics);
   const auto solve = options.solver == PgnnSolver::kVariableProjection ? variable_projection : levenberg_marquardt;
   std::vector<double> nonlinear;
   Eigen::Matrix<double, Eigen::Dynamic, 3> linear;
@@ -458,9 +460,10 @@ CoilSetModel refit_pgnn_coil_set(const CoilSetModel& trained, const DirectionFor
   CoilSetModel result;
   DirectionForce direction = shape;
   unpack_parameters(layout, nonlinear.data(), linear, result, direction);
-  fill_fit_costs({single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, result), direction},
+  fill_fit_costs({single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, result, layout.harmonics),
+                  direction},
                  {single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {},
-                                        physics_coil_set(physics_fit, layout)),
+                                        physics_coil_set(physics_fit, layout), layout.harmonics),
                   physics_fit.direction},
                  fitted, report);
   double prior = 0.0;

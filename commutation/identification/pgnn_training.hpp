@@ -19,10 +19,21 @@ enum class PgnnSolver {
   kJointSchur,          ///< LM on θ_L and θ_NL together, θ_L eliminated by the Schur complement
 };
 
+/// The physics-part harmonics identification offers (docs/commutation.md,
+/// "Harmonics in the physics part"): in K̂ the field harmonics 5 and 7 (a
+/// three-phase winding in star sees the orders 6k ± 1; the 3rd cancels), in
+/// the cogging the orders 1..6 (forces periodic in the pole pitch, up to the
+/// sixth, where a three-phase motor's force ripple lies).
+inline HarmonicOrders field_harmonic_orders() { return {{5, 7}, {1, 2, 3, 4, 5, 6}}; }
+
 struct PgnnOptions {
   int column_hidden = 2;        ///< neurons of each column network of K̂ (paper: 2)
   int cogging_hidden = 16;      ///< neurons of the cogging network (paper: 16)
   double regularisation = 0.1;  ///< Λ = regularisation·I in eq. (26) (paper: 0.1)
+  /// Harmonics of the electrical angle in the physics part beside A and B
+  /// (HarmonicOrders; paper: none). Linear parameters, solved by eq. (31)
+  /// with the output layers; the prior of eq. (26) acts on A and B alone.
+  HarmonicOrders harmonics;
   int restarts = 5;             ///< seeded random initialisations, best kept
   std::uint64_t seed = 1;
   int restart_iterations = 40;  ///< LM iterations per restart, on the decimated training set

@@ -19,8 +19,10 @@ DirectionCost coil_set_cost(const ElectromagneticModel& model, int coil_set, con
 }
 
 ElectromagneticModel single_coil_set_model(ModelKind kind, double pole_pitch_m, const PositionNormalisation& normalisation,
-                                           const UniformCubicBasis& basis, const CoilSetModel& coil_set) {
+                                           const UniformCubicBasis& basis, const CoilSetModel& coil_set,
+                                           const HarmonicOrders& harmonics) {
   ElectromagneticModel model;
+  model.harmonics = harmonics;
   model.kind = kind;
   model.pole_pitch_m = pole_pitch_m;
   model.normalisation = normalisation;

@@ -59,10 +59,12 @@ struct ModelWithNuisance {
 };
 
 /// A model of kind `kind` holding `coil_set` as its only coil set, so that
-/// coil_set_cost can evaluate a coil set identified on its own.
+/// coil_set_cost can evaluate a coil set identified on its own; a PGNN's
+/// physics part carries `harmonics`.
 ElectromagneticModel single_coil_set_model(ModelKind kind, double pole_pitch_m,
                                            const PositionNormalisation& normalisation,
-                                           const UniformCubicBasis& basis, const CoilSetModel& coil_set);
+                                           const UniformCubicBasis& basis, const CoilSetModel& coil_set,
+                                           const HarmonicOrders& harmonics = {});
 
 /// Fills the training and validation costs of `report` (validation ones only
 /// for non-empty `validation`) from the single-coil-set `model` and the

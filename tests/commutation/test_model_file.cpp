@@ -13,7 +13,9 @@ namespace {
 
 ModelFile random_model_file(ModelKind kind, int coil_sets, std::mt19937_64& rng) {
   ModelFile file;
-  file.model = kind == ModelKind::kPgnn ? test::random_pgnn_model(coil_sets, 0.032, rng)
+  // Physics-part harmonics on every other PGNN file (optional keys).
+  const HarmonicOrders harmonics = rng() % 2 == 0 ? HarmonicOrders{{5, 7}, {1, 2, 6}} : HarmonicOrders{};
+  file.model = kind == ModelKind::kPgnn ? test::random_pgnn_model(coil_sets, 0.032, rng, {2}, {16}, harmonics)
                                         : test::random_spline_model(coil_sets, 0.032, rng);
   file.provenance = {"0123abcd", "2026-11-21T00:00:00Z", "test", {}, {}};
   for (int l = 0; l < coil_sets; ++l) file.provenance.costs.push_back({{1.0 / 3, 2, 3}, {0.1, 0.2, 0.3}, {4, 5, 6}, {0.4, 0.5, 0.6}});
@@ -66,6 +68,7 @@ TEST_CASE("model files round-trip bit for bit", "[model_file]") {
       REQUIRE(parsed.model.kind == kind);
       REQUIRE(parsed.model.pole_pitch_m == original.model.pole_pitch_m);
       REQUIRE(parsed.model.coil_set_count() == coil_sets);
+      REQUIRE(parsed.model.harmonics == original.model.harmonics);
       for (int l = 0; l < coil_sets; ++l) {
         const auto& a = original.model.coil_sets[static_cast<std::size_t>(l)];
         const auto& b = parsed.model.coil_sets[static_cast<std::size_t>(l)];
@@ -74,6 +77,8 @@ TEST_CASE("model files round-trip bit for bit", "[model_file]") {
         REQUIRE(networks_equal(a.column_a, b.column_a));
         REQUIRE(networks_equal(a.column_b, b.column_b));
         REQUIRE(networks_equal(a.cogging, b.cogging));
+        REQUIRE(a.gain_harmonics_N_per_A == b.gain_harmonics_N_per_A);
+        REQUIRE(a.cogging_harmonics_N == b.cogging_harmonics_N);
         REQUIRE(a.column_a_spline == b.column_a_spline);
         REQUIRE(a.cogging_spline == b.cogging_spline);
       }
@@ -161,6 +166,33 @@ TEST_CASE("corrupted model files are refused with file, line and key", "[model_f
   error = rows_from("[position, guessed, force_sensor]");
   CHECK(std::regex_search(error, located));
   CHECK(error.find("expected force_sensor, position or drive_constants") != std::string::npos);
+
+  // Physics-part harmonics: orders ascending, distinct and in range, with
+  // coefficients of matching size in every coil set, and none without orders.
+  ModelFile harmonic = file;
+  harmonic.model = test::random_pgnn_model(2, 0.032, rng, {2}, {16}, {{5, 7}, {1, 6}});
+  const std::string harmonic_text = format_model_file(harmonic);
+  const auto edited = [&](const std::string& from, const std::string& to) {
+    std::string copy = harmonic_text;
+    const auto at = copy.find(from);
+    REQUIRE(at != std::string::npos);
+    copy.replace(at, from.size(), to);
+    return error_of(copy);
+  };
+  CHECK(error_of(harmonic_text).empty());
+  for (const std::string orders : {"gain: [7, 5]", "gain: [1, 5]", "gain: [5, 5]", "gain: [5, 17]"}) {
+    error = edited("gain: [5, 7]", orders);
+    INFO(orders << ": " << error);
+    CHECK(std::regex_search(error, located));
+    CHECK(error.find("harmonic_orders.gain") != std::string::npos);
+  }
+  error = edited("gain: [5, 7]", "gain: [5]");
+  CHECK(std::regex_search(error, located));
+  CHECK(error.find("gain_harmonics_N_per_A") != std::string::npos);
+  CHECK(error.find("expected 4 columns, got 8") != std::string::npos);
+  error = edited("cogging: [1, 6]", "cogging: []");
+  CHECK(error.find("cogging_harmonics_N_N_Nm") != std::string::npos);
+  CHECK(error.find("no harmonic_orders of this kind") != std::string::npos);
 }
 
 TEST_CASE("spline knots whose spacing overflows or underflows are refused", "[model_file]") {

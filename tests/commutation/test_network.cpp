@@ -6,6 +6,7 @@
 #include <cstring>
 #include <limits>
 #include <random>
+#include <tuple>
 #include <vector>
 
 #include "commutation/model.hpp"
@@ -52,6 +53,19 @@ void reference_evaluate(const ElectromagneticModel& model, double y, StackedGain
     gain.col(2 * l) += network(part.column_a);
     gain.col(2 * l + 1) += network(part.column_b);
     cogging += network(part.cogging) / count;
+    // Physics-part harmonics, with std::cos(nθ) and std::sin(nθ).
+    for (std::size_t k = 0; k < model.harmonics.gain.size(); ++k) {
+      const double n = model.harmonics.gain[k];
+      const auto c = static_cast<Eigen::Index>(4 * k);
+      gain.middleCols<2>(2 * l) += part.gain_harmonics_N_per_A.middleCols<2>(c) * std::cos(n * theta) +
+                                   part.gain_harmonics_N_per_A.middleCols<2>(c + 2) * std::sin(n * theta);
+    }
+    for (std::size_t k = 0; k < model.harmonics.cogging.size(); ++k) {
+      const double m = model.harmonics.cogging[k];
+      const auto c = static_cast<Eigen::Index>(2 * k);
+      cogging += (part.cogging_harmonics_N.col(c) * std::cos(m * theta) +
+                  part.cogging_harmonics_N.col(c + 1) * std::sin(m * theta)) / count;
+    }
   }
 }
 
@@ -119,12 +133,15 @@ TEST_CASE("fused and per-network PGNN evaluation both match the model written ou
           "[network][model]") {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> position(-0.15, 0.15);
+  // The paper's model, the field harmonics, and the highest orders allowed.
+  const HarmonicOrders none, field{{5, 7}, {1, 2, 3, 4, 5, 6}}, highest{{2, kMaxHarmonicOrder}, {kMaxHarmonicOrder}};
   for (int coil_sets : {1, 2, 3, 5, 8}) {
     // Widths that are and are not multiples of the 4 lanes.
-    for (const auto& [column, cog] : {std::pair{std::vector<int>{2}, std::vector<int>{16}},
-                                      std::pair{std::vector<int>{3}, std::vector<int>{7}},
-                                      std::pair{std::vector<int>{1}, std::vector<int>{64}}}) {
-      const auto model = test::random_pgnn_model(coil_sets, 0.032, rng, column, cog);
+    for (const auto& [column, cog, harmonics] : {std::tuple{std::vector<int>{2}, std::vector<int>{16}, none},
+                                                 std::tuple{std::vector<int>{3}, std::vector<int>{7}, field},
+                                                 std::tuple{std::vector<int>{1}, std::vector<int>{64}, highest}}) {
+      const auto model = test::random_pgnn_model(coil_sets, 0.032, rng, column, cog, harmonics);
+      model.validate();
       REQUIRE(FusedPgnnEvaluator::supports(model));
       const FusedPgnnEvaluator fused(model);
       for (int trial = 0; trial < 200; ++trial) {

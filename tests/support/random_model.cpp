@@ -29,14 +29,22 @@ Network random_network(const std::vector<int>& hidden, double output_scale, std:
 
 ElectromagneticModel random_pgnn_model(int coil_sets, double pole_pitch_m, std::mt19937_64& rng,
                                        const std::vector<int>& column_hidden,
-                                       const std::vector<int>& cogging_hidden) {
+                                       const std::vector<int>& cogging_hidden, const HarmonicOrders& harmonics) {
   const auto classical = random_classical_coil_sets(coil_sets, rng);
   ElectromagneticModel model = make_classical_model(pole_pitch_m, classical);
   model.normalisation = {0.0, 0.1};
+  model.harmonics = harmonics;
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const auto gain_columns = static_cast<Eigen::Index>(4 * harmonics.gain.size());
+  const auto cogging_columns = static_cast<Eigen::Index>(2 * harmonics.cogging.size());
   for (auto& coil_set : model.coil_sets) {
     coil_set.column_a = random_network(column_hidden, 1.0, rng);
     coil_set.column_b = random_network(column_hidden, 1.0, rng);
     coil_set.cogging = random_network(cogging_hidden, 0.5, rng);
+    coil_set.gain_harmonics_N_per_A =
+        Eigen::Matrix<double, 3, Eigen::Dynamic>::NullaryExpr(3, gain_columns, [&] { return 0.5 * normal(rng); });
+    coil_set.cogging_harmonics_N =
+        Eigen::Matrix<double, 3, Eigen::Dynamic>::NullaryExpr(3, cogging_columns, [&] { return 0.5 * normal(rng); });
   }
   return model;
 }

@@ -93,6 +93,14 @@ void check_against_truth(const commission::Report& report, const std::string& mo
   INFO("recommended " << report.recommended << ": true y-MSE " << recommended.true_mse.filtered[0]
                       << " N², tracking " << recommended.tracking_mse_m2 / oracle.tracking_mse_m2 << "x the oracle's");
   CHECK(recommended.true_mse.filtered[0] <= true_y_mse_N2);
+  // The PGNN kept, too (with the field harmonics in its physics part when
+  // the validation chose them; docs/commutation.md).
+  const auto& pgnn = find(report.results, "pgnn");
+  INFO("pgnn (" << report.pgnn_selection.trials[report.pgnn_selection.chosen].capacity << "): true y-MSE "
+                << pgnn.true_mse.filtered[0] << " N², tracking " << pgnn.tracking_mse_m2 / oracle.tracking_mse_m2
+                << "x the oracle's");
+  CHECK(pgnn.true_mse.filtered[0] <= true_y_mse_N2);
+  CHECK(pgnn.tracking_mse_m2 <= 5.0 * oracle.tracking_mse_m2);
   // The oracle is exact on the true error, up to the motion within a period.
   CHECK(oracle.true_mse.filtered[0] < 1e-3);
   CHECK(oracle.tracking_mse_m2 < recommended.tracking_mse_m2);

@@ -99,6 +99,10 @@ void add_identify(CLI::App& app) {
       ->check(clm::in_range(1, 64))->capture_default_str();
   sub->add_option("--cogging-neurons", o.pgnn.cogging_hidden, "tanh neurons of the cogging network")
       ->check(clm::in_range(1, 64))->capture_default_str();
+  sub->add_flag_callback(
+      "--harmonics", [&o] { o.pgnn.harmonics = clm::identification::field_harmonic_orders(); },
+      "with --no-selection: the PGNN's physics part carries the field harmonics 5, 7 in K and the orders 1..6 in "
+      "the cogging (the grid tries both)");
   sub->add_option("--regularisation", o.pgnn.regularisation, "Lambda = value * I in eq. (26)")
       ->check(clm::non_negative_number())->capture_default_str();
   sub->add_option("--restarts", o.pgnn.restarts, "seeded random restarts, best kept")->check(clm::in_range(1, 1000))->capture_default_str();
@@ -167,9 +171,7 @@ void add_identify(CLI::App& app) {
     std::vector<data::CoilSetIdentification> reports;
     ProgressBar bar("identify " + options->model);
     const auto on_progress = [&](const data::IdentifyProgress& p) {
-      bar.update(p.fraction(), p.what + ", coil set " + std::to_string(p.coil_set) + "/" +
-                                   std::to_string(p.coil_sets) + " step " + std::to_string(p.step) + "/" +
-                                   std::to_string(p.steps));
+      bar.update(p.fraction(), p.what + ", " + std::to_string(p.coil_sets) + " coil sets side by side");
     };
     data::IdentifySummary summary;
     ModelFile file = data::identify_motor(data, motor, options->identify, reports, on_progress, &summary);

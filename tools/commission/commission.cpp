@@ -175,7 +175,7 @@ data::ExperimentData identify_from_forces(const Options& options, const MotorDes
     auto& reports = k == 0 ? report.pgnn : report.spline;
     auto& selection = k == 0 ? report.pgnn_selection : report.spline_selection;
     models[k] = data::identify_motor(data, motor, identify, reports, [&](const data::IdentifyProgress& p) {
-      tell(label, p.fraction(), p.what + ", coil set " + std::to_string(p.coil_set));
+      tell(label, p.fraction(), p.what);
     }, &selection);
     for (auto& trial : selection.trials) {
       trial.model.provenance.data_sha256 = data_hash;

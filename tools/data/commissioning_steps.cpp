@@ -2,7 +2,11 @@
 
 #include <cstdio>
 #include <ctime>
+#include <functional>
+#include <future>
 #include <limits>
+#include <mutex>
+#include <numeric>
 #include <stdexcept>
 
 #include "commutation/calibration.hpp"
@@ -101,6 +105,15 @@ std::string millimetres(double length_m) {
   return text;
 }
 
+// Runs body(l) for l = 0..count−1, each on its own thread, and waits for all;
+// the first exception (in coil-set order) is rethrown.
+void for_each_coil_set(std::size_t count, const std::function<void(std::size_t)>& body) {
+  std::vector<std::future<void>> running;
+  for (std::size_t l = 0; l < count; ++l) running.push_back(std::async(std::launch::async, body, l));
+  for (auto& task : running) task.wait();
+  for (auto& task : running) task.get();
+}
+
 }  // namespace
 
 ModelFile identify_motor(const ExperimentData& data, const MotorDescription& motor, const IdentifyOptions& options,
@@ -191,33 +204,50 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
     model.kind = kind;
     model.pole_pitch_m = motor.pole_pitch_m;
     model.normalisation = normalisation;
+    if (kind == ModelKind::kPgnn) model.harmonics = pgnn.harmonics;
     model.spline_basis = identification::spline_basis_for(all_positions, motor.pole_pitch_m, spline);
     auto& nuisance = file.provenance.nuisance;
     nuisance.identified = summary.nuisance;
     nuisance.sensor_offset_y_N = summary.sensor_offset.offset_N;
     nuisance.direction_smoothing_m_per_s = kind == ModelKind::kPgnn ? pgnn.direction_smoothing_m_per_s
                                                                     : spline.direction_smoothing_m_per_s;
-    for (const auto& part : splits) {
-      CoilSetIdentification entry;
+    // The coil sets are independent problems (each its own data, seed and
+    // solver), identified side by side; the results do not depend on the
+    // order in which they finish.
+    std::vector<CoilSetIdentification> entries(splits.size());
+    std::vector<CoilSetModel> parts(splits.size());
+    std::vector<double> done(splits.size(), 0.0);
+    std::mutex progress_mutex;
+    const auto report = [&](std::size_t l, double fraction) {
+      if (!progress) return;
+      const std::lock_guard lock(progress_mutex);
+      done[l] = fraction;
+      progress({count, std::accumulate(done.begin(), done.end(), 0.0), trial, trials, what});
+    };
+    for_each_coil_set(splits.size(), [&](std::size_t l) {
+      const auto& part = splits[l];
+      CoilSetIdentification& entry = entries[l];
       entry.training_samples = static_cast<std::size_t>(part.training.size());
       entry.validation_samples = static_cast<std::size_t>(part.validation.size());
-      CoilSetModel coil_set;
       if (kind == ModelKind::kPgnn) {
         identification::PgnnOptions seeded = pgnn;
         seeded.seed = pgnn.seed + static_cast<std::uint64_t>(part.coil_set) * 1000;
         // Trials are scored on the training fit; the one kept is refit on all data below.
         seeded.refit_on_all_data = !select;
         const auto on_step = [&](const identification::PgnnProgress& p) {
-          if (progress) progress({part.coil_set, count, p.restart + 1, p.restarts + 1, trial, trials, what});
+          report(l, static_cast<double>(p.restart + 1) / (p.restarts + 1));
         };
-        coil_set = identification::identify_pgnn_coil_set(part.training, part.validation, motor.pole_pitch_m,
+        parts[l] = identification::identify_pgnn_coil_set(part.training, part.validation, motor.pole_pitch_m,
                                                           normalisation, seeded, entry.report, on_step);
       } else {
-        coil_set = identification::identify_spline_coil_set(part.training, part.validation, motor.pole_pitch_m,
+        parts[l] = identification::identify_spline_coil_set(part.training, part.validation, motor.pole_pitch_m,
                                                             model.spline_basis, spline, entry.report);
-        if (progress) progress({part.coil_set, count, 1, 1, trial, trials, what});
+        report(l, 1.0);
       }
-      model.coil_sets.push_back(std::move(coil_set));
+    });
+    for (std::size_t l = 0; l < splits.size(); ++l) {
+      const CoilSetIdentification& entry = entries[l];
+      model.coil_sets.push_back(std::move(parts[l]));
       CoilSetCosts costs;
       for (std::size_t q = 0; q < 3; ++q) {
         const auto i = static_cast<Eigen::Index>(q);
@@ -262,17 +292,21 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
     const auto sizes =
         select ? std::vector<PgnnCapacity>(kPgnnCapacityGrid.begin(), kPgnnCapacityGrid.end())
                : std::vector<PgnnCapacity>{{options.pgnn.column_hidden, options.pgnn.cogging_hidden,
-                                            options.pgnn.regularisation}};
-    for (const auto& [column, cogging, regularisation] : sizes) {
+                                            options.pgnn.regularisation, !options.pgnn.harmonics.empty()}};
+    for (const auto& [column, cogging, regularisation, harmonics] : sizes) {
       pgnn.column_hidden = column;
       pgnn.cogging_hidden = cogging;
       pgnn.regularisation = regularisation;
+      pgnn.harmonics = !harmonics ? HarmonicOrders{} : select ? identification::field_harmonic_orders()
+                                                                : options.pgnn.harmonics;
       summary.trials.push_back(fit_all(ModelKind::kPgnn, pgnn, spline,
                                        "pgnn " + std::to_string(column) + "/" + std::to_string(cogging) +
-                                           " Lambda " + shortest_double(regularisation)));
+                                           " Lambda " + shortest_double(regularisation) +
+                                           (harmonics ? " harmonics" : "")));
       summary.trials.back().column_hidden = column;
       summary.trials.back().cogging_hidden = cogging;
       summary.trials.back().regularisation = regularisation;
+      summary.trials.back().harmonics = harmonics;
     }
   } else {
     std::vector<double> spacings;
@@ -298,12 +332,16 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
       CapacityTrial& kept = summary.trials[k];
       if (k != summary.chosen && !kept.is_paper_pgnn()) continue;
       pgnn.regularisation = kept.regularisation;
-      for (std::size_t l = 0; l < splits.size(); ++l) {
+      pgnn.harmonics = kept.model.model.harmonics;
+      for_each_coil_set(splits.size(), [&](std::size_t l) {
         auto& entry = kept.coil_sets[l];
         auto& coil_set = kept.model.model.coil_sets[l];
         coil_set = identification::refit_pgnn_coil_set(coil_set, entry.report.direction_force, splits[l].training,
                                                        splits[l].validation, motor.pole_pitch_m, normalisation, pgnn,
                                                        entry.report);
+      });
+      for (std::size_t l = 0; l < splits.size(); ++l) {
+        const auto& entry = kept.coil_sets[l];
         const auto& c = entry.report.direction_force.amplitude;
         kept.model.provenance.nuisance.direction_force_N_N_Nm[l] = {c[0], c[1], c[2]};
         record_fit_quality(entry.report, kept.model.provenance.costs[l]);

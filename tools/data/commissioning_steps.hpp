@@ -43,27 +43,30 @@ struct IdentifyOptions {
 };
 
 /// The capacities tried: PGNN column and cogging neurons with the Λ of
-/// eq. (26) (the paper's 2/16 and 0.1 first), and spline knots per pole pitch.
+/// eq. (26) and whether the physics part carries the field harmonics
+/// (identification::field_harmonic_orders; the paper's 2/16, 0.1 without
+/// them first), and spline knots per pole pitch.
 struct PgnnCapacity {
   int column_hidden;
   int cogging_hidden;
   double regularisation;
+  bool harmonics;
 };
-inline constexpr std::array<PgnnCapacity, 3> kPgnnCapacityGrid{{{2, 16, 0.1}, {2, 16, 0.01}, {4, 32, 0.01}}};
+inline constexpr std::array<PgnnCapacity, 3> kPgnnCapacityGrid{
+    {{2, 16, 0.1, false}, {4, 16, 0.01, true}, {16, 32, 0.01, true}}};
 inline constexpr std::array<int, 5> kSplineKnotsPerPolePitch{4, 6, 8, 12, 16};
 
 struct IdentifyProgress {
-  int coil_set = 0;       ///< 1-based
   int coil_sets = 0;
-  int step = 0;           ///< restarts done (PGNN), then one polishing step
-  int steps = 0;
+  /// Coil sets' worth of the trial's work done, in [0, coil_sets]: the coil
+  /// sets are identified side by side, each reporting its share.
+  double coil_sets_done = 0.0;
   int trial = 1;          ///< 1-based: which fit of the selection (v_c, then capacities)
   int trials = 1;
   std::string what;       ///< what the trial fits, e.g. "pgnn 4/32"
   /// Share of the whole identification done, in [0, 1].
   double fraction() const {
-    return (trial - 1 + (coil_set - 1 + static_cast<double>(step) / std::max(steps, 1)) / std::max(coil_sets, 1)) /
-           std::max(trials, 1);
+    return (trial - 1 + coil_sets_done / std::max(coil_sets, 1)) / std::max(trials, 1);
   }
 };
 
@@ -78,8 +81,11 @@ struct CapacityTrial {
   std::string capacity;            ///< "2/16" neurons, or "d_m/8" knot spacing
   int column_hidden = 0, cogging_hidden = 0;  ///< PGNN
   double regularisation = 0.0;                ///< PGNN: Λ of eq. (26)
-  /// The paper's PGNN: 2/16 neurons, Λ = 0.1 (always reported).
-  bool is_paper_pgnn() const { return column_hidden == 2 && cogging_hidden == 16 && regularisation == 0.1; }
+  bool harmonics = false;                     ///< PGNN: the physics part carries harmonics
+  /// The paper's PGNN: 2/16 neurons, Λ = 0.1, no harmonics (always reported).
+  bool is_paper_pgnn() const {
+    return column_hidden == 2 && cogging_hidden == 16 && regularisation == 0.1 && !harmonics;
+  }
   double knot_spacing_m = 0.0;     ///< spline
   /// Σ over coil sets of the model's held-out F_y MSE over the physics-only
   /// fit's (unit-free; lower is better).
