@@ -46,6 +46,15 @@ void pgnn(benchmark::State& state) {
   run(state, law);
 }
 
+void pgnn_harmonics(benchmark::State& state) {
+  std::mt19937_64 rng(4);
+  // The largest PGNN of the capacity grid: 16 neurons per column network, 32
+  // in the cogging network, the field harmonics in the physics part.
+  const auto model = clm::test::random_pgnn_model(3, kPolePitch, rng, {16}, {32}, {{5, 7}, {1, 2, 3, 4, 5, 6}});
+  const clm::ModelCommutator law(model, kDrive);
+  run(state, law);
+}
+
 void spline(benchmark::State& state) {
   std::mt19937_64 rng(3);
   const auto model = clm::test::random_spline_model(3, kPolePitch, rng);
@@ -57,5 +66,6 @@ void spline(benchmark::State& state) {
 
 BENCHMARK(classical);
 BENCHMARK(pgnn);
+BENCHMARK(pgnn_harmonics);
 BENCHMARK(spline);
 BENCHMARK_MAIN();

@@ -178,6 +178,13 @@ inline ModelFile truth_pgnn(const sim::MotorParameters& motor, double gain_scale
   }
   ModelFile file;
   file.model = make_classical_model(motor.pole_pitch_m(), sets, {8}, {8});
+  // Physics-part harmonics of the orders identification offers, at zero: the
+  // law stays the classical truth while the cycle evaluates every term.
+  file.model.harmonics = {{5, 7}, {1, 2, 3, 4, 5, 6}};
+  for (auto& part : file.model.coil_sets) {
+    part.gain_harmonics_N_per_A = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, 8);
+    part.cogging_harmonics_N = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, 12);
+  }
   file.provenance = {"truth", "", "daemon tests", {}, {}};
   return file;
 }
