@@ -69,7 +69,7 @@ TEST_CASE("from positions alone the tools find the motor's gains and Algorithm 1
                     Catch::Contains("has not reconstructed it"));
 
   PositionIdentifyOptions options;
-  options.mass_kg = truth.mass_kg;
+  options.motion.mass_kg = truth.mass_kg;
   const PositionIdentification identified = identify_from_position(data, motor, options);
   CHECK(identified.mass_given);
   CHECK(identified.mass_kg == truth.mass_kg);

@@ -55,10 +55,10 @@ void add_calibrate(CLI::App& app) {
                                  "from positions has no offset to fit");
       }
       data::PositionIdentifyOptions position;
-      position.mass_kg = options->mass_kg;
+      position.motion.mass_kg = options->mass_kg;
       position.knot_spacing_m = options->knot_spacing_m;
-      position.viscous_N_s_per_m = options->viscous_N_s_per_m;
-      position.direction_N = options->direction_N;
+      position.motion.viscous_N_s_per_m = options->viscous_N_s_per_m;
+      position.motion.direction_N = options->direction_N;
       const auto identified = data::identify_from_position(data, motor, position);
       print_position_identification(identified);
       data::reconstruct_driving_force(data, motor, identified);

@@ -138,7 +138,7 @@ void add_commission(CLI::App& app) {
   sub->add_flag("--no-force-sensor", options->run.no_force_sensor,
                 "also commission from positions alone: the experiments without their force columns give "
                 "classical-position and spline-position, evaluated beside the force-sensor laws");
-  auto* mass = sub->add_option("--mass-kg", options->run.position.mass_kg,
+  auto* mass = sub->add_option("--mass-kg", options->run.position.motion.mass_kg,
                                "--no-force-sensor: the translator's mass, which fixes the force scale (default: "
                                "control.mass_kg of --config; 0: the drive's nominal commutation sets the scale)")
                    ->check(clm::non_negative_number());
@@ -146,12 +146,12 @@ void add_commission(CLI::App& app) {
   sub->add_flag("--save", options->save,
                 "keep the result: the calibration, both models, and the recommended law as the commutation mode with its "
                 "feedforward go into --config (the previous file stays as FILE.bak)");
-  add_friction_options(*sub, options->run.position.viscous_N_s_per_m, options->run.position.direction_N);
+  add_friction_options(*sub, options->run.position.motion.viscous_N_s_per_m,
+                       options->run.position.motion.direction_N);
   sub->callback([options, mass] {
     // A friction given sets the scale instead of the configuration's mass.
-    const auto& position = options->run.position;
-    options->run.mass_from_config =
-        mass->count() == 0 && position.viscous_N_s_per_m == 0.0 && position.direction_N == 0.0;
+    const auto& motion = options->run.position.motion;
+    options->run.mass_from_config = mass->count() == 0 && motion.viscous_N_s_per_m == 0.0 && motion.direction_N == 0.0;
     if (options->run.validation_program_path != "none" && !options->run.validation_program_path.empty() &&
         !std::filesystem::is_regular_file(options->run.validation_program_path)) {
       throw std::runtime_error("--validation-program: " + options->run.validation_program_path + ": no such file");

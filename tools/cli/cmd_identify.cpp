@@ -154,15 +154,15 @@ void add_identify(CLI::App& app) {
                                  " has no force columns; from positions only the spline class is identified");
       }
       data::PositionIdentifyOptions position;
-      position.mass_kg = options->mass_kg;
-      position.viscous_N_s_per_m = options->viscous_N_s_per_m;
-      position.direction_N = options->direction_N;
+      position.motion.mass_kg = options->mass_kg;
+      position.motion.viscous_N_s_per_m = options->viscous_N_s_per_m;
+      position.motion.direction_N = options->direction_N;
       // As the force-sensor spline: chosen from the grid, or as given (pole pitch / 8 by default).
       const double given_m = options->identify.spline.knot_spacing_m;
       position.knot_spacing_m = options->identify.select_capacity ? 0.0
                                 : given_m > 0.0                    ? given_m
                                                                    : motor.pole_pitch_m / 8.0;
-      position.smoothing = options->identify.spline.smoothing;
+      position.motion.smoothing = options->identify.spline.smoothing;
       position.validation_fraction = options->identify.validation_fraction;
       identify_from_positions(data, motor, position, options->data, options->output, options->off_axis_model,
                               options->motor);

@@ -217,14 +217,14 @@ void identify_from_positions(const Options& options, const servod::ServodConfig&
   report.from_position = true;
   data::PositionIdentifyOptions position = options.position;
   if (force_spline != nullptr) {
-    position.mass_kg = report.spline_selection.sensor_offset.mass_kg;  // sets the scale: no friction prior
-    position.viscous_N_s_per_m = position.direction_N = 0.0;
+    position.motion.mass_kg = report.spline_selection.sensor_offset.mass_kg;  // sets the scale: no friction prior
+    position.motion.viscous_N_s_per_m = position.motion.direction_N = 0.0;
     position.basis = force_spline->model.spline_basis;
     report.position_mass_source = "the force sensor's mechanics fit";
   } else {
-    if (options.mass_from_config) position.mass_kg = config.control_mass_kg;
-    const bool friction = position.viscous_N_s_per_m > 0.0 || position.direction_N > 0.0;
-    report.position_mass_source = position.mass_kg > 0.0 ? (options.mass_from_config
+    if (options.mass_from_config) position.motion.mass_kg = config.control_mass_kg;
+    const bool friction = position.motion.viscous_N_s_per_m > 0.0 || position.motion.direction_N > 0.0;
+    report.position_mass_source = position.motion.mass_kg > 0.0 ? (options.mass_from_config
                                                                  ? "control.mass_kg of the configuration"
                                                                  : "--mass-kg")
                                   : friction ? "the friction given"

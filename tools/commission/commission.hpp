@@ -41,7 +41,7 @@ struct Options {
   /// Commission from positions as an axis without a force sensor would
   /// (docs/commissioning.md, "Without a force sensor"): the same experiments
   /// without their force columns give classical-position and
-  /// spline-position, with the mass of the configuration or position.mass_kg,
+  /// spline-position, with the mass of the configuration or position.motion.mass_kg,
   /// evaluated beside the force-sensor laws when there is a sensor.
   /// Without this flag a force sensor's commissioning identifies
   /// spline-position too, with the mass of its mechanics fit.
@@ -49,7 +49,7 @@ struct Options {
   data::PositionIdentifyOptions position;
   /// The mass prior of the identification from positions is the
   /// configuration's control.mass_kg (the mass the loop is tuned for), not
-  /// position.mass_kg (whose 0 lets the drive's nominal commutation set the scale).
+  /// position.motion.mass_kg (whose 0 lets the drive's nominal commutation set the scale).
   bool mass_from_config = true;
 };
 

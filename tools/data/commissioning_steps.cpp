@@ -2,8 +2,6 @@
 
 #include <cstdio>
 #include <ctime>
-#include <functional>
-#include <future>
 #include <limits>
 #include <mutex>
 #include <numeric>
@@ -12,6 +10,7 @@
 #include "commutation/calibration.hpp"
 #include "commutation/identification/linear_parameters.hpp"
 #include "commutation/identification/nuisance.hpp"
+#include "tools/data/for_each_coil_set.hpp"
 
 namespace clm::data {
 
@@ -103,15 +102,6 @@ std::string millimetres(double length_m) {
   char text[32];
   std::snprintf(text, sizeof(text), "%.3g", length_m * 1e3);
   return text;
-}
-
-// Runs body(l) for l = 0..count−1, each on its own thread, and waits for all;
-// the first exception (in coil-set order) is rethrown.
-void for_each_coil_set(std::size_t count, const std::function<void(std::size_t)>& body) {
-  std::vector<std::future<void>> running;
-  for (std::size_t l = 0; l < count; ++l) running.push_back(std::async(std::launch::async, body, l));
-  for (auto& task : running) task.wait();
-  for (auto& task : running) task.get();
 }
 
 }  // namespace

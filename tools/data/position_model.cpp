@@ -8,6 +8,7 @@
 #include "commutation/identification/linear_parameters.hpp"
 #include "commutation/identification/spline_fit.hpp"
 #include "tools/data/commissioning_steps.hpp"
+#include "tools/data/for_each_coil_set.hpp"
 
 namespace clm::data {
 namespace {
@@ -42,31 +43,19 @@ SplitRuns split_runs(const std::vector<identification::MotionRun>& runs, double 
   return split;
 }
 
-identification::MotionFitOptions fit_options(const PositionIdentifyOptions& options, const MotorDescription& motor) {
-  identification::MotionFitOptions fit;
-  fit.mass_kg = options.mass_kg;
-  fit.smoothing = options.smoothing;
-  fit.drive = motor.drive;
-  fit.direction_smoothing_m_per_s = options.direction_smoothing_m_per_s;
-  fit.min_speed_m_per_s = options.min_speed_m_per_s;
-  fit.viscous_N_s_per_m = options.viscous_N_s_per_m;
-  fit.direction_N = options.direction_N;
-  return fit;
-}
-
 // Every coil set on `basis`, at one mass: the given one, or the common one.
 std::vector<identification::MotionFit> fit_all(const std::vector<std::vector<identification::MotionRun>>& runs,
                                                const ExperimentData& data, const MotorDescription& motor,
                                                const UniformCubicBasis& basis,
                                                const identification::MotionFitOptions& options) {
-  std::vector<identification::MotionFit> fits;
-  for (std::size_t l = 0; l < runs.size(); ++l) {
+  std::vector<identification::MotionFit> fits(runs.size());
+  for_each_coil_set(runs.size(), [&](std::size_t l) {
     try {
-      fits.push_back(identification::fit_driving_direction_from_motion(runs[l], motor.pole_pitch_m, basis, options));
+      fits[l] = identification::fit_driving_direction_from_motion(runs[l], motor.pole_pitch_m, basis, options);
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(data.origin + ": coil set " + std::to_string(l + 1) + ": " + e.what());
     }
-  }
+  });
   if (options.mass_kg <= 0.0) {
     const double mass_kg = identification::common_mass_kg(fits, options);
     if (!(mass_kg > 0.0) || !std::isfinite(mass_kg)) {
@@ -82,12 +71,14 @@ std::vector<identification::MotionFit> fit_all(const std::vector<std::vector<ide
 
 PositionIdentification identify_from_position(const ExperimentData& data, const MotorDescription& motor,
                                               const PositionIdentifyOptions& options) {
-  if (!(options.mass_kg >= 0.0) || !(options.knot_spacing_m >= 0.0) || !(options.validation_fraction >= 0.0) ||
-      !(options.validation_fraction < 1.0) || !(options.viscous_N_s_per_m >= 0.0) || !(options.direction_N >= 0.0)) {
+  identification::MotionFitOptions fit = options.motion;
+  fit.drive = motor.drive;
+  if (!(fit.mass_kg >= 0.0) || !(options.knot_spacing_m >= 0.0) || !(options.validation_fraction >= 0.0) ||
+      !(options.validation_fraction < 1.0) || !(fit.viscous_N_s_per_m >= 0.0) || !(fit.direction_N >= 0.0)) {
     throw std::invalid_argument("position identification: negative mass, friction or knot spacing, or a held-out "
                                 "share outside [0, 1)");
   }
-  if (options.mass_kg > 0.0 && (options.viscous_N_s_per_m > 0.0 || options.direction_N > 0.0)) {
+  if (fit.mass_kg > 0.0 && (fit.viscous_N_s_per_m > 0.0 || fit.direction_N > 0.0)) {
     throw std::invalid_argument("position identification: a mass and a friction given; each fixes the force scale, "
                                 "give one");
   }
@@ -108,7 +99,6 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
     validation.push_back(std::move(split.validation));
     all.push_back(experiment.runs);
   }
-  const auto fit = fit_options(options, motor);
   const auto basis_for = [&](double spacing) {
     identification::SplineOptions grid;
     grid.knot_spacing_m = spacing;
@@ -116,8 +106,8 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
   };
 
   PositionIdentification result;
-  result.mass_given = options.mass_kg > 0.0;
-  result.friction_given = !result.mass_given && (options.viscous_N_s_per_m > 0.0 || options.direction_N > 0.0);
+  result.mass_given = fit.mass_kg > 0.0;
+  result.friction_given = !result.mass_given && (fit.viscous_N_s_per_m > 0.0 || fit.direction_N > 0.0);
   result.knot_spacing_m = options.basis ? options.basis->spacing_m() : options.knot_spacing_m;
   // Nothing held out, nothing to choose by: the force-sensor spline's default.
   if (result.knot_spacing_m == 0.0 && options.validation_fraction == 0.0) {

@@ -17,21 +17,15 @@
 namespace clm::data {
 
 struct PositionIdentifyOptions {
-  /// The force scale, from the first given of: the translator's mass; its
-  /// friction (the mass that makes every coil set's identified friction
-  /// closest to it); else the one that brings every coil set's A_y, B_y
-  /// closest to the drive's nominal commutation. One mass for the whole
-  /// translator.
-  double mass_kg = 0.0;
-  double viscous_N_s_per_m = 0.0;  ///< > 0: known viscous friction
-  double direction_N = 0.0;        ///< > 0: known Coulomb friction plus direction-dependent force
+  /// The fit of every coil set: the force scale (mass, or friction, else the
+  /// drive's nominal commutation; one mass for the whole translator, see
+  /// identification::common_mass_kg), smoothing, v_d and the slowest rows
+  /// used. Its `drive` is ignored: the motor description's is used.
+  identification::MotionFitOptions motion;
   /// Knot spacing of the y-row splines; 0: chosen by the held-out force
   /// balance from kSplineKnotsPerPolePitch (pole pitch / 8 when nothing is
   /// held out).
   double knot_spacing_m = 0.0;
-  double smoothing = 1e-6;                    ///< MotionFitOptions::smoothing
-  double direction_smoothing_m_per_s = 1e-3;  ///< v_d of the direction-dependent force and friction
-  double min_speed_m_per_s = 5e-3;            ///< rows slower than this are left out
   /// Share of every run held out, in contiguous blocks, for the spacing choice.
   double validation_fraction = 0.2;
   /// The knot grid to use instead (a force-sensor spline's, so that its F_x
