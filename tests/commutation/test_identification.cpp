@@ -51,6 +51,12 @@ CoilSetDataset synthetic_data(const ElectromagneticModel& truth, int coil_set, d
   return data;
 }
 
+// Training and validation data: 20 % held out in contiguous blocks.
+std::pair<CoilSetDataset, CoilSetDataset> held_out_blocks(const CoilSetDataset& all) {
+  const auto split = split_contiguous_blocks(all, 0.2);
+  return {all.subset(split.training), all.subset(split.validation)};
+}
+
 }  // namespace
 
 TEST_CASE("physics-only fit recovers a classical coil set exactly", "[identification]") {
@@ -131,9 +137,7 @@ TEST_CASE("PGNN identification fits a PGNN-structured coil set to the noise leve
   const auto truth = test::random_pgnn_model(1, kPolePitch, rng);
   const double noise = 0.5;
   const auto all = synthetic_data(truth, 0, noise, 4000, rng);
-  const auto split = split_contiguous_blocks(all, 0.2);
-  const auto training = all.subset(split.training);
-  const auto validation = all.subset(split.validation);
+  const auto [training, validation] = held_out_blocks(all);
   PgnnOptions options;
   options.restarts = 5;
   IdentificationReport report;
@@ -158,9 +162,7 @@ TEST_CASE("with held-out blocks that leave gaps in a single stroke, the model pu
   const auto truth = test::random_pgnn_model(1, kPolePitch, rng);
   const double noise = 0.5;
   const auto all = synthetic_data(truth, 0, noise, 3000, rng, 0.25);
-  const auto split = split_contiguous_blocks(all, 0.2);
-  const auto training = all.subset(split.training);
-  const auto validation = all.subset(split.validation);
+  const auto [training, validation] = held_out_blocks(all);
   PgnnOptions options;
   options.restarts = 3;
   IdentificationReport report;
@@ -195,9 +197,7 @@ TEST_CASE("variable projection and the joint Schur solve reach the same optimum 
   const auto truth = test::random_pgnn_model(1, kPolePitch, rng);
   const double noise = 0.5;
   const auto all = synthetic_data(truth, 0, noise, 4000, rng);
-  const auto split = split_contiguous_blocks(all, 0.2);
-  const auto training = all.subset(split.training);
-  const auto validation = all.subset(split.validation);
+  const auto [training, validation] = held_out_blocks(all);
   PgnnOptions options;
   options.restarts = 3;
   double regularised[2];
@@ -236,9 +236,7 @@ TEST_CASE("PGNN with the field harmonics recovers a gain ripple and cogging at h
   part.gain_harmonics_N_per_A *= 2.0;  // about 1 N/A: a 2 % ripple on 60 N/A
   const double noise = 0.5;
   const auto all = synthetic_data(truth, 0, noise, 4000, rng);
-  const auto split = split_contiguous_blocks(all, 0.2);
-  const auto training = all.subset(split.training);
-  const auto validation = all.subset(split.validation);
+  const auto [training, validation] = held_out_blocks(all);
   PgnnOptions options;
   options.column_hidden = 2;
   options.cogging_hidden = 4;
@@ -266,9 +264,7 @@ TEST_CASE("spline identification recovers a spline-structured coil set", "[ident
   auto truth = test::random_spline_model(1, kPolePitch, rng);
   const double noise = 0.5;
   const auto all = synthetic_data(truth, 0, noise, 6000, rng);
-  const auto split = split_contiguous_blocks(all, 0.2);
-  const auto training = all.subset(split.training);
-  const auto validation = all.subset(split.validation);
+  const auto [training, validation] = held_out_blocks(all);
   SplineOptions options;
   options.knot_spacing_m = truth.spline_basis.spacing_m();
   IdentificationReport report;

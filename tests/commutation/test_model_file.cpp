@@ -103,12 +103,15 @@ TEST_CASE("corrupted model files are refused with file, line and key", "[model_f
   for (auto& costs : file.provenance.costs) costs = {costs.physics_training, costs.model_training,
                                                      costs.physics_validation, costs.model_validation};  // no fit quality
   const std::string text = format_model_file(file);
-  const auto replace_first = [&](const std::string& from, const std::string& to) {
-    std::string copy = text;
+  const auto replace_first_in = [](const std::string& original, const std::string& from, const std::string& to) {
+    std::string copy = original;
     const auto at = copy.find(from);
     REQUIRE(at != std::string::npos);
     copy.replace(at, from.size(), to);
     return copy;
+  };
+  const auto replace_first = [&](const std::string& from, const std::string& to) {
+    return replace_first_in(text, from, to);
   };
   const std::regex located(R"(^model\.yaml:\d+: )");
 
@@ -173,11 +176,7 @@ TEST_CASE("corrupted model files are refused with file, line and key", "[model_f
   harmonic.model = test::random_pgnn_model(2, 0.032, rng, {2}, {16}, {{5, 7}, {1, 6}});
   const std::string harmonic_text = format_model_file(harmonic);
   const auto edited = [&](const std::string& from, const std::string& to) {
-    std::string copy = harmonic_text;
-    const auto at = copy.find(from);
-    REQUIRE(at != std::string::npos);
-    copy.replace(at, from.size(), to);
-    return error_of(copy);
+    return error_of(replace_first_in(harmonic_text, from, to));
   };
   CHECK(error_of(harmonic_text).empty());
   for (const std::string orders : {"gain: [7, 5]", "gain: [1, 5]", "gain: [5, 5]", "gain: [5, 17]"}) {
