@@ -150,7 +150,9 @@ CHECK
     wait_state "$step" fault "$code"
     local reason
     reason=$(field fault_reason "$status")
-    sleep 0.3
+    # 0.3 s of the reaction (300 cycles at 1 kHz) in the log before the
+    # logger stops, however long a loaded host keeps it waiting.
+    wait_log_reaches "$log" $(( $(field fault_cycle "$status") + 300 )) || true
     kill -INT $logger; wait $logger || true
     "$clm" log2csv --log "$log" --format full --output "$log.csv" > /dev/null || fail "$step: log2csv"
     local verdict

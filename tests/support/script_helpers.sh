@@ -58,6 +58,22 @@ field() { sed -n "s/^$1: //p" <<< "$2"; }
 # The count after NAME (missing, late, rejected, ...) in the frames line of STATUS.
 counter() { field frames "$1" | sed -n "s/.*$2 \([0-9]*\).*/\1/p"; }
 
+# wait_log_reaches LOG CYCLE: waits (up to 10 s) until the CLM_SERVO_STATE
+# log that lcm-logger is writing to LOG holds cycle CYCLE or later, so that a
+# logger the host keeps waiting is not stopped before it has what the check
+# reads. Returns 1 if it never does (the check then says what is missing).
+wait_log_reaches() {
+  local log=$1 cycle=$2 last
+  for _ in $(seq 1 50); do
+    sleep 0.2
+    "$clm" log2csv --log "$log" --format full --output "$log.probe.csv" > /dev/null 2>&1 || continue
+    last=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) if ($i == "cycle") c = i; next } { v = $c } END { print int(v) }' \
+           "$log.probe.csv")
+    [ "${last:-0}" -ge "$cycle" ] && return 0
+  done
+  return 1
+}
+
 # Waits for the first status of the daemon PID, one `clm ctl status
 # --timeout-s 1` at a time, at most TRIES: sets `status`; 0 when one came,
 # 1 when none did, 2 when PID exited meanwhile.
