@@ -1,6 +1,7 @@
 #include "commutation/model.hpp"
 
 #include <cmath>
+#include <tuple>
 
 namespace clm {
 namespace {
@@ -12,6 +13,16 @@ Eigen::Vector3d spline_value(const SplineCoefficients& coefficients, const Unifo
 }
 
 }  // namespace
+
+std::string harmonic_orders_error(const std::vector<int>& orders, int lowest) {
+  for (std::size_t k = 0; k < orders.size(); ++k) {
+    const int previous = k == 0 ? lowest - 1 : orders[k - 1];
+    if (orders[k] <= previous || orders[k] > kMaxHarmonicOrder) {
+      return "need ascending distinct orders in " + std::to_string(lowest) + ".." + std::to_string(kMaxHarmonicOrder);
+    }
+  }
+  return {};
+}
 
 void add_physics_harmonics(const HarmonicOrders& orders, const CoilSetModel& part, const double* cos_n,
                            const double* sin_n, CoilGain& gain, Wrench& cogging) noexcept {
@@ -120,18 +131,12 @@ void ElectromagneticModel::validate() const {
       throw ModelError("spline knots: need start_m < end_m, at least one interval and a finite, non-zero knot spacing");
     }
   }
-  const auto check_orders = [&](const std::vector<int>& orders, int lowest, const char* name) {
-    for (std::size_t k = 0; k < orders.size(); ++k) {
-      const int previous = k == 0 ? lowest - 1 : orders[k - 1];
-      if (orders[k] <= previous || orders[k] > kMaxHarmonicOrder) {
-        throw ModelError(std::string("harmonic orders, ") + name + ": need ascending distinct orders in " +
-                         std::to_string(lowest) + ".." + std::to_string(kMaxHarmonicOrder));
-      }
-    }
-  };
   if (kind != ModelKind::kPgnn && !harmonics.empty()) throw ModelError("harmonic orders: a PGNN's only");
-  check_orders(harmonics.gain, 2, "gain");  // order 1 is A·cos θ + B·sin θ
-  check_orders(harmonics.cogging, 1, "cogging");
+  for (const auto& [orders, lowest, name] : {std::tuple{&harmonics.gain, kLowestGainHarmonic, "gain"},
+                                             std::tuple{&harmonics.cogging, kLowestCoggingHarmonic, "cogging"}}) {
+    const std::string error = harmonic_orders_error(*orders, lowest);
+    if (!error.empty()) throw ModelError(std::string("harmonic orders, ") + name + ": " + error);
+  }
   for (int l = 0; l < count; ++l) {
     const auto& model = coil_sets[static_cast<std::size_t>(l)];
     const std::string where = "coil set " + std::to_string(l + 1) + ": ";

@@ -62,6 +62,14 @@ struct HarmonicOrders {
   bool operator==(const HarmonicOrders&) const = default;
 };
 
+/// Lowest orders: in K̂ 2 (order 1 is A·cos θ + B·sin θ), in the cogging 1.
+inline constexpr int kLowestGainHarmonic = 2;
+inline constexpr int kLowestCoggingHarmonic = 1;
+
+/// Empty when `orders` are ascending, distinct and within
+/// lowest..kMaxHarmonicOrder; otherwise what is wrong.
+std::string harmonic_orders_error(const std::vector<int>& orders, int lowest);
+
 /// Spline coefficients of a column function or the cogging: 3 × basis size.
 using SplineCoefficients = Eigen::Matrix<double, 3, Eigen::Dynamic>;
 

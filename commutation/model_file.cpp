@@ -273,7 +273,8 @@ std::string format_model_file(const ModelFile& file) {
     out << YAML::EndMap;
     if (!model.harmonics.empty()) {
       out << YAML::Key << "harmonic_orders" << YAML::Value << YAML::BeginMap;
-      for (const auto& [key, orders] : {std::pair{"gain", &model.harmonics.gain}, std::pair{"cogging", &model.harmonics.cogging}}) {
+      for (const auto& [key, orders] :
+           {std::pair{"gain", &model.harmonics.gain}, std::pair{"cogging", &model.harmonics.cogging}}) {
         out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginSeq;
         for (int n : *orders) out << n;
         out << YAML::EndSeq;
@@ -394,17 +395,12 @@ ModelFile parse_model_file(const yaml::Node& root) {
       const auto read = [&](const char* key, int lowest) {
         const yaml::Node list = orders[key];
         const auto values = list.as_int_list();
-        for (std::size_t k = 0; k < values.size(); ++k) {
-          const int previous = k == 0 ? lowest - 1 : values[k - 1];
-          if (values[k] <= previous || values[k] > kMaxHarmonicOrder) {
-            list.fail("need ascending distinct orders in " + std::to_string(lowest) + ".." +
-                      std::to_string(kMaxHarmonicOrder));
-          }
-        }
+        const std::string error = harmonic_orders_error(values, lowest);
+        if (!error.empty()) list.fail(error);
         return values;
       };
-      model.harmonics.gain = read("gain", 2);
-      model.harmonics.cogging = read("cogging", 1);
+      model.harmonics.gain = read("gain", kLowestGainHarmonic);
+      model.harmonics.cogging = read("cogging", kLowestCoggingHarmonic);
     }
   } else if (kind == "spline") {
     model.kind = ModelKind::kSpline;

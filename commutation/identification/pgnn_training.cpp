@@ -352,7 +352,8 @@ CoilSetModel identify_pgnn_coil_set(const CoilSetDataset& training, const CoilSe
     CoilSetModel part;
     DirectionForce direction = shape;
     unpack_parameters(layout, nonlinear.data(), linear, part, direction);
-    return Candidate{single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, part, layout.harmonics), direction};
+    return Candidate{single_coil_set_model(ModelKind::kPgnn, pole_pitch_m, normalisation, {}, part, layout.harmonics),
+                     direction};
   };
 
   const CoilSetDataset coarse = decimate(training, options.restart_decimation);
