@@ -7,6 +7,7 @@
 #include <limits>
 #include <string>
 
+#include "commutation/elementary.hpp"
 #include "commutation/transform.hpp"
 
 namespace clm {
@@ -31,7 +32,7 @@ double sum_squares(std::span<const double> values) {
 double separation_condition(double delta_1_rad, double delta_2_rad) {
   const double separation = delta_2_rad - delta_1_rad;
   Eigen::Matrix2d map;
-  map << 1.0, 0.0, std::cos(separation), std::sin(separation);
+  map << 1.0, 0.0, elementary::cos(separation), elementary::sin(separation);
   const Eigen::Vector2d singular = Eigen::JacobiSVD<Eigen::Matrix2d>(map).singularValues();
   return singular(1) > 0.0 ? singular(0) / singular(1) : std::numeric_limits<double>::infinity();
 }
@@ -69,15 +70,15 @@ void calibration_update(double drive_motor_constant_N_per_A, double drive_phase_
   // ĉ_i = (k/k̂)·cos(φ − D_i) with φ = ζ − ζ̂_1, D_1 = 0, D_2 = δ_2 − δ_1, so
   // (k/k̂)·cos φ = ĉ_1 and (k/k̂)·sin φ = (ĉ_2 − ĉ_1·cos D)/sin D.
   const double separation = delta_2_rad - delta_1_rad;
-  const double sin_separation = std::sin(separation);
+  const double sin_separation = elementary::sin(separation);
   if (std::abs(sin_separation) < 1e-6) {
     throw CalibrationError("the two phase offsets differ by a multiple of pi (delta_1 = " +
                            std::to_string(delta_1_rad) + " rad, delta_2 = " + std::to_string(delta_2_rad) +
                            " rad); they cannot separate k and zeta");
   }
   const double ratio_cos = c_1;
-  const double ratio_sin = (c_2 - c_1 * std::cos(separation)) / sin_separation;
-  const double phi = std::atan2(ratio_sin, ratio_cos);
+  const double ratio_sin = (c_2 - c_1 * elementary::cos(separation)) / sin_separation;
+  const double phi = elementary::atan2(ratio_sin, ratio_cos);
   motor_constant_N_per_A = std::hypot(ratio_cos, ratio_sin) * drive_motor_constant_N_per_A;
   phase_offset_rad = wrap_angle_rad(drive_phase_offset_rad + delta_1_rad + phi);
 }

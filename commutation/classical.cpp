@@ -2,18 +2,21 @@
 
 #include <cmath>
 
+#include "commutation/elementary.hpp"
+
 namespace clm {
 
 CoilGain classical_gain(const ClassicalCoilSet& coil_set, double position_m, double pole_pitch_m) {
   const double eta = electrical_angle_rad(position_m, pole_pitch_m) + coil_set.phase_offset_rad;
   const double scale = 2.0 / 3.0 * coil_set.motor_constant_N_per_A;
-  const double angle[3] = {eta, eta + kTwoPiOverThree, eta - kTwoPiOverThree};
+  const elementary::SinCos phase[3] = {elementary::sin_cos(eta), elementary::sin_cos(eta + kTwoPiOverThree),
+                                       elementary::sin_cos(eta - kTwoPiOverThree)};
   CoilGain gain;
   for (int column = 0; column < 2; ++column) {
     // Star constraint (5): i_c = −i_a − i_b, so column j of the reduced matrix is
     // column j of eq. (7) minus its column c.
-    const double sine = std::sin(angle[column]) - std::sin(angle[2]);
-    const double cosine = std::cos(angle[column]) - std::cos(angle[2]);
+    const double sine = phase[column].sin - phase[2].sin;
+    const double cosine = phase[column].cos - phase[2].cos;
     gain(0, column) = scale * sine;
     gain(1, column) = scale * coil_set.orthogonal_ratio * cosine;
     gain(2, column) = scale * coil_set.lever_arm_m * coil_set.orthogonal_ratio * cosine;
@@ -30,7 +33,7 @@ void classical_physics_parameters(const ClassicalCoilSet& coil_set, CoilGain& a,
 Eigen::Vector2d sinusoidal_currents(double magnitude_N, double commutation_angle_rad,
                                     double motor_constant_N_per_A) {
   const double scale = magnitude_N / motor_constant_N_per_A;
-  return {scale * std::sin(commutation_angle_rad), scale * std::sin(commutation_angle_rad + kTwoPiOverThree)};
+  return {scale * elementary::sin(commutation_angle_rad), scale * elementary::sin(commutation_angle_rad + kTwoPiOverThree)};
 }
 
 Eigen::Vector2d drive_phase_currents(const DriveCommutation& drive, const DriveSetpoint& setpoint,

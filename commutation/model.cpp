@@ -3,6 +3,8 @@
 #include <cmath>
 #include <tuple>
 
+#include "commutation/elementary.hpp"
+
 namespace clm {
 namespace {
 
@@ -53,7 +55,8 @@ struct PositionFeatures {
 
 PositionFeatures features(const ElectromagneticModel& model, double position_m) {
   const double theta = electrical_angle_rad(position_m, model.pole_pitch_m);
-  PositionFeatures f{std::cos(theta), std::sin(theta), 0.0, {}, {}, {}};
+  const auto [sin_theta, cos_theta] = elementary::sin_cos(theta);
+  PositionFeatures f{cos_theta, sin_theta, 0.0, {}, {}, {}};
   if (model.kind == ModelKind::kPgnn) {
     f.network_input = model.normalisation.apply(position_m);
     angle_harmonics(f.cos_theta, f.sin_theta, model.harmonics.max_order(), f.cos_n, f.sin_n);
@@ -214,14 +217,13 @@ void FusedPgnnEvaluator::evaluate(double position_m, StackedGain& gain, Wrench& 
   const auto& model = *model_;
   const int count = model.coil_set_count();
   const double theta = electrical_angle_rad(position_m, model.pole_pitch_m);
-  const double c = std::cos(theta);
-  const double s = std::sin(theta);
+  const auto [s, c] = elementary::sin_cos(theta);
   const double input = model.normalisation.apply(position_m);
   double* hidden = hidden_.data();
   const auto padded = static_cast<int>(hidden_.size());
   for (int k = 0; k < padded; ++k) hidden[k] = input_weight_[static_cast<std::size_t>(k)] * input +
                                                input_bias_[static_cast<std::size_t>(k)];
-  tanh_array(hidden, hidden, padded);
+  elementary::tanh_array(hidden, hidden, padded);
   gain.resize(3, 2 * count);
   cogging.setZero();
   double cos_n[kMaxHarmonicOrder + 1];

@@ -146,7 +146,7 @@ class FusedPgnnEvaluator {
   };
   const ElectromagneticModel* model_;
   // Hidden layers of all networks, one neuron after the other, padded with
-  // zero neurons to a multiple of 4 (the lanes of tanh_array).
+  // zero neurons to a multiple of 4 (the lanes of elementary::tanh_array).
   std::vector<double> input_weight_;
   std::vector<double> input_bias_;
   mutable std::vector<double> hidden_;  // scratch, sized at construction

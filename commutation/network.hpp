@@ -14,22 +14,6 @@ struct DenseLayer {
   Eigen::VectorXd biases;   ///< n_i
 };
 
-/// tanh of `count` values: out[k] = tanh(in[k]) (`out` may be `in`), in
-/// double precision with no call into libm, several lanes at a time (SSE2,
-/// or AVX2 where the CPU has it, chosen at run time; both give bit-identical
-/// results). Relative error within a few ulp of std::tanh (≤ 1e-13 is tested
-/// over a dense grid, tiny and saturating arguments included); ±0 and the
-/// sign are kept, ±∞ gives ±1, NaN stays NaN. No allocation, no exception.
-/// The cycle's networks use it.
-void tanh_array(const double* in, double* out, int count) noexcept;
-
-namespace detail {
-/// tanh_array on the baseline path (2 lanes), whatever the CPU; for tests.
-void tanh_array_baseline(const double* in, double* out, int count) noexcept;
-/// Whether tanh_array takes the AVX2 path on this CPU.
-bool tanh_array_uses_avx2() noexcept;
-}  // namespace detail
-
 class Network {
  public:
   /// Widest hidden layer the cycle's fixed storage holds.

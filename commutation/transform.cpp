@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "commutation/elementary.hpp"
+
 namespace clm {
 
 double wrap_angle_rad(double angle_rad) {
@@ -14,33 +16,34 @@ Eigen::Matrix2d gamma_matrix(const DriveCommutation& drive, double position_m, d
   const double eta = electrical_angle_rad(position_m, pole_pitch_m) + drive.phase_offset_rad;
   const double inv_k = 1.0 / drive.motor_constant_N_per_A;
   Eigen::Matrix2d gamma;
-  gamma << std::sin(eta), std::cos(eta), std::sin(eta + kTwoPiOverThree), std::cos(eta + kTwoPiOverThree);
+  const auto [s0, c0] = elementary::sin_cos(eta);
+  const auto [s1, c1] = elementary::sin_cos(eta + kTwoPiOverThree);
+  gamma << s0, c0, s1, c1;
   return inv_k * gamma;
 }
 
 Eigen::Matrix2d gamma_inverse(const DriveCommutation& drive, double position_m, double pole_pitch_m) {
   const double eta = electrical_angle_rad(position_m, pole_pitch_m) + drive.phase_offset_rad;
-  const double s0 = std::sin(eta);
-  const double c0 = std::cos(eta);
+  const auto [s0, c0] = elementary::sin_cos(eta);
   // sin/cos of η + 2π/3 by the angle-sum rule: one sin/cos pair per call.
-  const double sin_120 = std::sin(kTwoPiOverThree);
+  const double sin_120 = elementary::sin(kTwoPiOverThree);
   const double s1 = s0 * -0.5 + c0 * sin_120;
   const double c1 = c0 * -0.5 - s0 * sin_120;
   // det [[s0, c0], [s1, c1]] = sin(η − (η + 2π/3)) = −sin(2π/3).
-  const double inv_det = -1.0 / std::sin(kTwoPiOverThree);
+  const double inv_det = -1.0 / elementary::sin(kTwoPiOverThree);
   Eigen::Matrix2d inverse;
   inverse << c1, -c0, -s1, s0;
   return (drive.motor_constant_N_per_A * inv_det) * inverse;
 }
 
 Eigen::Vector2d transform_forward(const DriveSetpoint& setpoint) {
-  return {std::cos(setpoint.delta_rad) * setpoint.magnitude_N,
-          std::sin(setpoint.delta_rad) * setpoint.magnitude_N};
+  const auto [s, c] = elementary::sin_cos(setpoint.delta_rad);
+  return {c * setpoint.magnitude_N, s * setpoint.magnitude_N};
 }
 
 DriveSetpoint transform_inverse(const Eigen::Vector2d& f12_N, PhaseConvention convention) {
   if (f12_N.x() == 0.0 && f12_N.y() == 0.0) return {0.0, 0.0};
-  double delta = std::atan2(f12_N.y(), f12_N.x());  // (−π, π]
+  double delta = elementary::atan2(f12_N.y(), f12_N.x());  // (−π, π]
   // Forces are far from overflow, so sqrt does what hypot would, cheaper.
   double magnitude = std::sqrt(f12_N.x() * f12_N.x() + f12_N.y() * f12_N.y());
   if (convention == PhaseConvention::kSignedMagnitude) {

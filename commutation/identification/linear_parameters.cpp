@@ -9,9 +9,13 @@ namespace clm::identification {
 PgnnFeatures features_of(const CoilSetDataset& data, double pole_pitch_m, const PositionNormalisation& normalisation,
                          const DirectionForce& direction) {
   PgnnFeatures f;
-  const Eigen::ArrayXd theta = data.position_m.array() * (kTwoPi / pole_pitch_m);
-  f.cos_theta = theta.cos();
-  f.sin_theta = theta.sin();
+  f.cos_theta.resize(data.size());
+  f.sin_theta.resize(data.size());
+  for (Eigen::Index t = 0; t < data.size(); ++t) {
+    const auto [s, c] = elementary::sin_cos(data.position_m[t] * (kTwoPi / pole_pitch_m));
+    f.cos_theta[t] = c;
+    f.sin_theta[t] = s;
+  }
   f.input = (data.position_m.array() - normalisation.offset_m) / normalisation.scale_m;
   f.direction = Eigen::ArrayXd::Zero(data.size());
   if (direction.identified() && data.velocity_m_per_s.size() == data.size()) {

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <vector>
 
+#include "commutation/elementary.hpp"
 #include "commutation/identification/dataset.hpp"
 #include "commutation/identification/excitation.hpp"
 #include "commutation/identification/nuisance.hpp"
@@ -92,17 +93,20 @@ inline void regressor(const PgnnLayout& layout, const double* nonlinear, double 
   const double* wc = bb + na;
   const double* bc = wc + nc;
   for (int j = 0; j < na; ++j) {
-    hidden_a[j] = 1.0 - 2.0 / (1.0 + std::exp(2.0 * (wa[j] * x + ba[j])));
-    hidden_b[j] = 1.0 - 2.0 / (1.0 + std::exp(2.0 * (wb[j] * x + bb[j])));
+    hidden_a[j] = wa[j] * x + ba[j];
+    hidden_b[j] = wb[j] * x + bb[j];
+  }
+  for (int j = 0; j < nc; ++j) hidden_cog[j] = wc[j] * x + bc[j];
+  elementary::tanh_array(hidden_a, hidden_a, na);
+  elementary::tanh_array(hidden_b, hidden_b, na);
+  elementary::tanh_array(hidden_cog, hidden_cog, nc);
+  for (int j = 0; j < na; ++j) {
     m[layout.column_a_offset() + j] = hidden_a[j] * ia;
     m[layout.column_b_offset() + j] = hidden_b[j] * ib;
   }
   m[layout.column_a_offset() + na] = ia;
   m[layout.column_b_offset() + na] = ib;
-  for (int j = 0; j < nc; ++j) {
-    hidden_cog[j] = 1.0 - 2.0 / (1.0 + std::exp(2.0 * (wc[j] * x + bc[j])));
-    m[layout.cogging_offset() + j] = hidden_cog[j];
-  }
+  for (int j = 0; j < nc; ++j) m[layout.cogging_offset() + j] = hidden_cog[j];
   m[layout.cogging_offset() + nc] = 1.0;
   if (!layout.harmonics.empty()) {
     double cos_n[kMaxHarmonicOrder + 1], sin_n[kMaxHarmonicOrder + 1];

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "commutation/classical.hpp"
+#include "commutation/elementary.hpp"
 #include "commutation/identification/spline_fit.hpp"
 
 namespace clm::identification {
@@ -37,7 +38,7 @@ struct SparseRow {
 void add_force_regressor(double position_m, const Eigen::Vector2d& i, double pole_pitch_m,
                          const UniformCubicBasis& basis, double weight, SparseRow& row) {
   const double theta = electrical_angle_rad(position_m, pole_pitch_m);
-  const double c = std::cos(theta), s = std::sin(theta);
+  const auto [s, c] = elementary::sin_cos(theta);
   const int n = basis.size();
   row.add(0, weight * c * i[0]);
   row.add(1, weight * c * i[1]);
@@ -84,7 +85,7 @@ void for_each_balance(const std::vector<MotionRun>& runs, double pole_pitch_m, c
         add_force_regressor(middle_m, run.currents_A.col(j), pole_pitch_m, basis, 0.5, row);
       }
       row.add(model, -velocity);
-      row.add(model + 1, -std::tanh(velocity / options.direction_smoothing_m_per_s));
+      row.add(model + 1, -elementary::tanh(velocity / options.direction_smoothing_m_per_s));
       use(acceleration);
     }
   }
@@ -160,7 +161,8 @@ double common_mass_kg(const std::vector<MotionFit>& fits, const MotionFitOptions
 Eigen::Matrix<double, 1, 2> MotionFit::gain(double position_m, double pole_pitch_m,
                                             const UniformCubicBasis& basis) const {
   const double theta = electrical_angle_rad(position_m, pole_pitch_m);
-  Eigen::Matrix<double, 1, 2> k = a_y * std::cos(theta) + b_y * std::sin(theta);
+  const auto [s, c] = elementary::sin_cos(theta);
+  Eigen::Matrix<double, 1, 2> k = a_y * c + b_y * s;
   const auto span = basis.evaluate(position_m);
   for (int j = 0; j < 4; ++j) {
     const double b = span.value[static_cast<std::size_t>(j)];

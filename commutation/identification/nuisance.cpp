@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "commutation/elementary.hpp"
 #include "commutation/types.hpp"
 
 namespace clm::identification {
@@ -62,7 +63,7 @@ DrivingOffsetFit fit_driving_sensor_offset(const std::vector<MotionRecord>& reco
     for (std::size_t r = 0; r < records.size(); ++r) {
       for (Eigen::Index t = 0; t < records[r].time_s.size(); ++t) {
         const double v = velocity[r][t];
-        const Eigen::Vector4d m(acceleration[r][t], v, std::tanh(v / smoothing), 1.0);
+        const Eigen::Vector4d m(acceleration[r][t], v, elementary::tanh(v / smoothing), 1.0);
         gram.noalias() += m * m.transpose();
         rhs.noalias() += m * records[r].force_N[t];
         force_square += records[r].force_N[t] * records[r].force_N[t];
@@ -100,11 +101,11 @@ double direction_force_inflation(const CoilSetDataset& data, double pole_pitch_m
   double sum = 0.0, square = 0.0;
   for (Eigen::Index t = 0; t < data.size(); ++t) {
     const double theta = kTwoPi * data.position_m[t] / pole_pitch_m;
-    const double c = std::cos(theta), s = std::sin(theta);
+    const auto [s, c] = elementary::sin_cos(theta);
     const double ia = data.currents_A(0, t), ib = data.currents_A(1, t);
     Eigen::Matrix<double, 5, 1> m;
     m << c * ia, c * ib, s * ia, s * ib, 1.0;
-    const double d = std::tanh(data.velocity_m_per_s[t] / direction_smoothing_m_per_s);
+    const double d = elementary::tanh(data.velocity_m_per_s[t] / direction_smoothing_m_per_s);
     gram.noalias() += m * m.transpose();
     cross += m * d;
     sum += d;

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <vector>
 
+#include "commutation/elementary.hpp"
 #include "commutation/identification/dataset.hpp"
 
 namespace clm::identification {
@@ -25,7 +26,7 @@ struct DirectionForce {
 
   /// tanh(ẏ/v_c), the regressor of C; 0 without a term.
   double feature(double velocity_m_per_s) const {
-    return smoothing_velocity_m_per_s > 0.0 ? std::tanh(velocity_m_per_s / smoothing_velocity_m_per_s) : 0.0;
+    return smoothing_velocity_m_per_s > 0.0 ? elementary::tanh(velocity_m_per_s / smoothing_velocity_m_per_s) : 0.0;
   }
   bool identified() const { return smoothing_velocity_m_per_s > 0.0; }
 };

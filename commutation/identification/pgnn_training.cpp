@@ -170,6 +170,27 @@ double levenberg_marquardt(const CoilSetDataset& data, const PgnnFeatures& f, co
   return summary.final_cost;
 }
 
+// Sums over samples run in blocks of kSampleBlock rows, added in row
+// order. Eigen splits a product's inner dimension into blocks sized from the
+// CPU's cache (a few hundred rows on x86-64), so a product over thousands of
+// samples adds its terms in an order that changes from one CPU to another,
+// and the PGNN's training turns on such last bits (docs/commutation.md,
+// "Reproducibility"). Blocks of 128 rows stay below every blocking Eigen
+// chooses (≥ 200 rows for a 16 KiB L1), so each block's product, and the
+// sum of the blocks, is the same on every CPU.
+constexpr Eigen::Index kSampleBlock = 128;
+
+// Aᵀ·B summed over the rows of A and B in sample blocks.
+template <typename Left, typename Right>
+Eigen::MatrixXd transposed_product(const Eigen::MatrixBase<Left>& a, const Eigen::MatrixBase<Right>& b) {
+  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(a.cols(), b.cols());
+  for (Eigen::Index begin = 0; begin < a.rows(); begin += kSampleBlock) {
+    const Eigen::Index rows = std::min(kSampleBlock, a.rows() - begin);
+    sum.noalias() += a.middleRows(begin, rows).transpose() * b.middleRows(begin, rows);
+  }
+  return sum;
+}
+
 // Variable projection (Golub–Pereyra, Kaufman's Jacobian): the PGNN is
 // linear in θ_L (eq. 29), so for given hidden layers θ_NL the best θ_L of
 // eq. (26) is the ridge solution of eq. (31), and only θ_NL is left to the
@@ -224,10 +245,8 @@ class ProjectedCost final : public ceres::CostFunction {
     }
     // θ_L by eq. (31) (the normal equations of r over θ_L, halved).
     const double inv_n = 1.0 / static_cast<double>(n);
-    Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(p, p);
-    gram.selfadjointView<Eigen::Lower>().rankUpdate(regressors.transpose(), inv_n);
-    gram = gram.selfadjointView<Eigen::Lower>();
-    Eigen::MatrixXd rhs = regressors.transpose() * data_.wrench.transpose() * inv_n;
+    Eigen::MatrixXd gram = transposed_product(regressors, regressors) * inv_n;
+    Eigen::MatrixXd rhs = transposed_product(regressors, data_.wrench.transpose()) * inv_n;
     const double lambda2 = regularisation_ * regularisation_;
     Eigen::Matrix<double, 4, 3> target;
     for (int d = 0; d < 3; ++d) target.col(d) = physics_target(physics_a_, physics_b_, d);
@@ -253,7 +272,7 @@ class ProjectedCost final : public ceres::CostFunction {
     // direction q; AᵀA = 2·gram; Aᵀ V_q = scale²·(MᵀP)·diag(w_q).
     // K_q = (AᵀA)⁻¹ Aᵀ V_q; J_q = scale·(M K_q − P diag(w_q)) on the data rows,
     // −sqrt(2)·λ·K_q[0:4] on the prior rows.
-    const Eigen::MatrixXd cross = regressors.transpose() * derivatives;  // p × q
+    const Eigen::MatrixXd cross = transposed_product(regressors, derivatives);  // p × q
     using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
     Eigen::Map<RowMajor> jacobian(jacobians[0], 3 * n + 12, q);
     Eigen::VectorXd weights(q);
@@ -279,20 +298,87 @@ class ProjectedCost final : public ceres::CostFunction {
   double regularisation_;
 };
 
+// Levenberg–Marquardt on θ_NL of the variable-projection problem, with the
+// rules of Ceres' LEVENBERG_MARQUARDT trust region (Marquardt's diagonal,
+// the radius update of Nielsen, and the tolerances of
+// levenberg_marquardt_options), written here so that JᵀJ and Jᵀr are sums
+// in sample blocks (transposed_product): Ceres forms them with products
+// whose order follows the CPU. Returns the final cost (eq. 26) and adds the
+// iterations (the first evaluation counts as one, as in Ceres' summary).
+double minimise_projected(const ProjectedCost& cost_function, int max_iterations, std::vector<double>& x,
+                          int& iterations) {
+  const int q = static_cast<int>(x.size());
+  const int m = cost_function.num_residuals();
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  Eigen::VectorXd residuals(m), trial_residuals(m);
+  RowMajor jacobian(m, q);
+  const auto evaluate = [&](const std::vector<double>& at, Eigen::VectorXd& r, RowMajor* j) {
+    const double* parameters[] = {at.data()};
+    double* jacobians[] = {j != nullptr ? j->data() : nullptr};
+    cost_function.Evaluate(parameters, r.data(), j != nullptr ? jacobians : nullptr);
+    return 0.5 * r.squaredNorm();
+  };
+  double cost = evaluate(x, residuals, &jacobian);
+  ++iterations;
+  Eigen::MatrixXd normal = transposed_product(jacobian, jacobian);
+  Eigen::VectorXd gradient = transposed_product(jacobian, residuals);  // Jᵀr
+  double radius = 1e4;  // Ceres' initial_trust_region_radius
+  double decrease_factor = 2.0;
+  std::vector<double> trial(x.size());
+  for (int iteration = 0; iteration < max_iterations; ++iteration) {
+    if (gradient.lpNorm<Eigen::Infinity>() <= 1e-12) break;  // gradient_tolerance
+    // (JᵀJ + D/radius)·δ = −Jᵀr with D = diag(JᵀJ) clamped to [1e-6, 1e32].
+    Eigen::MatrixXd damped = normal;
+    for (int k = 0; k < q; ++k) damped(k, k) += std::clamp(normal(k, k), 1e-6, 1e32) / radius;
+    const Eigen::LLT<Eigen::MatrixXd> factor(damped);
+    Eigen::VectorXd step;
+    bool valid = factor.info() == Eigen::Success;
+    if (valid) {
+      step = factor.solve(-gradient);
+      valid = step.allFinite();
+    }
+    ++iterations;
+    double trial_cost = std::numeric_limits<double>::infinity();
+    double predicted = 0.0;
+    if (valid) {
+      Eigen::Map<const Eigen::VectorXd> current(x.data(), q);
+      const double step_norm = step.norm();
+      if (step_norm <= 1e-10 * (current.norm() + 1e-10)) break;  // parameter_tolerance
+      for (int k = 0; k < q; ++k) trial[static_cast<std::size_t>(k)] = x[static_cast<std::size_t>(k)] + step[k];
+      trial_cost = evaluate(trial, trial_residuals, nullptr);
+      // Decrease the linear model predicts: −(Jᵀr·δ + ½ δᵀJᵀJδ).
+      predicted = -(gradient.dot(step) + 0.5 * step.dot(normal * step));
+    }
+    const double ratio = predicted > 0.0 ? (cost - trial_cost) / predicted : -1.0;
+    if (!(ratio > 1e-3)) {  // rejected: shrink the region
+      radius /= decrease_factor;
+      decrease_factor *= 2.0;
+      if (radius < 1e-32) break;  // min_trust_region_radius
+      continue;
+    }
+    const double change = cost - trial_cost;
+    x = trial;
+    cost = evaluate(x, residuals, &jacobian);
+    normal = transposed_product(jacobian, jacobian);
+    gradient = transposed_product(jacobian, residuals);
+    const double excess = 2.0 * ratio - 1.0;
+    radius = std::min(1e16, radius / std::max(1.0 / 3.0, 1.0 - excess * excess * excess));
+    decrease_factor = 2.0;
+    if (change <= 1e-10 * cost) break;  // function_tolerance
+  }
+  return cost;
+}
+
 // Levenberg–Marquardt on θ_NL of the variable-projection problem; θ_L by
 // eq. (31) afterwards. Returns the final cost (eq. 26) and adds the iterations.
 double variable_projection(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnLayout& layout,
                            const CoilGain& physics_a, const CoilGain& physics_b, double regularisation,
-                           int max_iterations, int threads, std::vector<double>& nonlinear,
+                           int max_iterations, int /*threads: the solve is one thread*/, std::vector<double>& nonlinear,
                            Eigen::Matrix<double, Eigen::Dynamic, 3>& linear, int& iterations) {
-  ceres::Problem problem;
-  problem.AddResidualBlock(new ProjectedCost(data, f, layout, physics_a, physics_b, regularisation), nullptr,
-                           nonlinear.data());
-  ceres::Solver::Options options = levenberg_marquardt_options(max_iterations, threads);
-  options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-  const ceres::Solver::Summary summary = solve_counting(options, problem, iterations);
+  const ProjectedCost cost(data, f, layout, physics_a, physics_b, regularisation);
+  const double final_cost = minimise_projected(cost, max_iterations, nonlinear, iterations);
   ridge_linear(data, f, layout, nonlinear.data(), physics_a, physics_b, regularisation, linear);
-  return summary.final_cost;
+  return final_cost;
 }
 
 // The physics-only fit as a PGNN of `layout` whose networks are zero but

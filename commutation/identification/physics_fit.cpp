@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "commutation/elementary.hpp"
+
 namespace clm::identification {
 
 DirectionForce direction_shape(const CoilSetDataset& data, double direction_smoothing_m_per_s) {
@@ -24,7 +26,7 @@ PhysicsFit fit_physics_only(const CoilSetDataset& data, double pole_pitch_m, dou
   Eigen::Matrix<double, 6, 3> rhs = Eigen::Matrix<double, 6, 3>::Zero();
   for (Eigen::Index t = 0; t < data.size(); ++t) {
     const double theta = electrical_angle_rad(data.position_m[t], pole_pitch_m);
-    const double c = std::cos(theta), s = std::sin(theta);
+    const auto [s, c] = elementary::sin_cos(theta);
     const double ia = data.currents_A(0, t), ib = data.currents_A(1, t);
     const double d = fit.direction.identified() ? fit.direction.feature(data.velocity_m_per_s[t]) : 0.0;
     Eigen::Matrix<double, 6, 1> m;

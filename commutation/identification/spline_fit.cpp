@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "commutation/elementary.hpp"
 #include "commutation/identification/physics_fit.hpp"
 
 namespace clm::identification {
@@ -59,7 +60,7 @@ SplineFit fit_spline(const CoilSetDataset& data, double pole_pitch_m, const Unif
   for (Eigen::Index t = 0; t < data.size(); ++t) {
     const double y = data.position_m[t];
     const double theta = electrical_angle_rad(y, pole_pitch_m);
-    const double c = std::cos(theta), s = std::sin(theta);
+    const auto [s, c] = elementary::sin_cos(theta);
     const double ia = data.currents_A(0, t), ib = data.currents_A(1, t);
     const auto span = basis.evaluate(y);
     int index[17];

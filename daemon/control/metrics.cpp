@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "commutation/elementary.hpp"
 #include "daemon/control/checks.hpp"
 
 namespace clm::control {
@@ -12,7 +13,7 @@ namespace clm::control {
 CommutationErrorFilter::CommutationErrorFilter(double cutoff_hz, double period_s) {
   detail::require_positive_finite("CommutationErrorFilter", "cutoff_hz", cutoff_hz);
   detail::require_positive_finite("CommutationErrorFilter", "period_s", period_s);
-  pole_ = std::exp(-2.0 * std::numbers::pi * cutoff_hz * period_s);
+  pole_ = elementary::exp(-2.0 * std::numbers::pi * cutoff_hz * period_s);
 }
 
 double CommutationErrorFilter::update(double input) noexcept {

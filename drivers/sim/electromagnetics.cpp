@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "commutation/elementary.hpp"
 #include "drivers/sim/random.hpp"
 
 namespace clm::sim {
@@ -142,8 +143,10 @@ ElectromagneticTruth::ElectromagneticTruth(const ElectromagneticParameters& para
   for (int p = 0; p < 3; ++p) {
     const double angle5 = 5.0 * phase_shift[p] + psi5;
     const double angle7 = 7.0 * phase_shift[p] + psi7;
-    fifth_rotation_[static_cast<std::size_t>(p)] = {std::cos(angle5), std::sin(angle5)};
-    seventh_rotation_[static_cast<std::size_t>(p)] = {std::cos(angle7), std::sin(angle7)};
+    const auto [sin5, cos5] = elementary::sin_cos(angle5);
+    const auto [sin7, cos7] = elementary::sin_cos(angle7);
+    fifth_rotation_[static_cast<std::size_t>(p)] = {cos5, sin5};
+    seventh_rotation_[static_cast<std::size_t>(p)] = {cos7, sin7};
   }
 
   RandomStream phase_gains(stream_seed(seed, kStreamPhaseGains));
@@ -157,8 +160,9 @@ ElectromagneticTruth::ElectromagneticTruth(const ElectromagneticParameters& para
     Wrench sin_part;
     for (int q = 0; q < 3; ++q) {
       const double phase = kTwoPi * cogging_phases.uniform();
-      cos_part[q] = harmonic.amplitude_N_N_Nm[q] * std::cos(phase);
-      sin_part[q] = harmonic.amplitude_N_N_Nm[q] * std::sin(phase);
+      const auto [sin_phase, cos_phase] = elementary::sin_cos(phase);
+      cos_part[q] = harmonic.amplitude_N_N_Nm[q] * cos_phase;
+      sin_part[q] = harmonic.amplitude_N_N_Nm[q] * sin_phase;
     }
     cogging_order_.push_back(harmonic.order);
     cogging_cos_.push_back(cos_part);
@@ -175,7 +179,8 @@ void ElectromagneticTruth::phase_functions(int coil_set, double position_m, doub
   const double track_position = position_m + set.lever_arm_m;
   const double eta = electrical_angle_rad(position_m, parameters_.pole_pitch_m) + set.phase_offset_rad +
                      orientation_(track_position);
-  const Complex z{std::cos(eta), std::sin(eta)};
+  const auto [sin_eta, cos_eta] = elementary::sin_cos(eta);
+  const Complex z{cos_eta, sin_eta};
   const Complex z2 = multiply(z, z);
   const Complex z5 = multiply(multiply(z2, z2), z);
   const Complex z7 = multiply(z5, z2);
@@ -227,7 +232,8 @@ Wrench ElectromagneticTruth::cogging(double position_m) const noexcept {
   Wrench force = cogging_slow_.wrench(position_m);
   if (max_cogging_order_ > 0) {
     const double theta = electrical_angle_rad(position_m, parameters_.pole_pitch_m);
-    const Complex z{std::cos(theta), std::sin(theta)};
+    const auto [sin_theta, cos_theta] = elementary::sin_cos(theta);
+  const Complex z{cos_theta, sin_theta};
     Complex zn{1.0, 0.0};
     int n = 0;
     // Harmonics in the order given; z^n by repeated multiplication (orders ≤ 64).
@@ -247,7 +253,7 @@ Wrench ElectromagneticTruth::cogging(double position_m) const noexcept {
 
 Wrench ElectromagneticTruth::direction_dependent(double velocity_m_per_s) const noexcept {
   return parameters_.direction_dependent_N_N_Nm *
-         std::tanh(velocity_m_per_s / parameters_.direction_smoothing_velocity_m_per_s);
+         elementary::tanh(velocity_m_per_s / parameters_.direction_smoothing_velocity_m_per_s);
 }
 
 Wrench ElectromagneticTruth::wrench(double position_m, double velocity_m_per_s,

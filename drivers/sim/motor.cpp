@@ -5,6 +5,7 @@
 #include <string>
 
 #include "commutation/classical.hpp"
+#include "commutation/elementary.hpp"
 
 namespace clm::sim {
 namespace {
@@ -144,7 +145,7 @@ bool SimulatedMotor::drive_currents(double position_m, CurrentVector& currents_A
 double SimulatedMotor::friction_N(double velocity_m_per_s) const noexcept {
   const auto& mechanics = parameters_.mechanics;
   return mechanics.viscous_friction_N_s_per_m * velocity_m_per_s +
-         mechanics.coulomb_friction_N * std::tanh(velocity_m_per_s / mechanics.friction_smoothing_velocity_m_per_s);
+         mechanics.coulomb_friction_N * elementary::tanh(velocity_m_per_s / mechanics.friction_smoothing_velocity_m_per_s);
 }
 
 int SimulatedMotor::substeps(double period_s) const noexcept {

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "commutation/elementary.hpp"
 #include "commutation/types.hpp"
 
 namespace clm::sim {
@@ -48,11 +49,12 @@ double RandomStream::normal() noexcept {
     return spare_normal_;
   }
   // 1 − u lies in (0, 1], so the logarithm is finite.
-  const double radius = std::sqrt(-2.0 * std::log(1.0 - uniform()));
+  const double radius = std::sqrt(-2.0 * elementary::log(1.0 - uniform()));
   const double angle = kTwoPi * uniform();
-  spare_normal_ = radius * std::sin(angle);
+  const auto [s, c] = elementary::sin_cos(angle);
+  spare_normal_ = radius * s;
   has_spare_normal_ = true;
-  return radius * std::cos(angle);
+  return radius * c;
 }
 
 }  // namespace clm::sim

@@ -1,7 +1,9 @@
 // Identification on synthetic data whose truth is known: the physics-only fit,
 // eq. (31), Proposition 4.1, the PGNN and the spline model.
 #include <catch2/catch.hpp>
+#include <array>
 #include <random>
+#include <vector>
 
 #include "commutation/identification/dataset.hpp"
 #include "commutation/identification/linear_parameters.hpp"
@@ -275,4 +277,44 @@ TEST_CASE("spline identification recovers a spline-structured coil set", "[ident
   CHECK(report.model_training[0] < 1.2 * noise * noise);
   CHECK(report.model_validation[0] < 1.5 * noise * noise);
   CHECK(report.physics_training[0] > 5 * report.model_training[0]);
+}
+
+TEST_CASE("PGNN identification gives the same bits whatever cache sizes Eigen blocks its products for",
+          "[identification][reproducibility]") {
+  // Eigen sizes the blocks of a product's inner dimension from the CPU's
+  // caches; the PGNN's sums over samples run in fixed sample blocks and its
+  // Levenberg–Marquardt is the project's own, so a CPU with another L1 or L2
+  // must give the same model to the last bit (docs/commutation.md,
+  // "Reproducibility"). 8000 samples: the sums are far longer than any block.
+  std::mt19937_64 rng(46);
+  const auto truth = test::random_pgnn_model(1, kPolePitch, rng, {4}, {16}, identification::field_harmonic_orders());
+  const auto all = synthetic_data(truth, 0, 0.5, 4000, rng);
+  const auto [training, validation] = held_out_blocks(all);
+  PgnnOptions options;
+  options.restarts = 2;
+  options.column_hidden = 4;
+  options.harmonics = identification::field_harmonic_orders();
+  const std::ptrdiff_t l1 = Eigen::l1CacheSize(), l2 = Eigen::l2CacheSize(), l3 = Eigen::l3CacheSize();
+  std::vector<std::vector<double>> parameters;
+  const std::array<std::array<std::ptrdiff_t, 3>, 3> caches = {
+      {{16 * 1024, 256 * 1024, 2 * 1024 * 1024}, {32 * 1024, 1024 * 1024, 32 * 1024 * 1024},
+       {48 * 1024, 2 * 1024 * 1024, 300 * 1024 * 1024}}};
+  for (const auto& cache : caches) {
+    Eigen::setCpuCacheSizes(cache[0], cache[1], cache[2]);
+    IdentificationReport report;
+    const auto coil_set = identify_pgnn_coil_set(training, validation, kPolePitch, truth.normalisation, options, report);
+    std::vector<double> nonlinear;
+    Eigen::Matrix<double, Eigen::Dynamic, 3> linear;
+    pack_parameters(PgnnLayout::of(coil_set, options.harmonics), coil_set, report.direction_force, nonlinear, linear);
+    nonlinear.insert(nonlinear.end(), linear.data(), linear.data() + linear.size());
+    parameters.push_back(nonlinear);
+  }
+  Eigen::setCpuCacheSizes(l1, l2, l3);
+  for (std::size_t k = 1; k < caches.size(); ++k) {
+    INFO("L1 " << caches[k][0] / 1024 << " KiB against " << caches[0][0] / 1024 << " KiB");
+    REQUIRE(parameters[k].size() == parameters[0].size());
+    std::size_t differing = 0;
+    for (std::size_t i = 0; i < parameters[0].size(); ++i) differing += parameters[k][i] != parameters[0][i];
+    CHECK(differing == 0);
+  }
 }

@@ -4,6 +4,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "commutation/elementary.hpp"
 #include "commutation/identification/dataset.hpp"
 #include "commutation/identification/linear_parameters.hpp"
 #include "commutation/identification/spline_fit.hpp"
@@ -227,7 +228,7 @@ double position_validation_score(const ExperimentData& data, const IdentifyOptio
       Wrench cogging;
       model.evaluate_coil_set(static_cast<int>(l), dataset.position_m[k], gain, cogging);
       const bool direction = summary.direction_force && dataset.velocity_m_per_s.size() == dataset.size();
-      shape = direction ? std::tanh(dataset.velocity_m_per_s[k] / smoothing_m_per_s) : 0.0;
+      shape = direction ? elementary::tanh(dataset.velocity_m_per_s[k] / smoothing_m_per_s) : 0.0;
       return dataset.wrench(0, k) - gain.row(0).dot(dataset.currents_A.col(k)) - cogging[0];
     };
     double cross = 0.0, square = 0.0, shape = 0.0;
