@@ -191,6 +191,18 @@ Eigen::MatrixXd transposed_product(const Eigen::MatrixBase<Left>& a, const Eigen
   return sum;
 }
 
+// AᵀA summed over the rows of A in sample blocks, by symmetric rank updates
+// (half the products of transposed_product(a, a)).
+template <typename Matrix>
+Eigen::MatrixXd gram_product(const Eigen::MatrixBase<Matrix>& a) {
+  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(a.cols(), a.cols());
+  for (Eigen::Index begin = 0; begin < a.rows(); begin += kSampleBlock) {
+    const Eigen::Index rows = std::min(kSampleBlock, a.rows() - begin);
+    sum.selfadjointView<Eigen::Lower>().rankUpdate(a.middleRows(begin, rows).transpose());
+  }
+  return sum.selfadjointView<Eigen::Lower>();
+}
+
 // Variable projection (Golub–Pereyra, Kaufman's Jacobian): the PGNN is
 // linear in θ_L (eq. 29), so for given hidden layers θ_NL the best θ_L of
 // eq. (26) is the ridge solution of eq. (31), and only θ_NL is left to the
@@ -245,7 +257,7 @@ class ProjectedCost final : public ceres::CostFunction {
     }
     // θ_L by eq. (31) (the normal equations of r over θ_L, halved).
     const double inv_n = 1.0 / static_cast<double>(n);
-    Eigen::MatrixXd gram = transposed_product(regressors, regressors) * inv_n;
+    Eigen::MatrixXd gram = gram_product(regressors) * inv_n;
     Eigen::MatrixXd rhs = transposed_product(regressors, data_.wrench.transpose()) * inv_n;
     const double lambda2 = regularisation_ * regularisation_;
     Eigen::Matrix<double, 4, 3> target;
@@ -320,7 +332,7 @@ double minimise_projected(const ProjectedCost& cost_function, int max_iterations
   };
   double cost = evaluate(x, residuals, &jacobian);
   ++iterations;
-  Eigen::MatrixXd normal = transposed_product(jacobian, jacobian);
+  Eigen::MatrixXd normal = gram_product(jacobian);
   Eigen::VectorXd gradient = transposed_product(jacobian, residuals);  // Jᵀr
   double radius = 1e4;  // Ceres' initial_trust_region_radius
   double decrease_factor = 2.0;
@@ -359,7 +371,7 @@ double minimise_projected(const ProjectedCost& cost_function, int max_iterations
     const double change = cost - trial_cost;
     x = trial;
     cost = evaluate(x, residuals, &jacobian);
-    normal = transposed_product(jacobian, jacobian);
+    normal = gram_product(jacobian);
     gradient = transposed_product(jacobian, residuals);
     const double excess = 2.0 * ratio - 1.0;
     radius = std::min(1e16, radius / std::max(1.0 / 3.0, 1.0 - excess * excess * excess));
