@@ -2,7 +2,8 @@
 """PyTorch reference implementation of the PGNN identification (Algorithm 2).
 
 The same model, data, split, normalisation, physics-only target and cost as
-commutation/identification/ (pgnn_training.cpp), trained with a different
+our identification of the paper's PGNN (`clm identify --no-nuisance
+--no-selection`; docs/commutation.md, docs/commissioning.md), trained with a different
 optimiser (full-batch L-BFGS with strong-Wolfe line search instead of
 Levenberg-Marquardt on decimated data), so that our C++ identification can be
 benchmarked against a mainstream implementation (docs/benchmarks.md,
@@ -38,8 +39,11 @@ Identical to ours:
     1 + 1000·l, slopes U(-4, 4), centres U(-1, 1), bias = -slope·centre, in
     the same order), reproduced bit for bit below; output layers and A, B then
     by eq. (31), as the paper initialises them (on all training samples; ours
-    on the every-8th-sample set its restarts use);
-  * restarts: the same number (5), best cost kept, then the best continued;
+    on the every-16th-sample set its restarts use);
+  * restarts: the same number (5), then the best continued (here the lowest
+    cost (26); ours keeps the one that predicts the held-out blocks best and
+    polishes it once more on every sample, docs/commutation.md
+    "Identification");
   * float64 throughout.
 
 Different (by design, this is the reference):
