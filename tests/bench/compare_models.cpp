@@ -22,11 +22,13 @@
 //    therefore differ slightly from report.json's, where the pgnn evaluation
 //    runs after the other commutations on one daemon.
 //  * with --time-ours: our identification (identify_motor, the function
-//    `clm commission` and `clm identify` use, default options) timed per coil
-//    set, without writing a file.
+//    `clm commission` and `clm identify` use, default options, or the paper's
+//    with --no-nuisance --no-selection as in `clm commission`) timed in total
+//    (the coil sets are identified side by side), without writing a file.
 //
-//   build-torch/bin/compare_models --config config/servod.yaml --data DIR/experiments.csv
-//       --model ours=DIR/model-pgnn.yaml --model torch=DIR/model-torch.yaml [--json out.json] [--time-ours]
+//   build/bin/compare_models --config config/servod.yaml --data DIR/experiments.csv
+//       --model ours=DIR/model-pgnn.yaml --model torch=DIR/model-torch.yaml [--json out.json]
+//       [--time-ours [--no-nuisance] [--no-selection]]
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -174,7 +176,8 @@ void usage() {
   std::fprintf(stderr,
                "usage: compare_models --config servod.yaml --model NAME=model.yaml [--model NAME=model.yaml ...]\n"
                "                      [--data experiments.csv] [--program fig8.yaml] [--validation-program PATH|none]\n"
-               "                      [--time-ours] [--no-closed-loop] [--json OUT.json]\n");
+               "                      [--time-ours [--no-nuisance] [--no-selection]] [--no-closed-loop]\n"
+               "                      [--json OUT.json]\n");
 }
 
 }  // namespace
@@ -182,7 +185,7 @@ void usage() {
 int main(int argc, char** argv) {
   std::string config_path, data_path, program_path, validation_path, json_path;
   std::vector<NamedModel> models;
-  bool time_ours = false, closed = true;
+  bool time_ours = false, closed = true, nuisance = true, selection = true;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     const auto value = [&]() -> std::string {
@@ -199,6 +202,8 @@ int main(int argc, char** argv) {
     else if (arg == "--json") json_path = value();
     else if (arg == "--time-ours") time_ours = true;
     else if (arg == "--no-closed-loop") closed = false;
+    else if (arg == "--no-nuisance") nuisance = false;
+    else if (arg == "--no-selection") selection = false;
     else if (arg == "--model") {
       const std::string spec = value();
       const auto eq = spec.find('=');
@@ -217,9 +222,18 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    const servod::ServodConfig config = commissioning_config(config_path);
+    servod::ServodConfig config = commissioning_config(config_path);
+    // The daemon loads files from its listed directories only, by absolute
+    // path (commands.file_directories): each model's directory is added, as
+    // `clm commission` adds its --out directory.
+    for (auto& m : models) {
+      m.path = std::filesystem::canonical(m.path).string();
+      config.commands.file_directories.push_back(std::filesystem::path(m.path).parent_path().string());
+    }
     const std::string config_dir = std::filesystem::path(config_path).parent_path().string();
-    const IdentifyOptions defaults;  // the options `clm commission` identifies with
+    IdentifyOptions defaults;  // the options `clm commission` identifies with
+    defaults.nuisance = nuisance;
+    defaults.select_capacity = selection;
     std::ostringstream json;
     json << "{\n  \"config\": \"" << config_path << "\",\n  \"models\": {";
 
@@ -289,8 +303,12 @@ int main(int argc, char** argv) {
       identify_motor(*data, config.motor, defaults, reports, {});
       const double total_s = std::chrono::duration<double>(Clock::now() - start).count();
       const double total_cpu_s = cpu_s() - start_cpu;
-      std::printf("ours (identify_motor, default options): %.3f s wall, %.3f s CPU in total\n", total_s, total_cpu_s);
-      json << ",\n  \"ours_timing\": {\"total_s\": " << num(total_s) << ", \"total_cpu_s\": " << num(total_cpu_s)
+      const std::string which = std::string(nuisance ? "nuisance terms" : "no nuisance terms") + ", " +
+                                (selection ? "capacity chosen from the grid" : "the paper's 2/16 PGNN");
+      std::printf("ours (identify_motor, %s): %.3f s wall, %.3f s CPU in total\n", which.c_str(), total_s,
+                  total_cpu_s);
+      json << ",\n  \"ours_timing\": {\"options\": \"" << which << "\", \"total_s\": " << num(total_s)
+           << ", \"total_cpu_s\": " << num(total_cpu_s)
            << ", \"coil_sets\": [";
       for (std::size_t l = 0; l < reports.size(); ++l) {
         std::printf("  coil set %zu: cost (26) %.6g\n", l + 1, reports[l].report.regularised_cost);
@@ -300,10 +318,15 @@ int main(int argc, char** argv) {
       json << "]}";
     }
     json << "\n}\n";
-    if (!json_path.empty()) {
-      std::ofstream out(json_path);
-      out << json.str();
-      if (!out) throw std::runtime_error(json_path + ": cannot write");
+    if (!json_path.empty()) {  // atomically: a reader never sees half a report
+      const std::string temporary = json_path + ".tmp";
+      {
+        std::ofstream out(temporary);
+        out << json.str();
+        out.flush();
+        if (!out) throw std::runtime_error(temporary + ": cannot write");
+      }
+      std::filesystem::rename(temporary, json_path);
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "compare_models: %s\n", e.what());

@@ -2,7 +2,8 @@
 """PyTorch reference implementation of the PGNN identification (Algorithm 2).
 
 The same model, data, split, normalisation, physics-only target and cost as
-commutation/identification/ (pgnn_training.cpp), trained with a different
+our identification of the paper's PGNN (`clm identify --no-nuisance
+--no-selection`; docs/commutation.md, docs/commissioning.md), trained with a different
 optimiser (full-batch L-BFGS with strong-Wolfe line search instead of
 Levenberg-Marquardt on decimated data), so that our C++ identification can be
 benchmarked against a mainstream implementation (docs/benchmarks.md,
@@ -16,18 +17,21 @@ Per coil set l (eq. 23-26 of the paper, docs/commutation.md §7 and §8):
     y_n = (y - offset)/scale in [-1, 1] over all positions of all coil sets
     V = mean_t ||F(t) - F̂(t)||² + λ² ||θ_phy - θ*_phy||²      (26), λ = 0.1
 
-with θ*_phy the physics-only least-squares fit (A, B without networks) on the
-training data, and eq. (31) (ridge least squares of A, B and the output
+with θ*_phy the physics-only least-squares fit (A, B and a constant force
+beside them, without networks; docs/commutation.md, "Nuisance terms", item 3)
+on the training data, and eq. (31) (ridge least squares of A, B and the output
 layers with the hidden layers fixed) applied at the end, as ours does, which
 guarantees Proposition 4.1 (the model's training data term never exceeds the
 physics-only one, direction by direction; checked and reported).
 
 Identical to ours:
   * data: the experiment CSV (docs/data-formats.md), rows grouped per coil set
-    by delta_rad in file order; currents reconstructed through the drive's
-    fixed commutation (tools/data/experiment_data.cpp, drive_phase_currents):
-    i = [sin(η), sin(η + 2π/3)]·m/k̂_d, η = 2πy/d_m + ζ̂_d + Δ; measured
-    ia_A/ib_A columns are used instead when present;
+    by delta_rad in file order; the wrench of a row paired with the setpoint
+    of its previous cycle at the row's own position, the first row of each run
+    left out (docs/commissioning.md, "Experiment data"); currents of that
+    setpoint through the drive's fixed commutation (eq. 19):
+    i = [sin(η), sin(η + 2π/3)]·m/k̂_d, η = 2πy/d_m + ζ̂_d + Δ; the previous
+    cycle's ia_A/ib_A instead when the CSV has them;
   * split: split_contiguous_blocks (dataset.cpp), validation fraction 0.2,
     10 contiguous blocks per offset group, blocks 2 and 7 held out;
   * normalisation: normalisation_for over all positions of all coil sets;
@@ -35,8 +39,11 @@ Identical to ours:
     1 + 1000·l, slopes U(-4, 4), centres U(-1, 1), bias = -slope·centre, in
     the same order), reproduced bit for bit below; output layers and A, B then
     by eq. (31), as the paper initialises them (on all training samples; ours
-    on the every-8th-sample set its restarts use);
-  * restarts: the same number (5), best cost kept, then the best continued;
+    on the every-16th-sample set its restarts use);
+  * restarts: the same number (5), then the best continued (here the lowest
+    cost (26); ours keeps the one that predicts the held-out blocks best and
+    polishes it once more on every sample, docs/commutation.md
+    "Identification");
   * float64 throughout.
 
 Different (by design, this is the reference):
@@ -151,41 +158,70 @@ def load_motor(path):
 
 
 def load_experiments(path, motor):
-    """Per coil set: position, currents (2×N), wrench (N×3), group (0/1), as read_experiment_data."""
+    """Per coil set: position, currents (2×N), wrench (N×3), group (0/1), from
+    the experiment CSV as docs/data-formats.md and docs/commissioning.md
+    ("Experiment data") define it.
+
+    A row holds the position and wrench its cycle measured and the setpoint
+    its cycle computed; the drive applies that setpoint over the period after
+    the row. So the wrench of row k pairs with the setpoint of row k − 1 (its
+    previous cycle: the row before it in the file, same coil set and offset
+    group, a time step above 0 and at most 1.5 median steps) at row k's
+    position. The first row of each run has no previous cycle and is left out.
+    """
     with open(path) as f:
         header = f.readline().strip().split(",")
     table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     col = {name: table[:, header.index(name)] for name in header}
     measured = "ia_A" in col or "ib_A" in col
     d_m, k_d, zeta_d = motor["pole_pitch_m"], motor["k_d"], motor["zeta_d"]
-    sets = []
+    coil_set, delta, time_s = col["coil_set"], col["delta_rad"], col["t_s"]
+
+    # Offset group of every row, per coil set: the offsets in order of
+    # appearance, a row in the group of the last offset within 1e-9 rad.
+    group = np.full(coil_set.size, -1)
     for l in range(1, motor["coil_sets"] + 1):
-        rows = np.nonzero(col["coil_set"] == l)[0]
+        rows = np.nonzero(coil_set == l)[0]
         if rows.size == 0:
             raise SystemExit(f"{path}: no rows for coil set {l}")
-        delta = col["delta_rad"][rows]
-        # As read_experiment_data: the offsets in order of appearance; a row
-        # goes to the last offset within 1e-9 rad of its delta_rad.
-        near_first = np.abs(delta - delta[0]) <= 1e-9
+        d = delta[rows]
+        near_first = np.abs(d - d[0]) <= 1e-9
         if near_first.all():
             raise SystemExit(f"{path}: coil set {l} has a single phase offset")
         second_at = int(np.argmin(near_first))
-        near_second = np.abs(delta - delta[second_at]) <= 1e-9
+        near_second = np.abs(d - d[second_at]) <= 1e-9
         near_second[:second_at] = False  # the second offset did not exist yet
-        group = np.where(near_second, 1, 0)
         if not np.all(near_first | near_second):
             raise SystemExit(f"{path}: coil set {l} has a third phase offset")
+        group[rows] = np.where(near_second, 1, 0)
+
+    # The time step of a run: the median of the file's positive steps (of an
+    # even count, the upper of the two middle ones).
+    step = np.diff(time_s)
+    positive = np.sort(step[step > 0.0])
+    median_step_s = positive[positive.size // 2] if positive.size else 0.0
+    paired = np.zeros(coil_set.size, dtype=bool)
+    paired[1:] = ((coil_set[1:] == coil_set[:-1]) & (group[1:] == group[:-1]) & (step > 0.0)
+                  & (step <= 1.5 * median_step_s))
+
+    sets = []
+    for l in range(1, motor["coil_sets"] + 1):
+        rows = np.nonzero((coil_set == l) & paired)[0]  # row k: its force, position and group
+        before = rows - 1                                 # row k − 1: the setpoint that made the force
+        for g in (0, 1):
+            if not np.any(group[rows] == g):
+                raise SystemExit(f"{path}: coil set {l}, offset group {g + 1}: no two consecutive cycles")
         y = col["y_m"][rows]
         if measured:
-            currents = np.vstack([col["ia_A"][rows], col["ib_A"][rows]])
+            currents = np.vstack([col["ia_A"][before], col["ib_A"][before]])
         else:
-            magnitude = col["magnitude_N"][rows]
-            # drive_phase_currents: electrical_angle_rad(y) + ζ̂_d + Δ, then sinusoidal_currents.
-            angle = (TWO_PI * y / d_m + zeta_d) + delta
-            scale = magnitude / k_d
+            # The drive's fixed commutation (eq. 19) of row k − 1's setpoint at
+            # row k's position: sin(2πy/d_m + ζ̂_d + Δ)·m/k̂_d for coil a, +2π/3 for b.
+            angle = (TWO_PI * y / d_m + zeta_d) + delta[before]
+            scale = col["magnitude_N"][before] / k_d
             currents = np.vstack([scale * np.sin(angle), scale * np.sin(angle + TWO_PI_OVER_THREE)])
         wrench = np.column_stack([col["Fy_N"][rows], col["Fx_N"][rows], col["Tz_Nm"][rows]])
-        sets.append({"y": y, "i": currents, "F": wrench, "group": group})
+        sets.append({"y": y, "i": currents, "F": wrench, "group": group[rows]})
     return sets, measured
 
 
@@ -235,9 +271,13 @@ def physics_regressor(y, i, d_m):
 
 
 def fit_physics_only(data, d_m):
-    """θ*_phy (4 × 3, column q = [A_q0, A_q1, B_q0, B_q1]): fit_physics_only."""
-    m = physics_regressor(data["y"], data["i"], d_m)
-    return np.linalg.solve(m.T @ m, m.T @ data["F"])
+    """The physics-only fit (docs/commutation.md §8 and "Nuisance terms", item 3):
+    A, B and a constant force beside them, by least squares per direction.
+    Returns θ*_phy (4 × 3, column q = [A_q0, A_q1, B_q0, B_q1]), the target of
+    the prior in eq. (26), and the constant (3,), which the prior does not see."""
+    m = np.column_stack([physics_regressor(data["y"], data["i"], d_m), np.ones(data["y"].size)])
+    solution, *_ = np.linalg.lstsq(m, data["F"], rcond=None)
+    return solution[:4], solution[4]
 
 
 class Problem:
@@ -356,7 +396,7 @@ def data_terms(torch, structure, d_m, normalisation, data, w, b, theta):
 
 def identify_coil_set(torch, training, validation, d_m, normalisation, structure, args, seed, target=None):
     watch = Watch(target)
-    theta_star = fit_physics_only(training, d_m)
+    theta_star, physics_constant = fit_physics_only(training, d_m)
     problem = Problem(torch, training, d_m, normalisation, structure, theta_star, args.regularisation)
     rng = Mt19937_64(seed)
     best = None
@@ -390,6 +430,7 @@ def identify_coil_set(torch, training, validation, d_m, normalisation, structure
     zero_hidden = torch.zeros(structure.hidden, dtype=torch.float64)
     physics_theta = torch.zeros((structure.p, 3), dtype=torch.float64)
     physics_theta[:4] = torch.as_tensor(theta_star)
+    physics_theta[-1] = torch.as_tensor(physics_constant)  # the regressor's last column is 1
     terms = lambda data, w_, b_, theta_: data_terms(torch, structure, d_m, normalisation, data, w_, b_, theta_)
     result = {
         "physics_training_N2": terms(training, zero_hidden, zero_hidden, physics_theta),
