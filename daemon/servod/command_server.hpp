@@ -44,7 +44,7 @@ namespace clm::servod {
 /// What the gate asks of a command of `kind`: stop and disable are kSafety.
 CommandClass command_class(servo::CommandKind kind) noexcept;
 
-class CommandServer final : public AuthorityReport {
+class CommandServer final : public AuthorityReport, public telemetry::SafetyLatch {
  public:
   /// Without command authority: every well-formed command is submitted
   /// (in-process use and tests); take/release control are refused.
@@ -76,6 +76,11 @@ class CommandServer final : public AuthorityReport {
   const CommandGate* gate() const noexcept { return gate_ ? &*gate_ : nullptr; }
   /// The status's command part: holder, lease and every counter. Any thread; noexcept, no allocation.
   void fill(telemetry::CommandAuthorityStatus& out) const noexcept override;
+  /// The publisher's receiver thread: a stop, quick stop or disable the gate
+  /// admits (CommandGate::admit_safety) is latched for the loop
+  /// (ServoDaemon::request_safety), past this thread and every queue.
+  std::uint64_t latch(const servo::Command& command) noexcept override;
+  std::uint64_t obeyed() const noexcept override { return daemon_.safety_obeyed(); }
 
  private:
   void ack(const CommandReply& reply, int& acks);
