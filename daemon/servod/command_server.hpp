@@ -20,6 +20,11 @@
 //     are acked with the cycle's decision, which take_replies() delivers a
 //     cycle later.
 //
+// Stop, quick stop and disable from the network do not come here: the
+// publisher's receiver hands them to latch() (telemetry::SafetyLatch), which
+// asks the gate (the axis only) and latches them for the loop
+// (ServoDaemon::request_safety); the receiver acks them once obeyed.
+//
 // When the publisher hears another session's status for this axis (a second
 // daemon driving it), the server disables the axis and publishes an error
 // event, once per other session.
