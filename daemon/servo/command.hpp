@@ -94,6 +94,14 @@ constexpr const CommandRoute& route(CommandKind kind) noexcept {
 /// True for the kinds the cycle answers (see AnsweredBy).
 constexpr bool answered_by_cycle(CommandKind kind) noexcept { return route(kind).answered_by == AnsweredBy::kCycle; }
 
+/// Stop, quick stop and disable: obeyed from anyone who names the axis, on a
+/// path of their own that nothing else can fill (docs/servod.md, "Command
+/// authority"). The cycle obeys each without condition (its answer is always
+/// accepted), and obeying one twice changes nothing.
+constexpr bool is_safety_command(CommandKind kind) noexcept {
+  return kind == CommandKind::kStop || kind == CommandKind::kQuickStop || kind == CommandKind::kDisable;
+}
+
 /// A command; only the fields of `kind` are meaningful. Fixed size: the
 /// cycle's queue carries it as it is.
 struct Command {

@@ -2,15 +2,15 @@
 
 #include <sys/random.h>
 
-#include <lcm/lcm-cpp.hpp>
-
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
 #include <span>
 #include <stdexcept>
+#include <vector>
 
+#include "daemon/telemetry/lcm_datagram.hpp"
 #include "daemon/telemetry/messages.hpp"
 #include "daemon/telemetry/wire_check.hpp"
 
@@ -34,42 +34,30 @@ double presence_window_s(double status_rate_hz) {
   return std::max(0.3, status_rate_hz > 0.0 ? 2.5 / status_rate_hz : 0.3);
 }
 
-namespace {
-
-struct StatusListener {
-  std::string axis;
-  std::int64_t own_session = 0;
-  std::int64_t other_session = 0;
-  void on_status(const lcm::ReceiveBuffer* buffer, const std::string& /*channel*/) {
-    clm_lcm::servo_status_t status;
-    const std::span<const std::uint8_t> datagram(static_cast<const std::uint8_t*>(buffer->data), buffer->data_size);
-    try {
-      if (!telemetry::decode_checked(datagram, status).empty()) return;
-    } catch (const std::exception&) {
-      return;
-    }
-    if (status.axis == axis && status.session != own_session && other_session == 0) other_session = status.session;
-  }
-};
-
-}  // namespace
-
 std::int64_t other_session_of_axis(const std::string& lcm_url, const std::string& axis, std::int64_t own_session,
                                    double listen_s) {
-  lcm::LCM lcm(lcm_url);
-  if (!lcm.good()) {
-    throw std::runtime_error("cannot open LCM at '" + lcm_url + "' (udpm needs a multicast route, see docs/telemetry.md)");
-  }
-  StatusListener listener{axis, own_session, 0};
-  lcm.subscribe(telemetry::kStatusChannel, &StatusListener::on_status, &listener);
+  // The daemon's own reader, not liblcm's (daemon/telemetry/lcm_datagram.hpp):
+  // a fragment claiming a huge message sizes nothing here either.
+  telemetry::UdpmReceiver receiver(telemetry::parse_udpm_url(lcm_url));
+  std::vector<std::uint8_t> buffer(telemetry::kLcmShortMessageMaxBytes + 64);
   using Clock = std::chrono::steady_clock;
   const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(listen_s));
-  while (listener.other_session == 0) {
+  for (;;) {
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - Clock::now()).count();
-    if (left <= 0) break;
-    lcm.handleTimeout(static_cast<int>(std::min<long long>(left, 100)));
+    if (left <= 0) return 0;
+    const long length = receiver.receive(buffer, static_cast<int>(std::min<long long>(left, 100)));
+    if (length <= 0 || static_cast<std::size_t>(length) > buffer.size()) continue;
+    const telemetry::LcmDatagram datagram =
+        telemetry::check_lcm_datagram(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(length)));
+    if (datagram.kind != telemetry::DatagramKind::kShort || datagram.channel != telemetry::kStatusChannel) continue;
+    clm_lcm::servo_status_t status;
+    try {
+      if (!telemetry::decode_checked(datagram.payload, status).empty()) continue;
+    } catch (const std::exception&) {
+      continue;
+    }
+    if (status.axis == axis && status.session != own_session) return status.session;
   }
-  return listener.other_session;
 }
 
 void require_axis_free(const std::string& lcm_url, const std::string& axis, std::int64_t own_session,

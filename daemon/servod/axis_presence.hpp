@@ -18,8 +18,8 @@ double presence_window_s(double status_rate_hz);
 
 /// Listens `listen_s` [s] on `lcm_url`'s CLM_SERVO_STATUS; returns the session
 /// of a status (passing decode_checked) of `axis` from a session other than
-/// `own_session`, or 0 when none came. Throws std::runtime_error when LCM
-/// cannot be opened.
+/// `own_session`, or 0 when none came. Throws std::invalid_argument for a
+/// URL that is not udpm, std::runtime_error when the socket cannot be opened.
 std::int64_t other_session_of_axis(const std::string& lcm_url, const std::string& axis, std::int64_t own_session,
                                    double listen_s);
 

@@ -1,5 +1,6 @@
 #include "daemon/servod/command_gate.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -48,18 +49,35 @@ GateDecision CommandGate::refuse(GateRefusal refusal, std::string reason) {
   return {refusal, std::move(reason)};
 }
 
-CommandGate::Client* CommandGate::client_slot(std::int64_t id, std::int64_t now_us) {
-  Client* oldest = &clients_[0];
+CommandGate::Client* CommandGate::find_client(std::int64_t id) noexcept {
   for (Client& c : clients_) {
     if (c.id == id) return &c;
-    if (c.last_seen_us < oldest->last_seen_us) oldest = &c;
   }
-  if (oldest->id != 0 && now_us - oldest->last_seen_us <= to_us(settings_.max_age_s)) return nullptr;
-  *oldest = Client{id, 0, now_us};
-  return oldest;
+  return nullptr;
+}
+
+void CommandGate::record(Client* client, const CommandOrigin& origin, std::int64_t now_us) noexcept {
+  if (client == nullptr) {
+    client = &clients_[0];
+    for (Client& c : clients_) {
+      if (c.last_seen_us < client->last_seen_us) client = &c;
+    }
+    if (client->id != 0) forgotten_utime_us_ = std::max(forgotten_utime_us_, client->last_utime_us);
+    *client = Client{origin.client};
+  }
+  client->last_sequence = origin.sequence;
+  client->last_utime_us = std::max(client->last_utime_us, origin.utime_us);
+  client->last_seen_us = now_us;
+}
+
+bool CommandGate::admit_safety(std::string_view axis) noexcept {
+  if (axis != settings_.axis) return false;
+  counts_[static_cast<std::size_t>(GateRefusal::kAdmitted)].fetch_add(1, std::memory_order_relaxed);
+  return true;
 }
 
 GateDecision CommandGate::admit(const CommandOrigin& origin, CommandClass command_class, std::int64_t now_us) {
+  if (command_class == CommandClass::kSafety && admit_safety(origin.axis)) return {};
   if (origin.axis != settings_.axis) {
     return refuse(GateRefusal::kOtherAxis,
                   "for axis '" + std::string(origin.axis) + "', this daemon drives axis '" + settings_.axis + "'");
@@ -76,48 +94,49 @@ GateDecision CommandGate::admit(const CommandOrigin& origin, CommandClass comman
                                                   : "sent " + seconds_text(-age_s) + " in the future") +
                                            ", the limit is " + seconds_text(settings_.max_age_s));
   }
-  Client* client = client_slot(origin.client, now_us);
-  if (client == nullptr) {
-    return refuse(GateRefusal::kNoClient, "too many clients within " + seconds_text(settings_.max_age_s));
-  }
-  if (origin.sequence <= client->last_sequence) {
-    return refuse(GateRefusal::kReplayed, "sequence " + std::to_string(origin.sequence) + " is not above " +
-                                              std::to_string(client->last_sequence) +
-                                              ", the last one of client " + std::to_string(origin.client));
+  if (command_class == CommandClass::kRead) {
+    counts_[static_cast<std::size_t>(GateRefusal::kAdmitted)].fetch_add(1, std::memory_order_relaxed);
+    return {};
   }
   const std::int64_t holder_now = holder(now_us);
   const bool holds = holder_now == origin.client;
+  if (command_class == CommandClass::kTakeControl && holder_now != 0 && !holds) {
+    return refuse(GateRefusal::kNotInControl, "client " + std::to_string(holder_now) + " holds control for another " +
+                                                  seconds_text(lease_remaining_s(now_us)) + " unless it releases it");
+  }
+  if (command_class == CommandClass::kReleaseControl && !holds) {
+    return refuse(GateRefusal::kNotInControl, "this client does not hold control");
+  }
+  if (command_class == CommandClass::kControlled && !holds) {
+    return refuse(GateRefusal::kNotInControl, holder_now == 0 ? std::string("take control first")
+                                                              : "client " + std::to_string(holder_now) + " holds control");
+  }
+  Client* client = find_client(origin.client);
+  const std::int64_t last_sequence = client != nullptr ? client->last_sequence : 0;
+  if (origin.sequence <= last_sequence) {
+    return refuse(GateRefusal::kReplayed, "sequence " + std::to_string(origin.sequence) + " is not above " +
+                                              std::to_string(last_sequence) + ", the last one of client " +
+                                              std::to_string(origin.client));
+  }
+  if (client == nullptr && origin.utime_us <= forgotten_utime_us_) {
+    return refuse(GateRefusal::kReplayed, "sent no later than the last command of a client no longer tracked; "
+                                          "send it again");
+  }
   switch (command_class) {
-    case CommandClass::kSafety:
-    case CommandClass::kRead: break;
     case CommandClass::kTakeControl:
-      if (holder_now != 0 && !holds) {
-        return refuse(GateRefusal::kNotInControl,
-                      "client " + std::to_string(holder_now) + " holds control for another " +
-                          seconds_text(lease_remaining_s(now_us)) + " unless it releases it");
-      }
       // The lease first, so a reader never sees the new holder with an old lease.
       lease_end_us_.store(now_us + to_us(settings_.control_lease_s), std::memory_order_release);
       holder_.store(origin.client, std::memory_order_release);
       break;
     case CommandClass::kReleaseControl:
-      if (!holds) return refuse(GateRefusal::kNotInControl, "this client does not hold control");
       holder_.store(0, std::memory_order_release);
       lease_end_us_.store(0, std::memory_order_release);
       break;
-    case CommandClass::kControlled:
-      if (!holds) {
-        return refuse(GateRefusal::kNotInControl,
-                      holder_now == 0 ? std::string("take control first")
-                                      : "client " + std::to_string(holder_now) + " holds control");
-      }
+    default:
+      lease_end_us_.store(now_us + to_us(settings_.control_lease_s), std::memory_order_release);
       break;
   }
-  if (holds && command_class != CommandClass::kReleaseControl) {
-    lease_end_us_.store(now_us + to_us(settings_.control_lease_s), std::memory_order_release);
-  }
-  client->last_sequence = origin.sequence;
-  client->last_seen_us = now_us;
+  record(client, origin, now_us);
   counts_[static_cast<std::size_t>(GateRefusal::kAdmitted)].fetch_add(1, std::memory_order_relaxed);
   return {};
 }

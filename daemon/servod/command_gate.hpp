@@ -2,18 +2,25 @@
 // Command authority (docs/servod.md, "Command authority"). Every command that
 // reaches clm-servod names the axis and the daemon session it is meant for,
 // the client that sends it, a sequence number that increases per client and
-// the sender's wall-clock time. The gate admits a command only when
-//   1. it is for this axis and this session (a log recorded against an
-//      earlier run of the daemon names an older session);
-//   2. its client is not 0 and its sequence is above the last one admitted
-//      from that client (a repeated or replayed datagram is not);
-//   3. it is at most max_age_s old (and not from further in the future);
-//   4. for anything but stop, quick stop and disable: its client holds
-//      control. take_control grants control when nobody else holds an
-//      unexpired lease; every admitted command of the holder renews the lease;
-//      release_control gives it up.
-// A stop, a quick stop or a disable passes 1–3 from any client: stopping is
-// never refused for lack of control. Refusals are counted by kind.
+// the sender's wall-clock time. The gate admits
+//   - a stop, a quick stop or a disable when it names this axis: nothing
+//     else (no session, age, client, sequence, control, table slot), since
+//     obeying one twice, late or from anyone changes nothing but stopping;
+//   - a read (get_parameter) when it is for this axis and session, from a
+//     client other than 0, at most max_age_s old: no client table either, as
+//     answering it twice changes nothing;
+//   - take_control, release_control and every other command when it also
+//     passes the control check (take_control: nobody else holds an
+//     unexpired lease; the others: its client holds control) and then the
+//     replay check (its sequence is above the last one admitted from that
+//     client). Every admitted command of the holder renews the lease.
+// Only these last commands, once admitted, take a slot of the client table:
+// reads, safety commands and refused commands never do, so traffic that
+// anyone can send cannot fill it. A full table forgets the client seen
+// longest ago and remembers the newest utime of any client forgotten: a
+// client not in the table must send a utime above it, so a replay of a
+// forgotten client's datagrams is refused as replayed, as it was before.
+// Refusals are counted by kind.
 //
 // Pure logic on the command thread: no I/O, no clock of its own (the caller
 // passes the time). The counters and the holder are atomics, so the status can
@@ -50,8 +57,8 @@ enum class GateRefusal : std::uint8_t {
   kAdmitted,
   kOtherAxis,
   kOtherSession,
-  kNoClient,      ///< client 0, or too many clients at once
-  kReplayed,      ///< sequence not above the client's last admitted one
+  kNoClient,      ///< client 0
+  kReplayed,      ///< sequence not above the client's last admitted one (or, for a forgotten client, sent before its last)
   kStale,         ///< older than max_age_s, or from the future
   kNotInControl,  ///< another client holds control, or nobody does
 };
@@ -78,9 +85,14 @@ class CommandGate {
   explicit CommandGate(CommandGateSettings settings);
 
   /// Decides on one command at wall-clock time `now_us`. Admitting take_control
-  /// or release_control changes the holder; admitting any command records its
-  /// sequence and, from the holder, renews the lease.
+  /// or release_control changes the holder; admitting a controlled command
+  /// records its sequence and, from the holder, renews the lease.
   GateDecision admit(const CommandOrigin& origin, CommandClass command_class, std::int64_t now_us);
+  /// The decision on a stop, quick stop or disable for `axis`, without a
+  /// reason's text: true (and counted as admitted) when it names this axis.
+  /// Any thread: no allocation, no lock, no table. admit() decides kSafety
+  /// with this.
+  bool admit_safety(std::string_view axis) noexcept;
 
   /// The client holding control at `now_us`, 0 for nobody.
   std::int64_t holder(std::int64_t now_us) const noexcept;
@@ -94,18 +106,22 @@ class CommandGate {
   struct Client {
     std::int64_t id = 0;
     std::int64_t last_sequence = 0;
+    std::int64_t last_utime_us = 0;  ///< sender's utime of its last admitted command
     std::int64_t last_seen_us = 0;
   };
   GateDecision refuse(GateRefusal refusal, std::string reason);
-  /// The client's slot, or nullptr when every slot is in recent use.
-  Client* client_slot(std::int64_t id, std::int64_t now_us);
+  /// The client's slot, nullptr when it has none.
+  Client* find_client(std::int64_t id) noexcept;
+  /// Records an admitted command of `origin`'s client, in its slot or in the
+  /// slot of the client seen longest ago (which is forgotten).
+  void record(Client* client, const CommandOrigin& origin, std::int64_t now_us) noexcept;
 
   CommandGateSettings settings_;
-  /// Clients seen recently. A client seen more than max_age_s ago may be
-  /// forgotten to make room: any replay of its datagrams is then refused as
-  /// stale. With every slot taken by a client seen within max_age_s, a new
-  /// client is refused (kNoClient).
+  /// Clients whose take_control, release_control or controlled command was
+  /// admitted. Never full: the client seen longest ago makes room.
   std::array<Client, 32> clients_{};
+  /// The newest utime of a command admitted from a client since forgotten.
+  std::int64_t forgotten_utime_us_ = 0;
   std::atomic<std::int64_t> holder_{0};
   std::atomic<std::int64_t> lease_end_us_{0};
   std::array<std::atomic<std::int64_t>, kGateRefusalKinds> counts_{};

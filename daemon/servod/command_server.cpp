@@ -20,10 +20,8 @@ bool own_command(const CommandReply& reply) { return reply.client == 0 && reply.
 }  // namespace
 
 CommandClass command_class(servo::CommandKind kind) noexcept {
+  if (servo::is_safety_command(kind)) return CommandClass::kSafety;
   switch (kind) {
-    case servo::CommandKind::kStop:
-    case servo::CommandKind::kQuickStop:
-    case servo::CommandKind::kDisable: return CommandClass::kSafety;
     case servo::CommandKind::kGetParameter: return CommandClass::kRead;
     case servo::CommandKind::kTakeControl: return CommandClass::kTakeControl;
     case servo::CommandKind::kReleaseControl: return CommandClass::kReleaseControl;
@@ -137,8 +135,17 @@ int CommandServer::serve_once() {
   return acks;
 }
 
+std::uint64_t CommandServer::latch(const servo::Command& command) noexcept {
+  if (!servo::is_safety_command(command.kind)) return 0;
+  if (gate_ && !gate_->admit_safety(command.axis.view())) return 0;
+  served_.fetch_add(1, std::memory_order_relaxed);
+  return daemon_.request_safety(command.kind);
+}
+
 void CommandServer::fill(telemetry::CommandAuthorityStatus& out) const noexcept {
-  out.refused_malformed = publisher_.counters().commands_malformed;
+  const telemetry::TelemetryCounters counters = publisher_.counters();
+  out.refused_malformed = counters.commands_malformed;
+  out.datagrams_dropped = counters.datagrams_dropped;
   if (!gate_) return;
   const std::int64_t now = telemetry::wall_clock_utime();
   out.control_client = gate_->holder(now);

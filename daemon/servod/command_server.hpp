@@ -20,6 +20,11 @@
 //     are acked with the cycle's decision, which take_replies() delivers a
 //     cycle later.
 //
+// Stop, quick stop and disable from the network do not come here: the
+// publisher's receiver hands them to latch() (telemetry::SafetyLatch), which
+// asks the gate (the axis only) and latches them for the loop
+// (ServoDaemon::request_safety); the receiver acks them once obeyed.
+//
 // When the publisher hears another session's status for this axis (a second
 // daemon driving it), the server disables the axis and publishes an error
 // event, once per other session.
@@ -44,7 +49,7 @@ namespace clm::servod {
 /// What the gate asks of a command of `kind`: stop and disable are kSafety.
 CommandClass command_class(servo::CommandKind kind) noexcept;
 
-class CommandServer final : public AuthorityReport {
+class CommandServer final : public AuthorityReport, public telemetry::SafetyLatch {
  public:
   /// Without command authority: every well-formed command is submitted
   /// (in-process use and tests); take/release control are refused.
@@ -76,6 +81,11 @@ class CommandServer final : public AuthorityReport {
   const CommandGate* gate() const noexcept { return gate_ ? &*gate_ : nullptr; }
   /// The status's command part: holder, lease and every counter. Any thread; noexcept, no allocation.
   void fill(telemetry::CommandAuthorityStatus& out) const noexcept override;
+  /// The publisher's receiver thread: a stop, quick stop or disable the gate
+  /// admits (CommandGate::admit_safety) is latched for the loop
+  /// (ServoDaemon::request_safety), past this thread and every queue.
+  std::uint64_t latch(const servo::Command& command) noexcept override;
+  std::uint64_t obeyed() const noexcept override { return daemon_.safety_obeyed(); }
 
  private:
   void ack(const CommandReply& reply, int& acks);

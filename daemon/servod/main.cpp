@@ -11,8 +11,12 @@
 //              run_cycles at full speed on the virtual clock;
 //   commands   CommandServer: LCM commands → command authority →
 //              ServoDaemon::submit → acks;
+//   receiver   TelemetryPublisher's receiver: reads the LCM group with a
+//              socket of its own, checks every datagram, latches stop,
+//              quick stop and disable for the loop (ServoDaemon::
+//              request_safety) and queues the rest for the command thread;
 //   loader     FileLoader: reads the files commands name, one at a time;
-//   telemetry  TelemetryPublisher's own thread (LCM out, commands in);
+//   telemetry  TelemetryPublisher's own thread (LCM out);
 //   monitor    ServiceMonitor: WATCHDOG=1 while the loop's cycle counter
 //              advances, STATUS= lines (systemd, Type=notify).
 // Only the loop thread runs with real-time priority.
@@ -233,14 +237,24 @@ int run(const std::string& config_path, double duration_s) {
   }
 
   // ---- start ------------------------------------------------------------
-  if (publisher) publisher->start();
   std::optional<servod::CommandServer> commands;
   if (publisher) {
     commands.emplace(*publisher, daemon,
                      servod::CommandGateSettings{config.axis_name, session, config.commands.max_age_s,
                                                  config.commands.control_lease_s});
     bridge->set_authority(&*commands);
+    // Stop, quick stop and disable: from the receiver straight to the loop.
+    publisher->set_safety_latch(*commands);
   }
+  // The receiver calls the latch: on any way out of here the publisher's
+  // threads stop before the command server is destroyed.
+  const struct PublisherStop {
+    telemetry::TelemetryPublisher* publisher;
+    ~PublisherStop() {
+      if (publisher != nullptr) publisher->stop();
+    }
+  } publisher_stop{publisher.get()};
+  if (publisher) publisher->start();
   if (commands) commands->start();
   gate.set_value(true);
   gate_open = true;

@@ -281,18 +281,60 @@ void ServoDaemon::collect_garbage() {
 
 void ServoDaemon::mirror_state() noexcept { state_seen_.store(cycle_->state(), std::memory_order_release); }
 
+namespace {
+
+std::uint8_t safety_bit(servo::CommandKind kind) noexcept {
+  switch (kind) {
+    case servo::CommandKind::kStop: return 1;
+    case servo::CommandKind::kQuickStop: return 2;
+    case servo::CommandKind::kDisable: return 4;
+    default: return 0;
+  }
+}
+
+}  // namespace
+
+std::uint64_t ServoDaemon::request_safety(servo::CommandKind kind) noexcept {
+  // The flag before the ticket: a cycle that has seen the ticket sees the flag.
+  safety_requests_.fetch_or(safety_bit(kind), std::memory_order_acq_rel);
+  return safety_requested_.fetch_add(1, std::memory_order_acq_rel) + 1;
+}
+
+servo::CommandStatus ServoDaemon::obey_safety(servo::CommandKind kind) noexcept {
+  switch (kind) {
+    case servo::CommandKind::kStop: return cycle_->stop();
+    case servo::CommandKind::kQuickStop: return cycle_->quick_stop();
+    case servo::CommandKind::kDisable: return cycle_->disable();
+    default: return servo::CommandStatus::kRejectedInvalid;
+  }
+}
+
+void ServoDaemon::obey_safety_requests() noexcept {
+  // The tickets before the flags: every ticket read here had its flag set
+  // before, so this cycle obeys it (or an earlier one did).
+  const std::uint64_t requested = safety_requested_.load(std::memory_order_acquire);
+  const std::uint8_t flags = safety_requests_.exchange(0, std::memory_order_acq_rel);
+  // Weakest first: a disable latched with a stop leaves the axis disabled.
+  for (const auto kind : {servo::CommandKind::kStop, servo::CommandKind::kQuickStop, servo::CommandKind::kDisable}) {
+    if ((flags & safety_bit(kind)) != 0) obey_safety(kind);
+  }
+  if (flags != 0) mirror_state();
+  safety_obeyed_.store(requested, std::memory_order_release);
+}
+
 void ServoDaemon::drain_commands() noexcept {
   using Kind = servo::CommandKind;
+  obey_safety_requests();
   servo::Command command;
   while (commands_->try_pop(command)) {
     servo::CommandStatus status = servo::CommandStatus::kAccepted;
     const bool was_pending = cycle_->mode_change_pending();
     switch (command.kind) {
       case Kind::kEnable: status = cycle_->enable(); break;
-      case Kind::kDisable: status = cycle_->disable(); break;
+      case Kind::kDisable:
+      case Kind::kStop:
+      case Kind::kQuickStop: status = obey_safety(command.kind); break;
       case Kind::kClearFault: status = cycle_->clear_fault(); break;
-      case Kind::kStop: status = cycle_->stop(); break;
-      case Kind::kQuickStop: status = cycle_->quick_stop(); break;
       case Kind::kSetCommutation: status = cycle_->request_mode(command.commutation); break;
       case Kind::kSetExperiment:
         status = cycle_->request_mode(servo::CommutationMode::kExperiment, command.coil_set, command.delta_rad);

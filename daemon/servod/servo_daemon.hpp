@@ -118,6 +118,15 @@ class ServoDaemon {
   /// Any thread, async-signal-safe: the loop disables the axis at its next
   /// cycle and keeps it disabled (shutdown).
   void request_disable() noexcept { disable_requested_.store(true, std::memory_order_release); }
+  /// Any thread, lock-free, no allocation: latches a stop, quick stop or
+  /// disable (servo::is_safety_command) for the next cycle, which obeys it
+  /// before anything queued. A flag per kind, not a queue entry: requests
+  /// that arrive within one cycle are obeyed together, and nothing else
+  /// (commands, files, a full queue) can keep them out. Returns a ticket
+  /// (> 0); safety_obeyed() reaches it once a cycle has obeyed the request.
+  std::uint64_t request_safety(servo::CommandKind kind) noexcept;
+  /// Any thread: the highest ticket a cycle has obeyed.
+  std::uint64_t safety_obeyed() const noexcept { return safety_obeyed_.load(std::memory_order_acquire); }
   /// After request_disable: the cycles completed before the cycle that
   /// disabled the axis, and when that cycle did [ns, CLOCK_MONOTONIC];
   /// -1 and 0 until then.
@@ -223,6 +232,13 @@ class ServoDaemon {
   std::atomic<std::int64_t> disabled_after_cycles_{-1};
   std::atomic<std::int64_t> disabled_at_ns_{0};
   void honour_disable_request() noexcept;
+  /// Loop thread: obeys the latched stop, quick stop and disable (request_safety).
+  void obey_safety_requests() noexcept;
+  /// Loop thread: the cycle's stop, quick stop or disable.
+  servo::CommandStatus obey_safety(servo::CommandKind kind) noexcept;
+  std::atomic<std::uint8_t> safety_requests_{0};    // one bit per safety kind
+  std::atomic<std::uint64_t> safety_requested_{0};  // tickets handed out
+  std::atomic<std::uint64_t> safety_obeyed_{0};     // tickets obeyed
   std::atomic<servo::ServoState> state_seen_{servo::ServoState::kDisabled};  // the cycle's, after each command and cycle
   std::atomic<std::int64_t> refused_{0};
   mutable std::mutex runtime_mutex_;  // guards the three below

@@ -57,6 +57,8 @@ struct CommandAuthorityStatus {
   std::int64_t refused_stale = 0;
   std::int64_t refused_not_in_control = 0;
   std::int64_t refused_by_daemon = 0;
+  /// Datagrams the receiver dropped before decoding (TelemetryCounters::datagrams_dropped).
+  std::int64_t datagrams_dropped = 0;
 };
 
 /// Bins of the timing histograms in ServoStatusSample (servo_status_t's arrays).

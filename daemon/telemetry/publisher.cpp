@@ -6,9 +6,12 @@
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
+#include <tuple>
 #include <type_traits>
 
 #include "daemon/telemetry/lcm_conversion.hpp"
+#include "daemon/servo/servo_cycle.hpp"
+#include "daemon/telemetry/lcm_datagram.hpp"
 #include "daemon/telemetry/wire_check.hpp"
 
 namespace clm::telemetry {
@@ -58,15 +61,29 @@ TelemetryPublisher::TelemetryPublisher(const TelemetryConfig& config)
       events_(config_.event_queue_capacity),
       acks_(config_.ack_queue_capacity),
       commands_(config_.command_queue_capacity) {
-  lcm_ = std::make_unique<lcm::LCM>(with_receive_buffer(config_.lcm_url));
+  // The URL is parsed first: an unusable one fails before anything opens.
+  const UdpmAddress address = parse_udpm_url(config_.lcm_url);
+  // Publishing only: this instance never subscribes or handles, so liblcm
+  // never opens its receive socket nor reassembles anything (lcm_datagram.hpp).
+  lcm_ = std::make_unique<lcm::LCM>(config_.lcm_url);
   if (!lcm_->good()) {
     throw std::runtime_error("telemetry: cannot open LCM at '" + config_.lcm_url +
                              "' (udpm needs a multicast route, see docs/telemetry.md)");
   }
   lcm_sink_ = std::make_unique<LcmSink>(*lcm_);
   sinks_.push_back(lcm_sink_.get());
-  lcm_->subscribe(kCommandChannel, &TelemetryPublisher::on_command, this);
-  lcm_->subscribe(kStatusChannel, &TelemetryPublisher::on_status, this);
+  receiver_ = std::make_unique<UdpmReceiver>(address);
+  datagram_.resize(kLcmShortMessageMaxBytes + 64);
+}
+
+std::size_t TelemetryPublisher::max_accepted_payload_bytes() noexcept {
+  return std::max(max_wire_bytes(wire_layout(static_cast<const clm_lcm::servo_command_t*>(nullptr))),
+                  max_wire_bytes(wire_layout(static_cast<const clm_lcm::servo_status_t*>(nullptr))));
+}
+
+void TelemetryPublisher::set_safety_latch(SafetyLatch& latch) {
+  if (thread_.joinable()) throw std::logic_error("TelemetryPublisher::set_safety_latch: the publisher runs already");
+  safety_latch_ = &latch;
 }
 
 TelemetryPublisher::~TelemetryPublisher() { stop(); }
@@ -81,11 +98,13 @@ void TelemetryPublisher::start() {
   if (thread_.joinable()) throw std::logic_error("TelemetryPublisher::start: the publisher runs already");
   stop_requested_.store(false, std::memory_order_release);
   thread_ = std::thread(&TelemetryPublisher::run, this);
+  if (receiver_) receiver_thread_ = std::thread(&TelemetryPublisher::receive, this);
 }
 
 void TelemetryPublisher::stop() {
   if (!thread_.joinable()) return;
   stop_requested_.store(true, std::memory_order_release);
+  if (receiver_thread_.joinable()) receiver_thread_.join();
   thread_.join();
 }
 
@@ -132,6 +151,8 @@ TelemetryCounters TelemetryPublisher::counters() const noexcept {
   c.commands_rejected = commands_rejected_.load(std::memory_order_relaxed);
   c.commands_malformed = commands_malformed_.load(std::memory_order_relaxed);
   c.foreign_statuses = foreign_statuses_.load(std::memory_order_relaxed);
+  c.datagrams_dropped = datagrams_dropped_.load(std::memory_order_relaxed);
+  c.safety_commands_latched = safety_latched_.load(std::memory_order_relaxed);
   return c;
 }
 
@@ -175,6 +196,27 @@ bool TelemetryPublisher::submit_command(const clm_lcm::servo_command_t& message)
   servo::Command command;
   std::string reason = to_command(message, command);
   if (!reason.empty()) commands_malformed_.fetch_add(1, std::memory_order_relaxed);
+  if (reason.empty() && safety_latch_ != nullptr && servo::is_safety_command(command.kind)) {
+    const std::uint64_t ticket = safety_latch_->latch(command);
+    if (ticket != 0) {
+      safety_latched_.fetch_add(1, std::memory_order_relaxed);
+      PendingSafetyAck oldest;
+      bool full = false;
+      {
+        const std::lock_guard lock(safety_mutex_);
+        full = pending_safety_count_ == pending_safety_.size();
+        if (full) {
+          oldest = pending_safety_[0];
+          std::move(pending_safety_.begin() + 1, pending_safety_.end(), pending_safety_.begin());
+          --pending_safety_count_;
+        }
+        pending_safety_[pending_safety_count_++] = {command.sequence, command.client, ticket};
+      }
+      if (full) ack_safety(oldest);
+      flush_safety_acks();
+      return true;
+    }
+  }
   if (reason.empty()) {
     bool queued = false;
     {
@@ -189,12 +231,82 @@ bool TelemetryPublisher::submit_command(const clm_lcm::servo_command_t& message)
   return false;
 }
 
-void TelemetryPublisher::on_command(const lcm::ReceiveBuffer* buffer, const std::string& /*channel*/) {
-  // Runs inside lcm_handle (C frames): nothing may propagate out of here.
+void TelemetryPublisher::ack_safety(const PendingSafetyAck& pending) {
+  publish_ack(pending.sequence, pending.client, true, servo::describe(servo::CommandStatus::kAccepted));
+}
+
+void TelemetryPublisher::flush_safety_acks() {
+  if (safety_latch_ == nullptr) return;
+  std::array<PendingSafetyAck, std::tuple_size_v<decltype(pending_safety_)>> obeyed;
+  std::size_t count = 0;
+  {
+    const std::lock_guard lock(safety_mutex_);
+    if (pending_safety_count_ == 0) return;
+    const std::uint64_t done = safety_latch_->obeyed();
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < pending_safety_count_; ++i) {
+      if (pending_safety_[i].ticket <= done) {
+        obeyed[count++] = pending_safety_[i];
+      } else {
+        pending_safety_[kept++] = pending_safety_[i];
+      }
+    }
+    pending_safety_count_ = kept;
+  }
+  for (std::size_t i = 0; i < count; ++i) {
+    try {
+      ack_safety(obeyed[i]);
+    } catch (const std::exception&) {
+      // LCM refused the ack: the sender times out; the command was obeyed.
+    }
+  }
+}
+
+void TelemetryPublisher::receive() {
+  while (!stop_requested_.load(std::memory_order_acquire)) {
+    bool waiting = false;
+    {
+      const std::lock_guard lock(safety_mutex_);
+      waiting = pending_safety_count_ > 0;
+    }
+    // 1 ms while an ack waits for the cycle, else short enough for stop().
+    const long length = receiver_->receive(datagram_, waiting ? 1 : 20);
+    if (length > 0) {
+      if (static_cast<std::size_t>(length) > datagram_.size()) {
+        datagrams_dropped_.fetch_add(1, std::memory_order_relaxed);  // longer than any LCM short message
+      } else {
+        on_datagram(std::span<const std::uint8_t>(datagram_.data(), static_cast<std::size_t>(length)));
+      }
+    } else if (length < 0) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));  // a socket error: do not spin
+    }
+    try {
+      flush_safety_acks();
+    } catch (const std::exception&) {
+      // Acks are retried at the next pass.
+    }
+  }
+}
+
+void TelemetryPublisher::on_datagram(std::span<const std::uint8_t> datagram) {
+  // Nothing is sized from a header here: a fragment's claimed size is only
+  // counted, and the payload of a short message is read where it lies.
+  const LcmDatagram checked = check_lcm_datagram(datagram);
+  if (checked.kind != DatagramKind::kShort) {
+    datagrams_dropped_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  if (checked.channel == kCommandChannel) {
+    on_command(checked.payload);
+  } else if (checked.channel == kStatusChannel) {
+    on_status(checked.payload);
+  }
+}
+
+void TelemetryPublisher::on_command(std::span<const std::uint8_t> payload) {
   try {
     clm_lcm::servo_command_t message;
-    const std::span<const std::uint8_t> datagram(static_cast<const std::uint8_t*>(buffer->data), buffer->data_size);
-    if (!decode_checked(datagram, message).empty()) {
+    if (!decode_checked(payload, message).empty()) {
       // Not acked: its sequence, client and axis cannot be trusted.
       commands_received_.fetch_add(1, std::memory_order_relaxed);
       commands_rejected_.fetch_add(1, std::memory_order_relaxed);
@@ -207,16 +319,15 @@ void TelemetryPublisher::on_command(const lcm::ReceiveBuffer* buffer, const std:
   }
 }
 
-void TelemetryPublisher::on_status(const lcm::ReceiveBuffer* buffer, const std::string& /*channel*/) {
+void TelemetryPublisher::on_status(std::span<const std::uint8_t> payload) {
   try {
     clm_lcm::servo_status_t message;
-    const std::span<const std::uint8_t> datagram(static_cast<const std::uint8_t*>(buffer->data), buffer->data_size);
-    if (!decode_checked(datagram, message).empty()) return;  // not a status anyone can rely on
+    if (!decode_checked(payload, message).empty()) return;  // not a status anyone can rely on
     if (message.axis != config_.axis || message.session == config_.session) return;
     foreign_statuses_.fetch_add(1, std::memory_order_relaxed);
     foreign_session_.store(message.session, std::memory_order_release);
   } catch (const std::exception&) {
-    // A status that cannot be handled is ignored; the publisher goes on.
+    // A status that cannot be handled is ignored; the receiver goes on.
   }
 }
 
@@ -257,20 +368,8 @@ std::size_t TelemetryPublisher::drain() {
 
 void TelemetryPublisher::run() {
   const auto idle = std::chrono::duration<double>(config_.idle_period_s);
-  const int idle_ms = std::max(1, static_cast<int>(std::lround(config_.idle_period_s * 1e3)));
   while (!stop_requested_.load(std::memory_order_acquire)) {
-    const std::size_t published = drain();
-    if (lcm_) {
-      // Waits for a message at most idle_ms; returns at once when one is
-      // there. Then takes whatever else is waiting (bounded, so publishing
-      // goes on): the daemon's own states come back on the multicast socket,
-      // and a receiver that takes one message per pass falls behind them
-      // after a stall and loses commands in the overflow.
-      int handled = lcm_->handleTimeout(published > 0 ? 0 : idle_ms);
-      for (int k = 0; handled > 0 && k < 256; ++k) handled = lcm_->handleTimeout(0);
-    } else if (published == 0) {
-      std::this_thread::sleep_for(idle);
-    }
+    if (drain() == 0) std::this_thread::sleep_for(idle);
   }
   // What the cycle queued before stop() still goes out.
   drain();

@@ -76,7 +76,7 @@ constexpr std::array kStatusFields{
     i64("control_client"), finite("control_lease_remaining_s"), i64("commands_admitted"),
     i64("commands_refused_malformed"), i64("commands_refused_other_axis"), i64("commands_refused_other_session"),
     i64("commands_refused_no_client"), i64("commands_refused_replayed"), i64("commands_refused_stale"),
-    i64("commands_refused_not_in_control"), i64("commands_refused_by_daemon"),
+    i64("commands_refused_not_in_control"), i64("commands_refused_by_daemon"), i64("datagrams_dropped"),
 };
 
 // Index 20 is coil_sets, the length of the four arrays after it.
@@ -152,6 +152,21 @@ CLM_WIRE_LAYOUT(servo_state_t, kStateFields)
 CLM_WIRE_LAYOUT(servo_status_t, kStatusFields)
 CLM_WIRE_LAYOUT(servo_event_t, kEventFields)
 #undef CLM_WIRE_LAYOUT
+
+std::size_t max_wire_bytes(const WireLayout& layout) noexcept {
+  std::size_t bytes = 8;  // the hash
+  for (const WireField& field : layout.fields) {
+    switch (field.kind) {
+      case WireKind::kString: bytes += 4 + static_cast<std::size_t>(field.max) + 1; break;
+      case WireKind::kDoubleArray:
+        bytes += 8 * static_cast<std::size_t>(layout.fields[static_cast<std::size_t>(field.length_field)].max);
+        break;
+      case WireKind::kInt64FixedArray: bytes += 8 * static_cast<std::size_t>(field.length_field); break;
+      default: bytes += width(field.kind); break;
+    }
+  }
+  return bytes;
+}
 
 std::string check_wire(const WireLayout& layout, std::span<const std::uint8_t> datagram) {
   const std::string_view type = layout.type_name;

@@ -61,6 +61,10 @@ const WireLayout& wire_layout(const clm_lcm::servo_state_t*);
 const WireLayout& wire_layout(const clm_lcm::servo_status_t*);
 const WireLayout& wire_layout(const clm_lcm::servo_event_t*);
 
+/// The longest encoding `layout` accepts [bytes]: hash, every string at its
+/// limit with its length and NUL, every array at its longest.
+std::size_t max_wire_bytes(const WireLayout& layout) noexcept;
+
 /// Walks `datagram` against `layout`. Returns "" when it fits exactly, else a
 /// one-line reason naming the field and the offending value (never the
 /// datagram's text). Does not allocate on success.

@@ -29,28 +29,81 @@ TEST_CASE("commands for another axis or session are refused and counted", "[gate
   CHECK_THAT(d.reason, Catch::Contains("y-axis") && Catch::Contains("x-axis"));
   origin = from(1, 1);
   origin.session = kSession + 1;
-  CHECK(gate.admit(origin, CommandClass::kSafety, kNow).refusal == GateRefusal::kOtherSession);
+  CHECK(gate.admit(origin, CommandClass::kRead, kNow).refusal == GateRefusal::kOtherSession);
+  CHECK(gate.admit(origin, CommandClass::kTakeControl, kNow).refusal == GateRefusal::kOtherSession);
   CHECK(gate.count(GateRefusal::kOtherAxis) == 1);
-  CHECK(gate.count(GateRefusal::kOtherSession) == 1);
+  CHECK(gate.count(GateRefusal::kOtherSession) == 2);
   CHECK(gate.count(GateRefusal::kAdmitted) == 0);
+}
+
+TEST_CASE("stop, quick stop and disable naming the axis are admitted from anyone: any session, age, client or sequence",
+          "[gate][safety]") {
+  auto gate = make_gate();
+  auto origin = from(0, 0, kNow - 3600 * kSecond);  // client 0, sequence 0, an hour old
+  origin.session = kSession + 1;
+  CHECK(gate.admit(origin, CommandClass::kSafety, kNow).admitted());
+  CHECK(gate.admit(origin, CommandClass::kSafety, kNow).admitted());  // the same again
+  CHECK(gate.admit_safety("x-axis"));
+  CHECK_FALSE(gate.admit_safety("y-axis"));
+  // Control held by another client changes nothing.
+  REQUIRE(gate.admit(from(1, 1), CommandClass::kTakeControl, kNow).admitted());
+  CHECK(gate.admit(from(2, 1), CommandClass::kSafety, kNow).admitted());
+  CHECK(gate.holder(kNow) == 1);
+  CHECK(gate.count(GateRefusal::kAdmitted) == 5);
 }
 
 TEST_CASE("a repeated or older sequence from the same client is refused; other clients count their own", "[gate]") {
   auto gate = make_gate();
-  REQUIRE(gate.admit(from(7, 100), CommandClass::kSafety, kNow).admitted());
-  CHECK(gate.admit(from(7, 100), CommandClass::kSafety, kNow).refusal == GateRefusal::kReplayed);
-  CHECK(gate.admit(from(7, 99), CommandClass::kSafety, kNow).refusal == GateRefusal::kReplayed);
-  CHECK(gate.admit(from(8, 1), CommandClass::kSafety, kNow).admitted());
-  CHECK(gate.admit(from(7, 101), CommandClass::kSafety, kNow).admitted());
-  CHECK(gate.count(GateRefusal::kReplayed) == 2);
-  CHECK(gate.admit(from(0, 5), CommandClass::kSafety, kNow).refusal == GateRefusal::kNoClient);
+  REQUIRE(gate.admit(from(7, 100), CommandClass::kTakeControl, kNow).admitted());
+  CHECK(gate.admit(from(7, 100), CommandClass::kControlled, kNow).refusal == GateRefusal::kReplayed);
+  CHECK(gate.admit(from(7, 99), CommandClass::kControlled, kNow).refusal == GateRefusal::kReplayed);
+  CHECK(gate.admit(from(7, 101), CommandClass::kControlled, kNow).admitted());
+  REQUIRE(gate.admit(from(7, 102), CommandClass::kReleaseControl, kNow).admitted());
+  CHECK(gate.admit(from(8, 1), CommandClass::kTakeControl, kNow).admitted());
+  CHECK(gate.admit(from(8, 0), CommandClass::kControlled, kNow).refusal == GateRefusal::kReplayed);
+  CHECK(gate.count(GateRefusal::kReplayed) == 3);
+  CHECK(gate.admit(from(0, 5), CommandClass::kRead, kNow).refusal == GateRefusal::kNoClient);
 }
 
 TEST_CASE("commands older than max_age_s, or from the future, are refused", "[gate]") {
   auto gate = make_gate();
-  CHECK(gate.admit(from(1, 1, kNow - 3 * kSecond), CommandClass::kSafety, kNow).refusal == GateRefusal::kStale);
-  CHECK(gate.admit(from(1, 2, kNow + 3 * kSecond), CommandClass::kSafety, kNow).refusal == GateRefusal::kStale);
-  CHECK(gate.admit(from(1, 3, kNow - kSecond), CommandClass::kSafety, kNow).admitted());
+  CHECK(gate.admit(from(1, 1, kNow - 3 * kSecond), CommandClass::kRead, kNow).refusal == GateRefusal::kStale);
+  CHECK(gate.admit(from(1, 2, kNow + 3 * kSecond), CommandClass::kTakeControl, kNow).refusal == GateRefusal::kStale);
+  CHECK(gate.admit(from(1, 3, kNow - kSecond), CommandClass::kRead, kNow).admitted());
+}
+
+TEST_CASE("reads take no client slot: forged clients without end leave the holder's replay protection intact",
+          "[gate][safety]") {
+  auto gate = make_gate();
+  REQUIRE(gate.admit(from(1, 10), CommandClass::kTakeControl, kNow).admitted());
+  // 10,000 made-up clients: reads, safety commands, refused take_control and commands.
+  for (std::int64_t c = 100; c < 10'100; ++c) {
+    REQUIRE(gate.admit(from(c, 1), CommandClass::kRead, kNow).admitted());
+    REQUIRE(gate.admit(from(c, 2), CommandClass::kSafety, kNow).admitted());
+    REQUIRE(gate.admit(from(c, 3), CommandClass::kTakeControl, kNow).refusal == GateRefusal::kNotInControl);
+    REQUIRE(gate.admit(from(c, 4), CommandClass::kControlled, kNow).refusal == GateRefusal::kNotInControl);
+  }
+  CHECK(gate.admit(from(1, 10), CommandClass::kControlled, kNow).refusal == GateRefusal::kReplayed);
+  CHECK(gate.admit(from(1, 11), CommandClass::kControlled, kNow).admitted());
+  CHECK(gate.count(GateRefusal::kNoClient) == 0);
+}
+
+TEST_CASE("a full client table forgets the client seen longest ago, and a replay of its datagrams is still refused",
+          "[gate]") {
+  auto gate = make_gate();
+  // 33 clients take and release control in turn, 1 ms apart: client 1 is forgotten.
+  for (std::int64_t c = 1; c <= 33; ++c) {
+    const std::int64_t t = kNow + c * 1000;
+    REQUIRE(gate.admit(from(c, 1, t), CommandClass::kTakeControl, t).admitted());
+    REQUIRE(gate.admit(from(c, 2, t), CommandClass::kReleaseControl, t).admitted());
+  }
+  const std::int64_t later = kNow + 100 * 1000;
+  // Client 1's take_control datagram again (within max_age_s): refused as a replay.
+  const auto replay = gate.admit(from(1, 1, kNow + 1000), CommandClass::kTakeControl, later);
+  CHECK(replay.refusal == GateRefusal::kReplayed);
+  // A fresh command of client 1 is admitted; no client is ever refused for room.
+  CHECK(gate.admit(from(1, 3, later), CommandClass::kTakeControl, later).admitted());
+  CHECK(gate.count(GateRefusal::kNoClient) == 0);
 }
 
 TEST_CASE("one client holds control; others may stop and disable but not command", "[gate]") {
@@ -85,16 +138,6 @@ TEST_CASE("the holder's commands renew the lease; a lapsed lease frees control",
   CHECK(gate.holder(lapsed) == 0);
   CHECK(gate.admit(from(1, 3, lapsed), CommandClass::kControlled, lapsed).refusal == GateRefusal::kNotInControl);
   CHECK(gate.admit(from(2, 1, lapsed), CommandClass::kTakeControl, lapsed).admitted());
-}
-
-TEST_CASE("a full client table refuses new clients until a slot is older than max_age_s", "[gate]") {
-  auto gate = make_gate();
-  for (std::int64_t c = 1; c <= 32; ++c) REQUIRE(gate.admit(from(c, 1), CommandClass::kSafety, kNow).admitted());
-  CHECK(gate.admit(from(33, 1), CommandClass::kSafety, kNow).refusal == GateRefusal::kNoClient);
-  const std::int64_t later = kNow + 3 * kSecond;
-  CHECK(gate.admit(from(33, 1, later), CommandClass::kSafety, later).admitted());
-  // The forgotten client's old datagram is stale, so its replay is still refused.
-  CHECK(gate.admit(from(1, 1, kNow), CommandClass::kSafety, later).refusal != GateRefusal::kAdmitted);
 }
 
 TEST_CASE("settings are validated", "[gate]") {

@@ -378,11 +378,11 @@ TEST_CASE("With command authority, the server admits through the gate, answers t
   CHECK(daemon.cycle().state() == servo::ServoState::kDisabled);
 
   // Replayed, other session, other axis, client 0, stale; then a daemon refusal.
-  REQUIRE(publisher.submit_command(authored(C::DISABLE, 6, 6)));
-  REQUIRE(publisher.submit_command(authored(C::STOP, 7, 6, 78)));
+  REQUIRE(publisher.submit_command(authored(C::ENABLE, 3, 5)));
+  REQUIRE(publisher.submit_command(authored(C::ENABLE, 7, 5, 78)));
   REQUIRE(publisher.submit_command(authored(C::STOP, 8, 6, 77, "axis1")));
-  REQUIRE(publisher.submit_command(authored(C::STOP, 9, 0)));
-  auto stale = authored(C::STOP, 10, 6);
+  REQUIRE(publisher.submit_command(authored(C::ENABLE, 9, 0)));
+  auto stale = authored(C::ENABLE, 10, 5);
   stale.utime -= 10'000'000;
   REQUIRE(publisher.submit_command(stale));
   auto beyond = authored(C::MOVE_TO, 11, 5);
@@ -394,6 +394,11 @@ TEST_CASE("With command authority, the server admits through the gate, answers t
   // release by 6 (not the holder) refused, by 5 accepted.
   REQUIRE(publisher.submit_command(authored(C::RELEASE_CONTROL, 12, 6)));
   REQUIRE(publisher.submit_command(authored(C::RELEASE_CONTROL, 13, 5)));
+  // Stop and disable need only the axis: a repeat, client 0, another session, a stale one are obeyed.
+  REQUIRE(publisher.submit_command(authored(C::DISABLE, 6, 6)));
+  auto anyone = authored(C::STOP, 14, 0, 78);
+  anyone.utime -= 10'000'000;
+  REQUIRE(publisher.submit_command(anyone));
   serve();
   const auto all = acks(sink);
   CHECK_THAT(all.find(7)->second.text, Catch::StartsWith("refused other_session"));
@@ -405,9 +410,13 @@ TEST_CASE("With command authority, the server admits through the gate, answers t
   CHECK(all.find(11)->second.text == "rejected: the axis is disabled, enable first");
   CHECK_THAT(all.find(12)->second.text, Catch::StartsWith("refused not_in_control"));
   CHECK(all.find(13)->second.text == "control released");
-  CHECK(all.count(6) == 2);  // the disable, and its replay's refusal
+  REQUIRE(all.count(6) == 2);  // the disable and its repeat: both obeyed
+  for (auto [it, end] = all.equal_range(6); it != end; ++it) CHECK(it->second.accepted);
+  REQUIRE(all.count(14) == 1);
+  CHECK(all.find(14)->second.accepted);
+  REQUIRE(all.count(3) == 2);  // the enable, and its replay's refusal
   int replay_refusals = 0;
-  for (auto [it, end] = all.equal_range(6); it != end; ++it) {
+  for (auto [it, end] = all.equal_range(3); it != end; ++it) {
     if (it->second.text.rfind("refused replayed", 0) == 0) ++replay_refusals;
   }
   CHECK(replay_refusals == 1);
@@ -416,7 +425,8 @@ TEST_CASE("With command authority, the server admits through the gate, answers t
   server.fill(status);
   CHECK(status.control_client == 0);
   CHECK(status.control_lease_remaining_s == 0.0);
-  CHECK(status.admitted == 6);  // take, enable (5); stop, disable (6); the move beyond the limits, release (5)
+  // take, enable (5); stop, disable (6); the move beyond the limits, release (5); disable again (6); stop (0)
+  CHECK(status.admitted == 8);
   CHECK(status.refused_not_in_control == 3);
   CHECK(status.refused_replayed == 1);
   CHECK(status.refused_other_session == 1);
@@ -425,6 +435,45 @@ TEST_CASE("With command authority, the server admits through the gate, answers t
   CHECK(status.refused_stale == 1);
   CHECK(daemon.commands_refused() == 1);  // the status takes it from the daemon (TelemetryBridge)
   CHECK(status.refused_malformed == 0);
+}
+
+TEST_CASE("Disable through the safety latch: obeyed by the next cycle with the command queue full and the command "
+          "thread idle, acked after it",
+          "[servod][commands][authority][safety]") {
+  using C = clm_lcm::servo_command_t;
+  WiredAxis axis(virtual_config());
+  ServoDaemon& daemon = axis.daemon;
+  telemetry::MemorySink sink;
+  telemetry::TelemetryConfig config;
+  config.command_queue_capacity = 2;
+  telemetry::TelemetryPublisher publisher(config, sink);
+  CommandServer server(publisher, daemon, CommandGateSettings{"axis0", 77, 2.0, 30.0});
+  publisher.set_safety_latch(server);
+  REQUIRE(publisher.submit_command(authored(C::TAKE_CONTROL, 1, 5)));
+  REQUIRE(publisher.submit_command(authored(C::ENABLE, 2, 5)));
+  server.serve_once();
+  daemon.run_cycles(1);
+  server.serve_once();
+  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  // Fill the command queue (nobody serves it now), then disable from a client 0 of another session.
+  REQUIRE(publisher.submit_command(authored(C::ENABLE, 3, 5)));
+  REQUIRE(publisher.submit_command(authored(C::ENABLE, 4, 5)));
+  REQUIRE_FALSE(publisher.submit_command(authored(C::ENABLE, 5, 5)));
+  REQUIRE(publisher.submit_command(authored(C::DISABLE, 6, 0, 78)));
+  CHECK(acks(sink).count(6) == 0);  // not before a cycle obeyed it
+  daemon.run_cycles(1);
+  CHECK(daemon.cycle().state() == servo::ServoState::kDisabled);
+  publisher.flush_safety_acks();
+  REQUIRE(acks(sink).count(6) == 1);
+  CHECK(acks(sink).find(6)->second.accepted);
+  CHECK(acks(sink).find(6)->second.text == "accepted");
+  // Another axis's disable is not latched: it takes the ordinary way, to its refusal.
+  CHECK(server.latch([] {
+          servo::Command other;
+          other.kind = servo::CommandKind::kDisable;
+          other.axis.assign("axis1");
+          return other;
+        }()) == 0);
 }
 
 TEST_CASE("Without command authority, take and release control are refused and other commands pass",

@@ -4,6 +4,9 @@
 #include <catch2/catch.hpp>
 #include <lcm/lcm-cpp.hpp>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -12,6 +15,7 @@
 #include <string>
 #include <thread>
 
+#include "daemon/telemetry/lcm_datagram.hpp"
 #include "telemetry/telemetry_samples.hpp"
 
 using namespace clm::telemetry;
@@ -174,4 +178,62 @@ TEST_CASE("Commands sent over udpm multicast reach poll_command, an empty path i
   CHECK(acks.messages.front().text == "path is empty");
   for (const auto& ack : acks.messages) CHECK(ack.sequence != 1003);
   while (publisher->poll_command(command)) CHECK(command.sequence == 1001);  // resent duplicates only
+}
+
+TEST_CASE("A fragment claiming 2^28 bytes is dropped unread and counted; the next command still arrives",
+          "[telemetry][lcm][datagram]") {
+  const std::string url = test_url();
+  TelemetryConfig config;
+  config.lcm_url = url;
+  std::optional<TelemetryPublisher> publisher;
+  try {
+    publisher.emplace(config);
+  } catch (const std::runtime_error& e) {
+    FAIL(no_multicast(e.what()));
+  }
+  publisher->start();
+  lcm::LCM operator_side(url);
+  if (!operator_side.good()) FAIL(no_multicast("cannot open " + url));
+  // A raw fragment: LC03, sequence, payload size 2^28 - 1, offset 0, fragment 0 of 4097, channel, 1000 bytes.
+  std::vector<std::uint8_t> fragment{0x4c, 0x43, 0x30, 0x33, 0, 0, 0, 1, 0x0f, 0xff, 0xff, 0xff, 0, 0, 0, 0, 0, 0, 0x10, 0x01};
+  for (const char c : std::string(kCommandChannel)) fragment.push_back(static_cast<std::uint8_t>(c));
+  fragment.push_back(0);
+  fragment.resize(fragment.size() + 1000, 0xab);
+  const UdpmAddress address = parse_udpm_url(url);
+  const int sender = ::socket(AF_INET, SOCK_DGRAM, 0);
+  REQUIRE(sender >= 0);
+  sockaddr_in group{};
+  group.sin_family = AF_INET;
+  group.sin_port = htons(address.port);
+  ::inet_pton(AF_INET, address.group.c_str(), &group.sin_addr);
+  const unsigned char ttl = 0;
+  ::setsockopt(sender, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof ttl);
+  constexpr int kFragments = 50;
+  for (int k = 0; k < kFragments; ++k) {
+    REQUIRE(::sendto(sender, fragment.data(), fragment.size(), 0, reinterpret_cast<const sockaddr*>(&group),
+                     sizeof group) == static_cast<ssize_t>(fragment.size()));
+  }
+  ::close(sender);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (publisher->counters().datagrams_dropped < kFragments && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  INFO("datagrams_dropped " << publisher->counters().datagrams_dropped << ", fragments sent " << kFragments);
+  CHECK(publisher->counters().datagrams_dropped == kFragments);
+  clm_lcm::servo_command_t enable{};
+  enable.utime = wall_clock_utime();
+  enable.sequence = 7;
+  enable.command = clm_lcm::servo_command_t::ENABLE;
+  clm::servo::Command command;
+  bool taken = false;
+  for (int attempt = 0; attempt < 5 && !taken; ++attempt) {
+    REQUIRE(operator_side.publish(kCommandChannel, &enable) == 0);
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+    while (!(taken = publisher->poll_command(command)) && std::chrono::steady_clock::now() < until) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
+  publisher->stop();
+  CHECK(taken);
+  CHECK(command.sequence == 7);
 }

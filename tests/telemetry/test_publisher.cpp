@@ -10,6 +10,8 @@
 
 #include "support/allocation_counter.hpp"
 #include "support/temporary_directory.hpp"
+#include "daemon/telemetry/lcm_datagram.hpp"
+#include "daemon/telemetry/wire_check.hpp"
 #include "telemetry/telemetry_samples.hpp"
 
 using namespace clm::telemetry;
@@ -363,6 +365,149 @@ TEST_CASE("A full command queue refuses the command with an ack instead of waiti
   CHECK(acks[0].sequence == 3);
   CHECK_FALSE(acks[0].accepted);
   CHECK(acks[0].text == "command queue full (2): the servo cycle is not taking commands");
+}
+
+namespace {
+
+/// A safety latch whose cycle the test runs by hand.
+class ManualLatch : public SafetyLatch {
+ public:
+  std::uint64_t latch(const clm::servo::Command& command) noexcept override {
+    kinds.push_back(command.kind);
+    return ++requested;
+  }
+  std::uint64_t obeyed() const noexcept override { return done; }
+  std::vector<clm::servo::CommandKind> kinds;
+  std::uint64_t requested = 0;
+  std::uint64_t done = 0;
+};
+
+}  // namespace
+
+TEST_CASE("Stop, quick stop and disable go to the safety latch, not the queue, even with the queue full, and are "
+          "acked once obeyed",
+          "[telemetry][commands][safety]") {
+  TelemetryConfig config;
+  config.command_queue_capacity = 2;
+  MemorySink memory;
+  TelemetryPublisher publisher(config, memory);
+  ManualLatch latch;
+  publisher.set_safety_latch(latch);
+  // Fill the queue with other commands; a third is refused.
+  CHECK(publisher.submit_command(command_message(clm_lcm::servo_command_t::ENABLE, 1)));
+  CHECK(publisher.submit_command(command_message(clm_lcm::servo_command_t::SET_COMMUTATION, 2)));
+  CHECK_FALSE(publisher.submit_command(command_message(clm_lcm::servo_command_t::ENABLE, 3)));
+  CHECK(publisher.submit_command(command_message(clm_lcm::servo_command_t::STOP, 4)));
+  CHECK(publisher.submit_command(command_message(clm_lcm::servo_command_t::QUICK_STOP, 5)));
+  CHECK(publisher.submit_command(command_message(clm_lcm::servo_command_t::DISABLE, 6)));
+  using Kind = clm::servo::CommandKind;
+  CHECK(latch.kinds == std::vector<Kind>{Kind::kStop, Kind::kQuickStop, Kind::kDisable});
+  CHECK(publisher.counters().safety_commands_latched == 3);
+  // Not acked before a cycle obeyed them.
+  auto acks = memory.decode<clm_lcm::servo_command_ack_t>(kCommandAckChannel);
+  REQUIRE(acks.size() == 1);  // the refusal of 3
+  latch.done = 2;
+  publisher.flush_safety_acks();
+  latch.done = 3;
+  publisher.flush_safety_acks();
+  publisher.flush_safety_acks();  // nothing left: no second ack
+  acks = memory.decode<clm_lcm::servo_command_ack_t>(kCommandAckChannel);
+  REQUIRE(acks.size() == 4);
+  for (std::size_t i = 1; i < 4; ++i) {
+    CHECK(acks[i].sequence == static_cast<std::int64_t>(3 + i));
+    CHECK(acks[i].accepted);
+    CHECK(acks[i].text == "accepted");
+  }
+  clm::servo::Command queued;
+  int in_queue = 0;
+  while (publisher.poll_command(queued)) {
+    CHECK_FALSE(clm::servo::is_safety_command(queued.kind));
+    ++in_queue;
+  }
+  CHECK(in_queue == 2);
+}
+
+TEST_CASE("More safety commands than pending acks: the oldest is acked at once, none is lost",
+          "[telemetry][commands][safety]") {
+  TelemetryConfig config;
+  MemorySink memory;
+  TelemetryPublisher publisher(config, memory);
+  ManualLatch latch;
+  publisher.set_safety_latch(latch);
+  constexpr int kStops = 200;  // the table holds 64
+  for (int k = 1; k <= kStops; ++k) REQUIRE(publisher.submit_command(command_message(clm_lcm::servo_command_t::STOP, k)));
+  latch.done = latch.requested;
+  publisher.flush_safety_acks();
+  const auto acks = memory.decode<clm_lcm::servo_command_ack_t>(kCommandAckChannel);
+  REQUIRE(acks.size() == static_cast<std::size_t>(kStops));
+  std::vector<bool> seen(kStops + 1, false);
+  for (const auto& ack : acks) {
+    REQUIRE(ack.sequence >= 1);
+    REQUIRE(ack.sequence <= kStops);
+    CHECK_FALSE(seen[static_cast<std::size_t>(ack.sequence)]);
+    seen[static_cast<std::size_t>(ack.sequence)] = true;
+    CHECK(ack.accepted);
+  }
+}
+
+TEST_CASE("An LCM datagram's header is read without sizing anything from it", "[telemetry][datagram]") {
+  const auto bytes = [](std::initializer_list<int> values) {
+    std::vector<std::uint8_t> out;
+    for (int v : values) out.push_back(static_cast<std::uint8_t>(v));
+    return out;
+  };
+  // A short message: LC02, sequence 7, channel "AB", payload 1 2 3.
+  const auto short_message = bytes({0x4c, 0x43, 0x30, 0x32, 0, 0, 0, 7, 'A', 'B', 0, 1, 2, 3});
+  const LcmDatagram message = check_lcm_datagram(short_message);
+  REQUIRE(message.kind == DatagramKind::kShort);
+  CHECK(message.channel == "AB");
+  REQUIRE(message.payload.size() == 3);
+  CHECK(message.payload[2] == 3);
+  // A fragment claiming 2^28 - 1 bytes: recognised, its claim only reported.
+  const auto fragment = bytes({0x4c, 0x43, 0x30, 0x33, 0, 0, 0, 1, 0x0f, 0xff, 0xff, 0xff, 0, 0, 0, 0, 0, 0, 0x10, 0x01,
+                               'C', 0, 9, 9});
+  const LcmDatagram piece = check_lcm_datagram(fragment);
+  CHECK(piece.kind == DatagramKind::kFragment);
+  CHECK(piece.claimed_bytes == (1u << 28) - 1);
+  CHECK(piece.payload.empty());
+  // Not LCM: too short, another magic, a channel without its NUL or over 63 bytes, a truncated fragment header.
+  CHECK(check_lcm_datagram(bytes({0x4c, 0x43, 0x30, 0x32, 0, 0, 0})).kind == DatagramKind::kNotLcm);
+  CHECK(check_lcm_datagram(bytes({0x4c, 0x43, 0x30, 0x31, 0, 0, 0, 7, 'A', 0})).kind == DatagramKind::kNotLcm);
+  CHECK(check_lcm_datagram(bytes({0x4c, 0x43, 0x30, 0x32, 0, 0, 0, 7, 'A', 'B'})).kind == DatagramKind::kNotLcm);
+  std::vector<std::uint8_t> long_channel = bytes({0x4c, 0x43, 0x30, 0x32, 0, 0, 0, 7});
+  long_channel.insert(long_channel.end(), 64, 'X');
+  long_channel.push_back(0);
+  CHECK(check_lcm_datagram(long_channel).kind == DatagramKind::kNotLcm);
+  long_channel.erase(long_channel.begin() + 8);  // 63 bytes: accepted
+  CHECK(check_lcm_datagram(long_channel).kind == DatagramKind::kShort);
+  CHECK(check_lcm_datagram(bytes({0x4c, 0x43, 0x30, 0x33, 0, 0, 0, 1, 0, 0})).kind == DatagramKind::kNotLcm);
+}
+
+TEST_CASE("Every message the daemon accepts fits one LCM datagram, so no fragment can belong to one",
+          "[telemetry][datagram]") {
+  const std::size_t largest = TelemetryPublisher::max_accepted_payload_bytes();
+  const std::size_t channel = std::max(std::string_view(kCommandChannel).size(), std::string_view(kStatusChannel).size());
+  INFO("largest accepted payload " << largest << " bytes, channel " << channel << " bytes");
+  CHECK(largest + channel + 1 <= kLcmShortMessageMaxBytes);
+  // And the layout's bound is a real bound: a status with every text at its limit encodes to it.
+  CHECK(largest >= max_wire_bytes(wire_layout(static_cast<const clm_lcm::servo_command_t*>(nullptr))));
+  CHECK(largest > 20000);  // the status's six 4095-byte texts
+}
+
+TEST_CASE("udpm URLs are parsed for the receiver; other providers and bad parts are refused naming the URL",
+          "[telemetry][datagram]") {
+  const UdpmAddress address = parse_udpm_url("udpm://239.255.76.67:10401?ttl=0&recv_buf_size=1048576");
+  CHECK(address.group == "239.255.76.67");
+  CHECK(address.port == 10401);
+  CHECK(address.receive_buffer_bytes == 1048576);
+  const UdpmAddress defaults = parse_udpm_url("udpm://");
+  CHECK(defaults.group == "239.255.76.67");
+  CHECK(defaults.port == 7667);
+  CHECK(defaults.receive_buffer_bytes == 4 * 1024 * 1024);
+  CHECK_THROWS_WITH(parse_udpm_url("file:///tmp/x.lcm"), Catch::Contains("file:///tmp/x.lcm") && Catch::Contains("udpm"));
+  CHECK_THROWS_WITH(parse_udpm_url("udpm://10.0.0.1:7667"), Catch::Contains("not an IPv4 multicast group"));
+  CHECK_THROWS_WITH(parse_udpm_url("udpm://239.255.76.67:99999"), Catch::Contains("port '99999'"));
+  CHECK_THROWS_WITH(parse_udpm_url("udpm://239.255.76.67:7667?recv_buf_size=x"), Catch::Contains("recv_buf_size"));
 }
 
 TEST_CASE("FixedText keeps what fits and says when it had to cut", "[telemetry]") {

@@ -104,13 +104,13 @@ void print_status(const clm_lcm::servo_status_t& s) {
   std::printf("control_client: %lld\n", static_cast<long long>(s.control_client));
   std::printf("control_lease_remaining_s: %.1f\n", s.control_lease_remaining_s);
   std::printf("commands: admitted %lld, refused malformed %lld, other_axis %lld, other_session %lld, no_client %lld, "
-              "replayed %lld, stale %lld, not_in_control %lld, by_daemon %lld\n",
+              "replayed %lld, stale %lld, not_in_control %lld, by_daemon %lld, datagrams_dropped %lld\n",
               static_cast<long long>(s.commands_admitted), static_cast<long long>(s.commands_refused_malformed),
               static_cast<long long>(s.commands_refused_other_axis),
               static_cast<long long>(s.commands_refused_other_session),
               static_cast<long long>(s.commands_refused_no_client), static_cast<long long>(s.commands_refused_replayed),
               static_cast<long long>(s.commands_refused_stale), static_cast<long long>(s.commands_refused_not_in_control),
-              static_cast<long long>(s.commands_refused_by_daemon));
+              static_cast<long long>(s.commands_refused_by_daemon), static_cast<long long>(s.datagrams_dropped));
 }
 
 void run_status(const CtlOptions& options) {
