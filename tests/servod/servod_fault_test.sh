@@ -72,13 +72,17 @@ write_config() {
 
 quick_dec=$(config_value "$source_dir/config/servod.yaml" "  quick_stop_deceleration_m_per_s2")
 
-wait_state() {  # wait_state WHAT FIELD VALUE: status FIELD = VALUE within 3 s
-  for _ in $(seq 1 60); do
+# wait_state WHAT FIELD VALUE: status FIELD = VALUE within 10 s (the moves
+# take less than a second; the rest is room for a loaded host's `clm ctl`).
+wait_state() {
+  local start
+  start=$(date +%s)
+  while :; do
     status=$(ctl status) || fail "$1: no status"
     [ "$(field "$2" "$status")" = "$3" ] && return 0
+    [ $(( $(date +%s) - start )) -lt 10 ] || fail "$1: $2 is '$(field "$2" "$status")' after 10 s, expected '$3'"
     sleep 0.05
   done
-  fail "$1: $2 is '$(field "$2" "$status")' after 3 s, expected '$3'"
 }
 
 to_start() {
@@ -95,9 +99,9 @@ run_phase() {
   write_config "$work/servod-$name.yaml" "$plan" "$limit"
   start_daemon "$work/servod-$name.yaml" "$work/servod-$name.log"
   local pid=$servod_pid rc=0
-  wait_for_status "$pid" 5 || rc=$?
+  wait_for_status "$pid" 20 || rc=$?
   [ $rc != 2 ] || fail "clm-servod exited at start-up"
-  [ $rc = 0 ] || fail "clm ctl status saw no CLM_SERVO_STATUS within 5 s"
+  [ $rc = 0 ] || fail "clm ctl status saw no CLM_SERVO_STATUS within 20 s"
   grep -q "fault injection: ${#cases[@]} steps, one per SIGUSR1" "$work/servod-$name.log" ||
       fail "the daemon does not say the plan is armed"
   ctl enable > /dev/null || fail "enable refused"
@@ -109,17 +113,22 @@ run_phase() {
     lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_STATE "$log" 2> "$work/logger.log" &
     local logger=$!
     pids+=("$logger")
-    sleep 0.3
+    # The logger records before the move starts (at most 10 s).
+    wait_log_started "$log" 10 || fail "$step: lcm-logger: no state in its log within $waited_s s of its start"
+    local losses
+    if [ "$reaction" = warn ]; then
+      losses=$(ctl status | sed -n 's/^force_sensor: .*losses \([0-9]*\)$/\1/p')
+      [ -n "$losses" ] || fail "$step: no force_sensor line in the status"
+    fi
     ctl move-to --target-m 0.1 --velocity-m-per-s 0.5 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 > /dev/null ||
         fail "$step: move-to refused"
     sleep 0.12  # cruising at 0.5 m/s (the move takes 0.45 s)
     if [ "$reaction" = warn ]; then
-      local losses
-      losses=$(ctl status | sed -n 's/^force_sensor: .*losses \([0-9]*\)$/\1/p')
-      [ -n "$losses" ] || fail "$step: no force_sensor line in the status"
       kill -USR1 "$pid"
       wait_state "$step: the move's end" program_running false
-      sleep 0.3
+      # The log up to the status that saw the move ended (at most 10 s).
+      wait_log_reaches "$log" "$(field cycles "$status")" 10 ||
+          fail "$step: the state log reached cycle $log_last in $waited_s s, needed cycle $(field cycles "$status") (the move's end)"
       kill -INT $logger; wait $logger || true
       status=$(ctl status) || fail "$step: no status"
       [ "$(field fault "$status")" = 0 ] || fail "$step: fault $(field fault "$status") in service, expected a warning"
@@ -128,7 +137,7 @@ run_phase() {
       "$clm" log2csv --log "$log" --format full --output "$log.csv" > /dev/null || fail "$step: log2csv"
       local dropped=0
       [[ $step == drop-force:* ]] && dropped=${step#drop-force:}
-      verdict=$(python3 - "$log.csv" "$dropped" <<'CHECK'
+      verdict=$(py_check "$log.csv" "$dropped" <<'CHECK'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 dropped = int(sys.argv[2])
@@ -151,12 +160,14 @@ CHECK
     local reason
     reason=$(field fault_reason "$status")
     # 0.3 s of the reaction (300 cycles at 1 kHz) in the log before the
-    # logger stops, however long a loaded host keeps it waiting.
-    wait_log_reaches "$log" $(( $(field fault_cycle "$status") + 300 )) || true
+    # logger stops, however long a loaded host keeps it waiting (at most 10 s).
+    local needed=$(( $(field fault_cycle "$status") + 300 ))
+    wait_log_reaches "$log" "$needed" 10 ||
+        fail "$step: the state log reached cycle $log_last in $waited_s s, needed cycle $needed (0.3 s after the fault's cycle)"
     kill -INT $logger; wait $logger || true
     "$clm" log2csv --log "$log" --format full --output "$log.csv" > /dev/null || fail "$step: log2csv"
     local verdict
-    verdict=$(python3 - "$log.csv" "$reaction" "$quick_dec" "$end_min" "$end_max" <<'CHECK'
+    verdict=$(py_check "$log.csv" "$reaction" "$quick_dec" "$end_min" "$end_max" <<'CHECK'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 reaction, dec, end_min, end_max = sys.argv[2], *map(float, sys.argv[3:6])

@@ -62,8 +62,9 @@ start() {
   start_daemon "$work/servod.yaml" "$work/servod.log"
   pid=$servod_pid
   local rc=0
-  wait_for_status "$pid" 5 || rc=$?
-  [ $rc = 0 ] || fail "no status from clm-servod (wait_for_status: $rc)"
+  wait_for_status "$pid" 20 || rc=$?
+  [ $rc != 2 ] || fail "clm-servod exited at start-up"
+  [ $rc = 0 ] || fail "no status from clm-servod within 20 s"
 }
 
 # Runs `ctl ARGS...` expecting a refusal: sets `reply` to the ack's text (ctl_refused).
@@ -76,6 +77,22 @@ same_or_cut() { [ "$1" = "$2" ] || { [ ${#1} = 127 ] && [ "${2:0:127}" = "$1" ];
 enable_axis() {
   ctl clear-fault > /dev/null || true
   reply=$(ctl enable) || fail "enable: $reply"
+}
+
+# Waits until the slow load of big.yaml has begun, at most 10 s (the `clm ctl
+# load-model` in the background may start late on a loaded host): a second
+# load-model is refused "busy loading". Sets `reply` to the last refusal.
+wait_busy() {
+  local start
+  start=$(date +%s)
+  while :; do
+    refused load-model "$work/secret.yaml"
+    [ "$reply" = "rejected: busy loading $work/big.yaml" ] && return 0
+    [ $(( $(date +%s) - start )) -lt 10 ] ||
+        fail "a second load during the first: '$reply' 10 s after the first was sent, expected 'rejected: busy loading $work/big.yaml'"
+    kill -0 "$loader_ctl" 2>/dev/null || fail "the slow load ended before a second was refused busy: $(cat "$work/big.reply")"
+    sleep 0.1
+  done
 }
 
 # Milliseconds a `ctl ARGS...` takes (exit 0 required).
@@ -135,9 +152,7 @@ baseline_ms=$(median_disable_ms)
 enable_axis
 ctl --timeout-s 90 load-model "$work/big.yaml" > /dev/null 2> "$work/big.reply" &
 loader_ctl=$!
-sleep 0.2
-refused load-model "$work/secret.yaml"
-[ "$reply" = "rejected: busy loading $work/big.yaml" ] || fail "a second load during the first: '$reply'"
+wait_busy
 during_ms=$(median_disable_ms)
 kill -0 "$pid" || fail "clm-servod exited"
 kill -0 "$loader_ctl" 2>/dev/null || fail "the slow load ended before the disables were acked: $(cat "$work/big.reply")"
@@ -150,7 +165,7 @@ wait "$loader_ctl" || true
 enable_axis
 ctl --timeout-s 90 load-model "$work/big.yaml" > "$work/big.reply" 2>/dev/null &
 loader_ctl=$!
-sleep 0.2
+wait_busy
 sent=$(now_ms)
 rc=0
 stop_process "$pid" 50 TERM || rc=$?

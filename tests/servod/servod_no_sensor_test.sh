@@ -59,8 +59,9 @@ for run in sensor none; do
   start_daemon "$work/servod-$run.yaml" "$work/servod-$run.log"
   daemon[$run]=$servod_pid
   rc=0
-  wait_for_status "$servod_pid" 5 || rc=$?
-  [ $rc = 0 ] || fail "$run: no status from clm-servod (wait_for_status: $rc)"
+  wait_for_status "$servod_pid" 20 || rc=$?
+  [ $rc != 2 ] || fail "$run: clm-servod exited at start-up"
+  [ $rc = 0 ] || fail "$run: no status from clm-servod within 20 s"
   ctl load-model "$work/commission/model-pgnn.yaml" > /dev/null || fail "$run: load-model refused"
   ctl load-feedforward "$work/commission/feedforward-pgnn.yaml" > /dev/null || fail "$run: load-feedforward refused"
   ctl commutation pgnn > /dev/null || fail "$run: commutation pgnn refused"
@@ -78,44 +79,63 @@ status=$(ctl status) || fail "none: no status"
 reply=$(ctl experiment --coil-set 1 --delta-rad 0 2>&1) || fail "none: experiment refused: $reply"
 ctl commutation pgnn > /dev/null || fail "none: commutation pgnn refused after the experiment"
 
-# until_idle RUN TRIES WHAT: polls RUN's status every 0.1 s until no program runs; sets `status`.
+# until_idle RUN SECONDS WHAT: polls RUN's status every 0.1 s until no program
+# runs, at most SECONDS (WHAT: the failure message); sets `status`.
 until_idle() {
-  for _ in $(seq 1 "$2"); do
+  local start
+  start=$(date +%s)
+  while :; do
     status=$(ctl status) || fail "$1: no status"
     [ "$(field program_running "$status")" = false ] && return 0
+    [ $(( $(date +%s) - start )) -lt "$2" ] || fail "$1: $3"
     sleep 0.1
   done
-  fail "$1: $3"
 }
 
+declare -A idle_cycle
 for run in sensor none; do
   url="udpm://239.255.76.67:$(port_of $run)?ttl=0"
-  until_idle $run 100 "the move to the start did not end"
+  until_idle $run 20 "the move to the start did not end within 20 s"
   lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_STATE "$work/$run.lcmlog" 2> "$work/logger-$run.log" &
   logger[$run]=$!
   pids+=("${logger[$run]}")
 done
-sleep 0.5
+# Each logger records before its program starts (at most 10 s each).
+for run in sensor none; do
+  wait_log_started "$work/$run.lcmlog" 10 || fail "$run: lcm-logger: no state in its log within $waited_s s of its start"
+done
 for run in sensor none; do
   url="udpm://239.255.76.67:$(port_of $run)?ttl=0"
   reply=$(ctl run-program "$source_dir/config/programs/fig8.yaml" 2>&1) || fail "$run: run-program refused: $reply"
 done
-sleep 1
+# Each program runs (seen within 10 s: Fig. 8 takes about 30 s) ...
 for run in sensor none; do
   url="udpm://239.255.76.67:$(port_of $run)?ttl=0"
-  until_idle $run 600 "Fig. 8 did not end within 60 s"
+  start=$(date +%s)
+  until status=$(ctl status) && [ "$(field program_running "$status")" = true ]; do
+    [ $(( $(date +%s) - start )) -lt 10 ] || fail "$run: Fig. 8 not seen running within 10 s of run-program"
+    sleep 0.1
+  done
+done
+# ... and ends (at most 90 s).
+for run in sensor none; do
+  url="udpm://239.255.76.67:$(port_of $run)?ttl=0"
+  until_idle $run 90 "Fig. 8 did not end within 90 s"
   [ "$(field fault "$status")" = 0 ] || fail "$run: fault $(field fault "$status") ($(field fault_reason "$status"))"
   if [ $run = none ]; then
     [ "$(counter "$status" missing)" = 0 ] || fail "none: $(counter "$status" missing) frames missing"
   fi
+  idle_cycle[$run]=$(field cycles "$status")
 done
-sleep 0.3
+# Each log up to the status that saw its program ended (at most 10 s each).
 for run in sensor none; do
+  wait_log_reaches "$work/$run.lcmlog" "${idle_cycle[$run]}" 10 ||
+      fail "$run: the state log reached cycle $log_last in $waited_s s, needed cycle ${idle_cycle[$run]} (the status that saw Fig. 8 ended)"
   kill -INT "${logger[$run]}"; wait "${logger[$run]}" || true
   "$clm" log2csv --log "$work/$run.lcmlog" --format full --output "$work/$run.csv" > /dev/null || fail "$run: log2csv"
 done
 
-verdict=$(python3 - "$work/sensor.csv" "$work/none.csv" <<'CHECK'
+verdict=$(py_check "$work/sensor.csv" "$work/none.csv" <<'CHECK'
 import csv, math, sys
 def run(path, measured):
     rows = list(csv.DictReader(open(path)))
