@@ -156,15 +156,24 @@ state_rows() {
            { s = $c; if (NR == 2) first = s; if (s == 0 && seen_zero == "") seen_zero = NR; if (seen_zero != "" && s != 0) back = 1; last = s; n++ }
            END { printf "%d %s %s %d %s\n", n, first, last, (seen_zero == "" ? 0 : n - seen_zero + 2), (back ? "re-enabled" : "stays") }' "$1"
 }
-# recorded_states N: the state log being written holds at least N states.
-recorded_states() {
-  clm log2csv --log "$work/stop.lcm" --output "$work/probe.csv" --format full > /dev/null 2>&1 &&
-      [ "$(($(wc -l < "$work/probe.csv") - 1))" -ge "$1" ]
+# probe_log: the states of the log lcm-logger is writing ($work/stop.lcm) into
+# $work/probe.csv. The file usually ends inside an event (lcm-logger writes
+# through a buffer), which clm log2csv refuses naming the event's byte: then
+# the events before that byte are read.
+probe_log() {
+  local cut
+  clm log2csv --log "$work/stop.lcm" --output "$work/probe.csv" --format full > /dev/null 2> "$work/probe.err" && return 0
+  cut=$(sed -n 's/.*truncated: .* at byte \([0-9]*\).*/\1/p' "$work/probe.err" | head -n 1)
+  [ -n "$cut" ] && [ "$cut" -gt 0 ] || return 1
+  head -c "$cut" "$work/stop.lcm" > "$work/probe.lcm"
+  clm log2csv --log "$work/probe.lcm" --output "$work/probe.csv" --format full > /dev/null 2>&1
 }
+# recorded_states N: the state log being written holds at least N states.
+recorded_states() { probe_log && [ "$(($(wc -l < "$work/probe.csv") - 1))" -ge "$1" ]; }
 # last_disabled N: the state log being written ends in at least N disabled states.
 last_disabled() {
   local n first last disabled stays
-  clm log2csv --log "$work/stop.lcm" --output "$work/probe.csv" --format full > /dev/null 2>&1 || return 1
+  probe_log || return 1
   read -r n first last disabled stays < <(state_rows "$work/probe.csv")
   [ "$last" = 0 ] && [ "$disabled" -ge "$1" ]
 }
