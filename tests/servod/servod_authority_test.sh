@@ -123,9 +123,7 @@ start_command_logger() {
 # start_state_logger LOG: lcm-logger on CLM_SERVO_STATE into LOG; returns once
 # the log holds a state (wait_log_started, at most 10 s). Sets logger_pid.
 start_state_logger() {
-  lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_STATE "$1" 2> "$work/logger2.log" &
-  logger_pid=$!
-  pids+=("$logger_pid")
+  record_states "$1" "$work/logger2.log"
   wait_log_started "$1" 10 || fail "lcm-logger: no state in $1 within $waited_s s of its start: $(cat "$work/logger2.log")"
 }
 

@@ -79,18 +79,24 @@ enable_axis() {
   reply=$(ctl enable) || fail "enable: $reply"
 }
 
-# Waits until the slow load of big.yaml has begun, at most 10 s (the `clm ctl
-# load-model` in the background may start late on a loaded host): a second
-# load-model is refused "busy loading". Sets `reply` to the last refusal.
-wait_busy() {
-  local start
+# The count of commands admitted in STATUS.
+admitted() { field commands "$1" | sed -n 's/.*admitted \([0-9]*\).*/\1/p'; }
+
+# wait_loading STATUS_BEFORE: waits until the daemon has admitted the
+# background `clm ctl load-model` of big.yaml (one command more than in
+# STATUS_BEFORE), which starts the load on the loader thread as it is
+# admitted; at most 10 s (that clm ctl may start late on a loaded host). No
+# probe of the loader's own: a second load sent before the first would take
+# the loader and have the first refused.
+wait_loading() {
+  local start status
   start=$(date +%s)
   while :; do
-    refused load-model "$work/secret.yaml"
-    [ "$reply" = "rejected: busy loading $work/big.yaml" ] && return 0
+    status=$(ctl status) || fail "no status while waiting for the slow load"
+    [ "$(admitted "$status")" -gt "$(admitted "$1")" ] && return 0
+    kill -0 "$loader_ctl" 2>/dev/null || fail "the slow load's clm ctl ended before the daemon admitted it: $(cat "$work/big.reply")"
     [ $(( $(date +%s) - start )) -lt 10 ] ||
-        fail "a second load during the first: '$reply' 10 s after the first was sent, expected 'rejected: busy loading $work/big.yaml'"
-    kill -0 "$loader_ctl" 2>/dev/null || fail "the slow load ended before a second was refused busy: $(cat "$work/big.reply")"
+        fail "the load-model of big.yaml not admitted 10 s after it was sent: $(field commands "$status")"
     sleep 0.1
   done
 }
@@ -150,9 +156,12 @@ median_disable_ms() {
 }
 baseline_ms=$(median_disable_ms)
 enable_axis
+before_load=$(ctl status) || fail "no status before the slow load"
 ctl --timeout-s 90 load-model "$work/big.yaml" > /dev/null 2> "$work/big.reply" &
 loader_ctl=$!
-wait_busy
+wait_loading "$before_load"
+refused load-model "$work/secret.yaml"
+[ "$reply" = "rejected: busy loading $work/big.yaml" ] || fail "a second load during the first: '$reply'"
 during_ms=$(median_disable_ms)
 kill -0 "$pid" || fail "clm-servod exited"
 kill -0 "$loader_ctl" 2>/dev/null || fail "the slow load ended before the disables were acked: $(cat "$work/big.reply")"
@@ -163,9 +172,10 @@ wait "$loader_ctl" || true
 
 # 6. SIGTERM during a slow load, the axis enabled.
 enable_axis
+before_load=$(ctl status) || fail "no status before the slow load"
 ctl --timeout-s 90 load-model "$work/big.yaml" > "$work/big.reply" 2>/dev/null &
 loader_ctl=$!
-wait_busy
+wait_loading "$before_load"
 sent=$(now_ms)
 rc=0
 stop_process "$pid" 50 TERM || rc=$?

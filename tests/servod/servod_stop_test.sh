@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Process-level test of stops at speed through `clm ctl` against clm-servod
 # (labels unit and lcm): the daemon on config/servod.yaml (the simulated
-# motor, real-time clock at 1 kHz, no real-time rights) on an LCM port of its
+# motor, real-time clock at 1 kHz, SCHED_FIFO where allowed) on an LCM port of its
 # own. A move-to beyond the motion limits is refused with the reason; moves at
 # 0.25 and 0.5 m/s stopped by `clm ctl stop` and `clm ctl quick-stop` at two
 # points are judged from the daemon's state log (below). About 16 s.
@@ -27,10 +27,15 @@ fail() { fail_with_status "$*" "$work/servod.log"; }
 # and the HIL suite keep the 5 ms). For the same reason up to 1000
 # consecutive overruns (the largest accepted) instead of 5: in a clean-clone
 # CI run at load 3-4 a case latched a fault while it waited for the next move.
+# The loop runs SCHED_FIFO (loop.priority 80 and mlockall of the
+# configuration) where chrt's rights exist, else with a warning and without:
+# at normal priority beside a build (load 8-10) the loop ran 10 ms cycles
+# for tens of cycles, the position loop saturated at the force limit and a
+# stop at speed latched fault 203.
 missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml") ||
     fail "motor: no line '$missing' after editing"
 missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" \
-          "motor_file: $work/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
+          "motor_file: $work/motor-sim.yaml" "  clock: realtime" \
           "  lcm_url: \"$url\"" "  overrun_limit: 1000" && config_require "$work/servod.yaml" "  velocity_m_per_s: 0.5") ||
     fail "config: no line '$missing' after editing"
 
@@ -65,9 +70,8 @@ wait_idle() {
 # start_logger LOG: lcm-logger on CLM_SERVO_STATE into LOG, returning once the
 # log holds a state (at most 10 s): sets logger.
 start_logger() {
-  lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_STATE "$1" 2> "$work/logger.log" &
-  logger=$!
-  pids+=("$logger")
+  record_states "$1" "$work/logger.log"
+  logger=$logger_pid
   wait_log_started "$1" 10 || fail "lcm-logger: no state in $1 within $waited_s s of its start: $(cat "$work/logger.log")"
 }
 
@@ -206,16 +210,21 @@ CHECK
 echo "jog: $verdict"
 
 # A client that freezes while jogging (SIGSTOP): the daemon stops the axis
-# by itself within the timeout and the stop. The jog asks for 10 s at 0.1 m/s
-# from the start (-0.1 m) towards the soft limit 0.11 m, which it would reach
-# after 2.1 s: judged from the state log, the reference comes to rest short of
-# it (the daemon's timeout stopped it, not the limit) along the stop limits.
+# by itself within the timeout and the stop. The jog asks for 10 s at 0.02
+# m/s from the start (-0.1 m) towards the soft limit 0.11 m, which it would
+# not reach in those 10 s (10.5 s): judged from the state log, the reference
+# moves for less than half the 10 s asked (the freeze comes once the status
+# shows the jog running, within a few seconds even on a loaded host) and
+# comes to rest along the stop limits.
 ctl move-to --target-m -0.1 --velocity-m-per-s 0.25 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 > /dev/null ||
     fail "frozen jog: move-to the start refused"
 wait_idle "frozen jog: to the start"
 log="$work/jog-frozen.lcmlog"
 start_logger "$log"
-ctl jog --velocity-m-per-s 0.1 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 --duration-s 10 > "$work/jog2.out" &
+# clm itself in the background, not the ctl function: $! must be the process
+# that sends the repeats, not a subshell that SIGSTOP would freeze in its stead.
+"$clm" ctl --lcm-url "$url" jog --velocity-m-per-s 0.02 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 --duration-s 10 \
+    > "$work/jog2.out" &
 jogger=$!
 pids+=("$jogger")
 # Frozen once the jog is seen running (at most 10 s: clm ctl's start-up on a loaded host).
@@ -241,12 +250,14 @@ moving = [k for k, r in enumerate(rows) if f(r, "r_dot_m_per_s") != 0.0]
 assert moving, "the frozen jog did not move"
 first, last = moving[0], moving[-1]
 assert last + 1 < len(rows), f"the log ends with the reference moving (cycle {rows[last]['cycle']})"
+took = (int(f(rows[last], "cycle")) - int(f(rows[first], "cycle")) + 1) * 1e-3
+assert took < 5.0, f"the reference moved for {took:.3f} s, not less than half the 10 s asked"
 rest = f(rows[last + 1], "r_m")
-assert rest < soft_max - 0.01, f"the reference came to rest at {rest:.4f} m, not 10 mm short of the soft limit {soft_max} m"
+assert rest < soft_max, f"the reference came to rest at {rest:.4f} m, beyond the soft limit {soft_max} m"
 for k in range(first, last + 2):
     a = f(rows[k], "r_ddot_m_per_s2")
     assert abs(a) <= max(dec, 10.0) + 1e-6, f"cycle {rows[k]['cycle']}: {a} m/s^2"
-print(f"moved {(last - first + 1) * 1e-3:.3f} s of the 10 s asked, at rest at {rest:.4f} m, short of the soft limit {soft_max} m")
+print(f"moved {took:.3f} s of the 10 s asked, at rest at {rest:.4f} m")
 CHECK
 ) || fail "frozen jog: $verdict"
 # The exact timing is judged from the state log in the case above; here

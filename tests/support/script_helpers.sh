@@ -79,6 +79,18 @@ log_extent() {
       END { if (n) print n, first, last; else print 0, -1, -1 }' "$1.probe.csv")
 }
 
+# record_states LOG ERR_FILE: lcm-logger on CLM_SERVO_STATE of $url into LOG
+# (stderr to ERR_FILE) in the set-up docs/telemetry.md ("Logs") recommends:
+# SCHED_FIFO 10 where chrt and the rights exist (fifo), a 4 MiB receive
+# buffer. At normal priority a loaded host holds the logger back long enough
+# for LCM's queue of 30 messages to overflow, and the log misses states.
+# Sets logger_pid.
+record_states() {
+  $(fifo 10) lcm-logger -q --lcm-url="$url&recv_buf_size=4194304" --channel=CLM_SERVO_STATE "$1" 2> "$2" &
+  logger_pid=$!
+  pids+=("$logger_pid")
+}
+
 # wait_log_reaches LOG CYCLE [SECONDS]: waits (up to SECONDS, default 10)
 # until the CLM_SERVO_STATE log that lcm-logger is writing to LOG holds cycle
 # CYCLE or later, so that a logger the host keeps waiting is not stopped
