@@ -148,7 +148,11 @@ f = lambda r, k: float(r[k])
 assert all(int(f(r, "state")) == 1 for r in rows), "the axis left the enabled state"
 assert max(f(r, "r_dot_m_per_s") for r in rows) > 0.4, "never at speed"
 unmeasured = sum(1 for r in rows if f(r, "force_measured") == 0.0)
-assert unmeasured == dropped, f"{unmeasured} cycles without a force measurement, {dropped} frames were dropped"
+# A state lcm-logger lost beside a build (docs/telemetry.md) may be one of the dropped frames' cycles.
+cycles = [int(f(r, "cycle")) for r in rows]
+missing = sum(b - a - 1 for a, b in zip(cycles, cycles[1:]))
+assert unmeasured <= dropped <= unmeasured + missing, \
+    f"{unmeasured} recorded cycles without a force measurement ({missing} states missing from the log), {dropped} frames were dropped"
 assert abs(f(rows[-1], "y_m") - 0.1) < 1e-4, f"the move ended at {rows[-1]['y_m']} m, not at 0.1 m"
 print(f"no fault, {unmeasured} unmeasured cycle(s), the move ended at {f(rows[-1], 'y_m'):.5f} m")
 CHECK
@@ -170,39 +174,60 @@ CHECK
     kill -INT $logger; wait $logger || true
     "$clm" log2csv --log "$log" --format full --output "$log.csv" > /dev/null || fail "$step: log2csv"
     local verdict
-    verdict=$(py_check "$log.csv" "$reaction" "$quick_dec" "$end_min" "$end_max" <<'CHECK'
+    verdict=$(py_check "$log.csv" "$reaction" "$quick_dec" "$end_min" "$end_max" "$needed" <<'CHECK'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 reaction, dec, end_min, end_max = sys.argv[2], *map(float, sys.argv[3:6])
+needed = int(sys.argv[6])
 f = lambda r, k: float(r[k])
+# The judged window: from the log's start to 0.3 s after the fault.
+rows = [r for r in rows if int(f(r, "cycle")) <= needed]
 cycles = [int(f(r, "cycle")) for r in rows]
-assert all(b - a == 1 for a, b in zip(cycles, cycles[1:])), "a gap in the log's cycles"
+assert all(b > a for a, b in zip(cycles, cycles[1:])), "the log's cycles do not increase"
+by = {c: r for c, r in zip(cycles, rows)}
+# lcm-logger may lose a state beside a build (docs/telemetry.md): every state
+# recorded is judged, the cycles the timing claims read must be there, and
+# at most 1 % of the window may be missing.
+gaps = [(a + 1, b - 1) for a, b in zip(cycles, cycles[1:]) if b - a > 1]
+missing = sum(b - a + 1 for a, b in gaps)
+assert missing <= 0.01 * (cycles[-1] - cycles[0] + 1), \
+    f"{missing} states missing from the state log in cycles {cycles[0]}..{cycles[-1]}, more than 1 %: {gaps[:5]}"
 first = next((k for k, r in enumerate(rows) if int(f(r, "state")) == 2), None)
 assert first is not None, "no cycle in fault in the log"
-assert f(rows[first - 1], "r_dot_m_per_s") > 0.4, f"not at speed before the fault: {rows[first - 1]['r_dot_m_per_s']} m/s"
+fc = cycles[first]
+assert fc - 1 in by, f"cycle {fc - 1}, the one before the first in fault ({fc}), is missing from the state log"
+v0 = f(by[fc - 1], "r_dot_m_per_s")
+assert v0 > 0.4, f"not at speed before the fault: {v0} m/s"
 names = [k for k in rows[0] if k.startswith("magnitude_N")]
 zero = lambda r: all(r[k] in ("", "nan") or f(r, k) == 0.0 for k in names)
 for r in rows:
     assert end_min < f(r, "y_m") < end_max, f"cycle {r['cycle']}: y {r['y_m']} m at an end stop"
-after = rows[first:]
+after = [r for r in rows if int(f(r, "cycle")) >= fc]
 assert all(int(f(r, "state")) == 2 for r in after), "the fault did not stay latched"
+absent = lambda a, b: [c for c in range(a, b + 1) if c not in by]
 if reaction == "zero":
     # Found in the cycle (zero at once), or between cycles (the next one).
-    lag = next(k for k, r in enumerate(after) if zero(r))
+    assert not absent(fc, fc + 1), f"cycles {absent(fc, fc + 1)} (the fault's and the next) missing from the state log"
+    lag = next((int(f(r, "cycle")) - fc for r in after if zero(r)), None)
+    assert lag is not None, f"setpoints not zero in the {len(after)} states after the fault"
     assert lag <= 1, f"setpoints zero only {lag} cycles after the fault"
-    assert all(zero(r) for r in after[lag:]), "setpoints not zero after the fault"
-    print(f"zero setpoints {lag} cycle(s) after the fault at {f(rows[first - 1], 'r_dot_m_per_s'):.2f} m/s")
+    assert all(zero(r) for r in after if int(f(r, "cycle")) >= fc + lag), "setpoints not zero after the fault"
+    print(f"zero setpoints {lag} cycle(s) after the fault at {v0:.2f} m/s ({missing} states missing from the log)")
 else:
-    rest = next((k for k, r in enumerate(after) if f(r, "r_dot_m_per_s") == 0.0), None)
+    rest = next((int(f(r, "cycle")) for r in after if f(r, "r_dot_m_per_s") == 0.0), None)
     assert rest is not None, "the reference never came to rest"
-    assert rest >= 2, f"at rest {rest} cycles after the fault: no quick stop"
-    assert all(not zero(r) for r in after[:rest]), "setpoints zero while the quick stop ran"
-    for r in after[:rest + 1]:
+    assert not absent(fc, rest), f"cycles {absent(fc, rest)} of the quick stop missing from the state log"
+    assert rest - fc >= 2, f"at rest {rest - fc} cycles after the fault: no quick stop"
+    stopping = [r for r in after if int(f(r, "cycle")) < rest]
+    assert all(not zero(r) for r in stopping), "setpoints zero while the quick stop ran"
+    for r in stopping + [by[rest]]:
         assert abs(f(r, "r_ddot_m_per_s2")) <= dec + 1e-6, f"cycle {r['cycle']}: {r['r_ddot_m_per_s2']} m/s^2"
-    tail = next(k for k, r in enumerate(after) if zero(r))
-    assert all(zero(r) for r in after[tail:]), "setpoints not zero after the quick stop"
-    print(f"quick stop from {f(rows[first - 1], 'r_dot_m_per_s'):.2f} m/s, at rest {rest} cycles and zero setpoints "
-          f"{tail} cycles after the fault, y in [{min(f(r, 'y_m') for r in after):.4f}, {max(f(r, 'y_m') for r in after):.4f}] m")
+    tail = next((int(f(r, "cycle")) for r in after if zero(r)), None)
+    assert tail is not None, f"setpoints not zero in the {len(after)} states after the fault"
+    assert all(zero(r) for r in after if int(f(r, "cycle")) >= tail), "setpoints not zero after the quick stop"
+    print(f"quick stop from {v0:.2f} m/s, at rest {rest - fc} cycles and zero setpoints "
+          f"{tail - fc} cycles after the fault, y in [{min(f(r, 'y_m') for r in after):.4f}, {max(f(r, 'y_m') for r in after):.4f}] m"
+          f" ({missing} states missing from the log)")
 CHECK
 ) || fail "$step: $verdict"
     echo "$step: fault $code ($reason), $verdict"
