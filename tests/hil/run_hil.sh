@@ -185,9 +185,12 @@ run_program_logged() {  # TAG PROGRAM
     2> "$run/logger-$1.err" &
   logger_pid=$!
   pids+=("$logger_pid")
-  # The logger records before the program starts (at most 30 s).
-  wait_log_started "$run/states-$1.lcm" 30 ||
-      problem="lcm-logger: no state in $run/states-$1.lcm within $waited_s s of its start: $(head -1 "$run/logger-$1.err")"
+  # The logger subscribes before the program starts. A fixed pause, not a
+  # wait on the log: in the guest (instruction-counted time, docs/hil.md) it
+  # does not depend on the host's load, and reading the log with clm log2csv
+  # every 0.2 s cost the guest's one vCPU so many process start-ups that the
+  # simulated drive's 5 ms watchdog expired (fault 101 before the program).
+  sleep 0.5
   run_start=$(date +%s)
   read -r idle_before total_before < <(cpu_jiffies)
   [ -z "$problem" ] && { reply=$(ctl run-program "$2") || problem="run-program: $reply"; }
@@ -210,10 +213,7 @@ run_program_logged() {  # TAG PROGRAM
   run_s=$(( $(date +%s) - run_start ))
   read -r idle_after total_after < <(cpu_jiffies)
   busy=$(( 100 - 100 * (idle_after - idle_before) / (total_after - total_before + 1) ))
-  # The log up to the status that saw the program ended (at most 30 s).
-  if [ -z "$problem" ] && [ $ended = 1 ] && ! wait_log_reaches "$run/states-$1.lcm" "$(field cycles "$status")" 30; then
-    problem="the state log reached cycle $log_last in $waited_s s, needed cycle $(field cycles "$status") (the status that saw the program ended)"
-  fi
+  sleep 0.3  # the last states reach the logger (a fixed pause, as above)
   # SIGINT: lcm-logger writes what it has and closes the log. It notices the
   # signal when its loop wakes, i.e. with the next message; a second one ends
   # a logger that has heard nothing since.
