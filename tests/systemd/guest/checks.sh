@@ -156,27 +156,6 @@ state_rows() {
            { s = $c; if (NR == 2) first = s; if (s == 0 && seen_zero == "") seen_zero = NR; if (seen_zero != "" && s != 0) back = 1; last = s; n++ }
            END { printf "%d %s %s %d %s\n", n, first, last, (seen_zero == "" ? 0 : n - seen_zero + 2), (back ? "re-enabled" : "stays") }' "$1"
 }
-# probe_log: the states of the log lcm-logger is writing ($work/stop.lcm) into
-# $work/probe.csv. The file usually ends inside an event (lcm-logger writes
-# through a buffer), which clm log2csv refuses naming the event's byte: then
-# the events before that byte are read.
-probe_log() {
-  local cut
-  clm log2csv --log "$work/stop.lcm" --output "$work/probe.csv" --format full > /dev/null 2> "$work/probe.err" && return 0
-  cut=$(sed -n 's/.*truncated: .* at byte \([0-9]*\).*/\1/p' "$work/probe.err" | head -n 1)
-  [ -n "$cut" ] && [ "$cut" -gt 0 ] || return 1
-  head -c "$cut" "$work/stop.lcm" > "$work/probe.lcm"
-  clm log2csv --log "$work/probe.lcm" --output "$work/probe.csv" --format full > /dev/null 2>&1
-}
-# recorded_states N: the state log being written holds at least N states.
-recorded_states() { probe_log && [ "$(($(wc -l < "$work/probe.csv") - 1))" -ge "$1" ]; }
-# last_disabled N: the state log being written ends in at least N disabled states.
-last_disabled() {
-  local n first last disabled stays
-  probe_log || return 1
-  read -r n first last disabled stays < <(state_rows "$work/probe.csv")
-  [ "$last" = 0 ] && [ "$disabled" -ge "$1" ]
-}
 check_stop() {
   local status pid logger main_status result journal disabled_line exiting_line rows
   ctl clear-fault > /dev/null 2>&1 || true
@@ -186,20 +165,17 @@ check_stop() {
   rm -f "$work/stop.lcm"
   lcm-logger --lcm-url="$lcm_url" --channel=CLM_SERVO_STATE --quiet "$work/stop.lcm" > "$work/logger.out" 2>&1 &
   logger=$!
-  # The logger records before the stop (a state in its log, waited for up to 10 s).
-  if ! wait_until 10 recorded_states 1; then
-    why="lcm-logger: no state in its log within 10 s of its start: $(cat "$work/logger.out")"
-    kill "$logger"
-    return 1
-  fi
+  # The logger subscribes before the stop. Fixed pauses here and below: the
+  # guest's time is counted in instructions (docs/hil.md), so a loaded host
+  # does not shorten them, and polling the log with clm log2csv would cost
+  # the one vCPU process start-ups beside the daemon (in the HIL guest that
+  # expired the simulated drive's watchdog).
+  sleep 0.5
   pid=$(prop MainPID)
   local stop_epoch
   stop_epoch=$(date +%s)
   systemctl stop "$unit" || { why="systemctl stop failed"; kill "$logger"; return 1; }
-  # The daemon has exited; the states it published last reach the log (two
-  # disabled ones at the end, waited for up to 10 s; the check below says
-  # what the log holds if they never do).
-  wait_until 10 last_disabled 2 || true
+  sleep 0.3  # the last states reach the logger
   kill -INT "$logger"
   wait "$logger"
   main_status=$(prop ExecMainStatus) result=$(prop Result)
@@ -221,7 +197,7 @@ check_stop() {
   [ "$first" = 1 ] || { why="the first recorded state is $first, expected 1 (enabled): $seen"; return 1; }
   [ "$last" = 0 ] && [ "$stays" = stays ] ||
       { why="the recorded states end in state $last ($stays after the first disabled one), expected 0 throughout: $seen"; return 1; }
-  [ "$disabled_rows" -ge 2 ] || { why="$disabled_rows disabled states at the end of the log within 10 s, expected at least 2: $seen"; return 1; }
+  [ "$disabled_rows" -ge 2 ] || { why="$disabled_rows disabled states at the end of the log, expected at least 2: $seen"; return 1; }
 }
 check_stop
 report stop_disables_axis $? "$why"
