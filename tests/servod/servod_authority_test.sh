@@ -22,6 +22,7 @@ mode=$1 servod=$2 clm=$3 source_dir=$4 work=$5
 # shellcheck source=../support/script_helpers.sh
 source "$(dirname "${BASH_SOURCE[0]}")/../support/script_helpers.sh"
 send="$source_dir/tests/support/send_lcm_datagram.py"
+channels="$source_dir/tests/support/lcm_log_channels.py"
 corpus="$source_dir/tests/fuzz/corpus/lcm_datagram"
 
 # A port of its own per mode (10000..10159; the other LCM tests use 7700..9989,
@@ -60,8 +61,70 @@ up() {  # CONFIG LOG
   start_daemon "$1" "$2"
   pid=$servod_pid
   local rc=0
-  wait_for_status "$pid" 8 || rc=$?
-  [ $rc = 0 ] || fail "clm-servod on $1 did not come up (wait_for_status $rc)"
+  wait_for_status "$pid" 20 || rc=$?
+  [ $rc != 2 ] || fail "clm-servod on $1 exited at start-up"
+  [ $rc = 0 ] || fail "clm-servod on $1: no status within 20 s"
+}
+
+# The seconds since the epoch, with a fraction; the seconds since START.
+now_s() { date +%s.%N; }
+since() { echo "$(now_s) - $1" | bc; }
+
+# wait_commands STATUS_BEFORE N SECONDS NAME...: polls `clm ctl status` until
+# the counts NAME... of its commands line have grown by N together since
+# STATUS_BEFORE, at most SECONDS (the command thread of a loaded host may take
+# its time): sets `s` to the last status; 1 if they never did.
+wait_commands() {
+  local before=$1 n=$2 seconds=$3 start grown name
+  shift 3
+  start=$(now_s)
+  while :; do
+    s=$(ctl status) || fail "no status while waiting for the daemon to count $n commands"
+    grown=0
+    for name in "$@"; do grown=$(( grown + $(commands "$s" "$name") - $(commands "$before" "$name") )); done
+    [ "$grown" -ge "$n" ] && return 0
+    [ "$(echo "$(since "$start") < $seconds" | bc)" = 1 ] || return 1
+    sleep 0.1
+  done
+}
+
+# wait_not_running WHAT SECONDS: polls until no program runs, at most SECONDS: sets `s`.
+wait_not_running() {
+  local start
+  start=$(now_s)
+  while :; do
+    s=$(ctl status) || fail "$1: no status"
+    [ "$(field program_running "$s")" = false ] && return 0
+    [ "$(echo "$(since "$start") < $2" | bc)" = 1 ] || fail "$1: a program still runs after $2 s"
+    sleep 0.1
+  done
+}
+
+# start_command_logger LOG: lcm-logger on CLM_SERVO_COMMAND and the probe
+# channel CLM_TEST_LOGGER_PROBE into LOG; returns once a probe datagram (sent
+# every 0.2 s) is in the log, i.e. the logger has subscribed and records the
+# commands that follow, at most 10 s. Sets logger_pid. Nothing listens on the
+# probe channel, so replaying the log replays the probes to no one.
+start_command_logger() {
+  local start
+  lcm-logger -q --lcm-url="$url" --channel="CLM_SERVO_COMMAND|CLM_TEST_LOGGER_PROBE" "$1" 2> "$work/logger.log" &
+  logger_pid=$!
+  pids+=("$logger_pid")
+  start=$(now_s)
+  while :; do
+    python3 "$send" "$url" CLM_TEST_LOGGER_PROBE "$corpus/command-move-to" --skip 1 || fail "sending a logger probe"
+    sleep 0.2
+    [ -s "$1" ] && [ "$(python3 "$channels" "$1" CLM_TEST_LOGGER_PROBE)" -gt 0 ] && return 0
+    [ "$(echo "$(since "$start") < 10" | bc)" = 1 ] ||
+        fail "lcm-logger: no probe datagram in $1 within 10 s of its start: $(cat "$work/logger.log")"
+  done
+}
+
+# start_state_logger LOG: lcm-logger on CLM_SERVO_STATE into LOG; returns once
+# the log holds a state (wait_log_started, at most 10 s). Sets logger_pid.
+start_state_logger() {
+  record_states "$1" "$work/logger2.log"
+  wait_log_started "$1" 10 || fail "lcm-logger: no state in $1 within $waited_s s of its start: $(cat "$work/logger2.log")"
 }
 
 # The count after NAME in the `commands:` line of STATUS.
@@ -87,7 +150,10 @@ hostile)
       --pause-every 20 || fail "sending the random datagrams"
   python3 "$send" "$url" CLM_SERVO_COMMAND "$corpus/command-move-to" --skip 1 --count 500 --random-tail 8 \
       --pause-every 20 || fail "sending the random datagrams with the hash"
-  sleep 0.5
+  kill -0 "$pid" 2>/dev/null || fail "clm-servod died on the datagrams"
+  # The command thread counts what reached it (at most 10 s; a few may be
+  # lost in the socket buffer on a loaded host, hence 990).
+  wait_commands "$before" 990 10 malformed || true  # the check below says what was counted
   kill -0 "$pid" 2>/dev/null || fail "clm-servod died on the datagrams"
   first=$(ctl status) || fail "no status after the datagrams"
   second=$(ctl status) || fail "no second status after the datagrams"
@@ -96,7 +162,7 @@ hostile)
   [ "$(field cycles "$first")" -gt "$(field cycles "$before")" ] || fail "cycles did not advance over the flood"
   malformed=$(commands "$second" malformed)
   [ "$malformed" -ge 990 ] && [ "$malformed" -le 1002 ] ||
-      fail "commands_refused_malformed $malformed after 2 hostile and 1000 random datagrams"
+      fail "commands_refused_malformed $malformed after 2 hostile and 1000 random datagrams (waited up to 10 s), expected 990..1002"
   [ "$(commands "$second" admitted)" = 0 ] || fail "a random datagram was admitted: $(field commands "$second")"
   reply=$(ctl enable) || fail "enable after the flood: $reply"
   [ "$reply" = accepted ] || fail "enable after the flood: '$reply'"
@@ -175,20 +241,32 @@ presence)
   [ "$(field state "$s")" = enabled ] || fail "axis0 not enabled: $(field state "$s")"
   # At run time: a status of axis0 from another session (a forged one,
   # session 42) makes the daemon disable the axis and say so in an event.
-  lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_EVENT "$work/events.lcmlog" 2> "$work/logger.log" &
-  pids+=("$!")
+  lcm-logger -q --lcm-url="$url" --channel="CLM_SERVO_EVENT|CLM_TEST_LOGGER_PROBE" "$work/events.lcmlog" \
+      2> "$work/logger.log" &
   logger_pid=$!
-  sleep 0.3
-  python3 "$send" "$url" CLM_SERVO_STATUS "$corpus/status-fault" --skip 1 || fail "sending the forged status"
-  ok=0
-  for _ in $(seq 1 20); do
-    s=$(ctl --axis axis0 status)
-    [ "$(field state "$s")" = disabled ] && { ok=1; break; }
+  pids+=("$logger_pid")
+  # The logger has subscribed once a probe datagram is in its log (at most 10 s).
+  start=$(now_s)
+  until [ -s "$work/events.lcmlog" ] && [ "$(python3 "$channels" "$work/events.lcmlog" CLM_TEST_LOGGER_PROBE)" -gt 0 ]; do
+    [ "$(echo "$(since "$start") < 10" | bc)" = 1 ] || fail "lcm-logger: no probe datagram in its log within 10 s"
+    python3 "$send" "$url" CLM_TEST_LOGGER_PROBE "$corpus/command-move-to" --skip 1 || fail "sending a logger probe"
+    sleep 0.2
   done
-  [ $ok = 1 ] || fail "axis0 still $(field state "$s") after another session's status"
-  sleep 0.3
+  python3 "$send" "$url" CLM_SERVO_STATUS "$corpus/status-fault" --skip 1 || fail "sending the forged status"
+  start=$(now_s)
+  until s=$(ctl --axis axis0 status) && [ "$(field state "$s")" = disabled ]; do
+    [ "$(echo "$(since "$start") < 10" | bc)" = 1 ] ||
+        fail "axis0 still $(field state "$s") 10 s after another session's status"
+  done
+  # The daemon's error event naming session 42, in the log once the logger
+  # has written it (at most 10 s).
+  start=$(now_s)
+  until grep -qa "axis axis0 is also driven by session 42" "$work/events.lcmlog"; do
+    [ "$(echo "$(since "$start") < 10" | bc)" = 1 ] ||
+        fail "no error event naming session 42 in the event log 10 s after the axis was disabled ($(python3 "$channels" "$work/events.lcmlog" CLM_SERVO_EVENT) CLM_SERVO_EVENT logged)"
+    sleep 0.2
+  done
   kill -INT "$logger_pid"; wait "$logger_pid" || true
-  grep -qa "axis axis0 is also driven by session 42" "$work/events.lcmlog" || fail "no error event naming session 42"
   kill -0 "$first_pid" 2>/dev/null || fail "the first daemon died"
   kill -0 "$axis1_pid" 2>/dev/null || fail "the axis1 daemon died"
   echo "presence: second axis0 refused ($(cat "$work/second.err")); axis1 beside it needs --axis; a foreign status disabled axis0"
@@ -204,28 +282,35 @@ replay)
   before=$(ctl status)
   python3 "$send" "$url" CLM_SERVO_COMMAND "$corpus/command-move-to" --skip 1 --count 3 \
       --set-int64 "34=$session" --set-int64 42=77 --set-int64 "16=$(date +%s%N)" --utime-now 8 || fail "sending the MOVE_TO"
-  sleep 0.5
-  after=$(ctl status)
-  admitted=$(( $(commands "$after" admitted) - $(commands "$before" admitted) ))
-  replayed=$(( $(commands "$after" replayed) - $(commands "$before" replayed) ))
-  [ $admitted = 1 ] || fail "the MOVE_TO sent 3 times was admitted $admitted times"
-  [ $replayed = 2 ] || fail "the MOVE_TO sent 3 times: $replayed refused as replayed"
-  for _ in $(seq 1 30); do
-    s=$(ctl status)
-    [ "$(field program_running "$s")" = false ] && break
-  done
+  # The three counted, admitted or refused as replayed (at most 10 s).
+  wait_commands "$before" 3 10 admitted replayed ||
+      fail "the MOVE_TO sent 3 times: admitted and refused as replayed $(( $(commands "$s" admitted) + $(commands "$s" replayed) - $(commands "$before" admitted) - $(commands "$before" replayed) )) times within 10 s, expected 3: $(field commands "$s")"
+  admitted=$(( $(commands "$s" admitted) - $(commands "$before" admitted) ))
+  replayed=$(( $(commands "$s" replayed) - $(commands "$before" replayed) ))
+  [ $admitted = 1 ] || fail "the MOVE_TO sent 3 times was admitted $admitted times, expected once"
+  [ $replayed = 2 ] || fail "the MOVE_TO sent 3 times: $replayed refused as replayed, expected 2"
+  wait_not_running "the MOVE_TO" 20
   [ "$(field fault "$s")" = 0 ] || fail "fault after the move: $(field fault_reason "$s")"
   # (b) A clm ctl session recorded with lcm-logger ...
   reply=$(ctl release --client-id 77) || fail "release: $reply"
-  lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_COMMAND "$work/session.lcmlog" 2> "$work/logger.log" &
-  logger_pid=$!
-  pids+=("$logger_pid")
-  sleep 0.3
+  start_command_logger "$work/session.lcmlog"
+  session_before=$(ctl status)
   reply=$(ctl enable) || fail "enable in the recorded session: $reply"
   reply=$(ctl move-to --target-m 0.02) || fail "move-to in the recorded session: $reply"
-  sleep 0.5
+  # Every command the daemon admitted in the session is in the log before the
+  # logger stops (at most 10 s): what the restarted daemon must refuse.
+  session_after=$(ctl status)
+  session_admitted=$(( $(commands "$session_after" admitted) - $(commands "$session_before" admitted) ))
+  [ "$session_admitted" -ge 3 ] ||
+      fail "the recorded session: $session_admitted commands admitted, expected take, enable and move-to: $(field commands "$session_after")"
+  start=$(now_s)
+  until [ "$(python3 "$channels" "$work/session.lcmlog" CLM_SERVO_COMMAND)" -ge "$session_admitted" ]; do
+    [ "$(echo "$(since "$start") < 10" | bc)" = 1 ] ||
+        fail "the session log holds $(python3 "$channels" "$work/session.lcmlog" CLM_SERVO_COMMAND) CLM_SERVO_COMMAND datagrams 10 s after the session, the daemon admitted $session_admitted"
+    sleep 0.2
+  done
   kill -INT "$logger_pid"; wait "$logger_pid" || true
-  [ -s "$work/session.lcmlog" ] || fail "lcm-logger recorded nothing"
+  recorded=$(python3 "$channels" "$work/session.lcmlog" CLM_SERVO_COMMAND)
   rc=0; stop_process "$pid" 30 || rc=$?
   [ $rc = 0 ] || fail "clm-servod exit $rc after SIGTERM"
   # ... replayed onto a restarted daemon, enabled by client 5, moves nothing:
@@ -233,28 +318,39 @@ replay)
   up "$work/servod.yaml" "$work/servod2.log"
   reply=$(ctl --client-id 5 enable) || fail "enable of the restarted daemon: $reply"
   reply=$(ctl --client-id 5 release) || fail "release of the restarted daemon: $reply"
-  lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_STATE "$work/states.lcmlog" 2> "$work/logger2.log" &
-  logger_pid=$!
-  pids+=("$logger_pid")
-  sleep 0.3
+  start_state_logger "$work/states.lcmlog"
+  replay_from=$log_last  # a state before the replay is in the log
+  replay_before=$(ctl status)
   lcm-logplayer --lcm-url="$url" "$work/session.lcmlog" > "$work/logplayer.log" 2>&1 || fail "lcm-logplayer failed"
-  sleep 1.0
+  # Every replayed command counted (refused as other_session, or admitted), at most 10 s.
+  wait_commands "$replay_before" "$recorded" 10 other_session admitted ||
+      fail "the replayed log of $recorded commands: $(( $(commands "$s" other_session) - $(commands "$replay_before" other_session) )) refused as other_session and $(( $(commands "$s" admitted) - $(commands "$replay_before" admitted) )) admitted within 10 s: $(field commands "$s")"
+  # 0.5 s of cycles after the last replayed command in the state log (a
+  # replayed move-to would have moved the setpoint by then), at most 10 s.
+  until_cycle=$(( $(field cycles "$s") + 500 ))
+  wait_log_reaches "$work/states.lcmlog" "$until_cycle" 10 ||
+      fail "the state log reached cycle $log_last ($log_states states) $waited_s s after the replay, needed cycle $until_cycle (0.5 s after the replayed commands were counted)"
   kill -INT "$logger_pid"; wait "$logger_pid" || true
   s=$(ctl status)
   [ "$(commands "$s" admitted)" = 3 ] || fail "the restarted daemon admitted more than client 5's three (take, enable, release): $(field commands "$s")"
   other=$(commands "$s" other_session)
-  [ "$other" -ge 3 ] || fail "the replayed log: $other refused as other_session: $(field commands "$s")"
+  [ "$other" -ge 3 ] || fail "the replayed log: $other refused as other_session, expected at least 3 (take, enable, move-to): $(field commands "$s")"
   [ "$(field program_running "$s")" = false ] || fail "a program runs after the replay"
-  "$clm" log2csv --log "$work/states.lcmlog" --output "$work/states.csv" --format feedforward > /dev/null ||
+  "$clm" log2csv --log "$work/states.lcmlog" --output "$work/states.csv" --format full > /dev/null ||
       fail "log2csv of the states"
-  python3 - "$work/states.csv" <<'CHECK' || fail "the position moved during the replay"
+  verdict=$(py_check "$work/states.csv" "$replay_from" "$until_cycle" <<'CHECK'
 import csv, sys
 rows = list(csv.DictReader(l for l in open(sys.argv[1]) if not l.startswith("#")))
-assert len(rows) > 500, f"only {len(rows)} states recorded"
+replay_from, until_cycle = int(sys.argv[2]), int(sys.argv[3])
+cycles = [int(float(row["cycle"])) for row in rows]
+assert rows and cycles[0] <= replay_from and cycles[-1] >= until_cycle, \
+    f"the state log spans cycles {cycles[0] if rows else '-'}..{cycles[-1] if rows else '-'}, not {replay_from}..{until_cycle}"
 r = [float(row["r_m"]) for row in rows]
-assert max(r) == min(r), f"the setpoint moved: {min(r)} .. {max(r)} m"
+assert max(r) == min(r), f"the setpoint moved during the replay: {min(r)} .. {max(r)} m"
+print(f"setpoint {r[0]} m in all {len(rows)} states of cycles {cycles[0]}..{cycles[-1]}")
 CHECK
-  echo "replay: one MOVE_TO datagram sent 3 times admitted once (2 replayed); a recorded clm ctl session replayed on a restarted daemon: $other refused other_session, setpoint unchanged"
+) || fail "replay: $verdict"
+  echo "replay: one MOVE_TO datagram sent 3 times admitted once (2 replayed); a recorded clm ctl session ($recorded commands) replayed on a restarted daemon: $other refused other_session; $verdict"
   ;;
 esac
 rc=0

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Process-level test of the fault reactions through `clm ctl` against
 # clm-servod (label lcm): the daemon on config/servod.yaml (the embedded
-# simulated motor, real-time clock at 1 kHz, no real-time rights) on an LCM
+# simulated motor, real-time clock at 1 kHz, SCHED_FIFO where allowed) on an LCM
 # port of its own, with a fault-injection plan (can.sim_fault_plan,
 # docs/reliability.md) whose steps SIGUSR1 fires one by one. For each fault
 # kind of the reaction table (docs/servod.md, "Fault reactions") that a bus,
@@ -52,7 +52,11 @@ phase2=("push:80:650 204 quick")
 # The simulated drive's watchdog at 0.1 s (as servod_stop_test.sh): this test
 # is about fault reactions, not about the loop's timing without real-time
 # rights. For the same reason 20 consecutive overruns make fault 205, not 5:
-# a loaded host makes single late cycles, the stall step 30 in a row.
+# a loaded host makes single late cycles, the stall step 30 in a row. The
+# loop runs SCHED_FIFO (loop.priority 80 and mlockall of the configuration)
+# where the rights exist, else with a warning and without, as
+# servod_stop_test.sh: at normal priority beside a build the loop's cycles
+# stretch to 10 ms and the moves at 0.5 m/s fault on their own.
 missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml") ||
     fail "motor: no line '$missing' after editing"
 end_min=$(config_value "$work/motor-sim.yaml" "    end_stop_min_m")
@@ -63,7 +67,7 @@ end_max=$(config_value "$work/motor-sim.yaml" "    end_stop_max_m")
 write_config() {
   local out=$1 plan=$2 limit=$3
   missing=$(config_edit "$source_dir/config/servod.yaml" "$out" \
-            "motor_file: $work/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
+            "motor_file: $work/motor-sim.yaml" "  clock: realtime" \
             "  lcm_url: \"$url\"" "  following_error_limit_m: $limit" "  interface: sim" "  overrun_limit: 20" &&
             config_require "$out" "  velocity_m_per_s: 0.5") || fail "config: no line '$missing' after editing"
   sed -i "s|^  interface: sim\$|  interface: sim\n  sim_fault_plan: \"$plan\"|" "$out"
@@ -72,13 +76,17 @@ write_config() {
 
 quick_dec=$(config_value "$source_dir/config/servod.yaml" "  quick_stop_deceleration_m_per_s2")
 
-wait_state() {  # wait_state WHAT FIELD VALUE: status FIELD = VALUE within 3 s
-  for _ in $(seq 1 60); do
+# wait_state WHAT FIELD VALUE: status FIELD = VALUE within 10 s (the moves
+# take less than a second; the rest is room for a loaded host's `clm ctl`).
+wait_state() {
+  local start
+  start=$(date +%s)
+  while :; do
     status=$(ctl status) || fail "$1: no status"
     [ "$(field "$2" "$status")" = "$3" ] && return 0
+    [ $(( $(date +%s) - start )) -lt 10 ] || fail "$1: $2 is '$(field "$2" "$status")' after 10 s, expected '$3'"
     sleep 0.05
   done
-  fail "$1: $2 is '$(field "$2" "$status")' after 3 s, expected '$3'"
 }
 
 to_start() {
@@ -95,9 +103,9 @@ run_phase() {
   write_config "$work/servod-$name.yaml" "$plan" "$limit"
   start_daemon "$work/servod-$name.yaml" "$work/servod-$name.log"
   local pid=$servod_pid rc=0
-  wait_for_status "$pid" 5 || rc=$?
+  wait_for_status "$pid" 20 || rc=$?
   [ $rc != 2 ] || fail "clm-servod exited at start-up"
-  [ $rc = 0 ] || fail "clm ctl status saw no CLM_SERVO_STATUS within 5 s"
+  [ $rc = 0 ] || fail "clm ctl status saw no CLM_SERVO_STATUS within 20 s"
   grep -q "fault injection: ${#cases[@]} steps, one per SIGUSR1" "$work/servod-$name.log" ||
       fail "the daemon does not say the plan is armed"
   ctl enable > /dev/null || fail "enable refused"
@@ -106,20 +114,24 @@ run_phase() {
   for item in "${cases[@]}"; do
     read -r step code reaction <<< "$item"
     local log="$work/$name-$k.lcmlog"
-    lcm-logger -q --lcm-url="$url" --channel=CLM_SERVO_STATE "$log" 2> "$work/logger.log" &
-    local logger=$!
-    pids+=("$logger")
-    sleep 0.3
+    record_states "$log" "$work/logger.log"
+    local logger=$logger_pid
+    # The logger records before the move starts (at most 10 s).
+    wait_log_started "$log" 10 || fail "$step: lcm-logger: no state in its log within $waited_s s of its start"
+    local losses
+    if [ "$reaction" = warn ]; then
+      losses=$(ctl status | sed -n 's/^force_sensor: .*losses \([0-9]*\)$/\1/p')
+      [ -n "$losses" ] || fail "$step: no force_sensor line in the status"
+    fi
     ctl move-to --target-m 0.1 --velocity-m-per-s 0.5 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 > /dev/null ||
         fail "$step: move-to refused"
     sleep 0.12  # cruising at 0.5 m/s (the move takes 0.45 s)
     if [ "$reaction" = warn ]; then
-      local losses
-      losses=$(ctl status | sed -n 's/^force_sensor: .*losses \([0-9]*\)$/\1/p')
-      [ -n "$losses" ] || fail "$step: no force_sensor line in the status"
       kill -USR1 "$pid"
       wait_state "$step: the move's end" program_running false
-      sleep 0.3
+      # The log up to the status that saw the move ended (at most 10 s).
+      wait_log_reaches "$log" "$(field cycles "$status")" 10 ||
+          fail "$step: the state log reached cycle $log_last in $waited_s s, needed cycle $(field cycles "$status") (the move's end)"
       kill -INT $logger; wait $logger || true
       status=$(ctl status) || fail "$step: no status"
       [ "$(field fault "$status")" = 0 ] || fail "$step: fault $(field fault "$status") in service, expected a warning"
@@ -128,7 +140,7 @@ run_phase() {
       "$clm" log2csv --log "$log" --format full --output "$log.csv" > /dev/null || fail "$step: log2csv"
       local dropped=0
       [[ $step == drop-force:* ]] && dropped=${step#drop-force:}
-      verdict=$(python3 - "$log.csv" "$dropped" <<'CHECK'
+      verdict=$(py_check "$log.csv" "$dropped" <<'CHECK'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 dropped = int(sys.argv[2])
@@ -136,7 +148,11 @@ f = lambda r, k: float(r[k])
 assert all(int(f(r, "state")) == 1 for r in rows), "the axis left the enabled state"
 assert max(f(r, "r_dot_m_per_s") for r in rows) > 0.4, "never at speed"
 unmeasured = sum(1 for r in rows if f(r, "force_measured") == 0.0)
-assert unmeasured == dropped, f"{unmeasured} cycles without a force measurement, {dropped} frames were dropped"
+# A state lcm-logger lost beside a build (docs/telemetry.md) may be one of the dropped frames' cycles.
+cycles = [int(f(r, "cycle")) for r in rows]
+missing = sum(b - a - 1 for a, b in zip(cycles, cycles[1:]))
+assert unmeasured <= dropped <= unmeasured + missing, \
+    f"{unmeasured} recorded cycles without a force measurement ({missing} states missing from the log), {dropped} frames were dropped"
 assert abs(f(rows[-1], "y_m") - 0.1) < 1e-4, f"the move ended at {rows[-1]['y_m']} m, not at 0.1 m"
 print(f"no fault, {unmeasured} unmeasured cycle(s), the move ended at {f(rows[-1], 'y_m'):.5f} m")
 CHECK
@@ -151,44 +167,67 @@ CHECK
     local reason
     reason=$(field fault_reason "$status")
     # 0.3 s of the reaction (300 cycles at 1 kHz) in the log before the
-    # logger stops, however long a loaded host keeps it waiting.
-    wait_log_reaches "$log" $(( $(field fault_cycle "$status") + 300 )) || true
+    # logger stops, however long a loaded host keeps it waiting (at most 10 s).
+    local needed=$(( $(field fault_cycle "$status") + 300 ))
+    wait_log_reaches "$log" "$needed" 10 ||
+        fail "$step: the state log reached cycle $log_last in $waited_s s, needed cycle $needed (0.3 s after the fault's cycle)"
     kill -INT $logger; wait $logger || true
     "$clm" log2csv --log "$log" --format full --output "$log.csv" > /dev/null || fail "$step: log2csv"
     local verdict
-    verdict=$(python3 - "$log.csv" "$reaction" "$quick_dec" "$end_min" "$end_max" <<'CHECK'
+    verdict=$(py_check "$log.csv" "$reaction" "$quick_dec" "$end_min" "$end_max" "$needed" <<'CHECK'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 reaction, dec, end_min, end_max = sys.argv[2], *map(float, sys.argv[3:6])
+needed = int(sys.argv[6])
 f = lambda r, k: float(r[k])
+# The judged window: from the log's start to 0.3 s after the fault.
+rows = [r for r in rows if int(f(r, "cycle")) <= needed]
 cycles = [int(f(r, "cycle")) for r in rows]
-assert all(b - a == 1 for a, b in zip(cycles, cycles[1:])), "a gap in the log's cycles"
+assert all(b > a for a, b in zip(cycles, cycles[1:])), "the log's cycles do not increase"
+by = {c: r for c, r in zip(cycles, rows)}
+# lcm-logger may lose a state beside a build (docs/telemetry.md): every state
+# recorded is judged, the cycles the timing claims read must be there, and
+# at most 1 % of the window may be missing.
+gaps = [(a + 1, b - 1) for a, b in zip(cycles, cycles[1:]) if b - a > 1]
+missing = sum(b - a + 1 for a, b in gaps)
+assert missing <= 0.01 * (cycles[-1] - cycles[0] + 1), \
+    f"{missing} states missing from the state log in cycles {cycles[0]}..{cycles[-1]}, more than 1 %: {gaps[:5]}"
 first = next((k for k, r in enumerate(rows) if int(f(r, "state")) == 2), None)
 assert first is not None, "no cycle in fault in the log"
-assert f(rows[first - 1], "r_dot_m_per_s") > 0.4, f"not at speed before the fault: {rows[first - 1]['r_dot_m_per_s']} m/s"
+fc = cycles[first]
+assert fc - 1 in by, f"cycle {fc - 1}, the one before the first in fault ({fc}), is missing from the state log"
+v0 = f(by[fc - 1], "r_dot_m_per_s")
+assert v0 > 0.4, f"not at speed before the fault: {v0} m/s"
 names = [k for k in rows[0] if k.startswith("magnitude_N")]
 zero = lambda r: all(r[k] in ("", "nan") or f(r, k) == 0.0 for k in names)
 for r in rows:
     assert end_min < f(r, "y_m") < end_max, f"cycle {r['cycle']}: y {r['y_m']} m at an end stop"
-after = rows[first:]
+after = [r for r in rows if int(f(r, "cycle")) >= fc]
 assert all(int(f(r, "state")) == 2 for r in after), "the fault did not stay latched"
+absent = lambda a, b: [c for c in range(a, b + 1) if c not in by]
 if reaction == "zero":
     # Found in the cycle (zero at once), or between cycles (the next one).
-    lag = next(k for k, r in enumerate(after) if zero(r))
+    assert not absent(fc, fc + 1), f"cycles {absent(fc, fc + 1)} (the fault's and the next) missing from the state log"
+    lag = next((int(f(r, "cycle")) - fc for r in after if zero(r)), None)
+    assert lag is not None, f"setpoints not zero in the {len(after)} states after the fault"
     assert lag <= 1, f"setpoints zero only {lag} cycles after the fault"
-    assert all(zero(r) for r in after[lag:]), "setpoints not zero after the fault"
-    print(f"zero setpoints {lag} cycle(s) after the fault at {f(rows[first - 1], 'r_dot_m_per_s'):.2f} m/s")
+    assert all(zero(r) for r in after if int(f(r, "cycle")) >= fc + lag), "setpoints not zero after the fault"
+    print(f"zero setpoints {lag} cycle(s) after the fault at {v0:.2f} m/s ({missing} states missing from the log)")
 else:
-    rest = next((k for k, r in enumerate(after) if f(r, "r_dot_m_per_s") == 0.0), None)
+    rest = next((int(f(r, "cycle")) for r in after if f(r, "r_dot_m_per_s") == 0.0), None)
     assert rest is not None, "the reference never came to rest"
-    assert rest >= 2, f"at rest {rest} cycles after the fault: no quick stop"
-    assert all(not zero(r) for r in after[:rest]), "setpoints zero while the quick stop ran"
-    for r in after[:rest + 1]:
+    assert not absent(fc, rest), f"cycles {absent(fc, rest)} of the quick stop missing from the state log"
+    assert rest - fc >= 2, f"at rest {rest - fc} cycles after the fault: no quick stop"
+    stopping = [r for r in after if int(f(r, "cycle")) < rest]
+    assert all(not zero(r) for r in stopping), "setpoints zero while the quick stop ran"
+    for r in stopping + [by[rest]]:
         assert abs(f(r, "r_ddot_m_per_s2")) <= dec + 1e-6, f"cycle {r['cycle']}: {r['r_ddot_m_per_s2']} m/s^2"
-    tail = next(k for k, r in enumerate(after) if zero(r))
-    assert all(zero(r) for r in after[tail:]), "setpoints not zero after the quick stop"
-    print(f"quick stop from {f(rows[first - 1], 'r_dot_m_per_s'):.2f} m/s, at rest {rest} cycles and zero setpoints "
-          f"{tail} cycles after the fault, y in [{min(f(r, 'y_m') for r in after):.4f}, {max(f(r, 'y_m') for r in after):.4f}] m")
+    tail = next((int(f(r, "cycle")) for r in after if zero(r)), None)
+    assert tail is not None, f"setpoints not zero in the {len(after)} states after the fault"
+    assert all(zero(r) for r in after if int(f(r, "cycle")) >= tail), "setpoints not zero after the quick stop"
+    print(f"quick stop from {v0:.2f} m/s, at rest {rest - fc} cycles and zero setpoints "
+          f"{tail - fc} cycles after the fault, y in [{min(f(r, 'y_m') for r in after):.4f}, {max(f(r, 'y_m') for r in after):.4f}] m"
+          f" ({missing} states missing from the log)")
 CHECK
 ) || fail "$step: $verdict"
     echo "$step: fault $code ($reason), $verdict"

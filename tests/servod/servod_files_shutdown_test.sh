@@ -62,8 +62,9 @@ start() {
   start_daemon "$work/servod.yaml" "$work/servod.log"
   pid=$servod_pid
   local rc=0
-  wait_for_status "$pid" 5 || rc=$?
-  [ $rc = 0 ] || fail "no status from clm-servod (wait_for_status: $rc)"
+  wait_for_status "$pid" 20 || rc=$?
+  [ $rc != 2 ] || fail "clm-servod exited at start-up"
+  [ $rc = 0 ] || fail "no status from clm-servod within 20 s"
 }
 
 # Runs `ctl ARGS...` expecting a refusal: sets `reply` to the ack's text (ctl_refused).
@@ -76,6 +77,28 @@ same_or_cut() { [ "$1" = "$2" ] || { [ ${#1} = 127 ] && [ "${2:0:127}" = "$1" ];
 enable_axis() {
   ctl clear-fault > /dev/null || true
   reply=$(ctl enable) || fail "enable: $reply"
+}
+
+# The count of commands admitted in STATUS.
+admitted() { field commands "$1" | sed -n 's/.*admitted \([0-9]*\).*/\1/p'; }
+
+# wait_loading STATUS_BEFORE: waits until the daemon has admitted the
+# background `clm ctl load-model` of big.yaml (one command more than in
+# STATUS_BEFORE), which starts the load on the loader thread as it is
+# admitted; at most 10 s (that clm ctl may start late on a loaded host). No
+# probe of the loader's own: a second load sent before the first would take
+# the loader and have the first refused.
+wait_loading() {
+  local start status
+  start=$(date +%s)
+  while :; do
+    status=$(ctl status) || fail "no status while waiting for the slow load"
+    [ "$(admitted "$status")" -gt "$(admitted "$1")" ] && return 0
+    kill -0 "$loader_ctl" 2>/dev/null || fail "the slow load's clm ctl ended before the daemon admitted it: $(cat "$work/big.reply")"
+    [ $(( $(date +%s) - start )) -lt 10 ] ||
+        fail "the load-model of big.yaml not admitted 10 s after it was sent: $(field commands "$status")"
+    sleep 0.1
+  done
 }
 
 # Milliseconds a `ctl ARGS...` takes (exit 0 required).
@@ -133,9 +156,10 @@ median_disable_ms() {
 }
 baseline_ms=$(median_disable_ms)
 enable_axis
+before_load=$(ctl status) || fail "no status before the slow load"
 ctl --timeout-s 90 load-model "$work/big.yaml" > /dev/null 2> "$work/big.reply" &
 loader_ctl=$!
-sleep 0.2
+wait_loading "$before_load"
 refused load-model "$work/secret.yaml"
 [ "$reply" = "rejected: busy loading $work/big.yaml" ] || fail "a second load during the first: '$reply'"
 during_ms=$(median_disable_ms)
@@ -148,9 +172,10 @@ wait "$loader_ctl" || true
 
 # 6. SIGTERM during a slow load, the axis enabled.
 enable_axis
+before_load=$(ctl status) || fail "no status before the slow load"
 ctl --timeout-s 90 load-model "$work/big.yaml" > "$work/big.reply" 2>/dev/null &
 loader_ctl=$!
-sleep 0.2
+wait_loading "$before_load"
 sent=$(now_ms)
 rc=0
 stop_process "$pid" 50 TERM || rc=$?

@@ -37,8 +37,9 @@ start() {  # start LOG
   start_daemon "$work/servod.yaml" "$1"
   pid=$servod_pid
   local rc=0
-  wait_for_status "$pid" 5 || rc=$?
-  [ $rc = 0 ] || fail "no status from clm-servod (wait_for_status: $rc)"
+  wait_for_status "$pid" 20 || rc=$?
+  [ $rc != 2 ] || fail "clm-servod exited at start-up"
+  [ $rc = 0 ] || fail "no status from clm-servod within 20 s"
 }
 start "$work/servod.log"
 

@@ -60,13 +60,14 @@ expect_refusal "$work/servod-require-realtime.yaml" \
     "clm-servod: error: pinning the loop thread to CPU 1023 failed: Invalid argument (loop.require_realtime is true)"
 
 # Plays systemd: collects the notifications (READY, WATCHDOG, STATUS,
-# STOPPING) on a unix datagram socket until STOPPING=1 or 5 s of silence.
+# STOPPING) on a unix datagram socket until STOPPING=1 or 20 s of silence (a
+# loaded host may start the daemon slowly; STOPPING=1 ends it at once).
 notify_dir=$(mktemp -d)
 python3 - "$notify_dir/notify.sock" > "$work/notify.log" <<'LISTENER' &
 import socket, sys
 s = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
 s.bind(sys.argv[1])
-s.settimeout(5.0)
+s.settimeout(20.0)
 try:
     while True:
         message = s.recv(4096).decode()
@@ -84,11 +85,11 @@ NOTIFY_SOCKET="$notify_dir/notify.sock" WATCHDOG_USEC=200000 start_daemon "$work
 pid=$servod_pid
 trap 'kill -KILL $pid $listener 2>/dev/null || true; rm -rf "$notify_dir"' EXIT
 
-# 1. The daemon is up: a status arrives (the first within 5 s).
+# 1. The daemon is up: a status arrives (the first within 20 s).
 rc=0
-wait_for_status $pid 5 || rc=$?
+wait_for_status $pid 20 || rc=$?
 [ $rc != 2 ] || fail "clm-servod exited at start-up"
-[ $rc = 0 ] || fail "clm ctl status saw no CLM_SERVO_STATUS within 5 s"
+[ $rc = 0 ] || fail "clm ctl status saw no CLM_SERVO_STATUS within 20 s"
 [ "$(field state "$status")" = disabled ] || fail "state after start: $(field state "$status")"
 [ "$(field fault "$status")" = 0 ] || fail "fault after start: $(field fault "$status")"
 
@@ -98,9 +99,9 @@ reply=$(ctl enable) || fail "enable refused: $reply"
 reply=$(ctl run-program "$work/short-program.yaml") || fail "run-program refused: $reply"
 [ "$reply" = "program posted" ] || fail "run-program: '$reply'"
 
-# 3. It runs and ends, without a fault.
-saw_running=0 ended=0
-for _ in $(seq 1 50); do
+# 3. It runs and ends (about 1 s; at most 20 s), without a fault.
+saw_running=0 ended=0 program_start=$(date +%s)
+while [ $(( $(date +%s) - program_start )) -lt 20 ]; do
   status=$(ctl status) || fail "no status while the program runs"
   [ "$(field fault "$status")" = 0 ] || fail "fault during the program: $(field fault_reason "$status")"
   [ "$(field state "$status")" = enabled ] || fail "state during the program: $(field state "$status")"
@@ -112,8 +113,8 @@ for _ in $(seq 1 50); do
   fi
   sleep 0.05
 done
-[ $saw_running = 1 ] || fail "never saw program_running: true"
-[ $ended = 1 ] || fail "the program did not end within the wait"
+[ $saw_running = 1 ] || fail "no status showed program_running: true within 20 s of run-program"
+[ $ended = 1 ] || fail "the program did not end within 20 s of run-program"
 
 # 4. A refusal comes back as exit status 1 with the reason, one line on stderr.
 ctl_refused move-to --target-m 1.0

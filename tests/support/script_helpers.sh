@@ -58,33 +58,92 @@ field() { sed -n "s/^$1: //p" <<< "$2"; }
 # The count after NAME (missing, late, rejected, ...) in the frames line of STATUS.
 counter() { field frames "$1" | sed -n "s/.*$2 \([0-9]*\).*/\1/p"; }
 
-# wait_log_reaches LOG CYCLE: waits (up to 10 s) until the CLM_SERVO_STATE
-# log that lcm-logger is writing to LOG holds cycle CYCLE or later, so that a
-# logger the host keeps waiting is not stopped before it has what the check
-# reads. Returns 1 if it never does (the check then says what is missing).
-wait_log_reaches() {
-  local log=$1 cycle=$2 last
-  for _ in $(seq 1 50); do
-    sleep 0.2
-    "$clm" log2csv --log "$log" --format full --output "$log.probe.csv" > /dev/null 2>&1 || continue
-    last=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) if ($i == "cycle") c = i; next } { v = $c } END { print int(v) }' \
-           "$log.probe.csv")
-    [ "${last:-0}" -ge "$cycle" ] && return 0
-  done
-  return 1
+# log_extent LOG: reads the CLM_SERVO_STATE log that lcm-logger is writing to
+# LOG (clm log2csv into LOG.probe.csv) and sets log_states (the states in it),
+# log_first and log_last (their first and last cycle; -1 while it has none).
+# lcm-logger writes through a buffer, so the file usually ends inside an
+# event, which clm log2csv refuses naming the event's byte: then the events
+# before that byte are read (a copy, LOG.probe).
+log_extent() {
+  local cut
+  log_states=0 log_first=-1 log_last=-1
+  if ! "$clm" log2csv --log "$1" --format full --output "$1.probe.csv" > /dev/null 2> "$1.probe.err"; then
+    cut=$(sed -n 's/.*truncated: .* at byte \([0-9]*\).*/\1/p' "$1.probe.err" | head -n 1)
+    [ -n "$cut" ] && [ "$cut" -gt 0 ] || return 0
+    head -c "$cut" "$1" > "$1.probe"
+    "$clm" log2csv --log "$1.probe" --format full --output "$1.probe.csv" > /dev/null 2>&1 || return 0
+  fi
+  read -r log_states log_first log_last < <(awk -F, '
+      NR == 1 { for (i = 1; i <= NF; ++i) if ($i == "cycle") c = i; next }
+      { ++n; if (n == 1) first = int($c); last = int($c) }
+      END { if (n) print n, first, last; else print 0, -1, -1 }' "$1.probe.csv")
 }
 
-# Waits for the first status of the daemon PID, one `clm ctl status
-# --timeout-s 1` at a time, at most TRIES: sets `status`; 0 when one came,
-# 1 when none did, 2 when PID exited meanwhile.
+# record_states LOG ERR_FILE: lcm-logger on CLM_SERVO_STATE of $url into LOG
+# (stderr to ERR_FILE) in the set-up docs/telemetry.md ("Logs") recommends:
+# SCHED_FIFO 10 where chrt and the rights exist (fifo), a 4 MiB receive
+# buffer. At normal priority a loaded host holds the logger back long enough
+# for LCM's queue of 30 messages to overflow, and the log misses states.
+# Sets logger_pid.
+record_states() {
+  $(fifo 10) lcm-logger -q --lcm-url="$url&recv_buf_size=4194304" --channel=CLM_SERVO_STATE "$1" 2> "$2" &
+  logger_pid=$!
+  pids+=("$logger_pid")
+}
+
+# wait_log_reaches LOG CYCLE [SECONDS]: waits (up to SECONDS, default 10)
+# until the CLM_SERVO_STATE log that lcm-logger is writing to LOG holds cycle
+# CYCLE or later, so that a logger the host keeps waiting is not stopped
+# before it has what the check reads. Returns 1 if it never does; log_extent's
+# variables then say how far it got (the caller's message names the check,
+# its bound and log_last), and waited_s the seconds waited.
+wait_log_reaches() {
+  local log=$1 cycle=$2 seconds=${3:-10} start
+  start=$(date +%s)
+  while :; do
+    log_extent "$log"
+    waited_s=$(( $(date +%s) - start ))
+    [ "$log_states" -gt 0 ] && [ "$log_last" -ge "$cycle" ] && return 0
+    [ "$waited_s" -ge "$seconds" ] && return 1
+    sleep 0.2
+  done
+}
+
+# wait_log_started LOG [SECONDS]: waits (up to SECONDS, default 10) until the
+# CLM_SERVO_STATE log that lcm-logger is writing to LOG holds a state: the
+# logger has subscribed, so what the test does next is recorded (a fixed
+# pause is not: on a loaded host lcm-logger may start later). Returns 1 if it
+# never does (waited_s: the seconds waited).
+wait_log_started() { wait_log_reaches "$1" 0 "${2:-10}"; }
+
+# py_check ARGS... < SCRIPT: runs the Python check SCRIPT with ARGS (sys.argv[1:]).
+# What it prints goes to stdout; when one of its asserts fails, the assert's
+# message alone (instead of a traceback on stderr) and exit status 1, so that
+# `verdict=$(py_check ...) || fail "...: $verdict"` names the check that failed.
+py_check() {
+  python3 -c 'import sys
+source = sys.stdin.read()
+sys.argv = ["check"] + sys.argv[1:]
+try:
+    exec(compile(source, "check", "exec"), {"__name__": "__main__"})
+except AssertionError as e:
+    print(e if str(e) else "an assert without a message failed")
+    sys.exit(1)' "$@"
+}
+
+# Waits up to SECONDS for the first status of the daemon PID, one `clm ctl
+# status --timeout-s 1` at a time (at least one, however long a loaded host
+# makes each take): sets `status`; 0 when one came, 1 when none did within
+# SECONDS, 2 when PID exited meanwhile.
 wait_for_status() {
-  local pid=$1 tries=$2
+  local pid=$1 seconds=$2 start
+  start=$(date +%s)
   status=""
-  for _ in $(seq 1 "$tries"); do
+  while :; do
     status=$(ctl status --timeout-s 1 2>/dev/null) && return 0
     kill -0 "$pid" 2>/dev/null || return 2
+    [ $(( $(date +%s) - start )) -lt "$seconds" ] || return 1
   done
-  return 1
 }
 
 # ---- processes -------------------------------------------------------------------

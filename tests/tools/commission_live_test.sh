@@ -43,8 +43,9 @@ check_saved() {
   pid=$servod_pid
   trap 'kill -KILL $pid 2>/dev/null || true' EXIT
   rc=0
-  wait_for_status $pid 5 || rc=$?
-  [ $rc = 0 ] || fail "no status from a daemon on the saved configuration (wait_for_status: $rc)"
+  wait_for_status $pid 20 || rc=$?
+  [ $rc != 2 ] || fail "the daemon on the saved configuration exited at start-up"
+  [ $rc = 0 ] || fail "no status from a daemon on the saved configuration within 20 s"
   saved_status=$(ctl status) || fail "no status on the saved configuration"
   [ "$(field commutation "$saved_status")" = "$mode" ] ||
       fail "saved configuration: commutation $(field commutation "$saved_status")"
@@ -124,9 +125,9 @@ start_daemon "$work/servod.yaml" "$work/servod.log"
 pid=$servod_pid
 trap 'kill -KILL $pid 2>/dev/null || true' EXIT
 rc=0
-wait_for_status $pid 5 || rc=$?
+wait_for_status $pid 20 || rc=$?
 [ $rc != 2 ] || fail "clm-servod exited at start-up"
-[ $rc = 0 ] || fail "no CLM_SERVO_STATUS within 5 s"
+[ $rc = 0 ] || fail "no CLM_SERVO_STATUS within 20 s"
 
 out="$work/out"
 start=$(date +%s.%N)
@@ -172,24 +173,29 @@ if grep -q "error" "$work/servod.log"; then fail "an error line in clm-servod's 
 
 if [ "$mode" = no-sensor ]; then
   # The report: the laws from positions alone, no force anywhere, no state missing.
-  python3 - "$out/report.json" <<'CHECK' || fail "report.json: see above"
+  verdict=$(py_check "$out/report.json" <<'CHECK'
 import json, sys
 report = json.load(open(sys.argv[1]))
 c = report["commutations"]
-assert sorted(c) == ["classical-position", "oracle", "original", "spline-position"], sorted(c)
+assert sorted(c) == ["classical-position", "oracle", "original", "spline-position"], f"the laws in the report: {sorted(c)}"
 for name in ("original", "classical-position", "spline-position"):
     assert c[name]["evaluated"], f"{name} not evaluated"
-    assert c[name]["commutation_mse"]["filtered"] == [None, None, None], c[name]["commutation_mse"]
-assert report["recommended"]["law"] == "spline-position", report["recommended"]
+    assert c[name]["commutation_mse"]["filtered"] == [None, None, None], \
+        f"{name}: a commutation MSE without a force sensor: {c[name]['commutation_mse']}"
+assert report["recommended"]["law"] == "spline-position", f"recommended {report['recommended']}, expected spline-position"
 position = report["from_position"]
-assert position["mass_source"] == "control.mass_kg of the configuration" and position["mass_kg"] == 15, position
+assert position["mass_source"] == "control.mass_kg of the configuration" and position["mass_kg"] == 15, \
+    f"the mass from positions: {position}, expected 15 kg from control.mass_kg"
 tracking = c["original"]["tracking_mse_m2"] / c["spline-position"]["tracking_mse_m2"]
-print(f"live, no force sensor: original/spline-position tracking MSE {tracking:.1f}x; {position['summary']}")
-assert tracking >= 2.0, f"spline-position tracks only {tracking:.2f}x better than the drive's own law"
+assert tracking >= 2.0, f"spline-position tracks only {tracking:.2f}x better than the drive's own law, expected 2x"
 live = report["live"]
-assert live["runs"] == 6 + 2 * 3, live  # experiments, then original, classical-position, spline-position
-assert live["states_missing"] == 0, live
+# experiments, then original, classical-position, spline-position
+assert live["runs"] == 6 + 2 * 3, f"{live['runs']} live runs, expected 12: {live}"
+assert live["states_missing"] == 0, f"{live['states_missing']} states missing from the live runs' logs: {live}"
+print(f"live, no force sensor: original/spline-position tracking MSE {tracking:.1f}x; {position['summary']}")
 CHECK
+) || fail "report.json: $verdict"
+  echo "$verdict"
   for file in experiments.csv model-pgnn.yaml calibration.yaml model-spline.yaml; do
     [ ! -e "$out/$file" ] || fail "$file written without a force sensor"
   done
@@ -208,30 +214,34 @@ fi
 
 # The report: PGNN against the calibrated classical law, no state missing.
 [ -f "$out/report.json" ] || fail "no report.json"
-python3 - "$out/report.json" <<'CHECK' || fail "report.json: see above"
+verdict=$(py_check "$out/report.json" <<'CHECK'
 import json, sys
 report = json.load(open(sys.argv[1]))
 c = report["commutations"]
 for name in ("original", "classical", "pgnn", "spline", "spline-position"):
     assert c[name]["evaluated"], f"{name} not evaluated"
-assert not c["oracle"]["evaluated"] and "simulation" in c["oracle"]["reason"], c["oracle"]
+assert not c["oracle"]["evaluated"] and "simulation" in c["oracle"]["reason"], \
+    f"the oracle: {c['oracle']}, expected not evaluated (simulation only)"
 classical, pgnn = c["classical"]["commutation_mse"]["filtered"][0], c["pgnn"]["commutation_mse"]["filtered"][0]
 ratio = classical / pgnn
 tracking = c["classical"]["tracking_mse_m2"] / c["pgnn"]["tracking_mse_m2"]
-print(f"live: classical/pgnn driving-direction commutation MSE {ratio:.1f}x "
-      f"(classical {classical:.3g} N^2, pgnn {pgnn:.3g} N^2), tracking MSE {tracking:.1f}x")
-assert ratio >= 5.0, f"classical/pgnn y-MSE only {ratio:.2f}x"
+assert ratio >= 5.0, f"classical/pgnn y-MSE only {ratio:.2f}x, expected 5x"
 live = report["live"]
 # 6 experiments, then (feedforward data, evaluation) for original, classical,
 # pgnn, spline and spline-position, and for the paper's PGNN when it is not
 # the one chosen.
 chosen = [t for t in report["selection"]["pgnn"]["trials"] if t["chosen"]][0]["capacity"]
 evaluated = 5 if chosen == "pgnn 2/16 Lambda 0.1" else 6
-assert live["runs"] == 6 + 2 * evaluated, (chosen, live)
-assert live["states_missing"] == 0, live
-assert live["states_recorded"] > 16 * 4000, live
-assert report["total_wall_time_s"] > 16 * 4.5, "faster than the runs' real time: not live?"
+assert live["runs"] == 6 + 2 * evaluated, f"{live['runs']} live runs, expected {6 + 2 * evaluated} ({chosen} chosen): {live}"
+assert live["states_missing"] == 0, f"{live['states_missing']} states missing from the live runs' logs: {live}"
+assert live["states_recorded"] > 16 * 4000, f"{live['states_recorded']} states recorded, expected more than 16 x 4000: {live}"
+assert report["total_wall_time_s"] > 16 * 4.5, \
+    f"total wall time {report['total_wall_time_s']} s, less than the runs' real time 16 x 4.5 s: not live?"
+print(f"live: classical/pgnn driving-direction commutation MSE {ratio:.1f}x "
+      f"(classical {classical:.3g} N^2, pgnn {pgnn:.3g} N^2), tracking MSE {tracking:.1f}x")
 CHECK
+) || fail "report.json: $verdict"
+echo "$verdict"
 
 # The logs, read back independently: every cycle of each run, none missing.
 for name in experiments feedforward-data-original evaluation-original feedforward-data-classical evaluation-classical \
@@ -244,7 +254,7 @@ done
     --fail-on-gaps || fail "log2csv of logs/evaluation-pgnn.lcm"
 "$clm" log2csv --log "$out/logs/experiments.lcm" --format experiment --output "$work/experiments-from-log.csv" \
     --fail-on-gaps || fail "log2csv of logs/experiments.lcm"
-python3 - "$work/evaluation-pgnn-full.csv" "$work/experiments-from-log.csv" "$out/experiments.csv" <<'CHECK' ||
+verdict=$(py_check "$work/evaluation-pgnn-full.csv" "$work/experiments-from-log.csv" "$out/experiments.csv" <<'CHECK'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 cycles = [int(float(r["cycle"])) for r in rows]
@@ -252,14 +262,15 @@ assert all(b - a == 1 for a, b in zip(cycles, cycles[1:])), "a gap in the evalua
 assert all(float(r["program_running"]) == 1.0 for r in rows), "a state outside the program in the log"
 # program time runs from the start of the program in steps of the period
 t = [float(r["program_time_s"]) for r in rows]
-assert t[0] <= 1e-3 + 1e-9, t[0]
+assert t[0] <= 1e-3 + 1e-9, f"the program time of the first state is {t[0]} s, expected at most one period"
 assert all(abs((b - a) - 1e-3) < 1e-9 for a, b in zip(t, t[1:])), "program time not on the 1 ms grid"
 from_log = sum(1 for _ in open(sys.argv[2])) - 1
 from_tool = sum(1 for _ in open(sys.argv[3])) - 1
 assert from_log == from_tool, f"experiments.lcm has {from_log} experiment rows, experiments.csv {from_tool}"
 print(f"logs: evaluation-pgnn {len(rows)} consecutive cycles; experiments {from_log} rows in log and csv")
 CHECK
-    fail "logs: see above"
+) || fail "logs: $verdict"
+echo "$verdict"
 
 # --save: the configuration names the commissioned files, the old one is the
 # backup, and a daemon started on it commutates with them.
