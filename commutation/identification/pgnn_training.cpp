@@ -106,17 +106,22 @@ class PhysicsPrior final : public ceres::CostFunction {
   double weight_;
 };
 
-// Levenberg–Marquardt with the tolerances both PGNN solvers use; the caller
-// chooses the linear solver.
+// The tolerances both PGNN solvers stop at (Ceres' names and meanings).
+constexpr double kFunctionTolerance = 1e-10;   // relative decrease of the cost
+constexpr double kGradientTolerance = 1e-12;   // largest entry of the gradient
+constexpr double kParameterTolerance = 1e-10;  // step relative to the parameters
+
+// Levenberg–Marquardt in Ceres with those tolerances (the joint Schur
+// solve); the caller chooses the linear solver.
 ceres::Solver::Options levenberg_marquardt_options(int max_iterations, int threads) {
   ceres::Solver::Options options;
   options.minimizer_type = ceres::TRUST_REGION;
   options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   options.max_num_iterations = max_iterations;
   options.num_threads = threads;
-  options.function_tolerance = 1e-10;
-  options.gradient_tolerance = 1e-12;
-  options.parameter_tolerance = 1e-10;
+  options.function_tolerance = kFunctionTolerance;
+  options.gradient_tolerance = kGradientTolerance;
+  options.parameter_tolerance = kParameterTolerance;
   options.logging_type = ceres::SILENT;
   options.minimizer_progress_to_stdout = false;
   return options;
@@ -312,8 +317,7 @@ class ProjectedCost final : public ceres::CostFunction {
 
 // Levenberg–Marquardt on θ_NL of the variable-projection problem, with the
 // rules of Ceres' LEVENBERG_MARQUARDT trust region (Marquardt's diagonal,
-// the radius update of Nielsen, and the tolerances of
-// levenberg_marquardt_options), written here so that JᵀJ and Jᵀr are sums
+// the radius update of Nielsen, and the tolerances above), written here so that JᵀJ and Jᵀr are sums
 // in sample blocks (transposed_product): Ceres forms them with products
 // whose order follows the CPU. Returns the final cost (eq. 26) and adds the
 // iterations (the first evaluation counts as one, as in Ceres' summary).
@@ -338,7 +342,7 @@ double minimise_projected(const ProjectedCost& cost_function, int max_iterations
   double decrease_factor = 2.0;
   std::vector<double> trial(x.size());
   for (int iteration = 0; iteration < max_iterations; ++iteration) {
-    if (gradient.lpNorm<Eigen::Infinity>() <= 1e-12) break;  // gradient_tolerance
+    if (gradient.lpNorm<Eigen::Infinity>() <= kGradientTolerance) break;
     // (JᵀJ + D/radius)·δ = −Jᵀr with D = diag(JᵀJ) clamped to [1e-6, 1e32].
     Eigen::MatrixXd damped = normal;
     for (int k = 0; k < q; ++k) damped(k, k) += std::clamp(normal(k, k), 1e-6, 1e32) / radius;
@@ -355,7 +359,7 @@ double minimise_projected(const ProjectedCost& cost_function, int max_iterations
     if (valid) {
       Eigen::Map<const Eigen::VectorXd> current(x.data(), q);
       const double step_norm = step.norm();
-      if (step_norm <= 1e-10 * (current.norm() + 1e-10)) break;  // parameter_tolerance
+      if (step_norm <= kParameterTolerance * (current.norm() + kParameterTolerance)) break;
       for (int k = 0; k < q; ++k) trial[static_cast<std::size_t>(k)] = x[static_cast<std::size_t>(k)] + step[k];
       trial_cost = evaluate(trial, trial_residuals, nullptr);
       // Decrease the linear model predicts: −(Jᵀr·δ + ½ δᵀJᵀJδ).
@@ -376,7 +380,7 @@ double minimise_projected(const ProjectedCost& cost_function, int max_iterations
     const double excess = 2.0 * ratio - 1.0;
     radius = std::min(1e16, radius / std::max(1.0 / 3.0, 1.0 - excess * excess * excess));
     decrease_factor = 2.0;
-    if (change <= 1e-10 * cost) break;  // function_tolerance
+    if (change <= kFunctionTolerance * cost) break;
   }
   return cost;
 }
