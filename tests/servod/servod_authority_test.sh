@@ -43,18 +43,6 @@ fail() {
   exit 1
 }
 
-# config/servod.yaml with an absolute motor file, no real-time rights, our
-# port, overruns and the drive's watchdog relaxed for a loaded test host
-# (loaded_host_motor), and EXTRA lines (config_edit).
-make_config() {  # OUT EXTRA...
-  local out=$1
-  shift
-  loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" > /dev/null ||
-      fail "motor: the watchdog line is missing after editing"
-  config_edit "$source_dir/config/servod.yaml" "$out" \
-      "motor_file: $work/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
-      "  lcm_url: \"$url\"" "  overrun_limit: 1000" "$@" > /dev/null || fail "config: a line is missing after editing $out"
-}
 
 # Starts a daemon on CONFIG (stderr to LOG) and waits for its status: sets pid.
 up() {  # CONFIG LOG
@@ -132,7 +120,7 @@ commands() { field commands "$1" | sed -n "s/\(^\|.*[ ,]\)$2 \([0-9]*\).*/\2/p";
 # `clm ctl` that may fail: output in `reply`, exit status in `rc`.
 try_ctl() { set +e; reply=$(ctl "$@" 2>&1); rc=$?; set -e; }
 
-make_config "$work/servod.yaml"
+process_test_config "$work/servod.yaml" "  lock_memory: false"
 
 case $mode in
 # ---------------------------------------------------------------------------------
@@ -221,7 +209,7 @@ presence)
   done
   kill -0 "$first_pid" 2>/dev/null || fail "the first daemon died"
   # Another axis on the same URL starts; clm ctl then wants --axis.
-  make_config "$work/servod-axis1.yaml"
+  process_test_config "$work/servod-axis1.yaml" "  lock_memory: false"
   printf 'axis:\n  name: axis1\n' >> "$work/servod-axis1.yaml"
   start_daemon "$work/servod-axis1.yaml" "$work/axis1.log"
   axis1_pid=$servod_pid

@@ -39,17 +39,6 @@ fail() {
   exit 1
 }
 
-# config/servod.yaml with an absolute motor file, no SCHED_FIFO, our port,
-# overruns and the drive's watchdog relaxed for a loaded test host, and EXTRA lines.
-make_config() {  # OUT EXTRA...
-  local out=$1
-  shift
-  loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" > /dev/null ||
-      fail "motor: the watchdog line is missing after editing"
-  config_edit "$source_dir/config/servod.yaml" "$out" \
-      "motor_file: $work/motor-sim.yaml" "  priority: 0" "  clock: realtime" \
-      "  lcm_url: \"$url\"" "  overrun_limit: 1000" "$@" > /dev/null || fail "config: a line is missing after editing $out"
-}
 
 up() {  # CONFIG LOG
   start_daemon "$1" "$2"
@@ -67,7 +56,7 @@ rss_kb() { sed -n 's/^VmRSS:[[:space:]]*\([0-9]*\) kB/\1/p' "/proc/$1/status"; }
 case $mode in
 # ---------------------------------------------------------------------------------
 stop)
-  make_config "$work/servod.yaml" "  lock_memory: false"
+  process_test_config "$work/servod.yaml" "  lock_memory: false"
   up "$work/servod.yaml" "$work/servod.log"
   session=$(field session "$(ctl status)")
   reply=$(ctl enable) || fail "enable: $reply"
@@ -113,7 +102,7 @@ stop)
   ;;
 # ---------------------------------------------------------------------------------
 fragments)
-  make_config "$work/servod.yaml" "  lock_memory: true"
+  process_test_config "$work/servod.yaml" "  lock_memory: true"
   up "$work/servod.yaml" "$work/servod.log"
   if grep -q "mlockall" "$work/servod.log"; then
     echo "SKIP: mlockall refused here ($(grep mlockall "$work/servod.log")): without locked memory the test cannot fail"
