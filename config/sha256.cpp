@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "config/regular_file.hpp"
@@ -70,7 +71,7 @@ class Sha256 {
     buffered_ = count;
   }
 
-  std::string finish() {
+  Sha256Digest finish_bytes() {
     unsigned char tail[128] = {};
     const std::size_t rest = buffered_;
     std::copy_n(block_.data(), rest, tail);
@@ -79,10 +80,19 @@ class Sha256 {
     const std::uint64_t bits = total_ * 8;
     for (int i = 0; i < 8; ++i) tail[tail_size - 1 - static_cast<std::size_t>(i)] = static_cast<unsigned char>(bits >> (8 * i));
     for (std::size_t i = 0; i < tail_size; i += 64) compress(state_, tail + i);
+    Sha256Digest digest;
+    for (std::size_t w = 0; w < 8; ++w) {
+      for (std::size_t i = 0; i < 4; ++i) digest[4 * w + i] = static_cast<std::uint8_t>(state_[w] >> (24 - 8 * i));
+    }
+    return digest;
+  }
+
+  std::string finish() {
     static constexpr char kHex[] = "0123456789abcdef";
     std::string hex;
-    for (std::uint32_t word : state_) {
-      for (int i = 7; i >= 0; --i) hex += kHex[(word >> (4 * i)) & 0xf];
+    for (std::uint8_t byte : finish_bytes()) {
+      hex += kHex[byte >> 4];
+      hex += kHex[byte & 0xf];
     }
     return hex;
   }
@@ -96,6 +106,48 @@ class Sha256 {
 };
 
 }  // namespace
+
+struct HmacSha256::Pads {
+  Sha256 inner;  ///< after the key XOR ipad block
+  Sha256 outer;  ///< after the key XOR opad block
+};
+
+HmacSha256::HmacSha256(std::span<const std::uint8_t> key) {
+  auto pads = std::make_shared<Pads>();
+  // RFC 2104: a key longer than the block is hashed first; shorter ones are
+  // padded with zeros to the 64-byte block.
+  std::array<unsigned char, 64> block{};
+  if (key.size() > block.size()) {
+    Sha256 hash;
+    hash.update(key.data(), key.size());
+    const Sha256Digest digest = hash.finish_bytes();
+    std::copy(digest.begin(), digest.end(), block.begin());
+  } else {
+    std::copy(key.begin(), key.end(), block.begin());
+  }
+  std::array<unsigned char, 64> pad{};
+  for (std::size_t i = 0; i < block.size(); ++i) pad[i] = block[i] ^ 0x36;
+  pads->inner.update(pad.data(), pad.size());
+  for (std::size_t i = 0; i < block.size(); ++i) pad[i] = block[i] ^ 0x5c;
+  pads->outer.update(pad.data(), pad.size());
+  pads_ = std::move(pads);
+}
+
+Sha256Digest HmacSha256::mac(std::initializer_list<std::span<const std::uint8_t>> parts) const {
+  Sha256 inner = pads_->inner;
+  for (const auto& part : parts) inner.update(part.data(), part.size());
+  const Sha256Digest inner_digest = inner.finish_bytes();
+  Sha256 outer = pads_->outer;
+  outer.update(inner_digest.data(), inner_digest.size());
+  return outer.finish_bytes();
+}
+
+bool equal_in_constant_time(std::span<const std::uint8_t> a, std::span<const std::uint8_t> b) noexcept {
+  if (a.size() != b.size()) return false;
+  std::uint8_t difference = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) difference |= static_cast<std::uint8_t>(a[i] ^ b[i]);
+  return difference == 0;
+}
 
 std::string sha256_hex(std::string_view data) {
   Sha256 hash;
