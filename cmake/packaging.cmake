@@ -50,4 +50,8 @@ set(CPACK_DEBIAN_PACKAGE_DEPENDS "python3, python3-numpy, python3-matplotlib")
 set(CPACK_DEBIAN_PACKAGE_RECOMMENDS "can-utils, liblcm-bin")
 # Everything under /etc is the administrator's once installed.
 set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION TRUE)
+# postinst makes the group clm-operators and the operators' key
+# /etc/clm-servo/command.key (root:clm-operators, 0640) unless it exists;
+# postrm removes the key on purge.
+set(CPACK_DEBIAN_PACKAGE_CONTROL_EXTRA "${PROJECT_SOURCE_DIR}/cmake/debian/postinst;${PROJECT_SOURCE_DIR}/cmake/debian/postrm")
 include(CPack)

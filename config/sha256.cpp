@@ -133,7 +133,7 @@ HmacSha256::HmacSha256(std::span<const std::uint8_t> key) {
   pads_ = std::move(pads);
 }
 
-Sha256Digest HmacSha256::mac(std::initializer_list<std::span<const std::uint8_t>> parts) const {
+Sha256Digest HmacSha256::mac(std::initializer_list<std::span<const std::uint8_t>> parts) const noexcept {
   Sha256 inner = pads_->inner;
   for (const auto& part : parts) inner.update(part.data(), part.size());
   const Sha256Digest inner_digest = inner.finish_bytes();

@@ -28,7 +28,7 @@ class HmacSha256 {
  public:
   explicit HmacSha256(std::span<const std::uint8_t> key);
   /// The MAC of the concatenation of `parts`.
-  Sha256Digest mac(std::initializer_list<std::span<const std::uint8_t>> parts) const;
+  Sha256Digest mac(std::initializer_list<std::span<const std::uint8_t>> parts) const noexcept;
 
  private:
   struct Pads;

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "daemon/telemetry/lcm_datagram.hpp"
+#include "daemon/telemetry/message_mac.hpp"
 #include "daemon/telemetry/messages.hpp"
 #include "daemon/telemetry/wire_check.hpp"
 
@@ -35,7 +36,7 @@ double presence_window_s(double status_rate_hz) {
 }
 
 std::int64_t other_session_of_axis(const std::string& lcm_url, const std::string& axis, std::int64_t own_session,
-                                   double listen_s) {
+                                   double listen_s, const HmacSha256& key) {
   // The daemon's own reader, not liblcm's (daemon/telemetry/lcm_datagram.hpp):
   // a fragment claiming a huge message sizes nothing here either.
   telemetry::UdpmReceiver receiver(telemetry::parse_udpm_url(lcm_url));
@@ -53,6 +54,7 @@ std::int64_t other_session_of_axis(const std::string& lcm_url, const std::string
     clm_lcm::servo_status_t status;
     try {
       if (!telemetry::decode_checked(datagram.payload, status).empty()) continue;
+      if (!telemetry::verify_encoded(key, telemetry::kStatusChannel, datagram.payload)) continue;
     } catch (const std::exception&) {
       continue;
     }
@@ -61,8 +63,8 @@ std::int64_t other_session_of_axis(const std::string& lcm_url, const std::string
 }
 
 void require_axis_free(const std::string& lcm_url, const std::string& axis, std::int64_t own_session,
-                       double status_rate_hz) {
-  const std::int64_t other = other_session_of_axis(lcm_url, axis, own_session, presence_window_s(status_rate_hz));
+                       double status_rate_hz, const HmacSha256& key) {
+  const std::int64_t other = other_session_of_axis(lcm_url, axis, own_session, presence_window_s(status_rate_hz), key);
   if (other != 0) {
     throw std::runtime_error("axis '" + axis + "' is already driven on " + lcm_url + " by session " +
                              std::to_string(other) + " (another clm-servod): not starting a second one");

@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <string>
 
+#include "config/sha256.hpp"
+
 namespace clm::servod {
 
 /// A random, non-zero session id from getrandom(2), new at every start.
@@ -20,13 +22,15 @@ double presence_window_s(double status_rate_hz);
 /// of a status (passing decode_checked) of `axis` from a session other than
 /// `own_session`, or 0 when none came. Throws std::invalid_argument for a
 /// URL that is not udpm, std::runtime_error when the socket cannot be opened.
+/// Only a status signed with `key` counts (telemetry/message_mac.hpp): a
+/// made-up one cannot keep the daemon from starting.
 std::int64_t other_session_of_axis(const std::string& lcm_url, const std::string& axis, std::int64_t own_session,
-                                   double listen_s);
+                                   double listen_s, const HmacSha256& key);
 
 /// other_session_of_axis over presence_window_s(status_rate_hz); throws
 /// std::runtime_error naming the axis, the URL and the other session when
 /// another daemon drives the axis there.
 void require_axis_free(const std::string& lcm_url, const std::string& axis, std::int64_t own_session,
-                       double status_rate_hz);
+                       double status_rate_hz, const HmacSha256& key);
 
 }  // namespace clm::servod

@@ -146,6 +146,7 @@ void CommandServer::fill(telemetry::CommandAuthorityStatus& out) const noexcept 
   const telemetry::TelemetryCounters counters = publisher_.counters();
   out.refused_malformed = counters.commands_malformed;
   out.datagrams_dropped = counters.datagrams_dropped;
+  out.refused_unauthenticated = counters.commands_unauthenticated;
   if (!gate_) return;
   const std::int64_t now = telemetry::wall_clock_utime();
   out.control_client = gate_->holder(now);

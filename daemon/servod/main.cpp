@@ -53,7 +53,9 @@
 #include <thread>
 
 #include "clm_version.hpp"
+#include "config/command_key.hpp"
 #include "config/command_line.hpp"
+#include "config/regular_file.hpp"
 #include "daemon/servod/axis_presence.hpp"
 #include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/command_server.hpp"
@@ -135,10 +137,20 @@ int wait_for_stop(const sigset_t& signals, std::optional<Clock::time_point> dead
 
 int run(const std::string& config_path, double duration_s) {
   const servod::ServodConfig config = servod::load_servod_config(config_path);
+  // The operators' key: every command but a stop must carry its mac, and
+  // every message published carries it (docs/servod.md, "Who may command the axis").
+  std::optional<HmacSha256> key;
+  if (config.telemetry.enabled) {
+    try {
+      key = load_command_key(config.commands.key_file);
+    } catch (const FileError& e) {
+      throw FileError(config.origin + ": commands.key_file: " + e.what());
+    }
+  }
   // This run's identity, in every status and ack; no other daemon may drive the axis on the URL.
   const std::int64_t session = servod::draw_session_id();
   if (config.telemetry.enabled) {
-    servod::require_axis_free(config.telemetry.lcm_url, config.axis_name, session, config.telemetry.status_rate_hz);
+    servod::require_axis_free(config.telemetry.lcm_url, config.axis_name, session, config.telemetry.status_rate_hz, *key);
   }
 
   // The stop signals go to main's sigtimedwait only: block them before any
@@ -168,6 +180,7 @@ int run(const std::string& config_path, double duration_s) {
     telemetry_config.state_decimation = config.telemetry.state_decimation;
     telemetry_config.axis = config.axis_name;
     telemetry_config.session = session;
+    telemetry_config.key = key;
     publisher = std::make_unique<telemetry::TelemetryPublisher>(telemetry_config);
     bridge = std::make_unique<servod::TelemetryBridge>(*publisher, daemon);
   }

@@ -63,6 +63,10 @@ struct CommandsConfig {
   /// and program files are loaded from; default: the config file's directory.
   std::vector<std::string> file_directories;
   std::int64_t max_file_bytes = 16 << 20;  ///< larger files are refused before they are read [B]
+  /// The operators' key (config/command_key.hpp), read at start-up by the
+  /// daemon (with telemetry on) only; absolute, or relative to the config
+  /// file's directory. Default: clm::default_command_key_path().
+  std::string key_file;
 };
 
 struct ServodConfig {

@@ -204,6 +204,7 @@ clm_lcm::servo_status_t to_message(const ServoStatusSample& sample, std::int64_t
   m.commands_refused_not_in_control = c.refused_not_in_control;
   m.commands_refused_by_daemon = c.refused_by_daemon;
   m.datagrams_dropped = c.datagrams_dropped;
+  m.commands_refused_unauthenticated = c.refused_unauthenticated;
   return m;
 }
 

@@ -59,6 +59,8 @@ struct CommandAuthorityStatus {
   std::int64_t refused_by_daemon = 0;
   /// Datagrams the receiver dropped before decoding (TelemetryCounters::datagrams_dropped).
   std::int64_t datagrams_dropped = 0;
+  /// Commands refused for a mac not of the operators' key (TelemetryCounters::commands_unauthenticated).
+  std::int64_t refused_unauthenticated = 0;
 };
 
 /// Bins of the timing histograms in ServoStatusSample (servo_status_t's arrays).

@@ -12,6 +12,7 @@
 #include "daemon/telemetry/lcm_conversion.hpp"
 #include "daemon/servo/servo_cycle.hpp"
 #include "daemon/telemetry/lcm_datagram.hpp"
+#include "daemon/telemetry/message_mac.hpp"
 #include "daemon/telemetry/wire_check.hpp"
 
 namespace clm::telemetry {
@@ -61,6 +62,7 @@ TelemetryPublisher::TelemetryPublisher(const TelemetryConfig& config)
       events_(config_.event_queue_capacity),
       acks_(config_.ack_queue_capacity),
       commands_(config_.command_queue_capacity) {
+  if (!config_.key) throw std::invalid_argument("telemetry: no command key to sign and authenticate with over LCM");
   // The URL is parsed first: an unusable one fails before anything opens.
   const UdpmAddress address = parse_udpm_url(config_.lcm_url);
   // Publishing only: this instance never subscribes or handles, so liblcm
@@ -150,6 +152,7 @@ TelemetryCounters TelemetryPublisher::counters() const noexcept {
   c.commands_received = commands_received_.load(std::memory_order_relaxed);
   c.commands_rejected = commands_rejected_.load(std::memory_order_relaxed);
   c.commands_malformed = commands_malformed_.load(std::memory_order_relaxed);
+  c.commands_unauthenticated = commands_unauthenticated_.load(std::memory_order_relaxed);
   c.foreign_statuses = foreign_statuses_.load(std::memory_order_relaxed);
   c.datagrams_dropped = datagrams_dropped_.load(std::memory_order_relaxed);
   c.safety_commands_latched = safety_latched_.load(std::memory_order_relaxed);
@@ -160,6 +163,7 @@ template <typename Message>
 void TelemetryPublisher::publish_to_sinks(const char* channel, const Message& message, std::int64_t utime) {
   std::vector<std::uint8_t> buffer(static_cast<std::size_t>(message.getEncodedSize()));
   message.encode(buffer.data(), 0, static_cast<int>(buffer.size()));
+  if (config_.key) sign_encoded(*config_.key, channel, buffer);
   const std::lock_guard lock(sink_mutex_);
   std::int64_t failures = 0;
   for (TelemetrySink* sink : sinks_) {
@@ -313,6 +317,18 @@ void TelemetryPublisher::on_command(std::span<const std::uint8_t> payload) {
       commands_malformed_.fetch_add(1, std::memory_order_relaxed);
       return;
     }
+    // A stop, quick stop or disable needs no key: anyone may stop the axis
+    // (docs/servod.md, "Who may command the axis").
+    const bool safety = servo::is_command_kind(message.command) &&
+                        servo::is_safety_command(static_cast<servo::CommandKind>(message.command));
+    if (!safety && config_.key && !verify_encoded(*config_.key, kCommandChannel, payload)) {
+      commands_received_.fetch_add(1, std::memory_order_relaxed);
+      commands_rejected_.fetch_add(1, std::memory_order_relaxed);
+      commands_unauthenticated_.fetch_add(1, std::memory_order_relaxed);
+      publish_ack(message.sequence, message.client, false,
+                  "unauthenticated: the command's mac is not that of the operators' key (commands.key_file)");
+      return;
+    }
     submit_command(message);
   } catch (const std::exception&) {
     commands_rejected_.fetch_add(1, std::memory_order_relaxed);
@@ -323,6 +339,7 @@ void TelemetryPublisher::on_status(std::span<const std::uint8_t> payload) {
   try {
     clm_lcm::servo_status_t message;
     if (!decode_checked(payload, message).empty()) return;  // not a status anyone can rely on
+    if (config_.key && !verify_encoded(*config_.key, kStatusChannel, payload)) return;  // not a daemon's
     if (message.axis != config_.axis || message.session == config_.session) return;
     foreign_statuses_.fetch_add(1, std::memory_order_relaxed);
     foreign_session_.store(message.session, std::memory_order_release);

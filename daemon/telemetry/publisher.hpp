@@ -29,6 +29,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <mutex>
 #include <span>
 #include <string>
@@ -37,6 +38,7 @@
 #include <vector>
 
 #include "clm_lcm/servo_command_t.hpp"
+#include "config/sha256.hpp"
 #include "daemon/servo/command.hpp"
 #include "daemon/servo/cycle_record.hpp"
 #include "daemon/telemetry/lcm_sink.hpp"
@@ -75,6 +77,11 @@ struct TelemetryConfig {
   /// session id drawn at start-up).
   std::string axis = "axis0";
   std::int64_t session = 0;
+  /// The operators' key (config/command_key.hpp): signs every message
+  /// published and authenticates every command received but a stop, quick
+  /// stop or disable (message_mac.hpp). Required with LCM; without it (a
+  /// sink of its own, in-process commands) messages go out unsigned.
+  std::optional<HmacSha256> key;
   /// Publish the state of cycles whose number is a multiple of this; 1 = every cycle.
   int state_decimation = 1;
   /// Queue capacities [items], powers of two. 4096 states = 4 s at 1 kHz.
@@ -102,6 +109,9 @@ struct TelemetryCounters {
   /// Of commands_rejected: datagrams that failed decode_checked (not acked:
   /// nothing in them can be trusted) or to_command's field checks (acked).
   std::int64_t commands_malformed = 0;
+  /// Of commands_rejected: commands other than stop, quick stop and disable
+  /// whose mac is not the operators' (acked: the ack says so).
+  std::int64_t commands_unauthenticated = 0;
   /// CLM_SERVO_STATUS messages of this axis from another session (another
   /// daemon driving the same axis on the same URL).
   std::int64_t foreign_statuses = 0;
@@ -228,6 +238,7 @@ class TelemetryPublisher {
   std::atomic<std::int64_t> commands_received_{0};
   std::atomic<std::int64_t> commands_rejected_{0};
   std::atomic<std::int64_t> commands_malformed_{0};
+  std::atomic<std::int64_t> commands_unauthenticated_{0};
   std::atomic<std::int64_t> foreign_statuses_{0};
   std::atomic<std::int64_t> foreign_session_{0};
   std::atomic<std::int64_t> datagrams_dropped_{0};

@@ -35,6 +35,8 @@ constexpr WireField text(const char* name, double max_bytes) { return {WireKind:
 constexpr WireField counts(const char* name, int length) {
   return {WireKind::kInt64FixedArray, name, 0, kAny, false, length};
 }
+/// The MAC: bytes of any value, always the last field (message_mac.hpp).
+constexpr WireField mac() { return {WireKind::kByteFixedArray, "mac", 0, 255, false, 32}; }
 constexpr WireField doubles(const char* name, int length_field) {
   return {WireKind::kDoubleArray, name, 0, 0, false, length_field};
 }
@@ -50,15 +52,15 @@ constexpr std::array kCommandFields{
     i64("utime"), i64("sequence"), text("axis", kMaxAxisBytes), i64("session"), i64("client"), i8("command", 1, servo::kCommandKinds),
     finite("target_m"), finite("velocity_m_per_s"), finite("acceleration_m_per_s2"), finite("jerk_m_per_s3"),
     text("program", kMaxPathBytes), i8("commutation", 0, kCommutationMax), i8("coil_set", 0, kMaxCoilSetCount),
-    finite("delta_rad"), text("path", kMaxPathBytes), text("parameter", kMaxParameterBytes), finite("value"),
+    finite("delta_rad"), text("path", kMaxPathBytes), text("parameter", kMaxParameterBytes), finite("value"), mac(),
 };
 
 constexpr std::array kAckFields{i64("utime"),   i64("sequence"),        text("axis", kMaxAxisBytes),
                                 i64("session"), i64("client"),          boolean("accepted"),
-                                text("text", kMaxTextBytes)};
+                                text("text", kMaxTextBytes), mac()};
 
 constexpr std::array kEventFields{i64("utime"), i64("cycle"), i16("code"), i8("severity", 0, 3),
-                                  text("text", kMaxTextBytes)};
+                                  text("text", kMaxTextBytes), mac()};
 
 constexpr std::array kStatusFields{
     i64("utime"), text("axis", kMaxAxisBytes), i64("session"), i8("state", 0, 2), i16("fault", 0),
@@ -77,6 +79,7 @@ constexpr std::array kStatusFields{
     i64("commands_refused_malformed"), i64("commands_refused_other_axis"), i64("commands_refused_other_session"),
     i64("commands_refused_no_client"), i64("commands_refused_replayed"), i64("commands_refused_stale"),
     i64("commands_refused_not_in_control"), i64("commands_refused_by_daemon"), i64("datagrams_dropped"),
+    i64("commands_refused_unauthenticated"), mac(),
 };
 
 // Index 20 is coil_sets, the length of the four arrays after it.
@@ -93,7 +96,7 @@ constexpr std::array kStateFields{
     boolean("damping_engaged"), finite("current_square_sum_A2"), boolean("force_limited"),
     i8("state", 0, 2), boolean("program_running"), finite("program_time_s"), boolean("restricted"),
     boolean("force_measured"),
-    i8("drive_profile", 0, 1),
+    i8("drive_profile", 0, 1), mac(),
 };
 static_assert(kStateFields[kStateCoilSets].kind == WireKind::kInt8);
 
@@ -127,7 +130,8 @@ std::size_t width(WireKind kind) noexcept {
     case WireKind::kDouble: return 8;
     case WireKind::kString:
     case WireKind::kDoubleArray:
-    case WireKind::kInt64FixedArray: return 0;
+    case WireKind::kInt64FixedArray:
+    case WireKind::kByteFixedArray: return 0;
   }
   return 0;
 }
@@ -162,6 +166,7 @@ std::size_t max_wire_bytes(const WireLayout& layout) noexcept {
         bytes += 8 * static_cast<std::size_t>(layout.fields[static_cast<std::size_t>(field.length_field)].max);
         break;
       case WireKind::kInt64FixedArray: bytes += 8 * static_cast<std::size_t>(field.length_field); break;
+      case WireKind::kByteFixedArray: bytes += static_cast<std::size_t>(field.length_field); break;
       default: bytes += width(field.kind); break;
     }
   }
@@ -252,6 +257,12 @@ std::string check_wire(const WireLayout& layout, std::span<const std::uint8_t> d
           }
         }
         pos += 8 * count;
+        break;
+      }
+      case WireKind::kByteFixedArray: {
+        const auto count = static_cast<std::size_t>(field.length_field);
+        if (count > size - pos) return where() + ": datagram ends inside the array";
+        pos += count;
         break;
       }
     }

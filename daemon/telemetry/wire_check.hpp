@@ -29,7 +29,7 @@
 namespace clm::telemetry {
 
 enum class WireKind : std::uint8_t {
-  kInt8, kInt16, kInt32, kInt64, kBoolean, kDouble, kString, kDoubleArray, kInt64FixedArray
+  kInt8, kInt16, kInt32, kInt64, kBoolean, kDouble, kString, kDoubleArray, kInt64FixedArray, kByteFixedArray
 };
 
 /// One field of an LCM struct, in encoding order.
@@ -44,7 +44,7 @@ struct WireField {
   /// kDouble, kDoubleArray: NaN is accepted (infinities never are).
   bool nan_allowed = false;
   /// kDoubleArray: index of the earlier integer field that holds the length.
-  /// kInt64FixedArray: the length itself.
+  /// kInt64FixedArray, kByteFixedArray: the length itself.
   int length_field = -1;
 };
 

@@ -17,6 +17,11 @@
 #      replay    the same MOVE_TO datagram three times runs once; an
 #                lcm-logger log of a clm ctl session replayed onto a restarted
 #                daemon moves nothing.
+#      spoof     another process without the operators' key forges the
+#                daemon's status (a disabled axis, another calibration file)
+#                and accepted acks of every command (tests/support/spoof_lcm.py):
+#                clm ctl status, a refused command and clm ctl save show and
+#                write the daemon's own answers, never the forged ones.
 set -euo pipefail
 mode=$1 servod=$2 clm=$3 source_dir=$4 work=$5
 # shellcheck source=../support/script_helpers.sh
@@ -25,10 +30,10 @@ send="$source_dir/tests/support/send_lcm_datagram.py"
 channels="$source_dir/tests/support/lcm_log_channels.py"
 corpus="$source_dir/tests/fuzz/corpus/lcm_datagram"
 
-# A port of its own per mode (10000..10159; the other LCM tests use 7700..9989,
-# tests/servod/test_axis_presence.cpp 10160..10199).
+# A port of its own per mode (10000..10159 and 10200..10239; the other LCM
+# tests use 7700..9989, tests/servod/test_axis_presence.cpp 10160..10199).
 case $mode in
-  hostile) base=10000 ;; ctl) base=10040 ;; presence) base=10080 ;; replay) base=10120 ;;
+  hostile) base=10000 ;; ctl) base=10040 ;; presence) base=10080 ;; replay) base=10120 ;; spoof) base=10200 ;;
   *) echo "unknown mode $mode" >&2; exit 2 ;;
 esac
 port=$((base + $$ % 40))
@@ -240,7 +245,7 @@ presence)
     python3 "$send" "$url" CLM_TEST_LOGGER_PROBE "$corpus/command-move-to" --skip 1 || fail "sending a logger probe"
     sleep 0.2
   done
-  python3 "$send" "$url" CLM_SERVO_STATUS "$corpus/status-fault" --skip 1 || fail "sending the forged status"
+  python3 "$send" "$url" CLM_SERVO_STATUS "$corpus/status-fault" --skip 1 --sign || fail "sending the forged status"
   start=$(now_s)
   until s=$(ctl --axis axis0 status) && [ "$(field state "$s")" = disabled ]; do
     [ "$(echo "$(since "$start") < 10" | bc)" = 1 ] ||
@@ -268,7 +273,7 @@ replay)
   reply=$(ctl --client-id 77 enable) || fail "enable: $reply"
   session=$(field session "$(ctl status)")
   before=$(ctl status)
-  python3 "$send" "$url" CLM_SERVO_COMMAND "$corpus/command-move-to" --skip 1 --count 3 \
+  python3 "$send" "$url" CLM_SERVO_COMMAND "$corpus/command-move-to" --skip 1 --sign --count 3 \
       --set-int64 "34=$session" --set-int64 42=77 --set-int64 "16=$(date +%s%N)" --utime-now 8 || fail "sending the MOVE_TO"
   # The three counted, admitted or refused as replayed (at most 10 s).
   wait_commands "$before" 3 10 admitted replayed ||
@@ -339,6 +344,37 @@ print(f"setpoint {r[0]} m in all {len(rows)} states of cycles {cycles[0]}..{cycl
 CHECK
 ) || fail "replay: $verdict"
   echo "replay: one MOVE_TO datagram sent 3 times admitted once (2 replayed); a recorded clm ctl session ($recorded commands) replayed on a restarted daemon: $other refused other_session; $verdict"
+  ;;
+# ---------------------------------------------------------------------------------
+spoof)
+  up "$work/servod.yaml" "$work/servod.log"
+  reply=$(ctl enable) || fail "enable: $reply"
+  python3 "$source_dir/tests/support/spoof_lcm.py" "$url" --duration-s 8 > "$work/spoof.out" 2> "$work/spoof.log" &
+  spoof_pid=$!
+  pids+=("$spoof_pid")
+  sleep 1  # the spoofer has joined the group
+  # The status clm ctl prints is the daemon's: enabled, no forged file.
+  for _ in 1 2 3; do
+    s=$(ctl status) || fail "status under the spoofing"
+    [ "$(field state "$s")" = enabled ] || fail "status under the spoofing shows state $(field state "$s"), the axis is enabled"
+    ! grep -q spoofed <<< "$s" || fail "status under the spoofing shows the forged file: $(grep spoofed <<< "$s")"
+  done
+  # A command the daemon refuses stays refused, whatever ack is forged first.
+  try_ctl load-calibration "$source_dir/README.md"
+  [ $rc = 1 ] || fail "load-calibration of a file outside file_directories under the spoofing: exit $rc ($reply)"
+  ! grep -q spoofed <<< "$reply" || fail "load-calibration took the forged ack: $reply"
+  # Save writes what the daemon runs, not what was forged.
+  cp "$work/servod.yaml" "$work/saved.yaml"
+  reply=$(ctl save --config "$work/saved.yaml") || fail "save under the spoofing: $reply"
+  ! grep -q spoofed "$work/saved.yaml" || fail "save wrote the forged file: $(grep spoofed "$work/saved.yaml")"
+  wait "$spoof_pid" || fail "the spoofer failed: $(cat "$work/spoof.log")"
+  forged=$(cat "$work/spoof.out")
+  statuses=$(sed -n 's/^spoof: \([0-9]*\) statuses.*/\1/p' <<< "$forged")
+  acks=$(sed -n 's/.* and \([0-9]*\) acks.*/\1/p' <<< "$forged")
+  [ "${statuses:-0}" -gt 5 ] && [ "${acks:-0}" -ge 2 ] ||
+      fail "the spoofer forged too little for the test to mean anything: $forged (bound: > 5 statuses, >= 2 acks)"
+  s=$(ctl status)
+  echo "spoof: $forged; clm ctl status showed the enabled axis, load-calibration stayed refused, save wrote no forged file; $(field commands "$s")"
   ;;
 esac
 rc=0

@@ -7,7 +7,8 @@
 #   servod_flood_test.sh MODE CLM_SERVOD CLM SOURCE_DIR WORK_DIR
 #
 # MODE stop       1200 datagrams/s of forged-id reads and unauthorised commands
-#                 (1000 made-up clients) while a program runs: clm ctl stop,
+#                 (1000 made-up clients, signed with the operators' key: the
+#                 worst case, a flood from a holder of the key) while a program runs: clm ctl stop,
 #                 quick-stop and disable are accepted from the operator's id and
 #                 a new one, and 30 stop/quick stop/disable datagrams are acked
 #                 with a median latency of at most 50 ms; no command is refused
@@ -61,7 +62,7 @@ stop)
   session=$(field session "$(ctl status)")
   reply=$(ctl enable) || fail "enable: $reply"
   before=$(ctl status)
-  python3 "$flood" flood "$url" --session "$session" --kind mixed --rate 1200 --duration-s 40 \
+  python3 "$flood" flood "$url" --session "$session" --kind mixed --rate 1200 --duration-s 40 --sign \
       > "$work/flood.out" 2> "$work/flood.log" &
   flood_pid=$!
   pids+=("$flood_pid")

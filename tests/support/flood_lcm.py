@@ -3,7 +3,7 @@
 no LCM library, and measures how long its stop takes to be acked meanwhile
 (docs/reliability.md, "Command channel under flood").
 
-    flood_lcm.py flood URL --axis A --session S --kind KIND --rate R --duration-s D
+    flood_lcm.py flood URL --axis A --session S --kind KIND --rate R --duration-s D [--sign]
     flood_lcm.py stop-latency URL --axis A --session S --count N [--client C]
 
 flood: sends R datagrams a second for D seconds, in bursts every 5 ms:
@@ -12,6 +12,9 @@ flood: sends R datagrams a second for D seconds, in bursts every 5 ms:
   unauthorised  ENABLE and MOVE_TO from made-up client ids (none holds control);
   mixed         half reads, half unauthorised;
   fragments     1 kB LCM fragments (LC03) whose header claims 2^28 - 1 bytes.
+--sign: the commands carry the mac of the key $CLM_SERVO_KEY_FILE names (a
+flood from a holder of the operators' key, which the command authority must
+still withstand); without it they are refused as unauthenticated.
 Prints one line: what was sent and at what rate.
 
 stop-latency: sends N commands in turn STOP, QUICK_STOP, DISABLE (client C,
@@ -21,6 +24,8 @@ with the same client and sequence). Prints one line per command and one
 `median_ms M max_ms X acked K/N` line; exit 1 when a command is refused or
 unacked within 2 s."""
 import argparse
+import hashlib
+import hmac
 import os
 import socket
 import statistics
@@ -49,11 +54,17 @@ def lcm_string(text):
 
 
 def command(hash_bytes, axis, session, client, sequence, kind, parameter="", target_m=0.0):
-    """servo_command_t, field by field as lcmtypes/servo_command_t.lcm orders them."""
+    """servo_command_t, field by field as lcmtypes/servo_command_t.lcm orders them; its mac
+    is zeros (anyone can send it: only a stop, quick stop or disable needs no key)."""
     return (hash_bytes + struct.pack(">qq", int(time.time() * 1e6), sequence) + lcm_string(axis) +
             struct.pack(">qqb", session, client, kind) +
             struct.pack(">dddd", target_m, 0.1, 1.0, 1000.0) + lcm_string("") + struct.pack(">bbd", 0, 0, 0.0) +
-            lcm_string("") + lcm_string(parameter) + struct.pack(">d", 0.0))
+            lcm_string("") + lcm_string(parameter) + struct.pack(">d", 0.0) + bytes(32))
+
+
+def signed(key, channel, payload):
+    """payload with its last 32 bytes (the mac field) the HMAC-SHA256 of the channel, a NUL and the rest."""
+    return payload[:-32] + hmac.new(key, channel.encode() + b"\0" + payload[:-32], hashlib.sha256).digest()
 
 
 def short_datagram(sequence, channel, payload):
@@ -84,6 +95,10 @@ def flood(args):
     target = address(args.url)
     sock = sender()
     command_hash = corpus_hash("command-move-to")
+    key = None
+    if args.sign:
+        with open(os.environ["CLM_SERVO_KEY_FILE"], "rb") as f:
+            key = f.read()
     sent = 0
     start = time.monotonic()
     end = start + args.duration_s
@@ -98,14 +113,16 @@ def flood(args):
                 kind = "reads" if sent % 2 == 0 else "unauthorised"
             if kind == "fragments":
                 packet = fragment_datagram(sent)
-            elif kind == "reads":
-                packet = short_datagram(sent, "CLM_SERVO_COMMAND",
-                                        command(command_hash, args.axis, args.session, client, sent + 1,
-                                                GET_PARAMETER, parameter="control.bandwidth_hz"))
             else:
-                packet = short_datagram(sent, "CLM_SERVO_COMMAND",
-                                        command(command_hash, args.axis, args.session, client, sent + 1,
-                                                ENABLE if sent % 2 else MOVE_TO, target_m=0.01))
+                if kind == "reads":
+                    payload = command(command_hash, args.axis, args.session, client, sent + 1,
+                                      GET_PARAMETER, parameter="control.bandwidth_hz")
+                else:
+                    payload = command(command_hash, args.axis, args.session, client, sent + 1,
+                                      ENABLE if sent % 2 else MOVE_TO, target_m=0.01)
+                if key is not None:
+                    payload = signed(key, "CLM_SERVO_COMMAND", payload)
+                packet = short_datagram(sent, "CLM_SERVO_COMMAND", payload)
             try:
                 sock.sendto(packet, target)
             except OSError:
@@ -202,6 +219,8 @@ def main():
     f.add_argument("--kind", choices=["reads", "unauthorised", "mixed", "fragments"], required=True)
     f.add_argument("--rate", type=float, required=True)
     f.add_argument("--duration-s", type=float, required=True)
+    f.add_argument("--sign", action="store_true",
+                   help="sign the commands with the key $CLM_SERVO_KEY_FILE names: a flood from a holder of the key")
     s = sub.add_parser("stop-latency")
     s.add_argument("url")
     s.add_argument("--axis", default="axis0")

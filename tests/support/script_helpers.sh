@@ -15,6 +15,14 @@
 pids=()
 created_iface=""
 
+# The operators' key of the test's daemons and clients (config/command_key.hpp,
+# read from $CLM_SERVO_KEY_FILE by both): a fresh one, unless the caller names one.
+if [ -z "${CLM_SERVO_KEY_FILE:-}" ]; then
+  key_dir=$(mktemp -d "${TMPDIR:-/tmp}/clm_key.XXXXXX")
+  (umask 077; head -c 32 /dev/urandom > "$key_dir/command.key")
+  export CLM_SERVO_KEY_FILE=$key_dir/command.key
+fi
+
 # ---- paths, `clm ctl` and its status ---------------------------------------------
 
 # The absolute path of `path` (its directory must exist).
@@ -158,11 +166,13 @@ stop_process() {
   wait "$pid"
 }
 
-# Kills (SIGKILL) every process in `pids` and deletes `created_iface`: the EXIT trap.
+# Kills (SIGKILL) every process in `pids`, deletes `created_iface` and the
+# key made here: the EXIT trap.
 cleanup_processes() {
   local pid
   for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null; done
   [ -n "$created_iface" ] && ip link del dev "$created_iface" 2>/dev/null
+  [ -n "${key_dir:-}" ] && rm -rf "$key_dir"
   return 0
 }
 

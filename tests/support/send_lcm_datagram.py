@@ -6,7 +6,7 @@ encoder never would.
 
     send_lcm_datagram.py URL CHANNEL FILE [--skip N] [--count K]
         [--set-int64 OFFSET=VALUE ...] [--utime-now OFFSET]
-        [--random-tail N] [--pause-every M]
+        [--random-tail N] [--pause-every M] [--sign]
 
 URL is udpm://GROUP:PORT[?...]; FILE's bytes from offset N (default 0) are
 the message; it is sent K times (default 1) with increasing LCM sequence
@@ -15,8 +15,13 @@ OFFSET of the message (after --skip); --utime-now writes the wall-clock time
 in microseconds there. --random-tail N: every message sent is the first N
 bytes followed by 0..400 random bytes (N = 0: all random, 1..400 bytes).
 --pause-every M: a 5 ms pause after every M messages, so a flood is not lost
-in a socket buffer."""
+in a socket buffer. --sign: after the patches, the message's last 32 bytes
+(its `mac` field) become the HMAC-SHA256 of the channel, a NUL and the rest,
+keyed with the file $CLM_SERVO_KEY_FILE names (daemon/telemetry/message_mac.hpp):
+what a holder of the operators' key sends."""
 import argparse
+import hashlib
+import hmac
 import os
 import random
 import socket
@@ -39,6 +44,7 @@ def main():
     parser.add_argument("--utime-now", type=int, metavar="OFFSET")
     parser.add_argument("--random-tail", type=int, metavar="N")
     parser.add_argument("--pause-every", type=int, default=0, metavar="M")
+    parser.add_argument("--sign", action="store_true")
     args = parser.parse_args()
     url = urlparse(args.url)
     if url.scheme != "udpm" or not url.hostname or not url.port:
@@ -54,6 +60,10 @@ def main():
             print(f"send_lcm_datagram: error: offset {offset} outside the {len(payload)}-byte message", file=sys.stderr)
             return 2
         payload[offset:offset + 8] = struct.pack(">q", value)
+    if args.sign:
+        with open(os.environ["CLM_SERVO_KEY_FILE"], "rb") as f:
+            key = f.read()
+        payload[-32:] = hmac.new(key, args.channel.encode() + b"\0" + bytes(payload[:-32]), hashlib.sha256).digest()
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
     sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_LOOP, 1)

@@ -202,6 +202,7 @@ inline void check_status(const telemetry::ServoStatusSample& s, const clm_lcm::s
   CHECK(m.commands_refused_not_in_control == s.commands.refused_not_in_control);
   CHECK(m.commands_refused_by_daemon == s.commands.refused_by_daemon);
   CHECK(m.datagrams_dropped == s.commands.datagrams_dropped);
+  CHECK(m.commands_refused_unauthenticated == s.commands.refused_unauthenticated);
   CHECK(m.wakeup_latency_p50_s == s.wakeup_latency_p50_s);
   CHECK(m.wakeup_latency_p99_s == s.wakeup_latency_p99_s);
   CHECK(m.wakeup_latency_max_s == s.wakeup_latency_max_s);

@@ -119,6 +119,9 @@ void add_commission(CLI::App& app) {
                 "file system: files are sent as absolute paths)");
   sub->add_option("--lcm-url", options->run.live_options.lcm_url, "--live: LCM URL of the daemon (its telemetry.lcm_url)")
       ->capture_default_str();
+  sub->add_option("--key-file", options->run.live_options.key_file,
+                  "--live: the operators' key shared with the daemon (its commands.key_file); default: "
+                  "$CLM_SERVO_KEY_FILE, else /etc/clm-servo/command.key");
   sub->add_option("--ack-timeout-s", options->run.live_options.ack_timeout_s,
                   "--live: how long each command waits for its CLM_SERVO_COMMAND_ACK [s]")
       ->check(clm::positive_number())

@@ -104,13 +104,14 @@ void print_status(const clm_lcm::servo_status_t& s) {
   std::printf("control_client: %lld\n", static_cast<long long>(s.control_client));
   std::printf("control_lease_remaining_s: %.1f\n", s.control_lease_remaining_s);
   std::printf("commands: admitted %lld, refused malformed %lld, other_axis %lld, other_session %lld, no_client %lld, "
-              "replayed %lld, stale %lld, not_in_control %lld, by_daemon %lld, datagrams_dropped %lld\n",
+              "replayed %lld, stale %lld, not_in_control %lld, by_daemon %lld, unauthenticated %lld, datagrams_dropped %lld\n",
               static_cast<long long>(s.commands_admitted), static_cast<long long>(s.commands_refused_malformed),
               static_cast<long long>(s.commands_refused_other_axis),
               static_cast<long long>(s.commands_refused_other_session),
               static_cast<long long>(s.commands_refused_no_client), static_cast<long long>(s.commands_refused_replayed),
               static_cast<long long>(s.commands_refused_stale), static_cast<long long>(s.commands_refused_not_in_control),
-              static_cast<long long>(s.commands_refused_by_daemon), static_cast<long long>(s.datagrams_dropped));
+              static_cast<long long>(s.commands_refused_by_daemon),
+              static_cast<long long>(s.commands_refused_unauthenticated), static_cast<long long>(s.datagrams_dropped));
 }
 
 void run_status(const CtlOptions& options) {
@@ -143,6 +144,9 @@ void add_ctl(CLI::App& app) {
   ctl->add_option("--client-id", options->client_id,
                   "client id the commands carry; default: FNV-1a-64 of \"UID@HOSTNAME\", the same for every clm ctl of the user")
       ->check(clm::at_least(1));
+  ctl->add_option("--key-file", options->key_file,
+                  "the operators' key shared with the daemon (its commands.key_file); default: $CLM_SERVO_KEY_FILE, "
+                  "else /etc/clm-servo/command.key");
 
   ctl->add_subcommand("status", "wait for one CLM_SERVO_STATUS and print it")->callback([options] {
     run_status(*options);

@@ -22,6 +22,7 @@ servod_client::Options client_options(const CtlOptions& options, const std::stri
   client.channels = channels;
   client.axis = options.axis;
   client.client_id = options.client_id;
+  client.key_file = options.key_file;
   return client;
 }
 

@@ -22,6 +22,7 @@ struct CtlOptions {
   double timeout_s = 2.0;
   std::string axis;            ///< empty: the only axis answering
   std::int64_t client_id = 0;  ///< 0: servod_client::default_client_id()
+  std::string key_file;        ///< empty: clm::default_command_key_path()
 };
 
 /// Several axes answer and --axis does not choose: a usage error (exit

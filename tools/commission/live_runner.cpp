@@ -35,6 +35,7 @@ LiveOptions checked(LiveOptions options) {
 servod_client::Options client_options(const LiveOptions& options) {
   servod_client::Options client;
   client.lcm_url = options.lcm_url;
+  client.key_file = options.key_file;
   client.channels = ".*";
   client.every_state = true;
   return client;

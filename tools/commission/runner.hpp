@@ -26,6 +26,8 @@ struct Recording;  // runs.hpp
 /// How to reach a running clm-servod (LcmRunner).
 struct LiveOptions {
   std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
+  /// The operators' key shared with the daemon; empty: clm::default_command_key_path().
+  std::string key_file;
   /// How long each command waits for its CLM_SERVO_COMMAND_ACK [s].
   double ack_timeout_s = 2.0;
   /// A run in which CLM_SERVO_STATE messages went missing is run again, up

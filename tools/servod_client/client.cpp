@@ -6,9 +6,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 
 #include "clm_lcm/servo_command_ack_t.hpp"
+#include "config/command_key.hpp"
+#include "daemon/telemetry/message_mac.hpp"
 
 namespace clm::servod_client {
 namespace {
@@ -54,7 +57,9 @@ std::int64_t default_client_id() {
 }
 
 Client::Client(Options options)
-    : options_(std::move(options)), client_id_(options_.client_id != 0 ? options_.client_id : default_client_id()) {
+    : options_(std::move(options)),
+      client_id_(options_.client_id != 0 ? options_.client_id : default_client_id()),
+      key_(load_command_key(options_.key_file.empty() ? default_command_key_path() : options_.key_file)) {
   lcm_ = std::make_unique<lcm::LCM>(options_.every_state ? telemetry::with_receive_buffer(options_.lcm_url)
                                                          : options_.lcm_url);
   if (!lcm_->good()) {
@@ -88,7 +93,13 @@ bool Client::reported(const servo_status_t& status) const {
 void Client::on_message(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
   const auto* bytes = static_cast<const std::uint8_t*>(buffer->data);
   ReceivedMessage message{channel, buffer->recv_utime, std::vector<std::uint8_t>(bytes, bytes + buffer->data_size)};
+  const bool daemons = channel == telemetry::kStateChannel || channel == telemetry::kStatusChannel ||
+                       channel == telemetry::kEventChannel || channel == telemetry::kCommandAckChannel;
   std::lock_guard lock(mutex_);
+  if (daemons && !telemetry::verify_encoded(key_, channel, message.data)) {
+    ++unauthenticated_;
+    return;  // not the daemon's: nothing of it is kept, not even in a capture
+  }
   bool well_formed = true;
   if (channel == telemetry::kStateChannel) {
     servo_state_t state;
@@ -99,6 +110,11 @@ void Client::on_message(const lcm::ReceiveBuffer* buffer, const std::string& cha
   } else if (channel == telemetry::kStatusChannel) {
     servo_status_t status;
     if ((well_formed = decode(message.data, status))) {
+      const double age_s = static_cast<double>(telemetry::wall_clock_utime() - status.utime) * 1e-6;
+      if (!(std::fabs(age_s) <= kMaxStatusAge_s)) {
+        ++unauthenticated_;
+        return;  // a replay of an old status, or a clock far off: not kept
+      }
       if (axes_.size() < 64 || axes_.count(status.axis) > 0) {
         AxisStatus& heard = axes_[status.axis];
         heard.status = status;
@@ -242,7 +258,10 @@ Ack Client::send_once(clm_lcm::servo_command_t command, const Target& to, double
     pending_.erase(sequence);
     acks_.erase(sequence);
   };
-  if (lcm_->publish(telemetry::kCommandChannel, &command) != 0) {
+  std::vector<std::uint8_t> encoded(static_cast<std::size_t>(command.getEncodedSize()));
+  command.encode(encoded.data(), 0, static_cast<int>(encoded.size()));
+  telemetry::sign_encoded(key_, telemetry::kCommandChannel, encoded);
+  if (lcm_->publish(telemetry::kCommandChannel, encoded.data(), static_cast<unsigned int>(encoded.size())) != 0) {
     forget();
     throw Error("LCM refused to publish " + (what.empty() ? std::string() : what + " ") + "on " +
                 telemetry::kCommandChannel + " at " + options_.lcm_url);
@@ -252,7 +271,11 @@ Ack Client::send_once(clm_lcm::servo_command_t command, const Target& to, double
     lock.unlock();
     forget();
     const std::string channel = telemetry::kCommandAckChannel;
-    const std::string hint = " (is clm-servod running with that lcm_url?)";
+    std::string hint = " (is clm-servod running with that lcm_url?)";
+    if (const std::int64_t ignored = unauthenticated(); ignored > 0) {
+      hint = " (" + std::to_string(ignored) +
+             " messages without the operators' mac were ignored: does clm-servod use this key file?)";
+    }
     if (what.empty()) {
       throw NoAck("no " + channel + " for sequence " + std::to_string(sequence) + " on " + options_.lcm_url +
                       " within " + seconds(timeout_s) + hint,
@@ -350,6 +373,11 @@ std::optional<clm_lcm::servo_event_t> Client::latest_event() const {
 std::int64_t Client::undecodable() const {
   std::lock_guard lock(mutex_);
   return undecodable_;
+}
+
+std::int64_t Client::unauthenticated() const {
+  std::lock_guard lock(mutex_);
+  return unauthenticated_;
 }
 
 std::int64_t Client::states_received() const {

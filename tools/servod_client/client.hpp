@@ -9,6 +9,11 @@
 // ack with that axis, session, client and sequence; takes control before a
 // command that needs it; waits for a status or for states; keeps the messages
 // of a stretch of time. `clm ctl` and `clm commission --live` are built on it.
+// Every command it sends carries the mac of the operators' key, and of what
+// it receives it keeps only what carries that mac (telemetry/message_mac.hpp;
+// docs/servod.md, "Who may command the axis"), and only statuses no older
+// than kMaxStatusAge_s: a status, ack, state or event that another process
+// makes up is counted (unauthenticated()) and changes nothing.
 // Every failure throws servod_client::Error (a clm::RunTimeFailure: exit
 // status 1 in the programs), one line.
 
@@ -33,6 +38,7 @@
 #include "clm_lcm/servo_state_t.hpp"
 #include "clm_lcm/servo_status_t.hpp"
 #include "config/exit_status.hpp"
+#include "config/sha256.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 #include "daemon/telemetry/wire_check.hpp"
 
@@ -139,7 +145,14 @@ struct Options {
   /// The axis to command and report (servo_status_t.axis); empty: the only
   /// axis whose status is heard on the URL (target() refuses when several are).
   std::string axis;
+  /// The operators' key file (config/command_key.hpp); empty:
+  /// default_command_key_path(). Unreadable or unsafe: clm::FileError (exit 2).
+  std::string key_file;
 };
+
+/// A status older than this by the wall clock is not kept: a replay of the
+/// daemon's own signed status cannot show a state it left longer ago [s].
+inline constexpr double kMaxStatusAge_s = 2.0;
 
 /// Several daemons answer on the URL and Options::axis does not choose (target()).
 class SeveralAxes : public Error {
@@ -170,8 +183,8 @@ class Client {
   Target target_for(double timeout_s, const std::string& what);
 
   /// Publishes `command` on CLM_SERVO_COMMAND for target() (its axis and
-  /// session), as client_id(), with a fresh sequence and the wall-clock
-  /// utime, and waits up to `timeout_s` [s] for the ack with that axis,
+  /// session), as client_id(), with a fresh sequence, the wall-clock utime
+  /// and the operators' mac, and waits up to `timeout_s` [s] for the ack with that axis,
   /// session, client and sequence; returns it, accepted or not. A command
   /// that needs control (needs_control) is preceded by TAKE_CONTROL unless
   /// the latest status shows this client holding control with more than
@@ -213,6 +226,9 @@ class Client {
   std::optional<clm_lcm::servo_event_t> latest_event() const;
   /// Messages on the daemon's channels that failed decode_checked.
   std::int64_t undecodable() const;
+  /// Statuses, states, events and acks dropped for a mac not of the
+  /// operators' key, and statuses older than kMaxStatusAge_s.
+  std::int64_t unauthenticated() const;
   /// CLM_SERVO_STATE messages received (decoded) since connecting.
   std::int64_t states_received() const;
 
@@ -241,6 +257,7 @@ class Client {
 
   Options options_;
   std::int64_t client_id_ = 0;
+  HmacSha256 key_;
   std::int64_t last_sequence_ = 0;
   std::unique_ptr<lcm::LCM> lcm_;
   std::thread receiver_;
@@ -261,6 +278,7 @@ class Client {
   std::int64_t statuses_seen_ = 0;
   std::int64_t statuses_returned_ = 0;  ///< statuses_seen_ when wait_for_status last returned
   std::int64_t undecodable_ = 0;  ///< messages on the daemon's channels that failed decode_checked
+  std::int64_t unauthenticated_ = 0;  ///< see unauthenticated()
   bool capturing_ = false;
   std::vector<ReceivedMessage> captured_;
 };
