@@ -249,6 +249,17 @@ int run(const std::string& config_path, double duration_s) {
     }
   }
 
+  // The files the configuration names, each inside commands.file_directories
+  // (checked when the configuration was read).
+  std::string files;
+  for (const auto& [name, path] : {std::pair{"calibration_file", &config.commutation.calibration_file},
+                                  std::pair{"pgnn_model_file", &config.commutation.pgnn_model_file},
+                                  std::pair{"spline_model_file", &config.commutation.spline_model_file},
+                                  std::pair{"feedforward_file", &config.feedforward_file}}) {
+    if (!path->empty()) files += std::string(files.empty() ? "" : ", ") + name + " " + *path;
+  }
+  note("files of the configuration: " + (files.empty() ? std::string("none") : files));
+
   // ---- start ------------------------------------------------------------
   std::optional<servod::CommandServer> commands;
   if (publisher) {

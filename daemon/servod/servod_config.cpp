@@ -6,11 +6,13 @@
 #include <limits>
 #include <optional>
 #include <stdexcept>
+#include <tuple>
 
 #include "config/command_key.hpp"
 #include "daemon/control/position_controller.hpp"
 #include "drivers/can/can_protocol.hpp"
 #include "daemon/servod/feedforward_file.hpp"
+#include "daemon/servod/file_policy.hpp"
 #include "daemon/servod/parameters.hpp"
 
 namespace clm::servod {
@@ -178,7 +180,6 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     require_file(*control, "feedforward_file", config.feedforward_file);
     if (!config.feedforward_file.empty()) {
       if (control->has("feedforward")) (*control)["feedforward_file"].fail("give feedforward or feedforward_file, not both");
-      config.servo.feedforward = load_feedforward_file(config.feedforward_file).parameters;
     }
     if (const auto v = control->optional("soft_limit_min_m")) config.servo.soft_limit_min_m = v->as_double();
     if (const auto v = control->optional("soft_limit_max_m")) config.servo.soft_limit_max_m = v->as_double();
@@ -331,6 +332,24 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
       if (config.commands.file_directories.empty()) v->fail("list at least one directory");
     }
   }
+  // The files the configuration names obey the policy of the files commands
+  // name (docs/servod.md, "Files"): a configuration written from what a
+  // command or a tool claimed cannot reach beyond it.
+  const FilePolicy policy{config.commands.file_directories, config.commands.max_file_bytes};
+  for (const auto& [section, key, path] :
+       {std::tuple{"commutation", "calibration_file", &config.commutation.calibration_file},
+        std::tuple{"commutation", "pgnn_model_file", &config.commutation.pgnn_model_file},
+        std::tuple{"commutation", "spline_model_file", &config.commutation.spline_model_file},
+        std::tuple{"control", "feedforward_file", &config.feedforward_file}}) {
+    if (path->empty()) continue;
+    std::string canonical;
+    if (const std::string refusal = check_loadable(policy, *path, canonical); !refusal.empty()) {
+      root[section][key].fail(refusal);
+    }
+    *path = canonical;
+  }
+  // Read once it is known to be allowed.
+  if (!config.feedforward_file.empty()) config.servo.feedforward = load_feedforward_file(config.feedforward_file).parameters;
 
   try {
     config.servo.validate();

@@ -8,12 +8,16 @@
 
 #include <unistd.h>
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
 #include "cli/cli_support.hpp"
+#include "support/temporary_directory.hpp"
 
 using namespace clm::cli_test;
 namespace fs = std::filesystem;
@@ -43,10 +47,24 @@ std::size_t line_starting(const std::string& text, const std::string& prefix) {
   return 2 + static_cast<std::size_t>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
 }
 
+/// An operators' key of this test process (config/command_key.hpp).
+const std::string& test_key_file() {
+  static const clm::test::TemporaryDirectory directory("clm_cli_key");
+  static const std::string path = [] {
+    const std::string file = directory.file("command.key");
+    std::ofstream(file, std::ios::binary) << std::string(32, 'k');
+    ::chmod(file.c_str(), 0600);
+    return file;
+  }();
+  return path;
+}
+
 /// An LCM URL of this process's own and an axis no daemon drives: `clm ctl`
 /// waits for it in vain.
 std::vector<std::string> ctl_with_no_daemon(const std::vector<std::string>& subcommand) {
   std::vector<std::string> args = {"ctl",
+                                   "--key-file",
+                                   test_key_file(),
                                    "--lcm-url",
                                    "udpm://239.255.76.67:" + std::to_string(10240 + ::getpid() % 40) + "?ttl=0",
                                    "--axis",
@@ -169,4 +187,22 @@ TEST_CASE("clm-servod: a mass_kg whose PID gains overflow is refused naming file
                      ": control.mass_kg: value 1e308 kg gives non-finite PID gains at control.bandwidth_hz 40 Hz "
                      "(k_p grows with mass_kg * bandwidth_hz^2, k_i with mass_kg * bandwidth_hz^3)");
   CHECK_FALSE(fs::exists(out));
+}
+
+TEST_CASE("clm ctl with a missing or unsafe key file: exit 2 and one line naming the file", "[cli][exit_status]") {
+  const clm::test::TemporaryDirectory directory("clm_cli_bad_key");
+  const std::string missing = directory.file("absent.key");
+  const std::string open_key = directory.file("open.key");
+  std::ofstream(open_key, std::ios::binary) << std::string(32, 'k');
+  ::chmod(open_key.c_str(), 0644);
+  for (const auto& [file, words] : {std::pair{missing, std::string("cannot open")}, std::pair{open_key, std::string("mode 0644")}}) {
+    const ProcessResult result = run_clm({"ctl", "--key-file", file, "--timeout-s", "0.2", "status"});
+    INFO("stdout: " << result.out << "\nstderr: " << result.err);
+    CHECK(result.exit_code == 2);
+    CHECK(result.out.empty());
+    const auto lines = result.err_lines();
+    REQUIRE(lines.size() == 1);
+    CHECK(lines[0].rfind("clm ctl: error: " + file, 0) == 0);
+    CHECK(lines[0].find(words) != std::string::npos);
+  }
 }

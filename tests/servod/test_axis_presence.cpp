@@ -13,6 +13,7 @@
 
 #include "clm_lcm/servo_status_t.hpp"
 #include "daemon/servod/axis_presence.hpp"
+#include "daemon/telemetry/message_mac.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 
 using namespace clm::servod;
@@ -34,12 +35,31 @@ TEST_CASE("Start-up listens 2.5 status periods, at least 0.3 s", "[servod][autho
   CHECK(presence_window_s(0.0) == Approx(0.3));
 }
 
-TEST_CASE("Another session's status of the same axis is found, the own session and other axes are not",
+namespace {
+
+clm::HmacSha256 key_of(const std::string& text) {
+  return clm::HmacSha256(std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
+}
+
+/// Publishes `status` signed with `key` (as a daemon does).
+void publish_signed(lcm::LCM& lcm, const clm_lcm::servo_status_t& status, const clm::HmacSha256& key) {
+  std::vector<std::uint8_t> encoded(static_cast<std::size_t>(status.getEncodedSize()));
+  status.encode(encoded.data(), 0, static_cast<int>(encoded.size()));
+  clm::telemetry::sign_encoded(key, clm::telemetry::kStatusChannel, encoded);
+  lcm.publish(clm::telemetry::kStatusChannel, encoded.data(), static_cast<unsigned int>(encoded.size()));
+}
+
+}  // namespace
+
+TEST_CASE("Another session's status of the same axis is found, the own session, other axes and statuses without "
+          "the key's mac are not",
           "[servod][authority][lcm]") {
   // A port of its own (10160..10199, next to tests/servod/servod_authority_test.sh's).
   const std::string url = "udpm://239.255.76.67:" + std::to_string(10160 + ::getpid() % 40) + "?ttl=0";
   lcm::LCM other(url);
   if (!other.good()) FAIL("cannot open " + url + " (udpm needs a multicast route, docs/telemetry.md)");
+  const clm::HmacSha256 key = key_of("the operators' key of this test, 32+ bytes");
+  const clm::HmacSha256 other_key = key_of("a key the daemon does not hold, 32+ bytes");
   std::atomic<std::int64_t> session{0};
   std::atomic<bool> stop{false};
   std::thread publisher([&] {
@@ -48,20 +68,25 @@ TEST_CASE("Another session's status of the same axis is found, the own session a
       status.axis = "axis0";
       status.session = session.load();
       status.fault_cycle = -1;
-      other.publish(clm::telemetry::kStatusChannel, &status);
+      publish_signed(other, status, key);
       clm_lcm::servo_status_t elsewhere = status;
       elsewhere.axis = "axis1";
       elsewhere.session = 999;
-      other.publish(clm::telemetry::kStatusChannel, &elsewhere);
+      publish_signed(other, elsewhere, key);
+      clm_lcm::servo_status_t forged = status;  // made up without the key
+      forged.session = 77;
+      publish_signed(other, forged, other_key);
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
   });
   session = 41;
-  CHECK(other_session_of_axis(url, "axis0", 42, 0.5) == 41);
-  CHECK(other_session_of_axis(url, "axis0", 41, 0.3) == 0);
-  CHECK_THROWS_WITH(require_axis_free(url, "axis0", 42, 10.0),
+  CHECK(other_session_of_axis(url, "axis0", 42, 0.5, key) == 41);
+  CHECK(other_session_of_axis(url, "axis0", 41, 0.3, key) == 0);
+  CHECK_THROWS_WITH(require_axis_free(url, "axis0", 42, 10.0, key),
                     Catch::Contains("axis 'axis0' is already driven on " + url + " by session 41"));
-  CHECK(other_session_of_axis(url, "axis2", 42, 0.3) == 0);
+  CHECK(other_session_of_axis(url, "axis2", 42, 0.3, key) == 0);
+  // Holding only the forged statuses' key: session 41's are not signed with it, and 77's are, so it is found.
+  CHECK(other_session_of_axis(url, "axis0", 42, 0.5, other_key) == 77);
   stop = true;
   publisher.join();
 }

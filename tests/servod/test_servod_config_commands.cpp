@@ -52,6 +52,29 @@ TEST_CASE("bad axis names, directories and limits are refused naming line and ke
   CHECK_THROWS_WITH(parse("commands:\n  owner: me\n"), Catch::Contains("owner"));
 }
 
+TEST_CASE("files the configuration names obey commands.file_directories, as files commands name do",
+          "[config][commands][files]") {
+  // The configuration's directory is the default directory: a file there is
+  // accepted and canonical, one outside (the source tree's README) refused.
+  const auto inside = parse("commutation:\n  calibration_file: motor-sim.yaml\n");
+  CHECK(inside.commutation.calibration_file == std::filesystem::canonical(kSource + "/config/motor-sim.yaml").string());
+  CHECK_THROWS_WITH(parse("commutation:\n  calibration_file: ../README.md\n"),
+                    Catch::Contains("test.yaml:5") && Catch::Contains("commutation.calibration_file") &&
+                        Catch::Contains("outside the directories"));
+  const std::string feedforward_outside = "motor_file: " + kSource + "/config/motor-sim.yaml\n" +
+                                          "control:\n  mass_kg: 15.0\n  feedforward_file: ../README.md\n";
+  CHECK_THROWS_WITH(
+      servod::parse_servod_config(yaml::Node::load_string(feedforward_outside, "test.yaml"), kSource + "/config"),
+      Catch::Contains("control.feedforward_file") && Catch::Contains("outside the directories"));
+  CHECK_THROWS_WITH(parse("commutation:\n  spline_model_file: motor-sim.yaml\ncommands:\n  file_directories: [programs]\n"),
+                    Catch::Contains("commutation.spline_model_file") && Catch::Contains("outside the directories"));
+}
+
+TEST_CASE("commands.key_file is resolved beside the configuration", "[config][commands]") {
+  CHECK(parse("commands:\n  key_file: command.key\n").commands.key_file == kSource + "/config/command.key");
+  CHECK(parse("commands:\n  key_file: /etc/other.key\n").commands.key_file == "/etc/other.key");
+}
+
 TEST_CASE("a ttl above 0 needs telemetry.allow_network", "[config][commands]") {
   CHECK_THROWS_WITH(parse("telemetry:\n  lcm_url: \"udpm://239.255.76.67:7667?ttl=255\"\n"),
                     Catch::Contains("test.yaml:5") && Catch::Contains("ttl=255") && Catch::Contains("allow_network"));

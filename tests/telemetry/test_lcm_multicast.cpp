@@ -15,7 +15,10 @@
 #include <string>
 #include <thread>
 
+#include "config/sha256.hpp"
 #include "daemon/telemetry/lcm_datagram.hpp"
+#include "daemon/telemetry/message_mac.hpp"
+#include "daemon/telemetry/wire_check.hpp"
 #include "telemetry/telemetry_samples.hpp"
 
 using namespace clm::telemetry;
@@ -38,6 +41,37 @@ std::string no_multicast(const std::string& what) {
   std::snprintf(buffer, sizeof(buffer), kNoMulticast, what.c_str());
   return buffer;
 }
+
+/// The operators' key of these tests.
+clm::HmacSha256 test_key() {
+  const std::string text = "clm-servo test key, 32 bytes at least";
+  return clm::HmacSha256(std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
+}
+
+/// A publisher's settings on `url` with the test key.
+TelemetryConfig keyed_config(const std::string& url) {
+  TelemetryConfig config;
+  config.lcm_url = url;
+  config.key = test_key();
+  return config;
+}
+
+/// Publishes `command` with the mac of `key` (as clm ctl does), or with a zero mac when `key` is empty.
+int publish_command(lcm::LCM& lcm, const clm_lcm::servo_command_t& command, const std::optional<clm::HmacSha256>& key) {
+  std::vector<std::uint8_t> encoded(static_cast<std::size_t>(command.getEncodedSize()));
+  command.encode(encoded.data(), 0, static_cast<int>(encoded.size()));
+  if (key) sign_encoded(*key, kCommandChannel, encoded);
+  return lcm.publish(kCommandChannel, encoded.data(), static_cast<unsigned int>(encoded.size()));
+}
+
+/// Keeps the bytes of every message of one channel.
+struct RawCollector {
+  void on_message(const lcm::ReceiveBuffer* buffer, const std::string&) {
+    const auto* bytes = static_cast<const std::uint8_t*>(buffer->data);
+    messages.emplace_back(bytes, bytes + buffer->data_size);
+  }
+  std::vector<std::vector<std::uint8_t>> messages;
+};
 
 /// Collects the messages of one channel.
 template <typename Message>
@@ -69,8 +103,7 @@ TEST_CASE("A state pushed by the cycle arrives over udpm multicast with every fi
   subscriber.subscribe(kStateChannel, &Collector<clm_lcm::servo_state_t>::on_message, &states);
   subscriber.subscribe(kStatusChannel, &Collector<clm_lcm::servo_status_t>::on_message, &statuses);
 
-  TelemetryConfig config;
-  config.lcm_url = url;
+  const TelemetryConfig config = keyed_config(url);
   std::optional<TelemetryPublisher> publisher;
   try {
     publisher.emplace(config);
@@ -108,8 +141,7 @@ TEST_CASE("Commands sent over udpm multicast reach poll_command, an empty path i
   Collector<clm_lcm::servo_command_ack_t> acks;
   operator_side.subscribe(kCommandAckChannel, &Collector<clm_lcm::servo_command_ack_t>::on_message, &acks);
 
-  TelemetryConfig config;
-  config.lcm_url = url;
+  const TelemetryConfig config = keyed_config(url);
   std::optional<TelemetryPublisher> publisher;
   try {
     publisher.emplace(config);
@@ -139,7 +171,7 @@ TEST_CASE("Commands sent over udpm multicast reach poll_command, an empty path i
   clm::servo::Command command;
   bool taken = false;
   for (int attempt = 0; attempt < 5 && !taken; ++attempt) {
-    REQUIRE(operator_side.publish(kCommandChannel, &move) == 0);
+    REQUIRE(publish_command(operator_side, move, test_key()) == 0);
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(1);
     while (!(taken = publisher->poll_command(command)) && std::chrono::steady_clock::now() < deadline) {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -155,7 +187,7 @@ TEST_CASE("Commands sent over udpm multicast reach poll_command, an empty path i
 
   bool refused = false;
   for (int attempt = 0; attempt < 5 && !refused; ++attempt) {
-    REQUIRE(operator_side.publish(kCommandChannel, &load) == 0);
+    REQUIRE(publish_command(operator_side, load, test_key()) == 0);
     refused = handle_until(
         operator_side, [&] { return !acks.messages.empty(); }, std::chrono::milliseconds(1000));
   }
@@ -163,7 +195,7 @@ TEST_CASE("Commands sent over udpm multicast reach poll_command, an empty path i
   const std::int64_t malformed_before = publisher->counters().commands_malformed;
   bool counted = false;
   for (int attempt = 0; attempt < 5 && !counted; ++attempt) {
-    REQUIRE(operator_side.publish(kCommandChannel, &too_long) == 0);
+    REQUIRE(publish_command(operator_side, too_long, test_key()) == 0);
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(1);
     while (!(counted = publisher->counters().commands_malformed > malformed_before) &&
            std::chrono::steady_clock::now() < deadline) {
@@ -183,8 +215,7 @@ TEST_CASE("Commands sent over udpm multicast reach poll_command, an empty path i
 TEST_CASE("A fragment claiming 2^28 bytes is dropped unread and counted; the next command still arrives",
           "[telemetry][lcm][datagram]") {
   const std::string url = test_url();
-  TelemetryConfig config;
-  config.lcm_url = url;
+  const TelemetryConfig config = keyed_config(url);
   std::optional<TelemetryPublisher> publisher;
   try {
     publisher.emplace(config);
@@ -227,7 +258,7 @@ TEST_CASE("A fragment claiming 2^28 bytes is dropped unread and counted; the nex
   clm::servo::Command command;
   bool taken = false;
   for (int attempt = 0; attempt < 5 && !taken; ++attempt) {
-    REQUIRE(operator_side.publish(kCommandChannel, &enable) == 0);
+    REQUIRE(publish_command(operator_side, enable, test_key()) == 0);
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(1);
     while (!(taken = publisher->poll_command(command)) && std::chrono::steady_clock::now() < until) {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -236,4 +267,72 @@ TEST_CASE("A fragment claiming 2^28 bytes is dropped unread and counted; the nex
   publisher->stop();
   CHECK(taken);
   CHECK(command.sequence == 7);
+}
+
+TEST_CASE("Over udpm every message published carries the mac of the key; a command without it is refused as "
+          "unauthenticated, a stop without it is taken",
+          "[telemetry][lcm][mac]") {
+  const std::string url = test_url();
+  lcm::LCM operator_side(url);
+  if (!operator_side.good()) FAIL(no_multicast("cannot open " + url));
+  RawCollector acks, statuses;
+  operator_side.subscribe(kCommandAckChannel, &RawCollector::on_message, &acks);
+  operator_side.subscribe(kStatusChannel, &RawCollector::on_message, &statuses);
+  std::optional<TelemetryPublisher> publisher;
+  try {
+    publisher.emplace(keyed_config(url));
+  } catch (const std::runtime_error& e) {
+    FAIL(no_multicast(e.what()));
+  }
+  publisher->start();
+  clm_lcm::servo_command_t enable{};
+  enable.utime = wall_clock_utime();
+  enable.sequence = 11;
+  enable.client = 5;
+  enable.command = clm_lcm::servo_command_t::ENABLE;
+  bool answered = false;
+  for (int attempt = 0; attempt < 5 && !answered; ++attempt) {
+    REQUIRE(publish_command(operator_side, enable, std::nullopt) == 0);
+    answered = handle_until(operator_side, [&] { return !acks.messages.empty(); }, std::chrono::milliseconds(1000));
+  }
+  REQUIRE(answered);
+  clm_lcm::servo_command_ack_t ack;
+  REQUIRE(decode_checked(std::span<const std::uint8_t>(acks.messages.front()), ack).empty());
+  CHECK(ack.sequence == 11);
+  CHECK_FALSE(ack.accepted);
+  CHECK(ack.text.rfind("unauthenticated", 0) == 0);
+  CHECK(verify_encoded(test_key(), kCommandAckChannel, acks.messages.front()));
+  CHECK_FALSE(verify_encoded(test_key(), kStatusChannel, acks.messages.front()));  // keyed to its channel
+  const std::string other = "another key, also of 32 bytes or more";
+  CHECK_FALSE(verify_encoded(clm::HmacSha256(std::span(reinterpret_cast<const std::uint8_t*>(other.data()), other.size())),
+                             kCommandAckChannel, acks.messages.front()));
+  CHECK(publisher->counters().commands_unauthenticated >= 1);
+  clm::servo::Command command;
+  CHECK_FALSE(publisher->poll_command(command));
+
+  clm_lcm::servo_command_t stop = enable;
+  stop.sequence = 12;
+  stop.command = clm_lcm::servo_command_t::STOP;
+  bool taken = false;
+  for (int attempt = 0; attempt < 5 && !taken; ++attempt) {
+    REQUIRE(publish_command(operator_side, stop, std::nullopt) == 0);
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+    while (!(taken = publisher->poll_command(command)) && std::chrono::steady_clock::now() < until) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
+  CHECK(taken);
+  CHECK(command.kind == clm::servo::CommandKind::kStop);
+
+  bool heard = false;
+  for (int attempt = 0; attempt < 5 && !heard; ++attempt) {
+    REQUIRE(publisher->push_status(clm::test::make_status()));
+    heard = handle_until(operator_side, [&] { return !statuses.messages.empty(); }, std::chrono::milliseconds(1000));
+  }
+  publisher->stop();
+  REQUIRE(heard);
+  std::vector<std::uint8_t> status = statuses.messages.front();
+  CHECK(verify_encoded(test_key(), kStatusChannel, status));
+  status[20] ^= 1;  // one bit of the status changed: the mac no longer holds
+  CHECK_FALSE(verify_encoded(test_key(), kStatusChannel, status));
 }

@@ -225,14 +225,21 @@ TEST_CASE("enum ranges, booleans and non-finite numbers are refused before decod
   CHECK(check_wire(layout, encode(state)) == "");
   state.F_star_N = std::numeric_limits<double>::quiet_NaN();
   CHECK_THAT(check_wire(layout, encode(state)), Catch::Contains("F_star_N"));
-  // drive_profile, the last byte, is 0 or 1 (DRIVE_PROFILE_*).
+  // drive_profile, the last byte before the 32 of the mac, is 0 or 1 (DRIVE_PROFILE_*).
   state.F_star_N = 0.0;
   state.drive_profile = clm_lcm::servo_state_t::DRIVE_PROFILE_PHASE_CURRENT;
   bytes = encode(state);
   REQUIRE(check_wire(layout, bytes) == "");
-  REQUIRE(bytes.back() == 1);
-  bytes.back() = 2;
+  const std::size_t drive_profile_offset = bytes.size() - 1 - 32;
+  REQUIRE(bytes[drive_profile_offset] == 1);
+  bytes[drive_profile_offset] = 2;
   CHECK_THAT(check_wire(layout, bytes), Catch::Contains("drive_profile"));
+  // The mac's bytes may hold any value; the mac ends the message.
+  bytes[drive_profile_offset] = 1;
+  for (std::size_t i = bytes.size() - 32; i < bytes.size(); ++i) bytes[i] = 0xff;
+  CHECK(check_wire(layout, bytes) == "");
+  bytes.pop_back();
+  CHECK_THAT(check_wire(layout, bytes), Catch::Contains("mac"));
 
   // A histogram count is 0 or more.
   clm_lcm::servo_status_t status{};
