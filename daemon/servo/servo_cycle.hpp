@@ -17,6 +17,7 @@
 #include <span>
 
 #include "commutation/commutator.hpp"
+#include "daemon/control/envelope.hpp"
 #include "daemon/control/position_controller.hpp"
 #include "daemon/control/stop_profile.hpp"
 #include "daemon/control/trajectory.hpp"
@@ -57,7 +58,10 @@ struct ServoSettings {
   double recovery_margin_m = 0.02;
   /// A jog stops (stop_limits) when no repeat renewed it for this long [s].
   double jog_timeout_s = 0.25;
-  /// Throws std::invalid_argument naming the setting.
+  /// The machine the safe envelope is derived from (control::check_envelope).
+  control::Machine machine{};
+  /// Throws std::invalid_argument naming the setting, or the relation of the
+  /// safe envelope the settings together break.
   void validate() const;
   /// The settings that may change at run time, and these settings with `tuning`'s.
   Tuning tuning() const noexcept;

@@ -62,6 +62,10 @@ void ServoSettings::validate() const {
           "recovery_velocity_fraction must be in (0, 1]");
   require(recovery_margin_m >= 0.0 && std::isfinite(recovery_margin_m), "recovery_margin_m must not be negative");
   require(jog_timeout_s > 0.0 && std::isfinite(jog_timeout_s), "jog_timeout_s must be positive");
+  const std::string outside = control::check_envelope(
+      machine, {period_s, soft_limit_min_m, soft_limit_max_m, following_error_limit_m, force_limit_N,
+                saturation_time_limit_s, motion_limits, stop_limits, quick_stop_limits, feedforward});
+  require(outside.empty(), outside);
 }
 
 Tuning ServoSettings::tuning() const noexcept {

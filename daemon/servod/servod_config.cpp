@@ -121,8 +121,6 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
   config.servo.drive = config.motor.drive;
   config.servo.protocol.coil_sets = config.motor.coil_sets;
   config.servo.protocol.drive_profile = config.motor.drive_profile;  // drive.profile of the motor file
-  config.servo.soft_limit_min_m = config.motor.stroke_min_m;
-  config.servo.soft_limit_max_m = config.motor.stroke_max_m;
 
   // No force_sensor_node_id: the axis has no force sensor (docs/servod.md, "Service without a force sensor").
   config.servo.protocol.force_sensor_node_id = can::kNoForceSensor;
@@ -181,12 +179,17 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     if (!config.feedforward_file.empty()) {
       if (control->has("feedforward")) (*control)["feedforward_file"].fail("give feedforward or feedforward_file, not both");
     }
+    if (const auto v = control->optional("following_error_limit_m")) config.servo.following_error_limit_m = in_range(*v, "control.following_error_limit_m");
+    // Default soft limits: the stroke, inset by twice the following-error
+    // limit (relation 5 of the safe envelope, control::check_envelope).
+    const double inset_m = 2.0 * config.servo.following_error_limit_m;
+    config.servo.soft_limit_min_m = config.motor.stroke_min_m + inset_m;
+    config.servo.soft_limit_max_m = config.motor.stroke_max_m - inset_m;
     if (const auto v = control->optional("soft_limit_min_m")) config.servo.soft_limit_min_m = v->as_double();
     if (const auto v = control->optional("soft_limit_max_m")) config.servo.soft_limit_max_m = v->as_double();
     if (!(config.servo.soft_limit_max_m > config.servo.soft_limit_min_m)) {
       (*control)["soft_limit_max_m"].fail("must be above soft_limit_min_m");
     }
-    if (const auto v = control->optional("following_error_limit_m")) config.servo.following_error_limit_m = in_range(*v, "control.following_error_limit_m");
     if (const auto v = control->optional("force_limit_N")) config.servo.force_limit_N = in_range(*v, "control.force_limit_N");
     if (const auto v = control->optional("saturation_time_limit_s")) config.servo.saturation_time_limit_s = in_range(*v, "control.saturation_time_limit_s");
     if (const auto v = control->optional("standstill_velocity_m_per_s")) config.servo.standstill_velocity_m_per_s = v->as_double_in(1e-6, 1.0);
@@ -194,6 +197,7 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     root["control"];  // throws "missing key 'control'": mass_kg has no default
   }
   config.control_mass_kg = mass_kg;
+  config.servo.machine = {mass_kg, config.motor.stroke_min_m, config.motor.stroke_max_m};
   try {
     config.servo.pid = control::tune_pid(mass_kg, config.control_bandwidth_hz);
   } catch (const std::invalid_argument&) {

@@ -384,12 +384,19 @@ TEST_CASE("a position outside the soft limits latches kPositionOutOfRange, enabl
 
 TEST_CASE("a force demand saturated longer than the limit latches kForceSaturated and the limit holds meanwhile",
           "[daemon][faults]") {
+  // A push 50 N beyond the force limit against a gentle move (1 m/s^2): the
+  // loop saturates. Inside the safe envelope, so that only the saturation trips: a
+  // following-error limit of 20 mm (wider than the push makes in the 50 ms of
+  // saturation_time_limit_s), the soft limits 40 mm inside the stroke.
   auto config = test::virtual_config();
-  config.servo.force_limit_N = 30.0;               // the brisk move needs 150 N
-  config.servo.following_error_limit_m = 0.5;      // only the saturation may trip
+  config.servo.following_error_limit_m = 0.02;
+  config.servo.soft_limit_min_m = config.servo.machine.stroke_min_m + 0.04;
+  config.servo.soft_limit_max_m = config.servo.machine.stroke_max_m - 0.04;
   EnabledAxis axis(config);
   REQUIRE(axis.daemon.cycle().mode() == servo::CommutationMode::kOriginal);
-  axis.move_to(0.05, kBrisk);
+  const double force_limit_N = config.servo.force_limit_N;
+  axis.move_to(0.05, {0.3, 1.0, 1000.0});
+  axis.motor().set_disturbance_force_N(-(force_limit_N + 50.0));
   int saturated_cycles = 0;
   int max_saturated_run = 0;
   while (axis.daemon.cycle().state() == ServoState::kEnabled) {
@@ -398,8 +405,8 @@ TEST_CASE("a force demand saturated longer than the limit latches kForceSaturate
     // The drive's own law shares F* equally: the magnitudes on the bus sum to
     // F*, so |Σ| shows the limit holding without trusting the record.
     const double sum_N = test::sent_setpoints(axis.wired).magnitude_sum_N();
-    CHECK(std::abs(sum_N) <= 30.0 + 3 * can::kMagnitudeLsb_N);
-    saturated_cycles = std::abs(sum_N) >= 30.0 - 3 * can::kMagnitudeLsb_N ? saturated_cycles + 1 : 0;
+    CHECK(std::abs(sum_N) <= force_limit_N + 3 * can::kMagnitudeLsb_N);
+    saturated_cycles = std::abs(sum_N) >= force_limit_N - 3 * can::kMagnitudeLsb_N ? saturated_cycles + 1 : 0;
     max_saturated_run = std::max(max_saturated_run, saturated_cycles);
     REQUIRE(axis.daemon.cycle().counters().cycles < 5000);
   }
@@ -410,6 +417,7 @@ TEST_CASE("a force demand saturated longer than the limit latches kForceSaturate
   INFO("saturated for " << saturated_cycles << " cycles before the fault");
   CHECK(saturated_cycles + 1 >= limit_cycles);
   CHECK(saturated_cycles + 1 <= limit_cycles + 1);
+  axis.motor().set_disturbance_force_N(0.0);
   axis.require_quick_stop_reaction(Fault::kForceSaturated);
   axis.require_latched(Fault::kForceSaturated);
   axis.require_recovers();

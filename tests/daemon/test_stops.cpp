@@ -157,19 +157,21 @@ TEST_CASE("move-to beyond the motion limits, or whose stop from some cycle would
   auto config = test::virtual_config();
   config.servo.stop_limits = {1.0, 1000.0};
   config.servo.quick_stop_limits = {1.0, 1000.0};
+  // Inside the safe envelope: a quick stop from the largest velocity within half the soft span.
+  config.servo.motion_limits.velocity_m_per_s = 0.3;
   servod::WiredAxis gentle(config);
   gentle.daemon.run_cycles(10);
   test::command(gentle.daemon, Kind::kEnable, 20);
   servo::Command move;
   move.kind = Kind::kMoveTo;
   move.target_m = s.soft_limit_max_m - 0.005;
-  move.limits = {0.5, 10.0, 1000.0};
+  move.limits = {0.3, 10.0, 1000.0};
   const auto reply = gentle.daemon.submit(move);
   INFO(reply.text);
   CHECK_FALSE(reply.accepted);
   CHECK_THAT(reply.text, Catch::Contains("outside the soft limits"));
   // The same move braking no harder than the stop is accepted.
-  move.limits = {0.5, 1.0, 1000.0};
+  move.limits = {0.3, 1.0, 1000.0};
   CHECK(gentle.daemon.submit(move).accepted);
   gentle.daemon.run_until_idle(20000);
   gentle.daemon.run_cycles(300);
@@ -237,15 +239,22 @@ TEST_CASE("every fault injected at full speed gets the reaction of the table and
   INFO("injection " << static_cast<int>(how));
   auto config = test::virtual_config();
   // A push the loop cannot hold at its force limit trips the following error
-  // first at the default 2 mm; for fault 204 alone the limit is 20 mm.
-  if (how == How::kForceSaturated) config.servo.following_error_limit_m = 0.02;
+  // first at the default 2 mm; for fault 204 alone the limit is 20 mm, and
+  // the soft limits then lie 40 mm inside the stroke (the safe envelope).
+  double end_m = 0.1;
+  if (how == How::kForceSaturated) {
+    config.servo.following_error_limit_m = 0.02;
+    config.servo.soft_limit_min_m = config.servo.machine.stroke_min_m + 0.04;
+    config.servo.soft_limit_max_m = config.servo.machine.stroke_max_m - 0.04;
+    end_m = 0.07;
+  }
   Axis axis(config);
   auto& wired = axis.wired;
   auto& daemon = axis.daemon;
   auto& injection = axis.injection();
   const auto& s = axis.settings();
-  axis.go_to(-0.1);
-  axis.at_full_speed(0.1);  // towards the other end
+  axis.go_to(-end_m);
+  axis.at_full_speed(end_m);  // towards the other end
   if (how == How::kSoftLimit) {
     // Braking towards 0.1 m, the translator is pushed 15 mm ahead, past the
     // soft limit (a measurement still believed: within 10 following-error limits).

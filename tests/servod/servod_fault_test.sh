@@ -63,12 +63,14 @@ end_min=$(config_value "$work/motor-sim.yaml" "    end_stop_min_m")
 end_max=$(config_value "$work/motor-sim.yaml" "    end_stop_max_m")
 [ -n "$end_min" ] && [ -n "$end_max" ] || fail "no end stops in the motor file"
 
-# Writes the configuration of a phase: PLAN (steps), FOLLOWING_ERROR_LIMIT_M.
+# Writes the configuration of a phase: PLAN (steps), FOLLOWING_ERROR_LIMIT_M,
+# the soft limits at ±SOFT_M.
 write_config() {
-  local out=$1 plan=$2 limit=$3
+  local out=$1 plan=$2 limit=$3 soft=$4
   missing=$(config_edit "$source_dir/config/servod.yaml" "$out" \
             "motor_file: $work/motor-sim.yaml" "  clock: realtime" \
-            "  lcm_url: \"$url\"" "  following_error_limit_m: $limit" "  interface: sim" "  overrun_limit: 20" &&
+            "  lcm_url: \"$url\"" "  following_error_limit_m: $limit" "  interface: sim" "  overrun_limit: 20" \
+            "  soft_limit_min_m: -$soft" "  soft_limit_max_m: $soft" &&
             config_require "$out" "  velocity_m_per_s: 0.5") || fail "config: no line '$missing' after editing"
   sed -i "s|^  interface: sim\$|  interface: sim\n  sim_fault_plan: \"$plan\"|" "$out"
   grep -q "^  sim_fault_plan: \"$plan\"" "$out" || fail "config: no sim_fault_plan"
@@ -90,17 +92,20 @@ wait_state() {
 }
 
 to_start() {
-  ctl move-to --target-m -0.1 --velocity-m-per-s 0.25 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 > /dev/null ||
+  ctl move-to --target-m "-$end_m" --velocity-m-per-s 0.25 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 > /dev/null ||
       fail "$1: move-to the start refused"
   wait_state "$1: to the start" program_running false
 }
 
+# run_phase NAME FOLLOWING_ERROR_LIMIT_M SOFT_M END_M CASE...: the moves go
+# from -END_M to END_M.
 run_phase() {
-  local name=$1 limit=$2
-  shift 2
+  local name=$1 limit=$2 soft=$3
+  end_m=$4
+  shift 4
   local cases=("$@") plan="" item
   for item in "${cases[@]}"; do plan+="${plan:+,}${item%% *}"; done
-  write_config "$work/servod-$name.yaml" "$plan" "$limit"
+  write_config "$work/servod-$name.yaml" "$plan" "$limit" "$soft"
   start_daemon "$work/servod-$name.yaml" "$work/servod-$name.log"
   local pid=$servod_pid rc=0
   wait_for_status "$pid" 20 || rc=$?
@@ -123,7 +128,7 @@ run_phase() {
       losses=$(ctl status | sed -n 's/^force_sensor: .*losses \([0-9]*\)$/\1/p')
       [ -n "$losses" ] || fail "$step: no force_sensor line in the status"
     fi
-    ctl move-to --target-m 0.1 --velocity-m-per-s 0.5 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 > /dev/null ||
+    ctl move-to --target-m "$end_m" --velocity-m-per-s 0.5 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 > /dev/null ||
         fail "$step: move-to refused"
     sleep 0.12  # cruising at 0.5 m/s (the move takes 0.45 s)
     if [ "$reaction" = warn ]; then
@@ -242,7 +247,9 @@ CHECK
   [ $rc = 0 ] || fail "clm-servod exit status $rc after SIGTERM, expected 0"
 }
 
-run_phase default 0.002 "${phase1[@]}"
-run_phase wide 0.02 "${phase2[@]}"
+# The wide phase's soft limits lie 41 mm inside the 0.12 m stroke: over twice its
+# following-error limit (the safe envelope, docs/servod.md).
+run_phase default 0.002 0.11 0.1 "${phase1[@]}"
+run_phase wide 0.02 0.079 0.07 "${phase2[@]}"
 trap - EXIT
 echo "clm-servod fault test: ${#phase1[@]} + ${#phase2[@]} fault kinds injected at 0.5 m/s through the plan, each with the table's reaction (the force sensor's a warning in service)"
