@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "commutation/classical.hpp"
+#include "drivers/sim/motor.hpp"
 #include "drivers/sim/oracle.hpp"
 #include "drivers/sim/random.hpp"
 #include "drivers/sim/sim_support.hpp"
