@@ -7,7 +7,6 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
-#include <stdexcept>
 #include <vector>
 
 #include "commutation/classical.hpp"
@@ -16,23 +15,13 @@
 #include "drivers/can/can_protocol.hpp"
 #include "drivers/sim/motor.hpp"
 #include "drivers/sim/sim_support.hpp"
+#include "tests/daemon/daemon_support.hpp"
 #include "tools/commission/runs.hpp"
 
 using namespace clm;
 using namespace clm::sim;
 
 namespace {
-
-std::string source_path(const std::string& relative) { return std::string(CLM_SOURCE_DIR) + "/" + relative; }
-
-/// The configuration `file` as the in-process commissioning runs it.
-servod::ServodConfig offline_config(const std::string& file) {
-  servod::ServodConfig config = servod::load_servod_config(source_path(file));
-  config.loop.clock = servod::ClockMode::kVirtual;
-  config.telemetry.enabled = false;
-  config.servo.feedforward = {};
-  return config;
-}
 
 /// The simulator's truth at every cycle the commissioning records: the
 /// Recorder hands each recorded cycle on to this observer, so truth[k]
@@ -102,7 +91,7 @@ Run run_on_daemon(servod::WiredAxis& axis, const control::MoveProgram& program, 
 TEST_CASE("a commissioning run records the daemon's cycles: each measured force is the previous cycle's setpoints "
           "at the true position",
           "[commission][runs]") {
-  const servod::ServodConfig config = offline_config("config/servod.yaml");
+  const servod::ServodConfig config = test::virtual_config("config/servod.yaml");
   MotorParameters parameters = fixtures::default_motor();
   fixtures::ideal_sensors(parameters);
   // Without the direction-dependent force the wrench depends on the position
@@ -155,7 +144,7 @@ TEST_CASE("a commissioning run records the daemon's cycles: each measured force 
 TEST_CASE("in experiment mode the daemon's cycle drives one coil set alone with magnitude F* and a constant offset",
           "[commission][runs]") {
   for (const bool two_coil : {false, true}) {
-    const servod::ServodConfig config = offline_config(two_coil ? "config/servod-2coil.yaml" : "config/servod.yaml");
+    const servod::ServodConfig config = test::virtual_config(two_coil ? "config/servod-2coil.yaml" : "config/servod.yaml");
     const MotorParameters parameters = two_coil ? fixtures::two_coil_motor() : fixtures::default_motor();
     servod::WiredAxis axis(config);
     const int coil_sets = config.motor.coil_sets;
@@ -194,7 +183,7 @@ TEST_CASE("in experiment mode the daemon's cycle drives one coil set alone with 
 TEST_CASE("on the daemon's cycle the oracle's commutation error is the direction-dependent force",
           "[commission][runs][oracle]") {
   for (const bool two_coil : {false, true}) {
-    const servod::ServodConfig config = offline_config(two_coil ? "config/servod-2coil.yaml" : "config/servod.yaml");
+    const servod::ServodConfig config = test::virtual_config(two_coil ? "config/servod-2coil.yaml" : "config/servod.yaml");
     MotorParameters parameters = two_coil ? fixtures::two_coil_motor() : fixtures::default_motor();
     fixtures::ideal_sensors(parameters);
     servod::WiredAxis axis(config, servod::wire_simulated_axis(config, parameters));
@@ -250,7 +239,7 @@ TEST_CASE("on the daemon's cycle the oracle's commutation error is the direction
 }
 
 TEST_CASE("the daemon's cycle refuses an experiment on a coil set the motor does not have", "[commission][runs]") {
-  const servod::ServodConfig config = offline_config("config/servod-2coil.yaml");
+  const servod::ServodConfig config = test::virtual_config("config/servod-2coil.yaml");
   commission::InProcessRunner runner(config);
   runner.enable();
   CHECK_THROWS_WITH(runner.set_experiment(3, 0.0), Catch::Contains("refused"));

@@ -21,6 +21,7 @@
 #include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/program_file.hpp"
 #include "drivers/sim/motor_file.hpp"
+#include "drivers/sim/sim_support.hpp"
 #include "support/daemon_experiments.hpp"
 #include "support/temporary_directory.hpp"
 #include "tools/commission/commission.hpp"
@@ -33,7 +34,7 @@ using servo::CommutationMode;
 
 namespace {
 
-std::string source_path(const std::string& relative) { return std::string(CLM_SOURCE_DIR) + "/" + relative; }
+using sim::fixtures::source_path;
 
 struct CommutationFigures {
   control::DirectionMse mse;
