@@ -73,7 +73,7 @@ BENCHMARK(BM_Period)->Unit(benchmark::kMicrosecond);
 // in-process commissioning runs every experiment and evaluation.
 void BM_DaemonFig8(benchmark::State& state) {
   const std::string source_dir = CLM_SOURCE_DIR;
-  servod::ServodConfig config = servod::load_servod_config(source_dir + "/config/servod.yaml");
+  const servod::ServodConfig config = servod::load_servod_config(source_dir + "/config/servod.yaml");
   commission::InProcessRunner runner(config);
   const servod::ProgramFile program = servod::load_program_file(source_dir + "/config/programs/fig8.yaml");
   runner.enable();
