@@ -1,12 +1,12 @@
 #pragma once
 // What the daemon of one axis talks to, chosen from the configuration's
-// can.interface, in one place for every builder (clm-servod, the
-// commissioning, tests):
-//   "sim"      the embedded simulated motor (motor_file) as the drive and
-//              force-sensor nodes on an in-process bus, which is also the
-//              bus's clock, and the oracle commutation on the motor's truth;
-//   otherwise  that SocketCAN interface; no clock (the hardware keeps its
-//              own time), no extra law.
+// can.bus (which the configuration reader decided from can.interface), in
+// one place for every builder (clm-servod, the commissioning, tests):
+//   kSimulated  the embedded simulated motor (motor_file) as the drive and
+//               force-sensor nodes on an in-process bus, which is also the
+//               bus's clock, and the oracle commutation on the motor's truth;
+//   kSocketCan  the SocketCAN interface can.interface; no clock (the
+//               hardware keeps its own time), no extra law.
 
 #include <memory>
 #include <vector>
@@ -18,6 +18,7 @@
 #include "drivers/sim/in_process_bus.hpp"
 #include "drivers/sim/motor.hpp"
 #include "drivers/sim/oracle.hpp"
+#include "drivers/sim/parameters.hpp"
 #include "drivers/sim/simulated_nodes.hpp"
 
 namespace clm::servod {
@@ -44,11 +45,21 @@ struct AxisWiring {
 /// file, and what drivers::SocketCanBus throws when the interface cannot be opened.
 AxisWiring wire_axis(const ServodConfig& config);
 
+/// The simulated wiring of `config` (as wire_axis builds it for
+/// BusKind::kSimulated) on a motor with `parameters` instead of those of
+/// config.motor_file: the same daemon on a motor of another seed or with
+/// ideal sensors (tests, studies). Throws std::runtime_error naming the motor
+/// file when the coil-set count differs from motor.coil_sets.
+AxisWiring wire_simulated_axis(const ServodConfig& config, const sim::MotorParameters& parameters);
+
 /// A daemon on the wiring its configuration names, owned together (the
 /// wiring is built first and goes last). Not movable.
 struct WiredAxis {
   /// Throws what wire_axis and the ServoDaemon constructor throw.
   explicit WiredAxis(const ServodConfig& config);
+  /// The daemon on a wiring built by the caller (wire_simulated_axis), which
+  /// must be the one `config` describes. Throws what the ServoDaemon constructor throws.
+  WiredAxis(const ServodConfig& config, AxisWiring given_wiring);
 
   AxisWiring wiring;
   ServoDaemon daemon;

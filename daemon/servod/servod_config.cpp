@@ -130,13 +130,14 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     if (const auto v = can->optional("interface")) {
       config.can.interface = v->as_string();
       if (config.can.interface.empty() || config.can.interface.size() > 15) v->fail("interface name must have 1..15 characters");
+      config.can.bus = config.can.interface == kSimulatedInterface ? BusKind::kSimulated : BusKind::kSocketCan;
     }
     if (const auto v = can->optional("bitrate_bps")) config.can.bitrate_bps = v->as_double_in(10e3, 1e6);
     if (const auto v = can->optional("drive_node_id")) config.servo.protocol.drive_node_id = static_cast<std::uint8_t>(v->as_integer_in(1, 127));
     if (const auto v = can->optional("force_sensor_node_id")) config.servo.protocol.force_sensor_node_id = static_cast<std::uint8_t>(v->as_integer_in(1, 127));
     if (const auto v = can->optional("bus_load_limit")) config.can.bus_load_limit = v->as_double_in(0.01, 0.7);
     if (const auto v = can->optional("sim_fault_plan")) {
-      if (config.can.interface != "sim") v->fail("fault injection needs the embedded simulated motor (interface: sim)");
+      if (config.can.bus != BusKind::kSimulated) v->fail("fault injection needs the embedded simulated motor (interface: sim)");
       try {
         config.can.sim_fault_plan = sim::parse_planned_faults(v->as_string());
       } catch (const std::invalid_argument& e) {
@@ -152,7 +153,7 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
   // The schedule must fit a real bus. The in-process simulated bus has no
   // bitrate, so there the load is only computed (faster loops can be studied).
   config.can.bus_load = can::bus_load(config.servo.protocol, config.can.bitrate_bps, config.loop.rate_hz);
-  if (config.can.interface != "sim") {
+  if (config.can.bus != BusKind::kSimulated) {
     try {
       can::check_bus_load(config.servo.protocol, config.can.bitrate_bps, config.loop.rate_hz, config.can.bus_load_limit);
     } catch (const std::invalid_argument& e) {
@@ -250,7 +251,7 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     needs(servo::CommutationMode::kClassical, config.commutation.calibration_file, "calibration_file");
     needs(servo::CommutationMode::kPgnn, config.commutation.pgnn_model_file, "pgnn_model_file");
     needs(servo::CommutationMode::kSpline, config.commutation.spline_model_file, "spline_model_file");
-    if (config.commutation.mode == servo::CommutationMode::kOracle && config.can.interface != "sim") {
+    if (config.commutation.mode == servo::CommutationMode::kOracle && config.can.bus != BusKind::kSimulated) {
       (*commutation)["mode"].fail("the oracle commutation exists only with can.interface: sim");
     }
   }

@@ -26,12 +26,24 @@ struct LoopConfig {
   double receive_window_fraction = 0.5;  ///< feedback must arrive within this share of the period
 };
 
+/// What is at the other end of the axis's CAN bus. The configuration reader
+/// decides it once from can.interface (kSimulatedInterface, or any other
+/// name); everything after reads this, never the name.
+enum class BusKind {
+  kSimulated,  ///< the embedded simulated motor (motor_file) on an in-process bus
+  kSocketCan,  ///< the SocketCAN interface CanConfig::interface
+};
+
+/// The can.interface that names the embedded simulated motor.
+inline constexpr const char* kSimulatedInterface = "sim";
+
 struct CanConfig {
-  std::string interface = "sim";      ///< "sim" (embedded simulated motor) or a SocketCAN interface
+  BusKind bus = BusKind::kSimulated;  ///< from `interface`, by the configuration reader
+  std::string interface = kSimulatedInterface;  ///< as configured: "sim" or a SocketCAN interface name
   double bitrate_bps = 1e6;
   double bus_load_limit = 0.7;
   double bus_load = 0.0;              ///< computed worst-case load of the cycle's schedule [-]
-  /// interface sim only: fault injection fired step by step by SIGUSR1
+  /// BusKind::kSimulated only: fault injection fired step by step by SIGUSR1
   /// (docs/reliability.md, "Fault injection on the embedded simulated motor").
   std::vector<sim::PlannedStep> sim_fault_plan;
 };

@@ -90,7 +90,7 @@ using commission::identify_ff;
 // The daemon configuration as `clm commission` prepares it.
 servod::ServodConfig commissioning_config(const std::string& path) {
   servod::ServodConfig config = servod::load_servod_config(path);
-  if (config.can.interface != "sim") throw std::runtime_error(path + ": can.interface must be sim");
+  if (config.can.bus != servod::BusKind::kSimulated) throw std::runtime_error(path + ": can.interface must be sim");
   config.loop.clock = servod::ClockMode::kVirtual;
   config.telemetry.enabled = false;
   config.commutation.mode = servo::CommutationMode::kOriginal;

@@ -60,7 +60,9 @@ std::string load_error(const test::TemporaryDirectory& dir, const std::vector<st
 TEST_CASE("the valid test configuration loads and runs", "[daemon][config]") {
   test::TemporaryDirectory dir("clm-servod-config");
   REQUIRE(load_error(dir, valid_lines()).empty());
-  servod::WiredAxis axis(servod::load_servod_config(dir.file("servod.yaml")));
+  const servod::ServodConfig config = servod::load_servod_config(dir.file("servod.yaml"));
+  CHECK(config.can.bus == servod::BusKind::kSimulated);  // interface: sim
+  servod::WiredAxis axis(config);
   servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
   CHECK(daemon.cycle().state() == servo::ServoState::kDisabled);
@@ -72,6 +74,7 @@ TEST_CASE("the real-axis template loads, needs real-time rights, and stops insid
   // motor file, not the bus.
   const auto config = servod::load_servod_config(test::source_path("config/servod-real.yaml"));
   CHECK(config.can.interface == "can0");
+  CHECK(config.can.bus == servod::BusKind::kSocketCan);
   CHECK(config.loop.require_realtime);
   CHECK(config.motor.stroke_min_m < config.servo.soft_limit_min_m);
   CHECK(config.servo.soft_limit_max_m < config.motor.stroke_max_m);

@@ -350,7 +350,7 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
     Report report = run(options, runner, progress);
     return report;
   }
-  if (config.can.interface != "sim") {
+  if (config.can.bus != servod::BusKind::kSimulated) {
     throw std::runtime_error(options.config_path + ": can.interface: commissioning runs against the embedded "
                              "simulated motor (interface sim); use --live for a running daemon");
   }

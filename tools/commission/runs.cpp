@@ -1,6 +1,7 @@
 #include "tools/commission/runs.hpp"
 
 #include <stdexcept>
+#include <utility>
 
 #include "daemon/servod/telemetry_bridge.hpp"
 #include "daemon/telemetry/telemetry.hpp"
@@ -122,8 +123,10 @@ servo::PathText path_text(const std::string& path) {
 
 }  // namespace
 
-InProcessRunner::InProcessRunner(const servod::ServodConfig& config)
-    : axis_(std::make_unique<servod::WiredAxis>(offline(config))), daemon_(&axis_->daemon) {
+InProcessRunner::InProcessRunner(const servod::ServodConfig& config) : InProcessRunner(config, servod::wire_axis(config)) {}
+
+InProcessRunner::InProcessRunner(const servod::ServodConfig& config, servod::AxisWiring wiring)
+    : axis_(std::make_unique<servod::WiredAxis>(offline(config), std::move(wiring))), daemon_(&axis_->daemon) {
   daemon_->run_cycles(20);
 }
 

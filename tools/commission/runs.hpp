@@ -74,6 +74,9 @@ class InProcessRunner final : public ExperimentRunner {
  public:
   /// `config` as given, except: virtual clock, no LCM, original commutation, no feedforward.
   explicit InProcessRunner(const servod::ServodConfig& config);
+  /// The same on a wiring the caller built for `config`
+  /// (servod::wire_simulated_axis: a motor of other parameters).
+  InProcessRunner(const servod::ServodConfig& config, servod::AxisWiring wiring);
   ~InProcessRunner() override;
 
   void enable() override;

@@ -1,22 +1,19 @@
 // The oracle commutation inverts the static truth exactly: what is left of
-// the commutation error is the direction-dependent force.
+// the commutation error is the direction-dependent force. (In closed loop on
+// the daemon's cycle: tests/tools/test_commission_runs.cpp.)
 #include <catch2/catch.hpp>
 #include <array>
 #include <cmath>
 
 #include "commutation/classical.hpp"
-#include "daemon/control/metrics.hpp"
-#include "daemon/control/position_controller.hpp"
-#include "daemon/control/trajectory.hpp"
+#include "drivers/sim/motor.hpp"
 #include "drivers/sim/oracle.hpp"
 #include "drivers/sim/random.hpp"
 #include "drivers/sim/sim_support.hpp"
 #include "support/allocation_counter.hpp"
-#include "tools/commission/closed_loop.hpp"
 
 using namespace clm;
 using namespace clm::sim;
-using namespace clm::commission;
 
 namespace {
 
@@ -80,52 +77,5 @@ TEST_CASE("for L = 1 the oracle gives the least-squares wrench of the static tru
     const Wrench residual = motor.electromagnetics().wrench(y, 0.0, out.currents_A) - desired;
     // Normal equations: the residual is orthogonal to both columns of K.
     REQUIRE((gain.transpose() * residual).norm() < 1e-9 * gain.norm() * desired.norm());
-  }
-}
-
-TEST_CASE("in closed loop the oracle's commutation error is the direction-dependent term", "[sim][oracle][loop]") {
-  for (const bool two_coil : {false, true}) {
-    MotorParameters parameters = two_coil ? fixtures::two_coil_motor() : fixtures::default_motor();
-    fixtures::ideal_sensors(parameters);
-    SimulatedMotor motor(parameters);
-    const OracleCommutator oracle(motor.electromagnetics(), parameters.drive.commutation);
-    const control::MoveProgram program = fixtures::stroke_program(parameters, 0.15);
-    const auto gains = control::tune_pid(parameters.mechanics.translator_mass_kg, 40.0);
-    const auto record = run_closed_loop(motor, program, control::PositionController(gains, {}, 1e-3),
-                                        LoopCommutation::with_law(oracle));
-    REQUIRE(record.first_fault_sample < 0);
-    // The static wrench the drive produces at position y for setpoints sp.
-    const auto static_wrench = [&](double y, const std::array<DriveSetpoint, kMaxCoilSets>& setpoints) {
-      CurrentVector currents(2 * motor.coil_sets());
-      for (int l = 0; l < motor.coil_sets(); ++l) {
-        currents.segment<2>(2 * l) = drive_phase_currents(parameters.drive.commutation,
-                                                          setpoints[static_cast<std::size_t>(l)], y,
-                                                          parameters.pole_pitch_m());
-      }
-      return Wrench(motor.electromagnetics().wrench(y, 0.0, currents));
-    };
-    double error_power = 0.0;
-    double remainder_power = 0.0;
-    double previous_position = program.start_m();
-    for (const auto& sample : record.samples) {
-      const Wrench error = sample.measured - sample.desired;
-      const Wrench remainder = error - motor.direction_dependent(sample.true_velocity_m_per_s);
-      // The oracle commutated exactly at the start of the period (ideal
-      // encoder); the drive then re-commutated as the translator moved on.
-      const Wrench motion_term =
-          static_wrench(sample.true_position_m, sample.setpoints) - static_wrench(previous_position, sample.setpoints);
-      REQUIRE((remainder - motion_term).norm() < 1e-9 * (1.0 + sample.desired.norm()));
-      previous_position = sample.true_position_m;
-      error_power += error.x() * error.x();
-      remainder_power += remainder.x() * remainder.x();
-    }
-    error_power /= static_cast<double>(record.samples.size());
-    remainder_power /= static_cast<double>(record.samples.size());
-    const double c = parameters.electromagnetics.direction_dependent_N_N_Nm.x();
-    // The error is about C² (the translator moves most of the time); the
-    // motion within a period adds a few percent at most.
-    INFO("error " << error_power << " N², remainder " << remainder_power << " N²");
-    REQUIRE(error_power > 0.3 * c * c);
-    REQUIRE(remainder_power < 0.05 * error_power);
   }
 }
