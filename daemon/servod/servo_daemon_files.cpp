@@ -181,7 +181,7 @@ CommandReply ServoDaemon::finish_load(Loaded& loaded) {
       const servo::CommutationMode mode = loaded.law->mode;
       if (!cycle_->law_handover(mode).post(loaded.law->law.get())) {
         return {command.sequence, command.client, Result::kRejectedFile,
-                std::string(servo::route(command.kind).name) + ": an earlier load is still waiting for standstill"};
+                "an earlier load is still waiting for standstill"};
       }
       laws_.push_back(std::move(loaded.law));
       return {command.sequence, command.client, Result::kLoaded};

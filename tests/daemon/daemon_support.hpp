@@ -68,7 +68,7 @@ inline void require_experiment_refused_for_the_sensor(servod::ServoDaemon& daemo
   const auto replies = daemon.take_replies();
   REQUIRE(replies.size() == 1);
   CHECK_FALSE(replies[0].accepted());
-  CHECK(replies[0].text() == servo::describe(servo::CommandResult::kRejectedNoForceSensor));
+  CHECK(replies[0].result == servo::CommandResult::kRejectedNoForceSensor);
 }
 
 inline void write_text(const std::string& path, const std::string& text) {

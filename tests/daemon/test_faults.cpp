@@ -108,7 +108,8 @@ struct EnabledAxis {
     const auto replies = daemon.take_replies();  // executed: refused while latched
     REQUIRE(replies.size() == 1);
     CHECK_FALSE(replies[0].accepted());
-    CHECK(replies[0].text() == servo::describe(servo::CommandResult::kRejectedFault));
+    CHECK(replies[0].result == servo::CommandResult::kRejectedFault);
+    CHECK(replies[0].text() == "rejected: a fault is latched, clear it first");
     test::command(daemon, Kind::kClearFault);
     REQUIRE(daemon.cycle().state() == ServoState::kDisabled);
     CHECK(daemon.cycle().fault() == Fault::kNone);

@@ -153,6 +153,39 @@ TEST_CASE("move_to while disabled or faulted is refused with the reason, and cou
   CHECK(daemon.commands_refused() == 2);
 }
 
+TEST_CASE("a posted move the cycle does not start is answered with the cycle's reason, never only counted",
+          "[daemon][commands]") {
+  servod::WiredAxis axis(test::virtual_config());
+  servod::ServoDaemon& daemon = axis.daemon;
+  daemon.run_cycles(10);
+  test::command(daemon, Kind::kEnable, 20);
+  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  (void)daemon.take_replies();
+  const auto dropped_before = daemon.cycle().counters().programs_rejected;
+  const auto refused_before = daemon.commands_refused();
+
+  // Decided while enabled; a disable latched before the next cycle: the
+  // cycle, which obeys the disable first, cannot start the move.
+  const auto reply = daemon.submit(move_to(0.03, 7));
+  REQUIRE(reply.accepted());
+  REQUIRE(reply.answered_later());
+  daemon.request_safety(Kind::kDisable);
+  const servod::CommandReply answer = test::cycle_answer(daemon, 7);
+  CHECK_FALSE(answer.accepted());
+  CHECK(answer.result == servo::CommandResult::kRejectedDisabled);
+  CHECK(answer.text() == "rejected: the axis is disabled, enable first");
+  CHECK(daemon.cycle().counters().programs_rejected == dropped_before + 1);
+  CHECK(daemon.commands_refused() == refused_before + 1);
+  CHECK_FALSE(daemon.cycle().record().program_running);
+
+  // Enabled again, the same move runs, and its answer says so.
+  test::command(daemon, Kind::kEnable, 20);
+  (void)daemon.take_replies();
+  REQUIRE(daemon.submit(move_to(0.03, 8)).answered_later());
+  CHECK(test::cycle_answer(daemon, 8).text() == "program posted");
+  CHECK(daemon.cycle().record().program_running);
+}
+
 TEST_CASE("every change of state, commutation, law, file and program, and a superseded request, is an event",
           "[daemon][events]") {
   test::TemporaryDirectory dir("clm-daemon-events");
@@ -183,6 +216,9 @@ TEST_CASE("every change of state, commutation, law, file and program, and a supe
   REQUIRE(daemon.submit(move_to(0.03)).accepted());
   daemon.run_cycles(200);
   CHECK(count(servod::EventCode::kProgramStarted) == 1);
+  const auto posted = daemon.take_replies();  // the cycle's answer once it took the move
+  REQUIRE(posted.size() == 1);
+  CHECK(posted[0].text() == "program posted");
   servo::Command pgnn;
   pgnn.kind = Kind::kSetCommutation;
   pgnn.commutation = CommutationMode::kPgnn;

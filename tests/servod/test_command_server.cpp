@@ -261,13 +261,16 @@ TEST_CASE("Each command gets exactly one ack: queued ones with the cycle's decis
   CHECK_FALSE(acks(sink).find(2)->second.accepted);
   CHECK_THAT(acks(sink).find(2)->second.text, Catch::Contains("no calibration or model"));
 
-  // move_to: answered by submit itself.
+  // move_to: decided by submit, answered once the cycle has taken its program.
   auto move = message(clm_lcm::servo_command_t::MOVE_TO, 3);
   move.target_m = 0.01;
   move.velocity_m_per_s = 0.1;
   move.acceleration_m_per_s2 = 1.0;
   move.jerk_m_per_s3 = 1000.0;
   REQUIRE(publisher.submit_command(move));
+  server.serve_once();
+  CHECK(acks(sink).count(3) == 0);
+  daemon.run_cycles(1);
   server.serve_once();
   REQUIRE(acks(sink).count(3) == 1);
   CHECK(acks(sink).find(3)->second.accepted);
@@ -349,8 +352,11 @@ TEST_CASE("load_feedforward reads the file off the cycle, the cycle applies its 
   move.jerk_m_per_s3 = 1000.0;
   REQUIRE(publisher.submit_command(move));
   server.serve_once();
+  daemon.run_cycles(1);
+  server.serve_once();
+  REQUIRE(acks(sink).count(3) == 1);
   REQUIRE(acks(sink).find(3)->second.accepted);
-  daemon.run_cycles(400);
+  daemon.run_cycles(399);
   const auto& record = daemon.cycle().record();
   REQUIRE(record.r_dot_m_per_s == Approx(0.1).margin(1e-9));
   REQUIRE(record.r_ddot_m_per_s2 == Approx(0.0).margin(1e-9));
