@@ -115,7 +115,7 @@ class ServoDaemon {
   /// (commands.file_directories, commands.max_file_bytes); a file that does
   /// not parse is refused naming its path, line and key, never its content
   /// (the full parser message goes to the log). With a file loader set, files
-  /// are read on its thread and the reply has answered_later set; otherwise
+  /// are read on its thread and the reply is kLoading (answered later); otherwise
   /// on the caller's thread.
   CommandReply submit(const servo::Command& command);
   /// Non-real-time: run_program with the program given instead of a file.
