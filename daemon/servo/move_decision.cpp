@@ -23,6 +23,13 @@ bool inside_soft_limits(const ServoSettings& settings, double position_m) {
   return position_m >= settings.soft_limit_min_m && position_m <= settings.soft_limit_max_m;
 }
 
+/// "" when `target_m` lies inside the soft limits, else the refusal naming it and them.
+std::string check_target(const std::string& what, double target_m, const ServoSettings& settings) {
+  if (inside_soft_limits(settings, target_m)) return "";
+  return what + ": target_m " + number(target_m) + " m lies outside the soft limits [" +
+         number(settings.soft_limit_min_m) + ", " + number(settings.soft_limit_max_m) + "] m";
+}
+
 /// `program` admitted when every stop from it rests inside (unless `check_stop` is false).
 MoveDecision admit(const ServoSettings& settings, const std::string& what, control::MoveProgram program,
                    CommandResult accepted, bool check_stop = true) {
@@ -36,14 +43,13 @@ MoveDecision admit(const ServoSettings& settings, const std::string& what, contr
 
 MoveDecision decide_move_to(const ServoSettings& settings, const AxisSnapshot& axis, const Command& command) {
   // Restricted mode (after kPositionOutOfRange): only a slow move back inside.
-  if (!inside_soft_limits(settings, command.target_m)) {
-    return refuse(CommandResult::kRejectedOutsideSoftLimits,
-                  axis.restricted ? "restricted mode: the target must lie inside the soft limits" : "");
+  const std::string what = axis.restricted ? "move_to (restricted mode)" : "move_to";
+  if (auto reason = check_target(what, command.target_m, settings); !reason.empty()) {
+    return refuse(CommandResult::kRejectedOutsideSoftLimits, reason);
   }
   control::MotionLimits max = settings.motion_limits;
   if (axis.restricted) max.velocity_m_per_s *= settings.recovery_velocity_fraction;
-  if (auto reason = check_motion_limits(axis.restricted ? "move_to (restricted mode)" : "move_to", command.limits, max);
-      !reason.empty()) {
+  if (auto reason = check_motion_limits(what, command.limits, max); !reason.empty()) {
     return refuse(CommandResult::kRejectedMotionLimit, reason);
   }
   control::MoveProgram move(axis.hold_position_m, {{command.target_m, command.limits, 0.0}});
@@ -57,10 +63,8 @@ MoveDecision decide_program(const ServoSettings& settings, const AxisSnapshot& a
   for (std::size_t i = 0; i < program.steps.size(); ++i) {
     const control::ProgramStep& step = program.steps[i];
     const std::string what = "run_program: step " + std::to_string(i + 1);
-    if (!inside_soft_limits(settings, step.target_m)) {
-      return refuse(CommandResult::kRejectedOutsideSoftLimits,
-                    what + ": target_m " + number(step.target_m) + " m lies outside the soft limits [" +
-                        number(settings.soft_limit_min_m) + ", " + number(settings.soft_limit_max_m) + "] m");
+    if (auto reason = check_target(what, step.target_m, settings); !reason.empty()) {
+      return refuse(CommandResult::kRejectedOutsideSoftLimits, reason);
     }
     if (auto reason = check_motion_limits(what, step.limits, settings.motion_limits); !reason.empty()) {
       return refuse(CommandResult::kRejectedMotionLimit, reason);

@@ -118,8 +118,9 @@ TEST_CASE("a move whose planned stop would rest past a soft limit is refused; ad
 
 TEST_CASE("a target outside the soft limits, and moves in the wrong state, are refused", "[servo][move_decision]") {
   auto axis = enabled_at(0.0);
-  CHECK(servo::decide_move(settings(), axis, move_to(0.1 + 1e-6, {0.1, 1.0, 1000.0})).result ==
-        CommandResult::kRejectedOutsideSoftLimits);
+  const auto outside = servo::decide_move(settings(), axis, move_to(0.1 + 1e-6, {0.1, 1.0, 1000.0}));
+  CHECK(outside.result == CommandResult::kRejectedOutsideSoftLimits);
+  CHECK(outside.detail == "move_to: target_m 0.100001 m lies outside the soft limits [-0.1, 0.1] m");
   axis.state = ServoState::kFault;
   CHECK(servo::decide_move(settings(), axis, move_to(0.05, {0.1, 1.0, 1000.0})).result ==
         CommandResult::kRejectedFault);
@@ -158,7 +159,8 @@ TEST_CASE("restricted mode admits only a slow move_to back inside", "[servo][mov
   CHECK(decision.program->end_m() == 0.09);
   decision = servo::decide_move(settings(), axis, move_to(0.11, {0.05, 1.0, 1000.0}));
   CHECK(decision.result == CommandResult::kRejectedOutsideSoftLimits);
-  CHECK(decision.detail == "restricted mode: the target must lie inside the soft limits");
+  CHECK(decision.detail ==
+        "move_to (restricted mode): target_m 0.11 m lies outside the soft limits [-0.1, 0.1] m");
   CHECK(servo::decide_move(settings(), axis, jog(-0.01)).result == CommandResult::kRejectedRestricted);
   servo::Command run;
   run.kind = CommandKind::kRunProgram;

@@ -291,7 +291,7 @@ TEST_CASE("Each command gets exactly one ack: queued ones with the cycle's decis
   const auto all = acks(sink);
   CHECK(all.size() == 5);
   for (std::int64_t sequence = 1; sequence <= 5; ++sequence) CHECK(all.count(sequence) == 1);
-  CHECK(all.find(4)->second.text == "rejected: target outside the soft limits");
+  CHECK(all.find(4)->second.text == "rejected: move_to: target_m 1 m lies outside the soft limits [-0.11, 0.11] m");
   CHECK_THAT(all.find(5)->second.text, Catch::StartsWith("rejected: set_commutation"));
   CHECK(server.commands_served() == 5);
 }
