@@ -87,6 +87,7 @@ struct CommandRoute {
   AnsweredBy answered_by;
   CommandClass command_class;
   FileUse file;
+  const char* file_kind;  ///< what its file holds, for refusals and the log ("" without a file)
   std::uint8_t legal_in;  ///< LegalStates; outside them the daemon refuses it before anything else
   /// Only at rest: no program, jog or stop under way and none waiting to
   /// start. (A jog's repeat renews the running jog; starting one needs rest:
@@ -99,24 +100,24 @@ struct CommandRoute {
 /// also answers load_feedforward (its file read first) and set_parameter
 /// (validated first by the daemon).
 inline constexpr std::array<CommandRoute, kCommandKinds> kCommandRoutes{{
-    // kind                         name                answered by            class                          file                    legal in      at rest
-    {CommandKind::kEnable,          "enable",           AnsweredBy::kCycle,     CommandClass::kControlled,     FileUse::kNone,         kInAnyState,  false},
-    {CommandKind::kDisable,         "disable",          AnsweredBy::kCycle,     CommandClass::kSafety,         FileUse::kNone,         kInAnyState,  false},
-    {CommandKind::kClearFault,      "clear_fault",      AnsweredBy::kCycle,     CommandClass::kControlled,     FileUse::kNone,         kInAnyState,  false},
-    {CommandKind::kMoveTo,          "move_to",          AnsweredBy::kCycle,     CommandClass::kControlled,     FileUse::kNone,         kInEnabled,   true},
-    {CommandKind::kRunProgram,      "run_program",      AnsweredBy::kCycle,     CommandClass::kControlled,     FileUse::kProgram,      kInEnabled,   true},
-    {CommandKind::kSetCommutation,  "set_commutation",  AnsweredBy::kCycle,     CommandClass::kControlled,     FileUse::kNone,         kInAnyState,  false},
-    {CommandKind::kSetExperiment,   "set_experiment",   AnsweredBy::kCycle,     CommandClass::kControlled,     FileUse::kNone,         kInAnyState,  false},
-    {CommandKind::kLoadCalibration, "load_calibration", AnsweredBy::kDaemon,    CommandClass::kControlled,     FileUse::kPath,         kInAnyState,  false},
-    {CommandKind::kLoadModel,       "load_model",       AnsweredBy::kDaemon,    CommandClass::kControlled,     FileUse::kPath,         kInAnyState,  false},
-    {CommandKind::kStop,            "stop",             AnsweredBy::kCycle,     CommandClass::kSafety,         FileUse::kNone,         kInAnyState,  false},
-    {CommandKind::kLoadFeedforward, "load_feedforward", AnsweredBy::kCycle,     CommandClass::kControlled,     FileUse::kPathOrValues, kInAnyState,  false},
-    {CommandKind::kTakeControl,     "take_control",     AnsweredBy::kAuthority, CommandClass::kTakeControl,    FileUse::kNone,         kInAnyState,  false},
-    {CommandKind::kReleaseControl,  "release_control",  AnsweredBy::kAuthority, CommandClass::kReleaseControl, FileUse::kNone,         kInAnyState,  false},
-    {CommandKind::kQuickStop,       "quick_stop",       AnsweredBy::kCycle,     CommandClass::kSafety,         FileUse::kNone,         kInAnyState,  false},
-    {CommandKind::kJog,             "jog",              AnsweredBy::kCycle,     CommandClass::kControlled,     FileUse::kNone,         kInEnabled,   false},
-    {CommandKind::kGetParameter,    "get_parameter",    AnsweredBy::kDaemon,    CommandClass::kRead,           FileUse::kNone,         kInAnyState,  false},
-    {CommandKind::kSetParameter,    "set_parameter",    AnsweredBy::kCycle,     CommandClass::kControlled,     FileUse::kNone,         kInAnyState,  true},
+    // kind                            name                 answered by              class                           file                     its file        legal in      at rest
+    {CommandKind::kEnable,           "enable",            AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kDisable,          "disable",           AnsweredBy::kCycle,      CommandClass::kSafety,          FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kClearFault,       "clear_fault",       AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kMoveTo,           "move_to",           AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInEnabled,   true},
+    {CommandKind::kRunProgram,       "run_program",       AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kProgram,       "program",      kInEnabled,   true},
+    {CommandKind::kSetCommutation,   "set_commutation",   AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kSetExperiment,    "set_experiment",    AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kLoadCalibration,  "load_calibration",  AnsweredBy::kDaemon,     CommandClass::kControlled,      FileUse::kPath,          "calibration",  kInAnyState,  false},
+    {CommandKind::kLoadModel,        "load_model",        AnsweredBy::kDaemon,     CommandClass::kControlled,      FileUse::kPath,          "model",        kInAnyState,  false},
+    {CommandKind::kStop,             "stop",              AnsweredBy::kCycle,      CommandClass::kSafety,          FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kLoadFeedforward,  "load_feedforward",  AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kPathOrValues,  "feedforward",  kInAnyState,  false},
+    {CommandKind::kTakeControl,      "take_control",      AnsweredBy::kAuthority,  CommandClass::kTakeControl,     FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kReleaseControl,   "release_control",   AnsweredBy::kAuthority,  CommandClass::kReleaseControl,  FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kQuickStop,        "quick_stop",        AnsweredBy::kCycle,      CommandClass::kSafety,          FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kJog,              "jog",               AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInEnabled,   false},
+    {CommandKind::kGetParameter,     "get_parameter",     AnsweredBy::kDaemon,     CommandClass::kRead,            FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kSetParameter,     "set_parameter",     AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  true},
 }};
 
 constexpr bool routes_in_order() noexcept {

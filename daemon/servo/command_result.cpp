@@ -32,6 +32,7 @@ const char* describe(CommandResult result) noexcept {
     case CommandResult::kRejectedStartMoved: return "the axis no longer holds the move's start; send it again";
     case CommandResult::kRejectedQueueFull: return "command queue full";
     case CommandResult::kRejectedLoaderBusy: return "busy loading another file";
+    case CommandResult::kRejectedLoadWaiting: return "an earlier load is still waiting for standstill";
     case CommandResult::kRejectedFile: return "the file could not be loaded";
   }
   return "unknown";

@@ -38,6 +38,7 @@ enum class CommandResult : std::uint8_t {
   kRejectedStartMoved,      ///< the cycle's hold position is no longer the move's start
   kRejectedQueueFull,       ///< the cycle's command queue is full
   kRejectedLoaderBusy,      ///< another file is being loaded (the detail names it)
+  kRejectedLoadWaiting,     ///< a law loaded earlier still waits for standstill
   kRejectedFile,            ///< the file named could not be loaded (the detail: rule or place, and path)
 };
 

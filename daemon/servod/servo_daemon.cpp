@@ -156,9 +156,8 @@ CommandReply ServoDaemon::answer(const servo::Command& received) {
   try {
     // The table first: a command the present state does not allow is refused
     // before anything else, a file before it is read.
-    const bool at_rest = cycle_->idle() && !cycle_->program_handover().pending();
-    if (const Result legal = servo::check_legal(command.kind, state_seen_.load(std::memory_order_acquire), at_rest);
-        legal != Result::kAccepted) {
+    const servo::AxisSnapshot axis = snapshot();
+    if (const Result legal = servo::check_legal(command.kind, axis.state, axis.at_rest); legal != Result::kAccepted) {
       return reply(legal);
     }
     if (servo::reads_file(command)) {

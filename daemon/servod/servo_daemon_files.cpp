@@ -41,16 +41,6 @@ std::string where_in_file(const std::string& message, const std::string& file) {
   return where;
 }
 
-const char* file_kind(servo::CommandKind kind) noexcept {
-  switch (kind) {
-    case servo::CommandKind::kRunProgram: return "program";
-    case servo::CommandKind::kLoadCalibration: return "calibration";
-    case servo::CommandKind::kLoadModel: return "model";
-    case servo::CommandKind::kLoadFeedforward: return "feedforward";
-    default: return "input";
-  }
-}
-
 }  // namespace
 
 std::string ServoDaemon::law_source(servo::CommutationMode mode) const {
@@ -99,6 +89,7 @@ std::unique_ptr<ServoDaemon::Loaded> ServoDaemon::load(const servo::Command& com
   loaded->command = command;
   const std::string path(servo::file_named(command));
   const std::string what = std::string(servo::route(command.kind).name) + ": ";
+  const char* file_kind = servo::route(command.kind).file_kind;
   const std::string refusal = check_loadable(file_policy_, path, loaded->canonical);
   if (!refusal.empty()) {
     // The rule first, the path last: an ack's text is short, a long path is cut.
@@ -148,15 +139,15 @@ std::unique_ptr<ServoDaemon::Loaded> ServoDaemon::load(const servo::Command& com
     // The parser's message may quote the file: in full to the log only.
     const std::string message = e.what();
     if (log_) {
-      log_("refused " + std::string(file_kind(command.kind)) + " file '" + path + "': " + message);
+      log_("refused " + std::string(file_kind) + " file '" + path + "': " + message);
     } else {
-      std::fprintf(stderr, "clm-servod: refused %s file '%s': %s\n", file_kind(command.kind), path.c_str(),
+      std::fprintf(stderr, "clm-servod: refused %s file '%s': %s\n", file_kind, path.c_str(),
                    message.c_str());
     }
     std::string where = where_in_file(message, file);
     if (where.empty()) where = where_in_file(message, path);
     // Short: an ack's text has 127 characters, and the path comes last.
-    loaded->refusal = what + "invalid " + file_kind(command.kind) + " file" + (where.empty() ? "" : " (" + where + ")") +
+    loaded->refusal = what + "invalid " + file_kind + " file" + (where.empty() ? "" : " (" + where + ")") +
                       ": '" + path + "'";
     loaded->law.reset();
   }
@@ -180,8 +171,7 @@ CommandReply ServoDaemon::finish_load(Loaded& loaded) {
     case Kind::kLoadModel: {
       const servo::CommutationMode mode = loaded.law->mode;
       if (!cycle_->law_handover(mode).post(loaded.law->law.get())) {
-        return {command.sequence, command.client, Result::kRejectedFile,
-                "an earlier load is still waiting for standstill"};
+        return {command.sequence, command.client, Result::kRejectedLoadWaiting};
       }
       laws_.push_back(std::move(loaded.law));
       return {command.sequence, command.client, Result::kLoaded};

@@ -172,6 +172,8 @@ TEST_CASE("The command table decides class, file and legal states; the gate, the
   command.path.assign("/ff.yaml");
   CHECK(servo::reads_file(command));
   CHECK(servo::file_named(command) == "/ff.yaml");
+  CHECK(std::string(servo::route(CommandKind::kLoadModel).file_kind) == "model");
+  CHECK(std::string(servo::route(CommandKind::kRunProgram).file_kind) == "program");
   command = received(CommandKind::kMoveTo);
   CHECK_FALSE(servo::reads_file(command));
   CHECK(servo::file_named(command).empty());
