@@ -79,7 +79,12 @@ void check_cycles_allocate_nothing(CommutationMode mode, const std::string& serv
   CHECK(daemon.cycle().record().program_running);
   CHECK(after.frames_missing == before.frames_missing);
   CHECK(test::sent_setpoints(axis).command.enable);
-  CHECK(daemon.take_replies().size() == 3);
+  // The law request, enable, the program (once the cycle took it) and the
+  // feedforward: each answered, in that order.
+  const auto replies = daemon.take_replies();
+  REQUIRE(replies.size() == 4);
+  for (const auto& reply : replies) CHECK(reply.accepted());
+  CHECK(replies[2].text() == "program posted");
 }
 
 }  // namespace
