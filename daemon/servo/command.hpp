@@ -50,7 +50,8 @@ constexpr bool is_command_kind(int code) noexcept { return code >= 1 && code <= 
 /// Who answers a command.
 enum class AnsweredBy : std::uint8_t {
   kCycle,   ///< queued for the cycle; answered with its decision (ServoDaemon::take_replies)
-  kDaemon,  ///< decided on the command thread (planning, parameters) or the loader's; answered by ServoDaemon
+  kDaemon,  ///< answered on the command thread by ServoDaemon::submit (get_parameter)
+  kLoader,  ///< its file read on the loader thread; answered by ServoDaemon::take_replies once read
   kAuthority,  ///< who commands the axis: answered by the command gate (daemon/servod/command_gate.hpp), never submitted
 };
 
@@ -81,6 +82,7 @@ enum LegalStates : std::uint8_t {
 };
 
 /// One row per command kind: everything decided about a kind by its kind alone.
+/// A refusal is a CommandResult, whose describe() holds its words.
 struct CommandRoute {
   CommandKind kind;
   const char* name;  ///< as in servo_command_t, lower case
@@ -96,9 +98,11 @@ struct CommandRoute {
 };
 
 /// Every kind, in the order of its value. enable is legal with a fault
-/// latched: the cycle decides (restricted mode, docs/servod.md); the cycle
-/// also answers load_feedforward (its file read first) and set_parameter
-/// (validated first by the daemon).
+/// latched: the cycle decides (restricted mode, docs/servod.md). The cycle
+/// also answers what the daemon decides or reads first: move_to, jog and
+/// run_program (decided by servo::decide_move, answered once the cycle has
+/// taken the program or said why not; run_program's file read first),
+/// load_feedforward (its file read first) and set_parameter (validated first).
 inline constexpr std::array<CommandRoute, kCommandKinds> kCommandRoutes{{
     // kind                            name                 answered by              class                           file                     its file        legal in      at rest
     {CommandKind::kEnable,           "enable",            AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  false},
@@ -108,8 +112,8 @@ inline constexpr std::array<CommandRoute, kCommandKinds> kCommandRoutes{{
     {CommandKind::kRunProgram,       "run_program",       AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kProgram,       "program",      kInEnabled,   true},
     {CommandKind::kSetCommutation,   "set_commutation",   AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  false},
     {CommandKind::kSetExperiment,    "set_experiment",    AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  false},
-    {CommandKind::kLoadCalibration,  "load_calibration",  AnsweredBy::kDaemon,     CommandClass::kControlled,      FileUse::kPath,          "calibration",  kInAnyState,  false},
-    {CommandKind::kLoadModel,        "load_model",        AnsweredBy::kDaemon,     CommandClass::kControlled,      FileUse::kPath,          "model",        kInAnyState,  false},
+    {CommandKind::kLoadCalibration,  "load_calibration",  AnsweredBy::kLoader,     CommandClass::kControlled,      FileUse::kPath,          "calibration",  kInAnyState,  false},
+    {CommandKind::kLoadModel,        "load_model",        AnsweredBy::kLoader,     CommandClass::kControlled,      FileUse::kPath,          "model",        kInAnyState,  false},
     {CommandKind::kStop,             "stop",              AnsweredBy::kCycle,      CommandClass::kSafety,          FileUse::kNone,          "",             kInAnyState,  false},
     {CommandKind::kLoadFeedforward,  "load_feedforward",  AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kPathOrValues,  "feedforward",  kInAnyState,  false},
     {CommandKind::kTakeControl,      "take_control",      AnsweredBy::kAuthority,  CommandClass::kTakeControl,     FileUse::kNone,          "",             kInAnyState,  false},

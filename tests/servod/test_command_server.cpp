@@ -172,6 +172,13 @@ TEST_CASE("The command table decides class, file and legal states; the gate, the
   command.path.assign("/ff.yaml");
   CHECK(servo::reads_file(command));
   CHECK(servo::file_named(command) == "/ff.yaml");
+  for (const servo::CommandRoute& route : servo::kCommandRoutes) {
+    INFO(route.name);
+    // The loader answers only kinds with a file, and every kind with a file says what it holds.
+    if (route.answered_by == servo::AnsweredBy::kLoader) CHECK(route.file != servo::FileUse::kNone);
+    CHECK((route.file == servo::FileUse::kNone) == std::string(route.file_kind).empty());
+  }
+  CHECK(servo::route(CommandKind::kLoadModel).answered_by == servo::AnsweredBy::kLoader);
   CHECK(std::string(servo::route(CommandKind::kLoadModel).file_kind) == "model");
   CHECK(std::string(servo::route(CommandKind::kRunProgram).file_kind) == "program");
   command = received(CommandKind::kMoveTo);
