@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "daemon/servo/command.hpp"
 #include "daemon/servo/move_decision.hpp"
 
 namespace clm::servo {
@@ -124,16 +125,17 @@ void ServoCycle::adopt_offers() noexcept {
     // Taken once: a later program at a reused address is never a jog.
     const bool jog = offered == jog_offer_.exchange(nullptr, std::memory_order_acq_rel);
     // The daemon decided against the state it last saw; this is the state now.
-    // In restricted mode only a program that ends inside the soft limits.
-    CommandResult result = jog ? CommandResult::kJogStarted : CommandResult::kProgramPosted;
-    if (state_ != ServoState::kEnabled) {
-      result = state_ == ServoState::kFault ? CommandResult::kRejectedFault : CommandResult::kRejectedDisabled;
-    } else if (running_ != nullptr || stopping_) {
-      result = CommandResult::kRejectedBusy;
-    } else if (restricted_.load(std::memory_order_relaxed) && outside_soft_limits(offered->end_m())) {
-      result = CommandResult::kRejectedRestricted;
-    } else if (std::abs(offered->start_m() - hold_m_) > kProgramStartTolerance_m) {
-      result = CommandResult::kRejectedStartMoved;
+    // Every offer is a move: enabled and at rest, as the command table's row
+    // of move_to says; in restricted mode only one that ends inside the soft limits.
+    CommandResult result = check_legal(CommandKind::kMoveTo, state_, running_ == nullptr && !stopping_);
+    if (result == CommandResult::kAccepted) {
+      if (restricted_.load(std::memory_order_relaxed) && outside_soft_limits(offered->end_m())) {
+        result = CommandResult::kRejectedRestricted;
+      } else if (std::abs(offered->start_m() - hold_m_) > kProgramStartTolerance_m) {
+        result = CommandResult::kRejectedStartMoved;
+      } else {
+        result = jog ? CommandResult::kJogStarted : CommandResult::kProgramPosted;
+      }
     }
     last_offer_result_ = result;
     offers_decided_.fetch_add(1, std::memory_order_acq_rel);

@@ -69,13 +69,13 @@ std::string CommandReply::text() const {
 }
 
 CommandReply ServoDaemon::queue(const servo::Command& command) {
-  if (!commands_->try_push(command)) return {command.sequence, command.client, servo::CommandResult::kRejectedQueueFull};
+  if (!commands_->try_push(command)) return reply_to(command, servo::CommandResult::kRejectedQueueFull);
   if (command.kind == servo::CommandKind::kLoadFeedforward) {
     // The cycle takes it without condition: the run-time values follow now.
     std::lock_guard lock(runtime_mutex_);
     runtime_.tuning.feedforward = command.feedforward;
   }
-  return {command.sequence, command.client, servo::CommandResult::kQueued};
+  return reply_to(command, servo::CommandResult::kQueued);
 }
 
 servo::AxisSnapshot ServoDaemon::snapshot() const {
@@ -93,9 +93,7 @@ servo::AxisSnapshot ServoDaemon::snapshot() const {
 
 CommandReply ServoDaemon::post_move(const servo::Command& command, const servo::ProgramSteps& program) {
   using Result = servo::CommandResult;
-  const auto reply = [&](Result result, std::string detail = "") {
-    return CommandReply{command.sequence, command.client, result, std::move(detail)};
-  };
+  const auto reply = [&](Result result, std::string detail = "") { return reply_to(command, result, std::move(detail)); };
   servo::MoveDecision decision = servo::decide_move(planning_settings(), snapshot(), command, program);
   if (decision.result == Result::kJogging) {
     // A repeat of the running jog: a renewal that comes after the cycle began
@@ -150,9 +148,7 @@ CommandReply ServoDaemon::answer(const servo::Command& received) {
   using Result = servo::CommandResult;
   collect_garbage();
   servo::Command command = received;
-  const auto reply = [&](Result result, std::string detail = "") {
-    return CommandReply{command.sequence, command.client, result, std::move(detail)};
-  };
+  const auto reply = [&](Result result, std::string detail = "") { return reply_to(command, result, std::move(detail)); };
   try {
     // The table first: a command the present state does not allow is refused
     // before anything else, a file before it is read.
@@ -210,7 +206,7 @@ std::vector<CommandReply> ServoDaemon::take_replies() {
     try {
       answer = finish_load(*loaded);
     } catch (const std::exception& e) {
-      answer = {loaded->command.sequence, loaded->command.client, servo::CommandResult::kRejectedInvalid, e.what()};
+      answer = reply_to(loaded->command, servo::CommandResult::kRejectedInvalid, e.what());
     }
     if (!answer.accepted()) refused_.fetch_add(1, std::memory_order_relaxed);
     // A program or feedforward went to the cycle: its reply answers it.

@@ -158,7 +158,7 @@ CommandReply ServoDaemon::finish_load(Loaded& loaded) {
   using Kind = servo::CommandKind;
   using Result = servo::CommandResult;
   const servo::Command& command = loaded.command;
-  if (!loaded.refusal.empty()) return {command.sequence, command.client, Result::kRejectedFile, loaded.refusal};
+  if (!loaded.refusal.empty()) return reply_to(command, Result::kRejectedFile, loaded.refusal);
   switch (command.kind) {
     case Kind::kRunProgram:
       return post_move(command, {loaded.program.start_m, loaded.program.steps});
@@ -171,13 +171,13 @@ CommandReply ServoDaemon::finish_load(Loaded& loaded) {
     case Kind::kLoadModel: {
       const servo::CommutationMode mode = loaded.law->mode;
       if (!cycle_->law_handover(mode).post(loaded.law->law.get())) {
-        return {command.sequence, command.client, Result::kRejectedLoadWaiting};
+        return reply_to(command, Result::kRejectedLoadWaiting);
       }
       laws_.push_back(std::move(loaded.law));
-      return {command.sequence, command.client, Result::kLoaded};
+      return reply_to(command, Result::kLoaded);
     }
     default:
-      return {command.sequence, command.client, Result::kRejectedInvalid, "not a command that loads a file"};
+      return reply_to(command, Result::kRejectedInvalid, "not a command that loads a file");
   }
 }
 
