@@ -12,8 +12,9 @@
 // (servo_cycle.cpp) is a last resort for what no admission saw (an axis
 // running ahead of its reference, a program posted past this check) and
 // stops with the harder quick stop (settings.quick_stop_limits, at least the
-// stop's deceleration and jerk): it never fires on an admitted move, since the
-// quick stop from any sample rests no farther than the stop does.
+// stop's deceleration and jerk): its check of the reference does not fire on
+// an admitted move, since the quick stop from a sample rests no farther than
+// the stop admission checked from it.
 
 #include <optional>
 #include <span>
