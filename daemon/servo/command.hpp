@@ -1,17 +1,21 @@
 #pragma once
 // A command to the servo daemon: one fixed-size type and one kind enum from
 // the LCM message (servo_command_t, checked by telemetry::to_command) through
-// ServoDaemon::submit into the cycle's command queue. kCommandRoutes says for
-// every kind who answers it: the cycle (queued, answered with the cycle's
-// decision a cycle later), the daemon (files and planning, answered at once) or
-// the command authority (take and release control).
+// ServoDaemon::submit into the cycle's command queue. kCommandRoutes is the
+// one table of what a kind decides by itself: who answers it (the cycle, the
+// daemon or the command authority), its class for the command authority, the
+// file it reads, and the states in which it is legal. The command server, the
+// daemon, the LCM conversion and the client (servod_client::needs_control)
+// all read it.
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <string_view>
 
 #include "daemon/control/position_controller.hpp"
 #include "daemon/control/trajectory.hpp"
+#include "daemon/servo/command_result.hpp"
 #include "daemon/servo/cycle_record.hpp"
 #include "daemon/servo/fixed_text.hpp"
 #include "daemon/servo/tuning.hpp"
@@ -46,37 +50,78 @@ constexpr bool is_command_kind(int code) noexcept { return code >= 1 && code <= 
 /// Who answers a command.
 enum class AnsweredBy : std::uint8_t {
   kCycle,   ///< queued for the cycle; answered with its decision (ServoDaemon::take_replies)
-  kDaemon,  ///< reads files or plans on the caller's thread; answered by ServoDaemon::submit
+  kDaemon,  ///< answered on the command thread by ServoDaemon::submit (get_parameter)
+  kLoader,  ///< its file read on the loader thread; answered by ServoDaemon::take_replies once read
   kAuthority,  ///< who commands the axis: answered by the command gate (daemon/servod/command_gate.hpp), never submitted
 };
 
+/// What a command asks of the command authority (daemon/servod/command_gate.hpp).
+enum class CommandClass : std::uint8_t {
+  kSafety,          ///< stop, quick stop, disable: obeyed from any client
+  kRead,            ///< changes nothing, answered for any client
+  kTakeControl,
+  kReleaseControl,
+  kControlled,      ///< the sender must hold control
+};
+
+/// Whether a command reads a file (on the daemon's loader thread, through its
+/// file policy: docs/servod.md "Files"), and which field names it.
+enum class FileUse : std::uint8_t {
+  kNone,
+  kProgram,   ///< Command::program must name one
+  kPath,      ///< Command::path must name one
+  kPathOrValues,  ///< Command::path when not empty; in-process callers may give the values instead
+};
+
+/// The servo states in which a command is legal: a set of ServoState bits.
+enum LegalStates : std::uint8_t {
+  kInDisabled = 1u << static_cast<unsigned>(ServoState::kDisabled),
+  kInEnabled = 1u << static_cast<unsigned>(ServoState::kEnabled),
+  kInFault = 1u << static_cast<unsigned>(ServoState::kFault),
+  kInAnyState = kInDisabled | kInEnabled | kInFault,
+};
+
+/// One row per command kind: everything decided about a kind by its kind alone.
+/// A refusal is a CommandResult, whose describe() holds its words.
 struct CommandRoute {
   CommandKind kind;
   const char* name;  ///< as in servo_command_t, lower case
   AnsweredBy answered_by;
+  CommandClass command_class;
+  FileUse file;
+  const char* file_kind;  ///< what its file holds, for refusals and the log ("" without a file)
+  std::uint8_t legal_in;  ///< LegalStates; outside them the daemon refuses it before anything else
+  /// Only at rest: no program, jog or stop under way and none waiting to
+  /// start. (A jog's repeat renews the running jog; starting one needs rest:
+  /// decide_move, move_decision.hpp.)
+  bool at_rest_only;
 };
 
-/// Every kind, in the order of its value. load_feedforward reads its file on
-/// the caller's thread, but its parameters go through the cycle's queue;
-/// set_parameter is validated on the caller's thread, then goes there too.
+/// Every kind, in the order of its value. enable is legal with a fault
+/// latched: the cycle decides (restricted mode, docs/servod.md). The cycle
+/// also answers what the daemon decides or reads first: move_to, jog and
+/// run_program (decided by servo::decide_move, answered once the cycle has
+/// taken the program or said why not; run_program's file read first),
+/// load_feedforward (its file read first) and set_parameter (validated first).
 inline constexpr std::array<CommandRoute, kCommandKinds> kCommandRoutes{{
-    {CommandKind::kEnable, "enable", AnsweredBy::kCycle},
-    {CommandKind::kDisable, "disable", AnsweredBy::kCycle},
-    {CommandKind::kClearFault, "clear_fault", AnsweredBy::kCycle},
-    {CommandKind::kMoveTo, "move_to", AnsweredBy::kDaemon},
-    {CommandKind::kRunProgram, "run_program", AnsweredBy::kDaemon},
-    {CommandKind::kSetCommutation, "set_commutation", AnsweredBy::kCycle},
-    {CommandKind::kSetExperiment, "set_experiment", AnsweredBy::kCycle},
-    {CommandKind::kLoadCalibration, "load_calibration", AnsweredBy::kDaemon},
-    {CommandKind::kLoadModel, "load_model", AnsweredBy::kDaemon},
-    {CommandKind::kStop, "stop", AnsweredBy::kCycle},
-    {CommandKind::kLoadFeedforward, "load_feedforward", AnsweredBy::kCycle},
-    {CommandKind::kTakeControl, "take_control", AnsweredBy::kAuthority},
-    {CommandKind::kReleaseControl, "release_control", AnsweredBy::kAuthority},
-    {CommandKind::kQuickStop, "quick_stop", AnsweredBy::kCycle},
-    {CommandKind::kJog, "jog", AnsweredBy::kDaemon},
-    {CommandKind::kGetParameter, "get_parameter", AnsweredBy::kDaemon},
-    {CommandKind::kSetParameter, "set_parameter", AnsweredBy::kCycle},
+    // kind                            name                 answered by              class                           file                     its file        legal in      at rest
+    {CommandKind::kEnable,           "enable",            AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kDisable,          "disable",           AnsweredBy::kCycle,      CommandClass::kSafety,          FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kClearFault,       "clear_fault",       AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kMoveTo,           "move_to",           AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInEnabled,   true},
+    {CommandKind::kRunProgram,       "run_program",       AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kProgram,       "program",      kInEnabled,   true},
+    {CommandKind::kSetCommutation,   "set_commutation",   AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kSetExperiment,    "set_experiment",    AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kLoadCalibration,  "load_calibration",  AnsweredBy::kLoader,     CommandClass::kControlled,      FileUse::kPath,          "calibration",  kInAnyState,  false},
+    {CommandKind::kLoadModel,        "load_model",        AnsweredBy::kLoader,     CommandClass::kControlled,      FileUse::kPath,          "model",        kInAnyState,  false},
+    {CommandKind::kStop,             "stop",              AnsweredBy::kCycle,      CommandClass::kSafety,          FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kLoadFeedforward,  "load_feedforward",  AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kPathOrValues,  "feedforward",  kInAnyState,  false},
+    {CommandKind::kTakeControl,      "take_control",      AnsweredBy::kAuthority,  CommandClass::kTakeControl,     FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kReleaseControl,   "release_control",   AnsweredBy::kAuthority,  CommandClass::kReleaseControl,  FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kQuickStop,        "quick_stop",        AnsweredBy::kCycle,      CommandClass::kSafety,          FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kJog,              "jog",               AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInEnabled,   false},
+    {CommandKind::kGetParameter,     "get_parameter",     AnsweredBy::kDaemon,     CommandClass::kRead,            FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kSetParameter,     "set_parameter",     AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  true},
 }};
 
 constexpr bool routes_in_order() noexcept {
@@ -99,7 +144,19 @@ constexpr bool answered_by_cycle(CommandKind kind) noexcept { return route(kind)
 /// authority"). The cycle obeys each without condition (its answer is always
 /// accepted), and obeying one twice changes nothing.
 constexpr bool is_safety_command(CommandKind kind) noexcept {
-  return kind == CommandKind::kStop || kind == CommandKind::kQuickStop || kind == CommandKind::kDisable;
+  return route(kind).command_class == CommandClass::kSafety;
+}
+
+/// The table's verdict on `kind` in servo state `state` with the axis at rest
+/// or not: kAccepted, or the refusal (kRejectedFault, kRejectedDisabled,
+/// kRejectedBusy).
+constexpr CommandResult check_legal(CommandKind kind, ServoState state, bool at_rest) noexcept {
+  const CommandRoute& r = route(kind);
+  if ((r.legal_in & (1u << static_cast<unsigned>(state))) == 0) {
+    return state == ServoState::kFault ? CommandResult::kRejectedFault : CommandResult::kRejectedDisabled;
+  }
+  if (r.at_rest_only && !at_rest) return CommandResult::kRejectedBusy;
+  return CommandResult::kAccepted;
 }
 
 /// A command; only the fields of `kind` are meaningful. Fixed size: the
@@ -130,6 +187,32 @@ struct Command {
   /// kSetParameter: every run-time setting with the change, made by
   /// ServoDaemon::submit from `parameter` and `value`.
   Tuning tuning{};
+  /// kMoveTo, kRunProgram, kJog on the cycle's queue: the number of the
+  /// program offered for it (ServoCycle::offers_decided() once decided).
+  std::int64_t offer = 0;
 };
+
+/// True when `command` reads a file (its route's FileUse; kPathOrValues only
+/// with a path).
+inline bool reads_file(const Command& command) noexcept {
+  switch (route(command.kind).file) {
+    case FileUse::kNone: return false;
+    case FileUse::kPathOrValues: return !command.path.empty();
+    case FileUse::kProgram:
+    case FileUse::kPath: return true;
+  }
+  return false;
+}
+
+/// The file `command` names (its route's field), "" for kinds without one.
+inline std::string_view file_named(const Command& command) noexcept {
+  switch (route(command.kind).file) {
+    case FileUse::kNone: return {};
+    case FileUse::kProgram: return command.program.view();
+    case FileUse::kPath:
+    case FileUse::kPathOrValues: return command.path.view();
+  }
+  return {};
+}
 
 }  // namespace clm::servo

@@ -7,13 +7,13 @@
 #include <algorithm>
 #include <cmath>
 
+#include "daemon/servo/command.hpp"
+#include "daemon/servo/move_decision.hpp"
+
 namespace clm::servo {
 namespace {
 
 constexpr double kProgramStartTolerance_m = 1e-6;
-// A planned stop may end this far beyond a soft limit (rounding of the
-// profile's closed form); anything more triggers the approach guard.
-constexpr double kStopTolerance_m = 1e-9;
 // A fault reaction stops under position control only while the measured
 // position lies within this many following-error limits of the reference;
 // farther, the measurement is not believed and the setpoints go to zero.
@@ -122,13 +122,24 @@ void ServoCycle::adopt_offers() noexcept {
     }
   }
   if (const control::MoveProgram* offered = program_.adopt()) {
-    // In restricted mode only a program that ends inside the soft limits.
-    const bool allowed = !restricted_.load(std::memory_order_relaxed) || !outside_soft_limits(offered->end_m());
-    const bool ready = state_ == ServoState::kEnabled && running_ == nullptr && !stopping_ && allowed &&
-                       std::abs(offered->start_m() - hold_m_) <= kProgramStartTolerance_m;
     // Taken once: a later program at a reused address is never a jog.
     const bool jog = offered == jog_offer_.exchange(nullptr, std::memory_order_acq_rel);
-    if (ready) {
+    // The daemon decided against the state it last saw; this is the state now.
+    // Every offer is a move: enabled and at rest, as the command table's row
+    // of move_to says; in restricted mode only one that ends inside the soft limits.
+    CommandResult result = check_legal(CommandKind::kMoveTo, state_, running_ == nullptr && !stopping_);
+    if (result == CommandResult::kAccepted) {
+      if (restricted_.load(std::memory_order_relaxed) && outside_soft_limits(offered->end_m())) {
+        result = CommandResult::kRejectedRestricted;
+      } else if (std::abs(offered->start_m() - hold_m_) > kProgramStartTolerance_m) {
+        result = CommandResult::kRejectedStartMoved;
+      } else {
+        result = jog ? CommandResult::kJogStarted : CommandResult::kProgramPosted;
+      }
+    }
+    last_offer_result_ = result;
+    offers_decided_.fetch_add(1, std::memory_order_acq_rel);
+    if (is_accepted(result)) {
       running_ = offered;
       program_start_cycle_ = cycle_;
       idle_.store(false, std::memory_order_release);
@@ -264,7 +275,9 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
     reference_cycle_ = cycle_;
     // Approach guard: a move whose reference could not quick-stop inside the
     // soft limits from its next sample, or an axis running ahead of it, is
-    // quick-stopped from this one.
+    // quick-stopped from this one. A last resort, so the harder quick stop:
+    // admission (decide_move, move_decision.hpp) already guarantees that the
+    // ordinary stop, never harder than this one, rests inside.
     if (running_ != nullptr && !restricted_.load(std::memory_order_relaxed)) {
       const double reference_stop_m = control::stopping_position_m(next, settings_.quick_stop_limits);
       // A step whose target lies outside the soft limits (a program no check

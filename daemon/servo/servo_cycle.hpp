@@ -21,6 +21,7 @@
 #include "daemon/control/position_controller.hpp"
 #include "daemon/control/stop_profile.hpp"
 #include "daemon/control/trajectory.hpp"
+#include "daemon/servo/command_result.hpp"
 #include "daemon/servo/cycle_record.hpp"
 #include "daemon/servo/fault.hpp"
 #include "daemon/servo/handover.hpp"
@@ -68,18 +69,6 @@ struct ServoSettings {
   void apply(const Tuning& tuning) noexcept;
 };
 
-enum class CommandStatus : std::uint8_t {
-  kAccepted,
-  kDeferred,          ///< takes effect at the next standstill
-  kRejectedFault,     ///< clear the fault first
-  kRejectedDisabled,  ///< enable first
-  kRejectedNoLaw,     ///< no calibration/model loaded for that mode
-  kRejectedBusy,      ///< a program is running
-  kRejectedInvalid,   ///< argument out of range
-  kRejectedNoForceSensor,  ///< an experiment, and the axis has lost its force sensor
-};
-const char* describe(CommandStatus status) noexcept;
-
 struct CycleCounters {
   std::int64_t cycles = 0;
   std::int64_t frames_sent = 0;
@@ -91,7 +80,7 @@ struct CycleCounters {
   std::int64_t overruns = 0;
   std::int64_t damping_cycles = 0;
   std::int64_t force_limited_cycles = 0;
-  std::int64_t programs_rejected = 0;
+  std::int64_t programs_rejected = 0;  ///< offers the cycle did not start (each answered: last_offer_result)
   std::int64_t stops = 0;           ///< stops planned (stop command)
   std::int64_t quick_stops = 0;     ///< quick stops planned (command, approach guard, fault reaction)
   std::int64_t guard_stops = 0;     ///< of those, by the approach guard
@@ -111,7 +100,8 @@ class ServoCycle {
   Handover<CommutationLaw>& law_handover(CommutationMode mode) noexcept;
   /// Offer a move program; the cycle starts it at the next cycle if it is
   /// enabled, idle and at the program's start (within 1 µm), else drops it and
-  /// counts it in programs_rejected.
+  /// counts it in programs_rejected. Either way offers_decided() counts it and
+  /// last_offer_result() says which, for the daemon to answer the command.
   Handover<control::MoveProgram>& program_handover() noexcept { return program_; }
   /// Offer a jog: a move program the cycle runs like any other (program_handover)
   /// but stops along stop_limits when renew_jog() has not been called for
@@ -138,24 +128,24 @@ class ServoCycle {
   /// Closes the loop at the present position. With kPositionOutOfRange
   /// latched and the axis outside the soft limits but within
   /// recovery_margin_m of them, clears it and enables in restricted mode.
-  CommandStatus enable() noexcept;
-  CommandStatus disable() noexcept;
-  CommandStatus clear_fault() noexcept;
+  CommandResult enable() noexcept;
+  CommandResult disable() noexcept;
+  CommandResult clear_fault() noexcept;
   /// Stop a running program: the reference brakes from its present state
   /// within settings().stop_limits (control::StopProfile) and then holds.
-  CommandStatus stop() noexcept;
+  CommandResult stop() noexcept;
   /// As stop(), within settings().quick_stop_limits; also shortens a stop
   /// under way.
-  CommandStatus quick_stop() noexcept;
+  CommandResult quick_stop() noexcept;
   /// Switch the commutation law (deferred to standstill). For kExperiment,
   /// `coil_set` (1-based) and `delta_rad` select the experiment.
-  CommandStatus request_mode(CommutationMode mode, int coil_set = 0, double delta_rad = 0.0) noexcept;
+  CommandResult request_mode(CommutationMode mode, int coil_set = 0, double delta_rad = 0.0) noexcept;
   /// Replace the feedforward parameters (takes effect at once).
   void set_feedforward(const control::FeedforwardParameters& parameters) noexcept;
   /// Replace the run-time settings (gains, feedforward, limits) when no
   /// program or stop runs (kRejectedBusy otherwise). The caller has
   /// validated them (ServoSettings::validate on settings().apply(tuning)).
-  CommandStatus apply_tuning(const Tuning& tuning) noexcept;
+  CommandResult apply_tuning(const Tuning& tuning) noexcept;
 
   // --- the cycle ---
   /// Starts a cycle whose SYNC leaves at `sync_time_ns` (CLOCK_MONOTONIC or
@@ -178,6 +168,13 @@ class ServoCycle {
   void report_bus(drivers::BusState state, bool send_failed) noexcept;
 
   // --- state ---
+  /// Offers (program_handover, post_jog) the cycle has taken or dropped so
+  /// far, and its decision on the last one: kProgramPosted, kJogStarted, or
+  /// why it did not start it (kRejectedFault, kRejectedDisabled,
+  /// kRejectedBusy, kRejectedRestricted, kRejectedStartMoved).
+  /// offers_decided: any thread; last_offer_result: the loop thread.
+  std::int64_t offers_decided() const noexcept { return offers_decided_.load(std::memory_order_acquire); }
+  CommandResult last_offer_result() const noexcept { return last_offer_result_; }
   ServoState state() const noexcept { return state_; }
   Fault fault() const noexcept { return fault_; }
   std::int64_t fault_cycle() const noexcept { return fault_cycle_; }
@@ -234,6 +231,8 @@ class ServoCycle {
   std::atomic<std::int64_t> jog_token_{kJogStopped};
   std::atomic<bool> jogging_{false};
   std::int64_t jog_token_seen_ = 0, jog_renewed_cycle_ = 0;
+  std::atomic<std::int64_t> offers_decided_{0};
+  CommandResult last_offer_result_ = CommandResult::kAccepted;
 
   ServoState state_ = ServoState::kDisabled;
   Fault fault_ = Fault::kNone;

@@ -19,21 +19,6 @@ bool valid_limits(const control::StopLimits& limits) noexcept {
 
 }  // namespace
 
-const char* describe(CommandStatus status) noexcept {
-  switch (status) {
-    case CommandStatus::kAccepted: return "accepted";
-    case CommandStatus::kDeferred: return "accepted, takes effect at the next standstill";
-    case CommandStatus::kRejectedFault: return "rejected: a fault is latched, clear it first";
-    case CommandStatus::kRejectedDisabled: return "rejected: the axis is disabled";
-    case CommandStatus::kRejectedNoLaw: return "rejected: no calibration or model loaded for that commutation";
-    case CommandStatus::kRejectedBusy: return "rejected: a program is running";
-    case CommandStatus::kRejectedInvalid: return "rejected: argument out of range";
-    case CommandStatus::kRejectedNoForceSensor:
-      return "rejected: the force sensor is lost, and an experiment would record no forces";
-  }
-  return "unknown";
-}
-
 void ServoSettings::validate() const {
   const auto require = [](bool ok, const std::string& what) {
     if (!ok) throw std::invalid_argument(what);
@@ -100,7 +85,7 @@ bool ServoCycle::renew_jog() noexcept {
   return false;
 }
 
-CommandStatus ServoCycle::enable() noexcept {
+CommandResult ServoCycle::enable() noexcept {
   bool recovering = false;
   if (state_ == ServoState::kFault) {
     // Restricted mode: kPositionOutOfRange with the axis still outside the
@@ -109,13 +94,13 @@ CommandStatus ServoCycle::enable() noexcept {
                       position_m_ >= settings_.soft_limit_min_m - settings_.recovery_margin_m &&
                       position_m_ <= settings_.soft_limit_max_m + settings_.recovery_margin_m;
     if (fault_ != Fault::kPositionOutOfRange || reacting_ || !near || !outside_soft_limits(position_m_)) {
-      return CommandStatus::kRejectedFault;
+      return CommandResult::kRejectedFault;
     }
     recovering = true;
   }
-  if (state_ == ServoState::kEnabled) return CommandStatus::kAccepted;
+  if (state_ == ServoState::kEnabled) return CommandResult::kAccepted;
   if (mode_ != CommutationMode::kExperiment && laws_[static_cast<std::size_t>(mode_)] == nullptr) {
-    return CommandStatus::kRejectedNoLaw;
+    return CommandResult::kRejectedNoLaw;
   }
   if (recovering) {
     fault_ = Fault::kNone;
@@ -133,20 +118,20 @@ CommandStatus ServoCycle::enable() noexcept {
   hold_position_m_.store(hold_m_, std::memory_order_release);
   controller_.reset();
   saturated_time_s_ = 0.0;
-  return CommandStatus::kAccepted;
+  return CommandResult::kAccepted;
 }
 
-CommandStatus ServoCycle::disable() noexcept {
+CommandResult ServoCycle::disable() noexcept {
   if (state_ == ServoState::kEnabled) state_ = ServoState::kDisabled;
   end_program();
   stopping_ = reacting_ = false;
   restricted_.store(false, std::memory_order_release);
   idle_.store(true, std::memory_order_release);
-  return CommandStatus::kAccepted;
+  return CommandResult::kAccepted;
 }
 
-CommandStatus ServoCycle::clear_fault() noexcept {
-  if (state_ != ServoState::kFault) return CommandStatus::kAccepted;
+CommandResult ServoCycle::clear_fault() noexcept {
+  if (state_ != ServoState::kFault) return CommandResult::kAccepted;
   state_ = ServoState::kDisabled;
   fault_ = Fault::kNone;
   fault_cycle_ = -1;
@@ -158,35 +143,35 @@ CommandStatus ServoCycle::clear_fault() noexcept {
   drive_rejected_ = force_rejected_ = false;
   consecutive_overruns_ = 0;
   drive_alive_known_ = force_alive_known_ = false;
-  return CommandStatus::kAccepted;
+  return CommandResult::kAccepted;
 }
 
-CommandStatus ServoCycle::stop() noexcept {
+CommandResult ServoCycle::stop() noexcept {
   if (state_ == ServoState::kEnabled && running_ != nullptr) begin_stop(settings_.stop_limits, false);
-  return CommandStatus::kAccepted;
+  return CommandResult::kAccepted;
 }
 
-CommandStatus ServoCycle::quick_stop() noexcept {
+CommandResult ServoCycle::quick_stop() noexcept {
   if (state_ == ServoState::kEnabled && (running_ != nullptr || (stopping_ && !stop_quick_))) {
     begin_stop(settings_.quick_stop_limits, true);
   }
-  return CommandStatus::kAccepted;
+  return CommandResult::kAccepted;
 }
 
-CommandStatus ServoCycle::request_mode(CommutationMode mode, int coil_set, double delta_rad) noexcept {
+CommandResult ServoCycle::request_mode(CommutationMode mode, int coil_set, double delta_rad) noexcept {
   if (mode == CommutationMode::kExperiment) {
     if (coil_set < 1 || coil_set > settings_.protocol.coil_sets || !std::isfinite(delta_rad) ||
         std::abs(delta_rad) > kPi) {
-      return CommandStatus::kRejectedInvalid;
+      return CommandResult::kRejectedInvalid;
     }
     // An axis without a force sensor runs experiments for the identification
     // from positions; one whose sensor is lost would record forces of nothing.
     if (can::has_force_sensor(settings_.protocol) && force_warning_ != Fault::kNone) {
-      return CommandStatus::kRejectedNoForceSensor;
+      return CommandResult::kRejectedNoForceSensor;
     }
   } else if (laws_[static_cast<std::size_t>(mode)] == nullptr &&
              !law_offers_[static_cast<std::size_t>(mode)].pending()) {
-    return CommandStatus::kRejectedNoLaw;
+    return CommandResult::kRejectedNoLaw;
   }
   requested_mode_ = mode;
   requested_coil_set_ = mode == CommutationMode::kExperiment ? coil_set : 0;
@@ -197,9 +182,9 @@ CommandStatus ServoCycle::request_mode(CommutationMode mode, int coil_set, doubl
     experiment_coil_set_ = requested_coil_set_;
     experiment_delta_rad_ = requested_delta_rad_;
     mode_pending_ = false;
-    return CommandStatus::kAccepted;
+    return CommandResult::kAccepted;
   }
-  return CommandStatus::kDeferred;
+  return CommandResult::kDeferred;
 }
 
 void ServoCycle::set_feedforward(const control::FeedforwardParameters& parameters) noexcept {
@@ -207,13 +192,13 @@ void ServoCycle::set_feedforward(const control::FeedforwardParameters& parameter
   settings_.feedforward = parameters;
 }
 
-CommandStatus ServoCycle::apply_tuning(const Tuning& tuning) noexcept {
+CommandResult ServoCycle::apply_tuning(const Tuning& tuning) noexcept {
   // At standstill only: no reference is under way whose limits would change.
-  if (running_ != nullptr || stopping_ || program_.pending()) return CommandStatus::kRejectedBusy;
+  if (running_ != nullptr || stopping_ || program_.pending()) return CommandResult::kRejectedBusy;
   settings_.apply(tuning);
   controller_.set_gains(tuning.pid);  // the integrator keeps its force: no bump at rest
   controller_.set_feedforward(tuning.feedforward);
-  return CommandStatus::kAccepted;
+  return CommandResult::kAccepted;
 }
 
 }  // namespace clm::servo

@@ -1,10 +1,6 @@
 #include "daemon/servod/command_check.hpp"
 
-#include <algorithm>
 #include <cmath>
-#include <cstdint>
-#include <cstdio>
-#include <tuple>
 #include <exception>
 #include <utility>
 
@@ -22,49 +18,7 @@ std::string check_positive(const char* field, double value) {
   return std::string("move_to: ") + field + " must be positive, got " + std::to_string(value);
 }
 
-std::string number(double value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.6g", value);
-  return text;
-}
-
-// A planned stop may rest this far beyond a soft limit (rounding of the
-// closed forms); the cycle's approach guard has the same tolerance.
-constexpr double kStopTolerance_m = 1e-9;
-
 }  // namespace
-
-std::string check_motion_limits(const std::string& what, const control::MotionLimits& limits,
-                                const control::MotionLimits& max) {
-  for (const auto& [key, value, limit, unit] :
-       {std::tuple{"velocity_m_per_s", limits.velocity_m_per_s, max.velocity_m_per_s, "m/s"},
-        std::tuple{"acceleration_m_per_s2", limits.acceleration_m_per_s2, max.acceleration_m_per_s2, "m/s^2"},
-        std::tuple{"jerk_m_per_s3", limits.jerk_m_per_s3, max.jerk_m_per_s3, "m/s^3"}}) {
-    if (!(value <= limit)) {
-      return what + ": " + key + " " + number(value) + " " + unit + " exceeds the limit " + number(limit) + " " + unit +
-             " (motion." + key + ")";
-    }
-  }
-  return "";
-}
-
-std::string check_stopping(const std::string& what, const control::MoveProgram& program,
-                           const servo::ServoSettings& settings) {
-  const double duration_s = program.duration_s();
-  const auto samples = static_cast<std::int64_t>(std::ceil(duration_s / settings.period_s));
-  for (std::int64_t k = 0; k <= samples; ++k) {
-    const double t = std::min(static_cast<double>(k) * settings.period_s, duration_s);
-    const control::ReferenceSample s = program.sample(t);
-    const double rest_m = control::stopping_position_m(s, settings.stop_limits);
-    if (rest_m < settings.soft_limit_min_m - kStopTolerance_m || rest_m > settings.soft_limit_max_m + kStopTolerance_m) {
-      return what + ": a stop at t = " + number(t) + " s (r = " + number(s.position_m) + " m, v = " +
-             number(s.velocity_m_per_s) + " m/s, a = " + number(s.acceleration_m_per_s2) + " m/s^2) would come to rest at " +
-             number(rest_m) + " m, outside the soft limits [" + number(settings.soft_limit_min_m) + ", " +
-             number(settings.soft_limit_max_m) + "] m";
-    }
-  }
-  return "";
-}
 
 std::string check_command(servo::Command& command) {
   switch (command.kind) {

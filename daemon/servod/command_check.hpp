@@ -4,13 +4,12 @@
 // The daemon itself reads the files of load_model and load_feedforward only
 // through its file policy and loader (servo_daemon.hpp, docs/servod.md
 // "Files") and calls this for the other kinds; the file reading here serves
-// in-process callers that trust the path.
+// in-process callers that trust the path. Moves are decided by
+// servo::decide_move (daemon/servo/move_decision.hpp).
 
 #include <string>
 
-#include "daemon/control/trajectory.hpp"
 #include "daemon/servo/command.hpp"
-#include "daemon/servo/servo_cycle.hpp"
 
 namespace clm::servod {
 
@@ -23,16 +22,5 @@ namespace clm::servod {
 /// (the parameters read go into command.feedforward; an empty path keeps the
 /// parameters given).
 std::string check_command(servo::Command& command);
-
-/// "" when `limits` lie within `max` (velocity, acceleration, jerk), else the
-/// reason, starting with `what` and naming the value and its limit.
-std::string check_motion_limits(const std::string& what, const control::MotionLimits& limits,
-                                const control::MotionLimits& max);
-
-/// "" when a stop within settings.stop_limits, begun from the reference of any
-/// cycle of `program` (sampled every settings.period_s), comes to rest within
-/// the soft limits; else the reason with the time, state and rest position.
-std::string check_stopping(const std::string& what, const control::MoveProgram& program,
-                           const servo::ServoSettings& settings);
 
 }  // namespace clm::servod

@@ -32,16 +32,12 @@
 #include <string>
 #include <string_view>
 
+#include "daemon/servo/command.hpp"
+
 namespace clm::servod {
 
-/// What a command asks of the gate.
-enum class CommandClass : std::uint8_t {
-  kSafety,          ///< stop, quick stop, disable: obeyed from any client
-  kRead,            ///< get_parameter: changes nothing, answered for any client
-  kTakeControl,
-  kReleaseControl,
-  kControlled,      ///< everything else: the sender must hold control
-};
+/// What a command asks of the gate: its row of servo::kCommandRoutes says.
+using CommandClass = servo::CommandClass;
 
 /// Who sent a command, for whom, and when.
 struct CommandOrigin {

@@ -19,15 +19,7 @@ bool own_command(const CommandReply& reply) { return reply.client == 0 && reply.
 
 }  // namespace
 
-CommandClass command_class(servo::CommandKind kind) noexcept {
-  if (servo::is_safety_command(kind)) return CommandClass::kSafety;
-  switch (kind) {
-    case servo::CommandKind::kGetParameter: return CommandClass::kRead;
-    case servo::CommandKind::kTakeControl: return CommandClass::kTakeControl;
-    case servo::CommandKind::kReleaseControl: return CommandClass::kReleaseControl;
-    default: return CommandClass::kControlled;
-  }
-}
+CommandClass command_class(servo::CommandKind kind) noexcept { return servo::route(kind).command_class; }
 
 CommandServer::CommandServer(telemetry::TelemetryPublisher& publisher, ServoDaemon& daemon, double poll_period_s)
     : publisher_(publisher), daemon_(daemon), poll_period_s_(poll_period_s) {
@@ -59,8 +51,12 @@ void CommandServer::stop() {
 }
 
 void CommandServer::ack(const CommandReply& reply, int& acks) {
+  ack(reply.sequence, reply.client, reply.accepted(), reply.text(), acks);
+}
+
+void CommandServer::ack(std::int64_t sequence, std::int64_t client, bool accepted, const std::string& text, int& acks) {
   try {
-    publisher_.publish_ack(reply.sequence, reply.client, reply.accepted, reply.text);
+    publisher_.publish_ack(sequence, client, accepted, text);
   } catch (const std::exception&) {
     // LCM refused the ack: the sender times out; the daemon goes on.
   }
@@ -100,31 +96,29 @@ int CommandServer::serve_once() {
                                  received.utime};
       const GateDecision decision = gate_->admit(origin, command_class(received.kind), telemetry::wall_clock_utime());
       if (!decision.admitted()) {
-        ack({received.sequence, false, std::string("refused ") + name(decision.refusal) + ": " + decision.reason,
-             received.client},
-            acks);
+        ack(received.sequence, received.client, false,
+            std::string("refused ") + name(decision.refusal) + ": " + decision.reason, acks);
         continue;
       }
     }
     if (route.answered_by == servo::AnsweredBy::kAuthority) {
       if (!gate_) {
-        ack({received.sequence, false, std::string("rejected: ") + route.name + ": no command authority in this process",
-             received.client},
-            acks);
+        ack(received.sequence, received.client, false,
+            std::string("rejected: ") + route.name + ": no command authority in this process", acks);
       } else if (received.kind == servo::CommandKind::kTakeControl) {
         char text[96];
         std::snprintf(text, sizeof(text), "control taken, lease %g s",
                       gate_->lease_remaining_s(telemetry::wall_clock_utime()));
-        ack({received.sequence, true, text, received.client}, acks);
+        ack(received.sequence, received.client, true, text, acks);
       } else {
-        ack({received.sequence, true, "control released", received.client}, acks);
+        ack(received.sequence, received.client, true, "control released", acks);
       }
       continue;
     }
     const CommandReply reply = daemon_.submit(received);
     // A command the cycle or the loader answers is acked once, with its
     // decision (below).
-    if (!reply.answered_later && !(reply.accepted && servo::answered_by_cycle(received.kind))) ack(reply, acks);
+    if (!reply.answered_later()) ack(reply, acks);
   }
   for (const CommandReply& reply : daemon_.take_replies()) {
     if (own_command(reply)) continue;

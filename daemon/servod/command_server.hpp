@@ -9,16 +9,13 @@
 //   - refused by the gate: acked at once with the refusal and its reason;
 //   - take_control, release_control (servo::AnsweredBy::kAuthority): acked
 //     by the gate's decision, never submitted;
-//   - commands the daemon answers (servo::kCommandRoutes: move_to,
-//     run_program, load_calibration, load_model; and any refusal) are acked
-//     with submit's reply, or, when their file is read on the daemon's loader
-//     thread (CommandReply::answered_later), with the reply take_replies()
-//     delivers once it is read;
-//   - commands the cycle answers (enable, disable, clear_fault, stop,
-//     set_commutation, set_experiment, and load_feedforward, whose file
-//     submit reads and whose three parameters go through the cycle's queue)
-//     are acked with the cycle's decision, which take_replies() delivers a
-//     cycle later.
+//   - every other command is acked with submit's reply, unless that says
+//     the answer comes later (CommandReply::answered_later: queued for the
+//     cycle, or its file being read on the loader thread); then with the
+//     reply take_replies() delivers once the cycle has decided (a cycle
+//     later; for a move_to, run_program or jog, once the cycle has taken its
+//     program or said why not) or the loader has read the file.
+//     servo::kCommandRoutes says which kinds the cycle answers.
 //
 // Stop, quick stop and disable from the network do not come here: the
 // publisher's receiver hands them to latch() (telemetry::SafetyLatch), which
@@ -46,7 +43,7 @@
 
 namespace clm::servod {
 
-/// What the gate asks of a command of `kind`: stop and disable are kSafety.
+/// What the gate asks of a command of `kind`: its class in servo::kCommandRoutes.
 CommandClass command_class(servo::CommandKind kind) noexcept;
 
 class CommandServer final : public AuthorityReport, public telemetry::SafetyLatch {
@@ -89,6 +86,7 @@ class CommandServer final : public AuthorityReport, public telemetry::SafetyLatc
 
  private:
   void ack(const CommandReply& reply, int& acks);
+  void ack(std::int64_t sequence, std::int64_t client, bool accepted, const std::string& text, int& acks);
   void check_other_daemon();
 
   telemetry::TelemetryPublisher& publisher_;

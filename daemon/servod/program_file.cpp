@@ -1,5 +1,7 @@
 #include "daemon/servod/program_file.hpp"
 
+#include "daemon/servo/move_decision.hpp"
+
 #include <cmath>
 
 namespace clm::servod {
@@ -50,10 +52,7 @@ ProgramFile fit_program(const ProgramFile& file, double min_m, double max_m, boo
 }
 
 control::MoveProgram program_from(const ProgramFile& file, double hold_m) {
-  std::vector<control::ProgramStep> steps;
-  if (std::abs(file.start_m - hold_m) > 1e-9) steps.push_back({file.start_m, file.steps.front().limits, 0.0});
-  steps.insert(steps.end(), file.steps.begin(), file.steps.end());
-  return control::MoveProgram(hold_m, std::move(steps));
+  return servo::program_from_hold({file.start_m, file.steps}, hold_m);
 }
 
 }  // namespace clm::servod

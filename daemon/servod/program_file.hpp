@@ -25,6 +25,7 @@ ProgramFile fit_program(const ProgramFile& file, double min_m, double max_m, boo
 
 /// The program as the axis runs it from `hold_m`: when the axis is not at the
 /// program's start, a first move takes it there with the first step's limits.
+/// (servo::program_from_hold, what run_program runs)
 control::MoveProgram program_from(const ProgramFile& file, double hold_m);
 
 }  // namespace clm::servod

@@ -5,6 +5,7 @@
 #include "daemon/servod/servo_daemon.hpp"
 
 #include <filesystem>
+#include <string>
 #include <stdexcept>
 
 #include "config/regular_file.hpp"
@@ -13,20 +14,6 @@
 #include "daemon/servod/servo_daemon_parts.hpp"
 
 namespace clm::servod {
-namespace {
-
-bool reads_file(const servo::Command& command) noexcept {
-  using Kind = servo::CommandKind;
-  switch (command.kind) {
-    case Kind::kRunProgram:
-    case Kind::kLoadCalibration:
-    case Kind::kLoadModel: return true;
-    case Kind::kLoadFeedforward: return !command.path.empty();
-    default: return false;
-  }
-}
-
-}  // namespace
 
 ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drivers::BusClock& clock,
                          std::vector<ExtraLaw> extra_laws)
@@ -60,7 +47,7 @@ ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drive
   }
   for (const ExtraLaw& extra : extra_laws_) cycle_->install_law(extra.mode, extra.law);
   const auto status = cycle_->request_mode(config_.commutation.mode);
-  if (status != servo::CommandStatus::kAccepted) {
+  if (status != servo::CommandResult::kAccepted) {
     throw std::runtime_error(config_.origin + ": commutation.mode: " + servo::describe(status));
   }
   commands_ = std::make_unique<telemetry::SpscQueue<servo::Command>>(64);
@@ -76,104 +63,62 @@ ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drive
 
 ServoDaemon::~ServoDaemon() = default;
 
+std::string CommandReply::text() const {
+  std::string words = detail.empty() ? std::string(servo::describe(result)) : detail;
+  return accepted() ? words : "rejected: " + words;
+}
+
 CommandReply ServoDaemon::queue(const servo::Command& command) {
-  if (!commands_->try_push(command)) return {command.sequence, false, "command queue full"};
+  if (!commands_->try_push(command)) return reply_to(command, servo::CommandResult::kRejectedQueueFull);
   if (command.kind == servo::CommandKind::kLoadFeedforward) {
     // The cycle takes it without condition: the run-time values follow now.
     std::lock_guard lock(runtime_mutex_);
     runtime_.tuning.feedforward = command.feedforward;
   }
-  return {command.sequence, true, "queued"};
+  return reply_to(command, servo::CommandResult::kQueued);
 }
 
-CommandReply ServoDaemon::post_program(const servo::Command& command, const ProgramFile* program) {
-  const servo::ServoState state = state_seen_.load(std::memory_order_acquire);
-  if (state == servo::ServoState::kFault) return {command.sequence, false, "rejected: a fault is latched, clear it first"};
-  if (state != servo::ServoState::kEnabled) return {command.sequence, false, "rejected: the axis is disabled, enable first"};
-  if (!cycle_->idle()) return {command.sequence, false, "rejected: a program is running"};
-  if (cycle_->program_handover().pending()) return {command.sequence, false, "rejected: a program is waiting to start"};
-  const double hold = cycle_->hold_position_m();
-  const auto refuse = [&](const std::string& reason) { return CommandReply{command.sequence, false, "rejected: " + reason}; };
-  if (parameter_change_pending()) return refuse("a parameter change is being applied; send the move again");
-  const servo::ServoSettings settings = planning_settings();
-  // Restricted mode (after kPositionOutOfRange): only a slow move back inside.
-  const bool restricted = cycle_->restricted();
-  std::unique_ptr<control::MoveProgram> move;
-  if (command.kind == servo::CommandKind::kMoveTo) {
-    if (!(command.target_m >= settings.soft_limit_min_m && command.target_m <= settings.soft_limit_max_m)) {
-      return refuse(restricted ? "restricted mode: the target must lie inside the soft limits"
-                               : "target outside the soft limits");
-    }
-    control::MotionLimits max = settings.motion_limits;
-    if (restricted) max.velocity_m_per_s *= settings.recovery_velocity_fraction;
-    if (auto reason = check_motion_limits(restricted ? "move_to (restricted mode)" : "move_to", command.limits, max);
-        !reason.empty()) {
-      return refuse(reason);
-    }
-    move = std::make_unique<control::MoveProgram>(
-        hold, std::vector<control::ProgramStep>{{command.target_m, command.limits, 0.0}});
-    // In restricted mode the move starts outside; it only goes back inside.
-    if (!restricted) {
-      if (auto reason = check_stopping("move_to", *move, settings); !reason.empty()) return refuse(reason);
-    }
-  } else {
-    if (restricted) return refuse("restricted mode: only a move_to back inside the soft limits is accepted");
-    if (program == nullptr) return refuse("no program");
-    const ProgramFile& file = *program;
-    for (std::size_t i = 0; i < file.steps.size(); ++i) {
-      const auto& step = file.steps[i];
-      if (step.target_m < settings.soft_limit_min_m || step.target_m > settings.soft_limit_max_m) {
-        return refuse("a program target lies outside the soft limits");
-      }
-      if (auto reason = check_motion_limits("run_program: step " + std::to_string(i + 1), step.limits,
-                                            settings.motion_limits);
-          !reason.empty()) {
-        return refuse(reason);
-      }
-    }
-    move = std::make_unique<control::MoveProgram>(program_from(file, hold));
-    if (auto reason = check_stopping("run_program", *move, settings); !reason.empty()) return refuse(reason);
-  }
-  if (!cycle_->program_handover().post(move.get())) return {command.sequence, false, "rejected: busy"};
-  programs_.push_back(std::move(move));
-  return {command.sequence, true, "program posted"};
+servo::AxisSnapshot ServoDaemon::snapshot() const {
+  servo::AxisSnapshot axis;
+  axis.state = state_seen_.load(std::memory_order_acquire);
+  axis.at_rest = cycle_->idle() && !cycle_->program_handover().pending();
+  axis.restricted = cycle_->restricted();
+  axis.hold_position_m = cycle_->hold_position_m();
+  axis.parameter_change_pending = parameter_change_pending();
+  axis.jog_running = cycle_->jogging() || cycle_->jog_pending();
+  axis.jog_velocity_m_per_s = jog_velocity_m_per_s_;
+  axis.jog_limits = jog_limits_;
+  return axis;
 }
 
-CommandReply ServoDaemon::jog(const servo::Command& command) {
-  const auto refuse = [&](const std::string& reason) { return CommandReply{command.sequence, false, "rejected: " + reason}; };
-  const servo::ServoState state = state_seen_.load(std::memory_order_acquire);
-  if (state == servo::ServoState::kFault) return refuse("a fault is latched, clear it first");
-  if (state != servo::ServoState::kEnabled) return refuse("the axis is disabled, enable first");
-  if (cycle_->restricted()) return refuse("restricted mode: only a move_to back inside the soft limits is accepted");
-  if (parameter_change_pending()) return refuse("a parameter change is being applied; send the jog again");
-  const servo::ServoSettings settings = planning_settings();
-  if (auto reason = check_motion_limits("jog", command.limits, settings.motion_limits); !reason.empty()) return refuse(reason);
-  const auto& l = command.limits;
-  const bool same = command.jog_velocity_m_per_s == jog_velocity_m_per_s_ &&
-                    l.acceleration_m_per_s2 == jog_limits_.acceleration_m_per_s2 && l.jerk_m_per_s3 == jog_limits_.jerk_m_per_s3;
-  if (cycle_->jogging() || cycle_->jog_pending()) {
-    // A repeat keeps the jog going (one not yet started starts with a fresh
-    // timeout: nothing to renew); anything else waits for it to end.
-    if (!same) return refuse("another jog runs: repeat it unchanged, or stop it first");
-    if (cycle_->jog_pending() || cycle_->renew_jog()) return {command.sequence, true, "jogging"};
-    return refuse("the jog has timed out and is stopping; send it again once the axis is at rest");
+CommandReply ServoDaemon::post_move(const servo::Command& command, const servo::ProgramSteps& program) {
+  using Result = servo::CommandResult;
+  const auto reply = [&](Result result, std::string detail = "") { return reply_to(command, result, std::move(detail)); };
+  servo::MoveDecision decision = servo::decide_move(planning_settings(), snapshot(), command, program);
+  if (decision.result == Result::kJogging) {
+    // A repeat of the running jog: a renewal that comes after the cycle began
+    // its stop is refused, so the answer never says jogging of a jog that stops.
+    return reply(cycle_->jog_pending() || cycle_->renew_jog() ? Result::kJogging : Result::kRejectedJogStopping);
   }
-  if (!cycle_->idle()) return refuse("a program is running");
-  if (cycle_->program_handover().pending()) return refuse("a program is waiting to start");
-  // Towards the soft limit, a following-error limit short of it so that the
-  // axis, within that of its reference, stays inside.
-  const double hold = cycle_->hold_position_m();
-  const bool up = command.jog_velocity_m_per_s > 0.0;
-  const double band = settings.following_error_limit_m;
-  const double target_m = up ? settings.soft_limit_max_m - band : settings.soft_limit_min_m + band;
-  if (up ? target_m <= hold : target_m >= hold) return refuse("jog: at the soft limit in that direction already");
-  auto move = std::make_unique<control::MoveProgram>(hold, std::vector<control::ProgramStep>{{target_m, l, 0.0}});
-  if (auto reason = check_stopping("jog", *move, settings); !reason.empty()) return refuse(reason);
-  if (!cycle_->post_jog(move.get())) return refuse("busy");
+  if (!decision.program) return reply(decision.result, std::move(decision.detail));
+  auto move = std::make_unique<control::MoveProgram>(std::move(*decision.program));
+  // The command goes to the cycle's queue before its program is offered, so
+  // the loop knows whom to answer when the cycle takes the offer or drops it
+  // (answer_offer). No offer is pending (decide_move saw the axis at rest), so
+  // this one is the cycle's next.
+  servo::Command posted = command;
+  posted.offer = cycle_->offers_decided() + 1;
+  if (!commands_->try_push(posted)) return reply(Result::kRejectedQueueFull);
+  const bool jog = command.kind == servo::CommandKind::kJog;
+  if (!(jog ? cycle_->post_jog(move.get()) : cycle_->program_handover().post(move.get()))) {
+    throw std::logic_error("a program was offered while another was pending");
+  }
   programs_.push_back(std::move(move));
-  jog_velocity_m_per_s_ = command.jog_velocity_m_per_s;
-  jog_limits_ = l;
-  return {command.sequence, true, "jog started"};
+  if (jog) {
+    jog_velocity_m_per_s_ = command.jog_velocity_m_per_s;
+    jog_limits_ = command.limits;
+  }
+  return reply(Result::kQueued);
 }
 
 CommandReply ServoDaemon::submit_program(const ProgramFile& program, std::int64_t sequence) {
@@ -183,69 +128,72 @@ CommandReply ServoDaemon::submit_program(const ProgramFile& program, std::int64_
   command.sequence = sequence;
   CommandReply reply;
   try {
-    reply = post_program(command, &program);
+    reply = post_move(command, {program.start_m, program.steps});
   } catch (const std::exception& e) {
-    reply = {sequence, false, std::string("rejected: ") + e.what()};
+    reply = {sequence, 0, servo::CommandResult::kRejectedInvalid, e.what()};
   }
-  if (!reply.accepted) refused_.fetch_add(1, std::memory_order_relaxed);
+  if (!reply.accepted()) refused_.fetch_add(1, std::memory_order_relaxed);
   return reply;
 }
 
 CommandReply ServoDaemon::submit(const servo::Command& received) {
   CommandReply reply = answer(received);
   reply.client = received.client;
-  if (!reply.accepted) refused_.fetch_add(1, std::memory_order_relaxed);
+  if (!reply.accepted()) refused_.fetch_add(1, std::memory_order_relaxed);
   return reply;
 }
 
 CommandReply ServoDaemon::answer(const servo::Command& received) {
   using Kind = servo::CommandKind;
+  using Result = servo::CommandResult;
   collect_garbage();
   servo::Command command = received;
+  const auto reply = [&](Result result, std::string detail = "") { return reply_to(command, result, std::move(detail)); };
   try {
-    if (reads_file(command)) {
-      if (command.kind == Kind::kRunProgram) {
-        // Refused before the file is read: it could not run anyway.
-        const servo::ServoState state = state_seen_.load(std::memory_order_acquire);
-        if (state == servo::ServoState::kFault) return {command.sequence, false, "rejected: a fault is latched, clear it first"};
-        if (state != servo::ServoState::kEnabled) return {command.sequence, false, "rejected: the axis is disabled, enable first"};
-      }
+    // The table first: a command the present state does not allow is refused
+    // before anything else, a file before it is read.
+    const servo::AxisSnapshot axis = snapshot();
+    if (const Result legal = servo::check_legal(command.kind, axis.state, axis.at_rest); legal != Result::kAccepted) {
+      return reply(legal);
+    }
+    if (servo::reads_file(command)) {
       if (loader_ == nullptr) {
         auto loaded = load(command);
         return finish_load(*loaded);
       }
-      const std::string path(command.kind == Kind::kRunProgram ? command.program.view() : command.path.view());
-      const std::string busy = loader_->start(path, [this, command] {
+      const std::string busy = loader_->start(std::string(servo::file_named(command)), [this, command] {
         auto loaded = load(command);
         std::lock_guard lock(loaded_mutex_);
         loaded_ = std::move(loaded);
       });
-      if (!busy.empty()) return {command.sequence, false, "rejected: " + busy};
-      CommandReply later{command.sequence, true, "loading"};
-      later.answered_later = true;
-      return later;
+      if (!busy.empty()) return reply(Result::kRejectedLoaderBusy, busy);
+      return reply(Result::kLoading);
     }
     const std::string reason = check_command(command);
-    if (!reason.empty()) return {command.sequence, false, "rejected: " + reason};
-    if (command.kind == Kind::kSetParameter) return set_parameter(command);
-    if (servo::answered_by_cycle(command.kind)) return queue(command);
-    if (command.kind == Kind::kMoveTo) return post_program(command, nullptr);
-    if (command.kind == Kind::kJog) return jog(command);
-    if (command.kind == Kind::kGetParameter) return get_parameter(command);
+    if (!reason.empty()) return reply(Result::kRejectedInvalid, reason);
+    switch (command.kind) {
+      case Kind::kSetParameter: return set_parameter(command);
+      case Kind::kMoveTo:
+      case Kind::kJog: return post_move(command);
+      case Kind::kGetParameter: return get_parameter(command);
+      default:
+        if (servo::answered_by_cycle(command.kind)) return queue(command);
+        break;
+    }
   } catch (const std::exception& e) {
-    return {command.sequence, false, std::string("rejected: ") + e.what()};
+    return reply(Result::kRejectedInvalid, e.what());
   }
-  return {command.sequence, false, "unknown command"};
+  return reply(Result::kRejectedInvalid, "unknown command " + std::to_string(static_cast<int>(command.kind)));
 }
 
 std::vector<CommandReply> ServoDaemon::take_replies() {
   std::vector<CommandReply> out;
-  RtReply reply;
-  while (replies_->try_pop(reply)) {
-    const bool ok = reply.status == servo::CommandStatus::kAccepted || reply.status == servo::CommandStatus::kDeferred;
-    if (!ok) refused_.fetch_add(1, std::memory_order_relaxed);
-    settle_parameter_change(reply);
-    out.push_back({reply.sequence, ok, servo::describe(reply.status), reply.client});
+  RtReply answered;
+  while (replies_->try_pop(answered)) {
+    const CommandReply reply{answered.sequence, answered.client, answered.result, ""};
+    if (!reply.accepted()) refused_.fetch_add(1, std::memory_order_relaxed);
+    settle_parameter_change(answered);
+    out.push_back(reply);
   }
   std::unique_ptr<Loaded> loaded;
   {
@@ -258,12 +206,11 @@ std::vector<CommandReply> ServoDaemon::take_replies() {
     try {
       answer = finish_load(*loaded);
     } catch (const std::exception& e) {
-      answer = {loaded->command.sequence, false, std::string("rejected: ") + e.what(), loaded->command.client};
+      answer = reply_to(loaded->command, servo::CommandResult::kRejectedInvalid, e.what());
     }
-    if (!answer.accepted) refused_.fetch_add(1, std::memory_order_relaxed);
-    // load_feedforward's parameters were queued: the cycle's reply answers it.
-    const bool by_cycle = answer.accepted && servo::answered_by_cycle(loaded->command.kind);
-    if (!by_cycle) out.push_back(answer);
+    if (!answer.accepted()) refused_.fetch_add(1, std::memory_order_relaxed);
+    // A program or feedforward went to the cycle: its reply answers it.
+    if (!answer.answered_later()) out.push_back(answer);
   }
   update_law_files();
   return out;
@@ -300,12 +247,12 @@ std::uint64_t ServoDaemon::request_safety(servo::CommandKind kind) noexcept {
   return safety_requested_.fetch_add(1, std::memory_order_acq_rel) + 1;
 }
 
-servo::CommandStatus ServoDaemon::obey_safety(servo::CommandKind kind) noexcept {
+servo::CommandResult ServoDaemon::obey_safety(servo::CommandKind kind) noexcept {
   switch (kind) {
     case servo::CommandKind::kStop: return cycle_->stop();
     case servo::CommandKind::kQuickStop: return cycle_->quick_stop();
     case servo::CommandKind::kDisable: return cycle_->disable();
-    default: return servo::CommandStatus::kRejectedInvalid;
+    default: return servo::CommandResult::kRejectedInvalid;
   }
 }
 
@@ -327,7 +274,7 @@ void ServoDaemon::drain_commands() noexcept {
   obey_safety_requests();
   servo::Command command;
   while (commands_->try_pop(command)) {
-    servo::CommandStatus status = servo::CommandStatus::kAccepted;
+    servo::CommandResult status = servo::CommandResult::kAccepted;
     const bool was_pending = cycle_->mode_change_pending();
     switch (command.kind) {
       case Kind::kEnable: status = cycle_->enable(); break;
@@ -341,22 +288,35 @@ void ServoDaemon::drain_commands() noexcept {
         break;
       case Kind::kLoadFeedforward: cycle_->set_feedforward(command.feedforward); break;
       case Kind::kSetParameter: status = cycle_->apply_tuning(command.tuning); break;
-      default: status = servo::CommandStatus::kRejectedInvalid; break;  // not a kind the cycle answers
+      case Kind::kMoveTo:
+      case Kind::kRunProgram:
+      case Kind::kJog:
+        // Answered once the cycle has taken its program or dropped it.
+        awaiting_offer_ = {command.sequence, command.client, servo::CommandResult::kQueued, command.offer};
+        answer_offer();
+        continue;
+      default: status = servo::CommandResult::kRejectedInvalid; break;  // not a kind the cycle answers
     }
     if (command.kind == Kind::kSetCommutation || command.kind == Kind::kSetExperiment) {
-      const bool replaced = status == servo::CommandStatus::kAccepted || status == servo::CommandStatus::kDeferred;
+      const bool replaced = status == servo::CommandResult::kAccepted || status == servo::CommandResult::kDeferred;
       if (was_pending && replaced) {
         superseded_.superseded = deferred_sequence_;
         superseded_.by = command.sequence;
         ++superseded_.count;
       }
-      if (status == servo::CommandStatus::kDeferred) deferred_sequence_ = command.sequence;
+      if (status == servo::CommandResult::kDeferred) deferred_sequence_ = command.sequence;
     }
     honour_disable_request();
     mirror_state();
     replies_->try_push({command.sequence, command.client, status});
   }
   honour_disable_request();
+}
+
+void ServoDaemon::answer_offer() noexcept {
+  if (awaiting_offer_.offer == 0 || cycle_->offers_decided() < awaiting_offer_.offer) return;
+  replies_->try_push({awaiting_offer_.sequence, awaiting_offer_.client, cycle_->last_offer_result()});
+  awaiting_offer_ = {};
 }
 
 }  // namespace clm::servod

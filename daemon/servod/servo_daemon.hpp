@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "daemon/servo/command.hpp"
+#include "daemon/servo/move_decision.hpp"
 #include "daemon/servo/servo_cycle.hpp"
 #include "daemon/servo/timing.hpp"
 #include "daemon/servod/file_loader.hpp"
@@ -31,14 +32,26 @@
 
 namespace clm::servod {
 
+/// The daemon's answer to one command (the one in-process reply type): its
+/// result and, where describe()'s words are not the whole answer, a detail:
+/// for a refusal the one line naming the value and the limit (or the file and
+/// the rule), for get_parameter the value.
 struct CommandReply {
+  CommandReply() = default;
+  CommandReply(std::int64_t sequence_, std::int64_t client_, servo::CommandResult result_, std::string detail_ = "")
+      : sequence(sequence_), client(client_), result(result_), detail(std::move(detail_)) {}
+
   std::int64_t sequence = 0;
-  bool accepted = false;
-  std::string text;
   std::int64_t client = 0;  ///< the command's client, for the ack
-  /// The command went to the loader thread: take_replies answers it later
-  /// (this reply is not an answer).
-  bool answered_later = false;
+  servo::CommandResult result = servo::CommandResult::kRejectedInvalid;
+  std::string detail;
+
+  bool accepted() const noexcept { return servo::is_accepted(result); }
+  /// kQueued or kLoading: the cycle or the loader answers later (take_replies);
+  /// this reply is not an answer.
+  bool answered_later() const noexcept { return servo::answered_later(result); }
+  /// The ack's text: the detail, else describe(result); after "rejected: " for a refusal.
+  std::string text() const;
 };
 
 /// The files the status names (servo_status_t.*_file, *_sha256).
@@ -91,18 +104,19 @@ class ServoDaemon {
   ServoDaemon(const ServoDaemon&) = delete;
   ServoDaemon& operator=(const ServoDaemon&) = delete;
 
-  /// Non-real-time: checks and completes a command (check_command), then
-  /// carries it out as servo::kCommandRoutes says: the kinds the cycle
-  /// answers are queued for it and answered in the reply queue once executed
-  /// (the reply here is only "queued"); file and planning commands are
-  /// answered here.
+  /// Non-real-time: refuses a command the table (servo::check_legal) does
+  /// not allow in the present state, checks and completes it
+  /// (check_command), then carries it out as servo::kCommandRoutes says: the
+  /// kinds the cycle answers are queued for it and answered in the reply
+  /// queue once executed (the reply here is kQueued); a move, program or jog
+  /// is decided here (servo::decide_move) and answered by the cycle once it
+  /// has taken the program or said why not; the other kinds are answered here.
   /// Files named by a command are read only through check_loadable
   /// (commands.file_directories, commands.max_file_bytes); a file that does
   /// not parse is refused naming its path, line and key, never its content
   /// (the full parser message goes to the log). With a file loader set, files
-  /// are read on its thread and the reply has answered_later set; otherwise
-  /// on the caller's thread. move_to and run_program are refused while the
-  /// axis is disabled or faulted.
+  /// are read on its thread and the reply is kLoading (answered later); otherwise
+  /// on the caller's thread.
   CommandReply submit(const servo::Command& command);
   /// Non-real-time: run_program with the program given instead of a file.
   CommandReply submit_program(const ProgramFile& program, std::int64_t sequence = 0);
@@ -164,10 +178,12 @@ class ServoDaemon {
   drivers::BusState bus_state() const noexcept { return bus_->state(); }
 
  private:
+  /// The cycle's answer, fixed size for its reply queue.
   struct RtReply {
     std::int64_t sequence = 0;
     std::int64_t client = 0;
-    servo::CommandStatus status = servo::CommandStatus::kAccepted;
+    servo::CommandResult result = servo::CommandResult::kAccepted;
+    std::int64_t offer = 0;  ///< a move's: the offer the cycle must decide first (loop thread)
   };
   struct OwnedLaw;
   struct Loaded;
@@ -191,7 +207,13 @@ class ServoDaemon {
   /// submit without the client: the reply to `received`.
   CommandReply answer(const servo::Command& received);
   CommandReply queue(const servo::Command& command);
-  CommandReply post_program(const servo::Command& command, const ProgramFile* program);
+  /// A move_to, run_program (`program`) or jog: decided (servo::decide_move)
+  /// against the state the cycle reports, posted, and answered by the cycle.
+  CommandReply post_move(const servo::Command& command, const servo::ProgramSteps& program = {});
+  /// What decide_move needs of the axis, as the cycle reports it now.
+  servo::AxisSnapshot snapshot() const;
+  /// Loop thread: answers the move whose offer the cycle has decided.
+  void answer_offer() noexcept;
   /// kGetParameter: the value the cycle uses, "key = value unit".
   CommandReply get_parameter(const servo::Command& command) const;
   /// kSetParameter: validates (change_parameter), refuses while a program
@@ -202,9 +224,6 @@ class ServoDaemon {
   bool parameter_change_pending() const;
   /// config().servo with the run-time values the cycle uses: what moves are planned and checked against.
   servo::ServoSettings planning_settings() const;
-  /// kJog: starts a jog (a move towards the soft limit in the velocity's
-  /// direction, a following-error limit short of it) or renews the running one.
-  CommandReply jog(const servo::Command& command);
 
   ServodConfig config_;
   drivers::CanBus* bus_;
@@ -235,12 +254,13 @@ class ServoDaemon {
   /// Loop thread: obeys the latched stop, quick stop and disable (request_safety).
   void obey_safety_requests() noexcept;
   /// Loop thread: the cycle's stop, quick stop or disable.
-  servo::CommandStatus obey_safety(servo::CommandKind kind) noexcept;
+  servo::CommandResult obey_safety(servo::CommandKind kind) noexcept;
   std::atomic<std::uint8_t> safety_requests_{0};    // one bit per safety kind
   std::atomic<std::uint64_t> safety_requested_{0};  // tickets handed out
   std::atomic<std::uint64_t> safety_obeyed_{0};     // tickets obeyed
   std::atomic<servo::ServoState> state_seen_{servo::ServoState::kDisabled};  // the cycle's, after each command and cycle
   std::atomic<std::int64_t> refused_{0};
+  RtReply awaiting_offer_;  // loop thread: the move whose offer the cycle has yet to decide (offer 0: none)
   mutable std::mutex runtime_mutex_;  // guards the three below
   RuntimeValues runtime_;                       // what the cycle uses
   std::optional<RuntimeValues> runtime_pending_;  // queued for the cycle, not yet answered

@@ -41,16 +41,6 @@ std::string where_in_file(const std::string& message, const std::string& file) {
   return where;
 }
 
-const char* file_kind(servo::CommandKind kind) noexcept {
-  switch (kind) {
-    case servo::CommandKind::kRunProgram: return "program";
-    case servo::CommandKind::kLoadCalibration: return "calibration";
-    case servo::CommandKind::kLoadModel: return "model";
-    case servo::CommandKind::kLoadFeedforward: return "feedforward";
-    default: return "input";
-  }
-}
-
 }  // namespace
 
 std::string ServoDaemon::law_source(servo::CommutationMode mode) const {
@@ -97,15 +87,16 @@ std::unique_ptr<ServoDaemon::Loaded> ServoDaemon::load(const servo::Command& com
   using Kind = servo::CommandKind;
   auto loaded = std::make_unique<Loaded>();
   loaded->command = command;
-  const std::string path(command.kind == Kind::kRunProgram ? command.program.view() : command.path.view());
-  const std::string rejected = std::string("rejected: ") + servo::route(command.kind).name + ": ";
+  const std::string path(servo::file_named(command));
+  const std::string what = std::string(servo::route(command.kind).name) + ": ";
+  const char* file_kind = servo::route(command.kind).file_kind;
   const std::string refusal = check_loadable(file_policy_, path, loaded->canonical);
   if (!refusal.empty()) {
     // The rule first, the path last: an ack's text is short, a long path is cut.
     const std::string quoted = "'" + path + "': ";
     loaded->refusal = refusal.compare(0, quoted.size(), quoted) == 0
-                          ? rejected + refusal.substr(quoted.size()) + ": '" + path + "'"
-                          : rejected + refusal;
+                          ? what + refusal.substr(quoted.size()) + ": '" + path + "'"
+                          : what + refusal;
     return loaded;
   }
   const std::string& file = loaded->canonical;
@@ -141,22 +132,22 @@ std::unique_ptr<ServoDaemon::Loaded> ServoDaemon::load(const servo::Command& com
         break;
       }
       default:
-        loaded->refusal = rejected + "not a command that loads a file";
+        loaded->refusal = what + "not a command that loads a file";
         break;
     }
   } catch (const std::exception& e) {
     // The parser's message may quote the file: in full to the log only.
     const std::string message = e.what();
     if (log_) {
-      log_("refused " + std::string(file_kind(command.kind)) + " file '" + path + "': " + message);
+      log_("refused " + std::string(file_kind) + " file '" + path + "': " + message);
     } else {
-      std::fprintf(stderr, "clm-servod: refused %s file '%s': %s\n", file_kind(command.kind), path.c_str(),
+      std::fprintf(stderr, "clm-servod: refused %s file '%s': %s\n", file_kind, path.c_str(),
                    message.c_str());
     }
     std::string where = where_in_file(message, file);
     if (where.empty()) where = where_in_file(message, path);
     // Short: an ack's text has 127 characters, and the path comes last.
-    loaded->refusal = rejected + "invalid " + file_kind(command.kind) + " file" + (where.empty() ? "" : " (" + where + ")") +
+    loaded->refusal = what + "invalid " + file_kind + " file" + (where.empty() ? "" : " (" + where + ")") +
                       ": '" + path + "'";
     loaded->law.reset();
   }
@@ -165,34 +156,29 @@ std::unique_ptr<ServoDaemon::Loaded> ServoDaemon::load(const servo::Command& com
 
 CommandReply ServoDaemon::finish_load(Loaded& loaded) {
   using Kind = servo::CommandKind;
+  using Result = servo::CommandResult;
   const servo::Command& command = loaded.command;
-  if (!loaded.refusal.empty()) return {command.sequence, false, loaded.refusal, command.client};
-  CommandReply reply{command.sequence, false, "", command.client};
+  if (!loaded.refusal.empty()) return reply_to(command, Result::kRejectedFile, loaded.refusal);
   switch (command.kind) {
     case Kind::kRunProgram:
-      reply = post_program(command, &loaded.program);
-      break;
-    case Kind::kLoadFeedforward:
-      reply = queue(command);
-      if (reply.accepted) set_loaded_file(LoadedFileSlot::kFeedforward, loaded.canonical, loaded.sha256);
-      break;
+      return post_move(command, {loaded.program.start_m, loaded.program.steps});
+    case Kind::kLoadFeedforward: {
+      CommandReply reply = queue(command);
+      if (reply.accepted()) set_loaded_file(LoadedFileSlot::kFeedforward, loaded.canonical, loaded.sha256);
+      return reply;
+    }
     case Kind::kLoadCalibration:
     case Kind::kLoadModel: {
       const servo::CommutationMode mode = loaded.law->mode;
       if (!cycle_->law_handover(mode).post(loaded.law->law.get())) {
-        reply.text = "rejected: an earlier load is still waiting for standstill";
-        break;
+        return reply_to(command, Result::kRejectedLoadWaiting);
       }
       laws_.push_back(std::move(loaded.law));
-      reply = {command.sequence, true, "loaded; swapped in at the next standstill"};
-      break;
+      return reply_to(command, Result::kLoaded);
     }
     default:
-      reply.text = "unknown command";
-      break;
+      return reply_to(command, Result::kRejectedInvalid, "not a command that loads a file");
   }
-  reply.client = command.client;
-  return reply;
 }
 
 namespace {

@@ -25,8 +25,6 @@ void sleep_until(std::int64_t time_ns) noexcept {
   }
 }
 
-/// The kinds whose file the loader reads (load_feedforward only with a path).
-
 }  // namespace
 
 void ServoDaemon::honour_disable_request() noexcept {
@@ -43,6 +41,7 @@ void ServoDaemon::one_cycle(std::int64_t sync_time_ns, std::int64_t deadline_ns,
   drain_commands();
   clock_->advance_to(sync_time_ns);
   const can::Frame sync = cycle_->begin_cycle(sync_time_ns);
+  answer_offer();
   bool send_failed = !bus_->send(sync);
   drivers::ReceivedFrame received;
   while (!cycle_->feedback_complete() && bus_->receive(received, deadline_ns)) cycle_->on_frame(received);

@@ -29,28 +29,26 @@ servo::ServoSettings ServoDaemon::planning_settings() const {
 CommandReply ServoDaemon::get_parameter(const servo::Command& command) const {
   const RuntimeParameter* parameter = find_runtime_parameter(command.parameter.view());
   if (parameter == nullptr) {
-    return {command.sequence, false,
-            "rejected: unknown parameter '" + std::string(command.parameter.view()) + "' (docs/servod.md)"};
+    return {command.sequence, command.client, servo::CommandResult::kRejectedInvalid,
+            "unknown parameter '" + std::string(command.parameter.view()) + "' (docs/servod.md)"};
   }
   const RuntimeValues values = runtime_values();
-  return {command.sequence, true, describe_parameter(*parameter, parameter_value(values, *parameter))};
+  return {command.sequence, command.client, servo::CommandResult::kAccepted,
+          describe_parameter(*parameter, parameter_value(values, *parameter))};
 }
 
 CommandReply ServoDaemon::set_parameter(servo::Command& command) {
-  const auto refuse = [&](const std::string& reason) { return CommandReply{command.sequence, false, "rejected: " + reason}; };
-  if (!cycle_->idle() || cycle_->program_handover().pending() || cycle_->jogging()) {
-    return refuse("parameters change at standstill: a program is running");
-  }
+  // At rest only: the command table (servo::check_legal, in submit).
   std::lock_guard lock(runtime_mutex_);
-  if (runtime_pending_) return refuse("another parameter change is being applied");
+  if (runtime_pending_) return {command.sequence, command.client, servo::CommandResult::kRejectedParameterPending};
   const ParameterChange change =
       change_parameter(runtime_, config_.servo, config_.loop.rate_hz, command.parameter.view(), command.value);
-  if (!change.values) return refuse(change.refusal);
+  if (!change.values) return {command.sequence, command.client, servo::CommandResult::kRejectedInvalid, change.refusal};
   command.tuning = change.values->tuning;
   CommandReply reply = queue(command);
-  if (reply.accepted) {
+  if (reply.accepted()) {
     runtime_pending_ = change.values;
-    runtime_pending_command_ = {command.sequence, command.client, servo::CommandStatus::kAccepted};
+    runtime_pending_command_ = {command.sequence, command.client, servo::CommandResult::kAccepted};
   }
   return reply;
 }
@@ -63,7 +61,7 @@ void ServoDaemon::settle_parameter_change(const RtReply& reply) {
         reply.client != runtime_pending_command_.client) {
       return;
     }
-    if (reply.status == servo::CommandStatus::kAccepted) {
+    if (reply.result == servo::CommandResult::kAccepted) {
       const auto& before = runtime_.tuning.feedforward;
       const auto& after = runtime_pending_->tuning.feedforward;
       feedforward_changed = before.mass_kg != after.mass_kg || before.viscous_N_s_per_m != after.viscous_N_s_per_m ||

@@ -14,6 +14,11 @@
 
 namespace clm::servod {
 
+// The reply to `command`: its sequence and client with `result` and `detail`.
+inline CommandReply reply_to(const servo::Command& command, servo::CommandResult result, std::string detail = "") {
+  return {command.sequence, command.client, result, std::move(detail)};
+}
+
 // What the loader read from one command's file.
 struct ServoDaemon::Loaded {
   servo::Command command;

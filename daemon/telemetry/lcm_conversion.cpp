@@ -263,6 +263,14 @@ std::string to_command(const clm_lcm::servo_command_t& message, servo::Command& 
   }
   command.kind = static_cast<CommandKind>(message.command);
   std::string reason;
+  // The file a command names: the field its row of the command table says
+  // (over LCM never empty, also for load_feedforward).
+  switch (servo::route(command.kind).file) {
+    case servo::FileUse::kNone: break;
+    case servo::FileUse::kProgram: reason = copy_path("program", message.program, command.program); break;
+    case servo::FileUse::kPath:
+    case servo::FileUse::kPathOrValues: reason = copy_path("path", message.path, command.path); break;
+  }
   switch (command.kind) {
     case CommandKind::kEnable:
     case CommandKind::kDisable:
@@ -271,6 +279,10 @@ std::string to_command(const clm_lcm::servo_command_t& message, servo::Command& 
     case CommandKind::kQuickStop:
     case CommandKind::kTakeControl:
     case CommandKind::kReleaseControl:
+    case CommandKind::kRunProgram:       // its file: above
+    case CommandKind::kLoadCalibration:
+    case CommandKind::kLoadModel:
+    case CommandKind::kLoadFeedforward:
       break;
     case CommandKind::kMoveTo:
       for (const auto& [field, value] : {std::pair{"target_m", message.target_m},
@@ -291,9 +303,6 @@ std::string to_command(const clm_lcm::servo_command_t& message, servo::Command& 
       command.jog_velocity_m_per_s = message.velocity_m_per_s;
       command.limits = {std::abs(message.velocity_m_per_s), message.acceleration_m_per_s2, message.jerk_m_per_s3};
       break;
-    case CommandKind::kRunProgram:
-      reason = copy_path("program", message.program, command.program);
-      break;
     case CommandKind::kSetCommutation:
       if (message.commutation < servo_state_t::COMMUTATION_ORIGINAL ||
           message.commutation > servo_state_t::COMMUTATION_EXPERIMENT) {
@@ -311,11 +320,6 @@ std::string to_command(const clm_lcm::servo_command_t& message, servo::Command& 
       command.commutation = servo::CommutationMode::kExperiment;
       command.coil_set = message.coil_set;
       command.delta_rad = message.delta_rad;
-      break;
-    case CommandKind::kLoadCalibration:
-    case CommandKind::kLoadModel:
-    case CommandKind::kLoadFeedforward:
-      reason = copy_path("path", message.path, command.path);
       break;
     case CommandKind::kSetParameter:
       reason = check_finite("value", message.value);

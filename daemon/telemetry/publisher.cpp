@@ -236,7 +236,7 @@ bool TelemetryPublisher::submit_command(const clm_lcm::servo_command_t& message)
 }
 
 void TelemetryPublisher::ack_safety(const PendingSafetyAck& pending) {
-  publish_ack(pending.sequence, pending.client, true, servo::describe(servo::CommandStatus::kAccepted));
+  publish_ack(pending.sequence, pending.client, true, servo::describe(servo::CommandResult::kAccepted));
 }
 
 void TelemetryPublisher::flush_safety_acks() {

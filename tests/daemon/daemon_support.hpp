@@ -10,6 +10,7 @@
 #include <cmath>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "commutation/classical.hpp"
 #include "commutation/model_file.hpp"
@@ -42,6 +43,19 @@ inline servod::CommandReply command(servod::ServoDaemon& daemon, servo::CommandK
   return reply;
 }
 
+/// Runs one cycle and returns the one reply take_replies then gives for
+/// `sequence`: a queued command's, or a move's once the cycle has taken its
+/// program (or said why not). Take earlier replies first.
+inline servod::CommandReply cycle_answer(servod::ServoDaemon& daemon, std::int64_t sequence = 0) {
+  daemon.run_cycles(1);
+  std::vector<servod::CommandReply> found;
+  for (const auto& reply : daemon.take_replies()) {
+    if (reply.sequence == sequence) found.push_back(reply);
+  }
+  REQUIRE(found.size() == 1);
+  return found[0];
+}
+
 /// Submits SET_EXPERIMENT (coil set 1) and runs a cycle: the cycle must refuse
 /// it because the axis has lost its force sensor.
 inline void require_experiment_refused_for_the_sensor(servod::ServoDaemon& daemon) {
@@ -49,12 +63,12 @@ inline void require_experiment_refused_for_the_sensor(servod::ServoDaemon& daemo
   experiment.kind = servo::CommandKind::kSetExperiment;
   experiment.coil_set = 1;
   (void)daemon.take_replies();
-  REQUIRE(daemon.submit(experiment).accepted);
+  REQUIRE(daemon.submit(experiment).accepted());
   daemon.run_cycles(1);
   const auto replies = daemon.take_replies();
   REQUIRE(replies.size() == 1);
-  CHECK_FALSE(replies[0].accepted);
-  CHECK(replies[0].text == servo::describe(servo::CommandStatus::kRejectedNoForceSensor));
+  CHECK_FALSE(replies[0].accepted());
+  CHECK(replies[0].result == servo::CommandResult::kRejectedNoForceSensor);
 }
 
 inline void write_text(const std::string& path, const std::string& text) {

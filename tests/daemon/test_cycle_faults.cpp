@@ -98,10 +98,10 @@ TEST_CASE("a setpoint outside the CAN signal range latches kSetpointOutOfRange w
   const FixedLaw law(settings.protocol.coil_sets, {1000.0, 0.1});  // the signal ends at ±819.2 N
   bare.cycle.install_law(servo::CommutationMode::kOriginal, &law);
   bare.run(0.0);
-  REQUIRE(bare.cycle.enable() == servo::CommandStatus::kAccepted);
+  REQUIRE(bare.cycle.enable() == servo::CommandResult::kAccepted);
   const auto sent = bare.run(0.0);
   require_faulted_and_safe(bare, sent, Fault::kSetpointOutOfRange);
-  CHECK(bare.cycle.clear_fault() == servo::CommandStatus::kAccepted);
+  CHECK(bare.cycle.clear_fault() == servo::CommandResult::kAccepted);
   CHECK(bare.cycle.state() == ServoState::kDisabled);
 }
 
@@ -112,7 +112,7 @@ TEST_CASE("a law that produces a non-finite setpoint latches kCommutationNotFini
   const FixedLaw law(settings.protocol.coil_sets, {std::numeric_limits<double>::quiet_NaN(), 0.0});
   bare.cycle.install_law(servo::CommutationMode::kOriginal, &law);
   bare.run(0.0);
-  REQUIRE(bare.cycle.enable() == servo::CommandStatus::kAccepted);
+  REQUIRE(bare.cycle.enable() == servo::CommandResult::kAccepted);
   const auto sent = bare.run(0.0);
   require_faulted_and_safe(bare, sent, Fault::kCommutationNotFinite);
 }
@@ -123,7 +123,7 @@ TEST_CASE("a law whose setpoints fit drives the axis through the bare cycle", "[
   const FixedLaw law(settings.protocol.coil_sets, {12.5, -0.25});
   bare.cycle.install_law(servo::CommutationMode::kOriginal, &law);
   bare.run(0.0);
-  REQUIRE(bare.cycle.enable() == servo::CommandStatus::kAccepted);
+  REQUIRE(bare.cycle.enable() == servo::CommandResult::kAccepted);
   const auto sent = bare.run(0.0);
   REQUIRE(bare.cycle.state() == ServoState::kEnabled);
   REQUIRE(sent.complete);

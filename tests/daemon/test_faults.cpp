@@ -40,7 +40,7 @@ struct EnabledAxis {
     servo::Command experiment;
     experiment.kind = Kind::kSetExperiment;
     experiment.coil_set = 1;
-    REQUIRE(daemon.submit(experiment).accepted);
+    REQUIRE(daemon.submit(experiment).accepted());
     daemon.run_cycles(2);
     REQUIRE(daemon.cycle().mode() == servo::CommutationMode::kExperiment);
   }
@@ -54,7 +54,7 @@ struct EnabledAxis {
     move.kind = Kind::kMoveTo;
     move.target_m = target_m;
     move.limits = limits;
-    REQUIRE(daemon.submit(move).accepted);
+    REQUIRE(daemon.submit(move).accepted());
   }
 
   /// The fault latched as `expected` and the last cycle's output is safe;
@@ -103,12 +103,13 @@ struct EnabledAxis {
   /// drives the axis again, and it stays so.
   void require_recovers() {
     (void)daemon.take_replies();
-    REQUIRE(test::command(daemon, Kind::kEnable).accepted);  // queued
+    REQUIRE(test::command(daemon, Kind::kEnable).accepted());  // queued
     CHECK(daemon.cycle().state() == ServoState::kFault);
     const auto replies = daemon.take_replies();  // executed: refused while latched
     REQUIRE(replies.size() == 1);
-    CHECK_FALSE(replies[0].accepted);
-    CHECK(replies[0].text == servo::describe(servo::CommandStatus::kRejectedFault));
+    CHECK_FALSE(replies[0].accepted());
+    CHECK(replies[0].result == servo::CommandResult::kRejectedFault);
+    CHECK(replies[0].text() == "rejected: a fault is latched, clear it first");
     test::command(daemon, Kind::kClearFault);
     REQUIRE(daemon.cycle().state() == ServoState::kDisabled);
     CHECK(daemon.cycle().fault() == Fault::kNone);

@@ -115,7 +115,7 @@ TEST_CASE("a model loaded mid-program is swapped in only at standstill after the
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 10);
   REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
-  REQUIRE(daemon.submit(fig8()).accepted);
+  REQUIRE(daemon.submit(fig8()).accepted());
   daemon.run_cycles(1);
   REQUIRE(daemon.cycle().record().program_running);
   for (int k = 0; k < 3000; ++k) {  // into the first move of Fig. 8
@@ -125,13 +125,13 @@ TEST_CASE("a model loaded mid-program is swapped in only at standstill after the
   REQUIRE(std::abs(axis.simulated_motor()->truth().velocity_m_per_s) > 0.02);
 
   const auto reply = daemon.submit(load_model(rig.second_path));
-  INFO(reply.text);
-  REQUIRE(reply.accepted);
-  CHECK(reply.text == "loaded; swapped in at the next standstill");
+  INFO(reply.text());
+  REQUIRE(reply.accepted());
+  CHECK(reply.text() == "loaded; swapped in at the next standstill");
   // One load at a time.
   const auto second_reply = daemon.submit(load_model(rig.second_path));
-  CHECK_FALSE(second_reply.accepted);
-  CHECK(second_reply.text == "rejected: an earlier load is still waiting for standstill");
+  CHECK_FALSE(second_reply.accepted());
+  CHECK(second_reply.text() == "rejected: an earlier load is still waiting for standstill");
 
   const double standstill_m_per_s = rig.config.servo.standstill_velocity_m_per_s;
   std::int64_t program_end_cycle = -1, swap_cycle = -1;
@@ -164,7 +164,7 @@ TEST_CASE("a model loaded mid-program is swapped in only at standstill after the
   servo::Command back;
   back.kind = Kind::kMoveTo;
   back.target_m = 0.0;
-  REQUIRE(daemon.submit(back).accepted);
+  REQUIRE(daemon.submit(back).accepted());
   for (int k = 0; k < 1000; ++k) {
     daemon.run_cycles(1);
     REQUIRE(laws.used(axis) == Used::kSecond);
@@ -196,7 +196,7 @@ TEST_CASE("a model file that does not load leaves the running law untouched and 
   move.kind = Kind::kMoveTo;
   move.target_m = 0.05;
   move.limits = {0.05, 1.0, 1000.0};
-  REQUIRE(daemon.submit(move).accepted);
+  REQUIRE(daemon.submit(move).accepted());
   daemon.run_cycles(200);
 
   // The reply names the file, and the line and key when the parser gave
@@ -206,8 +206,8 @@ TEST_CASE("a model file that does not load leaves the running law untouched and 
   daemon.set_log([&](const std::string& line) { log.push_back(line); });
   const auto refused = [&](const std::string& path) {
     const auto reply = daemon.submit(load_model(path));
-    CHECK_FALSE(reply.accepted);
-    return reply.text;
+    CHECK_FALSE(reply.accepted());
+    return reply.text();
   };
   const std::string why = "rejected: load_model: invalid model file (";
   CHECK_THAT(refused(corrupt), Catch::StartsWith(why + "line ") && Catch::EndsWith("): '" + corrupt + "'"));
@@ -246,19 +246,19 @@ TEST_CASE("a commutation change requested mid-move is deferred to standstill", "
   move.kind = Kind::kMoveTo;
   move.target_m = 0.05;
   move.limits = {0.05, 1.0, 1000.0};
-  REQUIRE(daemon.submit(move).accepted);
+  REQUIRE(daemon.submit(move).accepted());
   daemon.run_cycles(200);
   servo::Command set;
   set.kind = Kind::kSetCommutation;
   set.commutation = CommutationMode::kOracle;
   set.sequence = 7;
-  REQUIRE(daemon.submit(set).accepted);
+  REQUIRE(daemon.submit(set).accepted());
   daemon.run_cycles(1);
   const auto replies = daemon.take_replies();
   REQUIRE_FALSE(replies.empty());
   CHECK(replies.back().sequence == 7);
-  CHECK(replies.back().accepted);
-  CHECK(replies.back().text == servo::describe(servo::CommandStatus::kDeferred));
+  CHECK(replies.back().accepted());
+  CHECK(replies.back().text() == servo::describe(servo::CommandResult::kDeferred));
   bool was_running = true;
   while (daemon.cycle().mode() == CommutationMode::kPgnn) {
     was_running = daemon.cycle().record().program_running;

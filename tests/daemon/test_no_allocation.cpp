@@ -37,12 +37,12 @@ void check_cycles_allocate_nothing(CommutationMode mode, const std::string& serv
     experiment.kind = Kind::kSetExperiment;
     experiment.coil_set = 2;
     experiment.delta_rad = kPi / 4;
-    REQUIRE(daemon.submit(experiment).accepted);
+    REQUIRE(daemon.submit(experiment).accepted());
   } else {
     servo::Command set;
     set.kind = Kind::kSetCommutation;
     set.commutation = mode;
-    REQUIRE(daemon.submit(set).accepted);
+    REQUIRE(daemon.submit(set).accepted());
   }
   test::command(daemon, Kind::kEnable, 10);
   REQUIRE(daemon.cycle().mode() == mode);
@@ -52,14 +52,14 @@ void check_cycles_allocate_nothing(CommutationMode mode, const std::string& serv
   servod::ProgramFile fig8 = servod::load_program_file(test::source_path("config/programs/fig8.yaml"));
   servod::ProgramFile program = fig8;
   for (int k = 0; k < 3; ++k) program.steps.insert(program.steps.end(), fig8.steps.begin(), fig8.steps.end());
-  REQUIRE(daemon.submit_program(program).accepted);
+  REQUIRE(daemon.submit_program(program).accepted());
   daemon.run_cycles(1);
   REQUIRE(daemon.cycle().record().program_running);
   // A command waiting in the queue: draining it is part of the counted cycles.
   servo::Command feedforward;
   feedforward.kind = Kind::kLoadFeedforward;  // no path: the parameters as given
   feedforward.feedforward = daemon.config().servo.feedforward;
-  REQUIRE(daemon.submit(feedforward).accepted);
+  REQUIRE(daemon.submit(feedforward).accepted());
 
   const auto before = daemon.cycle().counters();
   std::size_t allocations = 0;
@@ -79,7 +79,12 @@ void check_cycles_allocate_nothing(CommutationMode mode, const std::string& serv
   CHECK(daemon.cycle().record().program_running);
   CHECK(after.frames_missing == before.frames_missing);
   CHECK(test::sent_setpoints(axis).command.enable);
-  CHECK(daemon.take_replies().size() == 3);
+  // The law request, enable, the program (once the cycle took it) and the
+  // feedforward: each answered, in that order.
+  const auto replies = daemon.take_replies();
+  REQUIRE(replies.size() == 4);
+  for (const auto& reply : replies) CHECK(reply.accepted());
+  CHECK(replies[2].text() == "program posted");
 }
 
 }  // namespace
@@ -126,11 +131,11 @@ TEST_CASE("stops, quick stops, a jog, the approach guard and fault reactions all
     move.kind = Kind::kMoveTo;
     move.target_m = round % 2 == 0 ? 0.1 : -0.1;
     move.limits = s.motion_limits;
-    REQUIRE(daemon.submit(move).accepted);
+    REQUIRE(daemon.submit(move).accepted());
     counted(100 + 7 * round);
     servo::Command stop;
     stop.kind = round % 3 == 0 ? Kind::kStop : Kind::kQuickStop;
-    REQUIRE(daemon.submit(stop).accepted);
+    REQUIRE(daemon.submit(stop).accepted());
     counted(400);
     REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
     REQUIRE(daemon.cycle().idle());
@@ -142,10 +147,15 @@ TEST_CASE("stops, quick stops, a jog, the approach guard and fault reactions all
   jog.kind = Kind::kJog;
   jog.jog_velocity_m_per_s = daemon.cycle().hold_position_m() > 0.0 ? -0.1 : 0.1;
   jog.limits = {0.1, 1.0, 1000.0};
-  REQUIRE(daemon.submit(jog).text == "jog started");
+  (void)daemon.take_replies();
+  REQUIRE(daemon.submit(jog).answered_later());
+  counted(1);
+  const auto started = daemon.take_replies();
+  REQUIRE(started.size() == 1);
+  REQUIRE(started[0].text() == "jog started");
   for (int k = 0; k < 3; ++k) {
     counted(100);
-    REQUIRE(daemon.submit(jog).text == "jogging");
+    REQUIRE(daemon.submit(jog).text() == "jogging");
   }
   counted(600);
   REQUIRE(daemon.cycle().idle());
@@ -155,7 +165,7 @@ TEST_CASE("stops, quick stops, a jog, the approach guard and fault reactions all
   move.kind = Kind::kMoveTo;
   move.target_m = daemon.cycle().hold_position_m() > 0.0 ? -0.1 : 0.1;
   move.limits = s.motion_limits;
-  REQUIRE(daemon.submit(move).accepted);
+  REQUIRE(daemon.submit(move).accepted());
   counted(100);
   {
     test::AllocationScope scope;

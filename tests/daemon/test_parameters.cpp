@@ -35,7 +35,7 @@ servo::Command set(const std::string& key, double value, std::int64_t sequence =
 servod::CommandReply set_and_apply(servod::ServoDaemon& daemon, const std::string& key, double value) {
   static std::int64_t sequence = 1000;
   const auto submitted = daemon.submit(set(key, value, ++sequence));
-  if (!submitted.accepted) return submitted;
+  if (!submitted.accepted()) return submitted;
   daemon.run_cycles(1);
   for (const auto& reply : daemon.take_replies()) {
     if (reply.sequence == sequence) return reply;
@@ -58,7 +58,7 @@ TEST_CASE("get answers every run-time parameter with the value of the configurat
   const auto config = test::virtual_config();
   servod::WiredAxis axis(config);
   auto& daemon = axis.daemon;
-  const auto answer = [&](const std::string& key) { return daemon.submit(get(key)).text; };
+  const auto answer = [&](const std::string& key) { return daemon.submit(get(key)).text(); };
   CHECK(answer("control.bandwidth_hz") == "control.bandwidth_hz = 40 Hz");  // config/servod.yaml
   CHECK(answer("control.mass_kg") == "control.mass_kg = 15 kg");
   CHECK(answer("motion.velocity_m_per_s") == "motion.velocity_m_per_s = 0.5 m/s");
@@ -66,13 +66,13 @@ TEST_CASE("get answers every run-time parameter with the value of the configurat
   CHECK(answer("control.force_limit_N") == "control.force_limit_N = 600 N");
   CHECK(answer("control.following_error_limit_m") == "control.following_error_limit_m = 0.002 m");
   const auto unknown = daemon.submit(get("control.soft_limit_max_m"));
-  CHECK_FALSE(unknown.accepted);
-  CHECK(unknown.text == "rejected: unknown parameter 'control.soft_limit_max_m' (docs/servod.md)");
+  CHECK_FALSE(unknown.accepted());
+  CHECK(unknown.text() == "rejected: unknown parameter 'control.soft_limit_max_m' (docs/servod.md)");
   // Every key of the table is a key of the configuration's sections.
   for (const auto& parameter : servod::runtime_parameters()) {
     const std::string key = parameter.key;
     CHECK((key.rfind("control.", 0) == 0 || key.rfind("motion.", 0) == 0));
-    CHECK(daemon.submit(get(key)).accepted);
+    CHECK(daemon.submit(get(key)).accepted());
   }
 }
 
@@ -84,29 +84,29 @@ TEST_CASE("set is applied by the cycle at standstill, and moves are checked agai
   test::command(daemon, Kind::kEnable, 10);
 
   // A slower velocity limit: a move at the old limit is refused, naming the new one.
-  REQUIRE(set_and_apply(daemon, "motion.velocity_m_per_s", 0.2).accepted);
+  REQUIRE(set_and_apply(daemon, "motion.velocity_m_per_s", 0.2).accepted());
   CHECK(daemon.cycle().settings().motion_limits.velocity_m_per_s == 0.2);
-  CHECK(daemon.submit(get("motion.velocity_m_per_s")).text == "motion.velocity_m_per_s = 0.2 m/s");
+  CHECK(daemon.submit(get("motion.velocity_m_per_s")).text() == "motion.velocity_m_per_s = 0.2 m/s");
   const auto fast = daemon.submit(move_to(0.05, 0.3));
-  CHECK_FALSE(fast.accepted);
-  CHECK(fast.text.find("0.2") != std::string::npos);
-  CHECK(daemon.submit(move_to(0.05, 0.2)).accepted);
+  CHECK_FALSE(fast.accepted());
+  CHECK(fast.text().find("0.2") != std::string::npos);
+  CHECK(daemon.submit(move_to(0.05, 0.2)).accepted());
 
   // While the move runs, no change; the refusal says why.
   daemon.run_cycles(20);
   const auto busy = daemon.submit(set("control.bandwidth_hz", 20.0, 7));
-  CHECK_FALSE(busy.accepted);
-  CHECK(busy.text == "rejected: parameters change at standstill: a program is running");
+  CHECK_FALSE(busy.accepted());
+  CHECK(busy.text() == "rejected: a program is running");
   daemon.run_until_idle(20000);
 
   // The loop's gains are those tune_pid gives for the configured mass.
-  REQUIRE(set_and_apply(daemon, "control.bandwidth_hz", 20.0).accepted);
+  REQUIRE(set_and_apply(daemon, "control.bandwidth_hz", 20.0).accepted());
   const control::PidGains expected = control::tune_pid(15.0, 20.0);
   CHECK(daemon.cycle().settings().pid.proportional_N_per_m == expected.proportional_N_per_m);
   CHECK(daemon.cycle().settings().pid.derivative_N_s_per_m == expected.derivative_N_s_per_m);
   daemon.run_cycles(200);
   CHECK(daemon.cycle().state() == servo::ServoState::kEnabled);  // no bump at rest
-  REQUIRE(daemon.submit(move_to(-0.02, 0.1)).accepted);
+  REQUIRE(daemon.submit(move_to(-0.02, 0.1)).accepted());
   daemon.run_until_idle(20000);
   daemon.run_cycles(500);
   CHECK(std::abs(axis.simulated_motor()->truth().position_m - (-0.02)) < 1e-5);
@@ -119,8 +119,8 @@ TEST_CASE("set refuses what the configuration refuses, and a move while a change
   daemon.run_cycles(10);
   const auto refused = [&](const std::string& key, double value) {
     const auto reply = daemon.submit(set(key, value));
-    CHECK_FALSE(reply.accepted);
-    return reply.text;
+    CHECK_FALSE(reply.accepted());
+    return reply.text();
   };
   CHECK(refused("control.force_limit_N", 900.0) ==
         "rejected: control.force_limit_N: expected a number in [1, 819] N, got 900");
@@ -135,16 +135,16 @@ TEST_CASE("set refuses what the configuration refuses, and a move while a change
   CHECK(daemon.cycle().settings().quick_stop_limits.deceleration_m_per_s2 == 20.0);  // nothing changed
 
   test::command(daemon, Kind::kEnable, 10);
-  REQUIRE(daemon.submit(set("control.following_error_limit_m", 0.001, 50)).accepted);  // queued, not yet applied
+  REQUIRE(daemon.submit(set("control.following_error_limit_m", 0.001, 50)).accepted());  // queued, not yet applied
   const auto move = daemon.submit(move_to(0.01, 0.1));
-  CHECK_FALSE(move.accepted);
-  CHECK(move.text == "rejected: a parameter change is being applied; send the move again");
+  CHECK_FALSE(move.accepted());
+  CHECK(move.text() == "rejected: a parameter change is being applied; send the command again");
   const auto second = daemon.submit(set("control.force_limit_N", 500.0, 51));
-  CHECK(second.text == "rejected: another parameter change is being applied");
+  CHECK(second.text() == "rejected: a parameter change is being applied; send the command again");
   daemon.run_cycles(1);
   (void)daemon.take_replies();
   CHECK(daemon.cycle().settings().following_error_limit_m == 0.001);
-  CHECK(daemon.submit(move_to(0.01, 0.1)).accepted);
+  CHECK(daemon.submit(move_to(0.01, 0.1)).accepted());
 }
 
 TEST_CASE("a bandwidth whose PID gains overflow with the configured mass is refused, nothing changed",
@@ -175,16 +175,16 @@ TEST_CASE("a feedforward parameter set after a feedforward file is loaded takes 
   load.sequence = 60;
   load.path.assign(dir.file("ff.yaml"));
   const auto loaded = daemon.submit(load);
-  INFO(loaded.text);
-  REQUIRE(loaded.accepted);
+  INFO(loaded.text());
+  REQUIRE(loaded.accepted());
   daemon.run_cycles(2);
   (void)daemon.take_replies();
   telemetry::LoadedFileText file;
   daemon.loaded_file(servod::LoadedFileSlot::kFeedforward, file);
   CHECK_FALSE(file.path.view().empty());
-  CHECK(daemon.submit(get("control.feedforward.mass_kg")).text == "control.feedforward.mass_kg = 15.5 kg");
+  CHECK(daemon.submit(get("control.feedforward.mass_kg")).text() == "control.feedforward.mass_kg = 15.5 kg");
 
-  REQUIRE(set_and_apply(daemon, "control.feedforward.coulomb_N", 5.0).accepted);
+  REQUIRE(set_and_apply(daemon, "control.feedforward.coulomb_N", 5.0).accepted());
   CHECK(daemon.cycle().settings().feedforward.coulomb_N == 5.0);
   CHECK(daemon.cycle().settings().feedforward.mass_kg == 15.5);  // the file's, kept
   daemon.loaded_file(servod::LoadedFileSlot::kFeedforward, file);

@@ -57,7 +57,7 @@ TEST_CASE("with phase_current every cycle sends the PGNN law's currents, which t
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 10);
   REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
-  REQUIRE(daemon.submit(fig8()).accepted);
+  REQUIRE(daemon.submit(fig8()).accepted());
   int driving_cycles = 0;
   double largest_current_A = 0.0;
   for (int k = 0; k < 3000; ++k) {
@@ -102,9 +102,9 @@ TEST_CASE("with phase_current the experiments send the drive's nominal law throu
   experiment.kind = Kind::kSetExperiment;
   experiment.coil_set = 2;
   experiment.delta_rad = kPi / 4;
-  REQUIRE(daemon.submit(experiment).accepted);
+  REQUIRE(daemon.submit(experiment).accepted());
   test::command(daemon, Kind::kEnable, 10);
-  REQUIRE(daemon.submit(fig8()).accepted);
+  REQUIRE(daemon.submit(fig8()).accepted());
   for (int k = 0; k < 2000; ++k) {
     daemon.run_cycles(1);
     REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
@@ -138,7 +138,7 @@ TEST_CASE("with phase_current the axis tracks Fig. 8 with the PGNN law as closel
     test::command(daemon, Kind::kEnable, 10);
     const control::MoveProgram expected = servod::program_from(
         servod::load_program_file(test::source_path("config/programs/fig8.yaml")), daemon.cycle().hold_position_m());
-    REQUIRE(daemon.submit(fig8()).accepted);
+    REQUIRE(daemon.submit(fig8()).accepted());
     double sum_sq = 0.0;
     std::int64_t cycles = 0;
     for (double t_s = 0.0; t_s <= expected.duration_s(); t_s = static_cast<double>(cycles) * config.servo.period_s) {

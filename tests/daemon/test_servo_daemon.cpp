@@ -21,7 +21,7 @@ TEST_CASE("the daemon runs the Fig. 8 program with the drive's own commutation a
   run.kind = Kind::kRunProgram;
   run.program.assign(test::source_path("config/programs/fig8.yaml"));
   const auto reply = daemon.submit(run);
-  REQUIRE(reply.accepted);
+  REQUIRE(reply.accepted());
   double max_error = 0.0, sum_sq = 0.0;
   std::int64_t n = 0;
   while (true) {

@@ -47,14 +47,14 @@ struct Axis {
   }
   /// A slow move to `target_m`, then settled.
   void go_to(double target_m) {
-    REQUIRE(move_to(target_m, {0.1, 1.0, 1000.0}).accepted);
+    REQUIRE(move_to(target_m, {0.1, 1.0, 1000.0}).accepted());
     daemon.run_until_idle(20000);
     daemon.run_cycles(300);
     REQUIRE(daemon.cycle().state() == ServoState::kEnabled);
   }
   /// A move to `target_m` at the motion limits, run until it cruises at the largest velocity.
   void at_full_speed(double target_m) {
-    REQUIRE(move_to(target_m, settings().motion_limits).accepted);
+    REQUIRE(move_to(target_m, settings().motion_limits).accepted());
     while (std::abs(record().r_dot_m_per_s) < settings().motion_limits.velocity_m_per_s - 1e-9) {
       daemon.run_cycles(1);
       REQUIRE(record().program_running);
@@ -87,7 +87,7 @@ TEST_CASE("stop and quick stop during a move at speed: no fault, within the soft
   const control::StopLimits limits = quick ? s.quick_stop_limits : s.stop_limits;
   axis.go_to(-0.1);
   const control::MotionLimits move{speed, s.motion_limits.acceleration_m_per_s2, s.motion_limits.jerk_m_per_s3};
-  REQUIRE(axis.move_to(0.1, move).accepted);
+  REQUIRE(axis.move_to(0.1, move).accepted());
   for (int k = 0; k < after_cycles; ++k) axis.daemon.run_cycles(1);
   const bool moving = axis.record().program_running;
   const control::ReferenceSample from = reference_of(axis.record());
@@ -95,7 +95,7 @@ TEST_CASE("stop and quick stop during a move at speed: no fault, within the soft
   (void)axis.daemon.take_replies();
   servo::Command stop;
   stop.kind = quick ? Kind::kQuickStop : Kind::kStop;
-  REQUIRE(axis.daemon.submit(stop).accepted);
+  REQUIRE(axis.daemon.submit(stop).accepted());
   const auto stops_before = axis.daemon.cycle().counters();
   double previous_a = from.acceleration_m_per_s2;
   const double jerk_limit = std::max(limits.jerk_m_per_s3, move.jerk_m_per_s3);
@@ -132,7 +132,7 @@ TEST_CASE("stop and quick stop during a move at speed: no fault, within the soft
   CHECK(std::abs(axis.motor().truth().position_m - planned.rest_position_m()) < 1e-4);
   CHECK(axis.daemon.cycle().counters().guard_stops == 0);
   // The axis takes a new move from there.
-  REQUIRE(axis.move_to(0.0, {0.1, 1.0, 1000.0}).accepted);
+  REQUIRE(axis.move_to(0.0, {0.1, 1.0, 1000.0}).accepted());
   axis.daemon.run_until_idle(20000);
   CHECK(axis.daemon.cycle().state() == ServoState::kEnabled);
 }
@@ -142,15 +142,15 @@ TEST_CASE("move-to beyond the motion limits, or whose stop from some cycle would
           "[daemon][stops]") {
   Axis axis;
   const auto& s = axis.settings();
-  CHECK(axis.move_to(0.05, s.motion_limits).accepted);  // at the limits
+  CHECK(axis.move_to(0.05, s.motion_limits).accepted());  // at the limits
   axis.daemon.run_until_idle(20000);
   for (const control::MotionLimits& bad :
        {control::MotionLimits{0.8, 5.0, 1000.0}, control::MotionLimits{1e6, 5.0, 1000.0},
         control::MotionLimits{0.5, 1e3, 1000.0}, control::MotionLimits{0.5, 5.0, 1e12}}) {
     const auto reply = axis.move_to(0.05, bad);
-    INFO(reply.text);
-    CHECK_FALSE(reply.accepted);
-    CHECK_THAT(reply.text, Catch::Contains("exceeds the limit"));
+    INFO(reply.text());
+    CHECK_FALSE(reply.accepted());
+    CHECK_THAT(reply.text(), Catch::Contains("exceeds the limit"));
   }
   // A move whose stop from some cycle would rest beyond the soft limit: with
   // gentle stop limits, a move that brakes harder than a stop can is refused.
@@ -167,12 +167,12 @@ TEST_CASE("move-to beyond the motion limits, or whose stop from some cycle would
   move.target_m = s.soft_limit_max_m - 0.005;
   move.limits = {0.3, 10.0, 1000.0};
   const auto reply = gentle.daemon.submit(move);
-  INFO(reply.text);
-  CHECK_FALSE(reply.accepted);
-  CHECK_THAT(reply.text, Catch::Contains("outside the soft limits"));
+  INFO(reply.text());
+  CHECK_FALSE(reply.accepted());
+  CHECK_THAT(reply.text(), Catch::Contains("outside the soft limits"));
   // The same move braking no harder than the stop is accepted.
   move.limits = {0.3, 1.0, 1000.0};
-  CHECK(gentle.daemon.submit(move).accepted);
+  CHECK(gentle.daemon.submit(move).accepted());
   gentle.daemon.run_until_idle(20000);
   gentle.daemon.run_cycles(300);
   CHECK(gentle.daemon.cycle().state() == ServoState::kEnabled);
@@ -186,11 +186,11 @@ TEST_CASE("a program beyond the motion limits is refused as a whole when it is p
   program.steps.push_back({0.05, {0.1, 1.0, 1000.0}, 0.1});
   program.steps.push_back({-0.05, {0.9, 1.0, 1000.0}, 0.1});
   const auto reply = axis.daemon.submit_program(program);
-  INFO(reply.text);
-  CHECK_FALSE(reply.accepted);
-  CHECK_THAT(reply.text, Catch::Contains("step 2") && Catch::Contains("velocity_m_per_s"));
+  INFO(reply.text());
+  CHECK_FALSE(reply.accepted());
+  CHECK_THAT(reply.text(), Catch::Contains("step 2") && Catch::Contains("velocity_m_per_s"));
   program.steps[1].limits.velocity_m_per_s = 0.5;
-  CHECK(axis.daemon.submit_program(program).accepted);
+  CHECK(axis.daemon.submit_program(program).accepted());
 }
 
 TEST_CASE("the approach guard quick-stops a move whose reference could not stop inside the soft limits",
@@ -419,16 +419,17 @@ TEST_CASE("a jog moves at its velocity while repeated and stops along the stop l
   jog.kind = Kind::kJog;
   jog.jog_velocity_m_per_s = -0.1;
   jog.limits = {0.1, 5.0, 1000.0};
+  (void)daemon.take_replies();
   auto reply = daemon.submit(jog);
-  REQUIRE(reply.accepted);
-  CHECK(reply.text == "jog started");
+  REQUIRE(reply.accepted());
+  CHECK(reply.answered_later());  // by the cycle, once it has taken the jog
   // A repeat before the cycle has taken the jog (a stalled loop) keeps it, and
   // the jog starts with its whole timeout.
   CHECK(daemon.cycle().jog_pending());
   reply = daemon.submit(jog);
-  REQUIRE(reply.accepted);
-  CHECK(reply.text == "jogging");
-  daemon.run_cycles(1);
+  REQUIRE(reply.accepted());
+  CHECK(reply.text() == "jogging");
+  CHECK(test::cycle_answer(daemon).text() == "jog started");
   CHECK_FALSE(daemon.cycle().jog_pending());
   CHECK(daemon.cycle().jogging());
   // Repeated every 0.1 s for 0.5 s: at the velocity, towards the lower limit.
@@ -436,15 +437,15 @@ TEST_CASE("a jog moves at its velocity while repeated and stops along the stop l
     daemon.run_cycles(100);
     CHECK(daemon.cycle().jogging());
     reply = daemon.submit(jog);
-    REQUIRE(reply.accepted);
-    CHECK(reply.text == "jogging");
+    REQUIRE(reply.accepted());
+    CHECK(reply.text() == "jogging");
   }
   CHECK(axis.record().r_dot_m_per_s == Approx(-0.1));
   // Another velocity while it runs is refused; the jog goes on.
   servo::Command faster = jog;
   faster.jog_velocity_m_per_s = -0.2;
   faster.limits.velocity_m_per_s = 0.2;
-  CHECK_THAT(daemon.submit(faster).text, Catch::Contains("another jog runs"));
+  CHECK_THAT(daemon.submit(faster).text(), Catch::Contains("another jog runs"));
   // No more repeats: after jog_timeout_s the stop profile from the reference
   // of that cycle, within the stop limits, then at rest; no fault.
   const auto timeout_cycles = static_cast<int>(std::ceil(s.jog_timeout_s / s.period_s));
@@ -465,8 +466,9 @@ TEST_CASE("a jog moves at its velocity while repeated and stops along the stop l
   CHECK(daemon.cycle().state() == ServoState::kEnabled);
   CHECK(daemon.cycle().counters().jog_timeouts == 1);
   // A repeat after the stop starts a new jog.
-  reply = daemon.submit(jog);
-  CHECK(reply.text == "jog started");
+  (void)daemon.take_replies();
+  CHECK(daemon.submit(jog).answered_later());
+  CHECK(test::cycle_answer(daemon).text() == "jog started");
 }
 
 TEST_CASE("a repeated jog ends a following-error limit short of the soft limit; jogs beyond the limits are refused",
@@ -478,7 +480,7 @@ TEST_CASE("a repeated jog ends a following-error limit short of the soft limit; 
   jog.kind = Kind::kJog;
   jog.jog_velocity_m_per_s = 0.5;
   jog.limits = s.motion_limits;
-  REQUIRE(daemon.submit(jog).accepted);
+  REQUIRE(daemon.submit(jog).accepted());
   double highest_m = -1.0;
   for (int k = 0; k < 100 && (daemon.cycle().jogging() || k == 0); ++k) {
     daemon.run_cycles(50);
@@ -489,22 +491,22 @@ TEST_CASE("a repeated jog ends a following-error limit short of the soft limit; 
   CHECK(axis.record().r_m == Approx(s.soft_limit_max_m - s.following_error_limit_m));
   CHECK(highest_m < s.soft_limit_max_m);
   CHECK(daemon.cycle().state() == ServoState::kEnabled);
-  CHECK_THAT(daemon.submit(jog).text, Catch::Contains("at the soft limit in that direction already"));
+  CHECK_THAT(daemon.submit(jog).text(), Catch::Contains("at the soft limit in that direction already"));
 
   servo::Command bad = jog;
   bad.jog_velocity_m_per_s = -1.0;
   bad.limits.velocity_m_per_s = 1.0;
-  CHECK_THAT(daemon.submit(bad).text, Catch::Contains("velocity_m_per_s 1 m/s exceeds the limit 0.5 m/s"));
+  CHECK_THAT(daemon.submit(bad).text(), Catch::Contains("velocity_m_per_s 1 m/s exceeds the limit 0.5 m/s"));
   bad = jog;
   bad.jog_velocity_m_per_s = 0.0;
   bad.limits.velocity_m_per_s = 0.0;
-  CHECK_THAT(daemon.submit(bad).text, Catch::Contains("must not be 0"));
+  CHECK_THAT(daemon.submit(bad).text(), Catch::Contains("must not be 0"));
   // Not while a move runs.
-  REQUIRE(axis.move_to(0.0, {0.1, 1.0, 1000.0}).accepted);
+  REQUIRE(axis.move_to(0.0, {0.1, 1.0, 1000.0}).accepted());
   daemon.run_cycles(5);
   jog.jog_velocity_m_per_s = -0.1;
   jog.limits.velocity_m_per_s = 0.1;
-  CHECK_THAT(daemon.submit(jog).text, Catch::Contains("a program is running"));
+  CHECK_THAT(daemon.submit(jog).text(), Catch::Contains("a program is running"));
 }
 
 TEST_CASE("after fault 202 the axis is enabled in restricted mode and only a slow move back inside is accepted",
@@ -523,7 +525,7 @@ TEST_CASE("after fault 202 the axis is enabled in restricted mode and only a slo
   test::command(axis.daemon, Kind::kEnable, 5);
   const auto replies = axis.daemon.take_replies();
   REQUIRE(replies.size() == 1);
-  CHECK(replies[0].accepted);
+  CHECK(replies[0].accepted());
   REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
   CHECK(axis.daemon.cycle().restricted());
   CHECK(axis.record().restricted);
@@ -534,19 +536,19 @@ TEST_CASE("after fault 202 the axis is enabled in restricted mode and only a slo
   program.start_m = 0.0;
   program.steps.push_back({0.0, {0.01, 1.0, 1000.0}, 0.0});
   auto reply = axis.daemon.submit_program(program);
-  CHECK_FALSE(reply.accepted);
-  CHECK_THAT(reply.text, Catch::Contains("restricted mode"));
+  CHECK_FALSE(reply.accepted());
+  CHECK_THAT(reply.text(), Catch::Contains("restricted mode"));
   reply = axis.move_to(0.0, {0.1, 1.0, 1000.0});
-  CHECK_FALSE(reply.accepted);
-  CHECK_THAT(reply.text, Catch::Contains("restricted mode") && Catch::Contains("velocity_m_per_s"));
+  CHECK_FALSE(reply.accepted());
+  CHECK_THAT(reply.text(), Catch::Contains("restricted mode") && Catch::Contains("velocity_m_per_s"));
   reply = axis.move_to(s.soft_limit_max_m + 0.005, {0.02, 1.0, 1000.0});
-  CHECK_FALSE(reply.accepted);
-  CHECK_THAT(reply.text, Catch::Contains("restricted mode"));
+  CHECK_FALSE(reply.accepted());
+  CHECK_THAT(reply.text(), Catch::Contains("restricted mode"));
   // Accepted: back inside at reduced speed; the mode ends inside.
   const double slow = s.recovery_velocity_fraction * s.motion_limits.velocity_m_per_s;
   reply = axis.move_to(0.1, {slow, 1.0, 1000.0});
-  INFO(reply.text);
-  REQUIRE(reply.accepted);
+  INFO(reply.text());
+  REQUIRE(reply.accepted());
   axis.daemon.run_until_idle(20000);
   axis.daemon.run_cycles(300);
   REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
@@ -554,7 +556,7 @@ TEST_CASE("after fault 202 the axis is enabled in restricted mode and only a slo
   CHECK_FALSE(axis.record().restricted);
   CHECK(std::abs(axis.motor().truth().position_m - 0.1) < 1e-4);
   // Normal again: a brisk move is accepted.
-  CHECK(axis.move_to(0.0, {0.5, 10.0, 1000.0}).accepted);
+  CHECK(axis.move_to(0.0, {0.5, 10.0, 1000.0}).accepted());
   axis.daemon.run_until_idle(20000);
   CHECK(axis.daemon.cycle().state() == ServoState::kEnabled);
 }
@@ -581,6 +583,6 @@ TEST_CASE("restricted mode: moving farther out latches 202 again; far outside it
   test::command(axis.daemon, Kind::kEnable, 5);
   const auto replies = axis.daemon.take_replies();
   REQUIRE(replies.size() == 1);
-  CHECK_FALSE(replies[0].accepted);
+  CHECK_FALSE(replies[0].accepted());
   CHECK(axis.daemon.cycle().state() == ServoState::kFault);
 }

@@ -36,7 +36,7 @@ Tracking run_fig8(servod::WiredAxis& axis) {
   servo::Command run;
   run.kind = Kind::kRunProgram;
   run.program.assign(path);
-  REQUIRE(daemon.submit(run).accepted);
+  REQUIRE(daemon.submit(run).accepted());
   const double period_s = daemon.config().servo.period_s;
   Tracking result;
   double sum_sq = 0.0;
@@ -125,11 +125,11 @@ TEST_CASE("without a force sensor the axis tracks Fig. 8 with the PGNN law exact
   experiment.coil_set = 2;
   experiment.delta_rad = 0.5;
   (void)bare.daemon.take_replies();
-  REQUIRE(bare.daemon.submit(experiment).accepted);
+  REQUIRE(bare.daemon.submit(experiment).accepted());
   bare.daemon.run_cycles(2);
   const auto replies = bare.daemon.take_replies();
   REQUIRE(replies.size() == 1);
-  CHECK(replies[0].accepted);
+  CHECK(replies[0].accepted());
   CHECK(bare.daemon.cycle().mode() == CommutationMode::kExperiment);
   CHECK_FALSE(bare.daemon.cycle().record().force_measured);
 }

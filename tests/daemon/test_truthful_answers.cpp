@@ -77,19 +77,19 @@ TEST_CASE("the loader reads one file at a time off the caller's thread and is an
             while (!release.load()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
           }).empty());
   auto busy = daemon.submit(load_model(files.pgnn, 1));
-  CHECK_FALSE(busy.accepted);
-  CHECK_FALSE(busy.answered_later);
-  CHECK(busy.text == "rejected: busy loading /somewhere/slow.yaml");
+  CHECK_FALSE(busy.accepted());
+  CHECK_FALSE(busy.answered_later());
+  CHECK(busy.text() == "rejected: busy loading /somewhere/slow.yaml");
   release = true;
   REQUIRE(loader.wait_idle(5.0));
 
   // Now it loads: the immediate reply is no answer, the answer comes later.
   const auto later = daemon.submit(load_model(files.pgnn, 2));
-  CHECK(later.accepted);
-  CHECK(later.answered_later);
+  CHECK(later.accepted());
+  CHECK(later.answered_later());
   const auto answer = wait_for_reply(daemon, 2);
-  CHECK(answer.accepted);
-  CHECK(answer.text == "loaded; swapped in at the next standstill");
+  CHECK(answer.accepted());
+  CHECK(answer.text() == "loaded; swapped in at the next standstill");
 
   // The status names the file (canonical) and its SHA-256 once the cycle uses it.
   daemon.run_cycles(2);
@@ -113,23 +113,23 @@ TEST_CASE("a refused file is named with its line and key, never quoted; the whol
   daemon.set_log([&](const std::string& line) { log.push_back(line); });
 
   const auto reply = daemon.submit(load_model(secret, 1));
-  CHECK_FALSE(reply.accepted);
-  CHECK(reply.text == "rejected: load_model: invalid model file (line 1, key kind): '" + secret + "'");
-  CHECK(reply.text.find("SECRET") == std::string::npos);
+  CHECK_FALSE(reply.accepted());
+  CHECK(reply.text() == "rejected: load_model: invalid model file (line 1, key kind): '" + secret + "'");
+  CHECK(reply.text().find("SECRET") == std::string::npos);
   REQUIRE(log.size() == 1);
   CHECK_THAT(log[0], Catch::Contains("got 'SECRET'") && Catch::StartsWith("refused model file '" + secret + "'"));
 
   // Outside the configured directories, and over the size limit: the rule and the path.
   const auto outside = daemon.submit(load_model(test::source_path("README.md"), 2));
-  CHECK(outside.text == "rejected: load_model: outside the directories commands may load from "
+  CHECK(outside.text() == "rejected: load_model: outside the directories commands may load from "
                         "(commands.file_directories): '" + test::source_path("README.md") + "'");
   servo::Command program;
   program.kind = Kind::kRunProgram;
   program.program.assign(secret);
   test::command(daemon, Kind::kEnable, 5);
   const auto not_a_program = daemon.submit(program);
-  CHECK(not_a_program.text.find("SECRET") == std::string::npos);
-  CHECK_THAT(not_a_program.text, Catch::StartsWith("rejected: run_program: invalid program file"));
+  CHECK(not_a_program.text().find("SECRET") == std::string::npos);
+  CHECK_THAT(not_a_program.text(), Catch::StartsWith("rejected: run_program: invalid program file"));
   CHECK(daemon.commands_refused() == 3);
 }
 
@@ -138,8 +138,8 @@ TEST_CASE("move_to while disabled or faulted is refused with the reason, and cou
   servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
   auto reply = daemon.submit(move_to(0.01, 1));
-  CHECK_FALSE(reply.accepted);
-  CHECK(reply.text == "rejected: the axis is disabled, enable first");
+  CHECK_FALSE(reply.accepted());
+  CHECK(reply.text() == "rejected: the axis is disabled, enable first");
   CHECK(daemon.commands_refused() == 1);
 
   test::command(daemon, Kind::kEnable, 20);
@@ -148,9 +148,42 @@ TEST_CASE("move_to while disabled or faulted is refused with the reason, and cou
   test::run_until_fault(daemon, 1000);
   REQUIRE(daemon.cycle().state() == servo::ServoState::kFault);
   reply = daemon.submit(move_to(0.01, 2));
-  CHECK_FALSE(reply.accepted);
-  CHECK(reply.text == "rejected: a fault is latched, clear it first");
+  CHECK_FALSE(reply.accepted());
+  CHECK(reply.text() == "rejected: a fault is latched, clear it first");
   CHECK(daemon.commands_refused() == 2);
+}
+
+TEST_CASE("a posted move the cycle does not start is answered with the cycle's reason, never only counted",
+          "[daemon][commands]") {
+  servod::WiredAxis axis(test::virtual_config());
+  servod::ServoDaemon& daemon = axis.daemon;
+  daemon.run_cycles(10);
+  test::command(daemon, Kind::kEnable, 20);
+  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  (void)daemon.take_replies();
+  const auto dropped_before = daemon.cycle().counters().programs_rejected;
+  const auto refused_before = daemon.commands_refused();
+
+  // Decided while enabled; a disable latched before the next cycle: the
+  // cycle, which obeys the disable first, cannot start the move.
+  const auto reply = daemon.submit(move_to(0.03, 7));
+  REQUIRE(reply.accepted());
+  REQUIRE(reply.answered_later());
+  daemon.request_safety(Kind::kDisable);
+  const servod::CommandReply answer = test::cycle_answer(daemon, 7);
+  CHECK_FALSE(answer.accepted());
+  CHECK(answer.result == servo::CommandResult::kRejectedDisabled);
+  CHECK(answer.text() == "rejected: the axis is disabled, enable first");
+  CHECK(daemon.cycle().counters().programs_rejected == dropped_before + 1);
+  CHECK(daemon.commands_refused() == refused_before + 1);
+  CHECK_FALSE(daemon.cycle().record().program_running);
+
+  // Enabled again, the same move runs, and its answer says so.
+  test::command(daemon, Kind::kEnable, 20);
+  (void)daemon.take_replies();
+  REQUIRE(daemon.submit(move_to(0.03, 8)).answered_later());
+  CHECK(test::cycle_answer(daemon, 8).text() == "program posted");
+  CHECK(daemon.cycle().record().program_running);
 }
 
 TEST_CASE("every change of state, commutation, law, file and program, and a superseded request, is an event",
@@ -180,22 +213,25 @@ TEST_CASE("every change of state, commutation, law, file and program, and a supe
   // A move: program start; two law requests while it runs: the first is
   // deferred, then superseded by the second.
   daemon.take_replies();
-  REQUIRE(daemon.submit(move_to(0.03)).accepted);
+  REQUIRE(daemon.submit(move_to(0.03)).accepted());
   daemon.run_cycles(200);
   CHECK(count(servod::EventCode::kProgramStarted) == 1);
+  const auto posted = daemon.take_replies();  // the cycle's answer once it took the move
+  REQUIRE(posted.size() == 1);
+  CHECK(posted[0].text() == "program posted");
   servo::Command pgnn;
   pgnn.kind = Kind::kSetCommutation;
   pgnn.commutation = CommutationMode::kPgnn;
   pgnn.sequence = 41;
-  REQUIRE(daemon.submit(pgnn).accepted);
+  REQUIRE(daemon.submit(pgnn).accepted());
   daemon.run_cycles(1);
   const auto first = daemon.take_replies();
   REQUIRE(first.size() == 1);
-  CHECK(first[0].text == servo::describe(servo::CommandStatus::kDeferred));
+  CHECK(first[0].text() == servo::describe(servo::CommandResult::kDeferred));
   servo::Command spline = pgnn;
   spline.commutation = CommutationMode::kSpline;
   spline.sequence = 42;
-  REQUIRE(daemon.submit(spline).accepted);
+  REQUIRE(daemon.submit(spline).accepted());
   daemon.run_cycles(1);
   REQUIRE(count(servod::EventCode::kRequestSuperseded) == 1);
   for (const auto& event : events()) {
@@ -214,8 +250,8 @@ TEST_CASE("every change of state, commutation, law, file and program, and a supe
                    format_model_file(test::truth_spline(sim::load_motor_parameters(test::source_path("config/motor-sim.yaml")))) +
                        "# another file\n");
   const auto loaded = daemon.submit(load_model(dir.file("spline-2.yaml"), 7));
-  INFO(loaded.text);
-  REQUIRE(loaded.accepted);
+  INFO(loaded.text());
+  REQUIRE(loaded.accepted());
   daemon.run_cycles(5);
   daemon.take_replies();  // the command thread's pass: the status follows the law in use
   daemon.run_cycles(5);

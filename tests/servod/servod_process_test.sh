@@ -118,7 +118,7 @@ done
 
 # 4. A refusal comes back as exit status 1 with the reason, one line on stderr.
 ctl_refused move-to --target-m 1.0
-[ "$reply" = "rejected: target outside the soft limits" ] || fail "move-to beyond the soft limits: '$reply'"
+[ "$reply" = "rejected: move_to: target_m 1 m lies outside the soft limits [-0.11, 0.11] m" ] || fail "move-to beyond the soft limits: '$reply'"
 
 # 5. SIGTERM: exit 0 within 2 s.
 rc=0

@@ -10,6 +10,7 @@
 #include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/command_check.hpp"
 #include "daemon/servod/command_server.hpp"
+#include "tools/servod_client/client.hpp"
 #include "support/temporary_directory.hpp"
 
 using namespace clm;
@@ -88,14 +89,14 @@ TEST_CASE("Every command kind passes check_command with its meaning kept", "[ser
   CHECK(out.limits.velocity_m_per_s == 0.2);
   CHECK(out.limits.acceleration_m_per_s2 == 2.0);
   CHECK(out.limits.jerk_m_per_s3 == 500.0);
-  CHECK_FALSE(answered_by_cycle(out.kind));
+  CHECK(answered_by_cycle(out.kind));  // decided by the daemon, answered once the cycle has taken it
 
   out = received(CommandKind::kRunProgram);
   out.program.assign("/etc/clm-servo/programs/fig8.yaml");
   REQUIRE(check_command(out).empty());
   CHECK(out.kind == CommandKind::kRunProgram);
   CHECK(out.program.view() == "/etc/clm-servo/programs/fig8.yaml");
-  CHECK_FALSE(answered_by_cycle(out.kind));
+  CHECK(answered_by_cycle(out.kind));
 
   for (int code = 0; code <= 4; ++code) {
     out = received(CommandKind::kSetCommutation);
@@ -132,11 +133,75 @@ TEST_CASE("The route table names every kind once, in the order of its LCM value"
   CHECK(servo::is_command_kind(servo::kCommandKinds));
   CHECK_FALSE(servo::is_command_kind(0));
   CHECK_FALSE(servo::is_command_kind(servo::kCommandKinds + 1));
-  for (const auto kind : {CommandKind::kMoveTo, CommandKind::kRunProgram, CommandKind::kLoadCalibration,
-                          CommandKind::kLoadModel}) {
+  for (const auto kind : {CommandKind::kLoadCalibration, CommandKind::kLoadModel, CommandKind::kGetParameter}) {
     CHECK_FALSE(answered_by_cycle(kind));
   }
-  CHECK(answered_by_cycle(CommandKind::kLoadFeedforward));
+  for (const auto kind : {CommandKind::kMoveTo, CommandKind::kRunProgram, CommandKind::kJog,
+                          CommandKind::kLoadFeedforward, CommandKind::kSetParameter}) {
+    CHECK(answered_by_cycle(kind));
+  }
+}
+
+TEST_CASE("The command table decides class, file and legal states; the gate, the daemon and the client read it",
+          "[servod][commands]") {
+  using servo::CommandClass;
+  using servo::CommandResult;
+  using servo::ServoState;
+  // Classes: the three safety kinds, one read, take and release, and every
+  // other kind controlled; the client takes control exactly for those.
+  int controlled = 0;
+  for (int code = 1; code <= servo::kCommandKinds; ++code) {
+    const auto kind = static_cast<CommandKind>(code);
+    const bool is_controlled = command_class(kind) == CommandClass::kControlled;
+    controlled += is_controlled ? 1 : 0;
+    CHECK(servod_client::needs_control(static_cast<std::int8_t>(code)) == is_controlled);
+  }
+  CHECK(controlled == servo::kCommandKinds - 6);
+  CHECK(command_class(CommandKind::kQuickStop) == CommandClass::kSafety);
+  CHECK(command_class(CommandKind::kGetParameter) == CommandClass::kRead);
+  CHECK(command_class(CommandKind::kJog) == CommandClass::kControlled);
+  CHECK(servod_client::needs_control(0));  // unknown to the table: the daemon refuses it anyway
+
+  // Files: run_program names its program, the loads a path; feedforward only with one.
+  servo::Command command = received(CommandKind::kRunProgram);
+  command.program.assign("/p.yaml");
+  CHECK(servo::reads_file(command));
+  CHECK(servo::file_named(command) == "/p.yaml");
+  command = received(CommandKind::kLoadFeedforward);
+  CHECK_FALSE(servo::reads_file(command));
+  command.path.assign("/ff.yaml");
+  CHECK(servo::reads_file(command));
+  CHECK(servo::file_named(command) == "/ff.yaml");
+  for (const servo::CommandRoute& route : servo::kCommandRoutes) {
+    INFO(route.name);
+    // The loader answers only kinds with a file, and every kind with a file says what it holds.
+    if (route.answered_by == servo::AnsweredBy::kLoader) CHECK(route.file != servo::FileUse::kNone);
+    CHECK((route.file == servo::FileUse::kNone) == std::string(route.file_kind).empty());
+  }
+  CHECK(servo::route(CommandKind::kLoadModel).answered_by == servo::AnsweredBy::kLoader);
+  CHECK(std::string(servo::route(CommandKind::kLoadModel).file_kind) == "model");
+  CHECK(std::string(servo::route(CommandKind::kRunProgram).file_kind) == "program");
+  command = received(CommandKind::kMoveTo);
+  CHECK_FALSE(servo::reads_file(command));
+  CHECK(servo::file_named(command).empty());
+
+  // Legal states: moves only enabled (and, but a jog, at rest); parameters at rest; stops always.
+  CHECK(servo::check_legal(CommandKind::kMoveTo, ServoState::kFault, true) == CommandResult::kRejectedFault);
+  CHECK(servo::check_legal(CommandKind::kRunProgram, ServoState::kDisabled, true) == CommandResult::kRejectedDisabled);
+  CHECK(servo::check_legal(CommandKind::kMoveTo, ServoState::kEnabled, false) == CommandResult::kRejectedBusy);
+  CHECK(servo::check_legal(CommandKind::kMoveTo, ServoState::kEnabled, true) == CommandResult::kAccepted);
+  CHECK(servo::check_legal(CommandKind::kJog, ServoState::kEnabled, false) == CommandResult::kAccepted);
+  CHECK(servo::check_legal(CommandKind::kSetParameter, ServoState::kFault, false) == CommandResult::kRejectedBusy);
+  CHECK(servo::check_legal(CommandKind::kSetParameter, ServoState::kFault, true) == CommandResult::kAccepted);
+  for (const auto state : {ServoState::kDisabled, ServoState::kEnabled, ServoState::kFault}) {
+    for (const auto kind : {CommandKind::kStop, CommandKind::kQuickStop, CommandKind::kDisable, CommandKind::kEnable,
+                            CommandKind::kClearFault}) {
+      CHECK(servo::check_legal(kind, state, false) == CommandResult::kAccepted);
+    }
+  }
+  // Each refusal's words, once.
+  CHECK(std::string(servo::describe(CommandResult::kRejectedFault)) == "a fault is latched, clear it first");
+  CHECK(std::string(servo::describe(CommandResult::kRejectedDisabled)) == "the axis is disabled, enable first");
 }
 
 TEST_CASE("set_commutation to experiment and move_to without positive limits are refused with the reason",
@@ -205,13 +270,16 @@ TEST_CASE("Each command gets exactly one ack: queued ones with the cycle's decis
   CHECK_FALSE(acks(sink).find(2)->second.accepted);
   CHECK_THAT(acks(sink).find(2)->second.text, Catch::Contains("no calibration or model"));
 
-  // move_to: answered by submit itself.
+  // move_to: decided by submit, answered once the cycle has taken its program.
   auto move = message(clm_lcm::servo_command_t::MOVE_TO, 3);
   move.target_m = 0.01;
   move.velocity_m_per_s = 0.1;
   move.acceleration_m_per_s2 = 1.0;
   move.jerk_m_per_s3 = 1000.0;
   REQUIRE(publisher.submit_command(move));
+  server.serve_once();
+  CHECK(acks(sink).count(3) == 0);
+  daemon.run_cycles(1);
   server.serve_once();
   REQUIRE(acks(sink).count(3) == 1);
   CHECK(acks(sink).find(3)->second.accepted);
@@ -232,7 +300,7 @@ TEST_CASE("Each command gets exactly one ack: queued ones with the cycle's decis
   const auto all = acks(sink);
   CHECK(all.size() == 5);
   for (std::int64_t sequence = 1; sequence <= 5; ++sequence) CHECK(all.count(sequence) == 1);
-  CHECK(all.find(4)->second.text == "rejected: target outside the soft limits");
+  CHECK(all.find(4)->second.text == "rejected: move_to: target_m 1 m lies outside the soft limits [-0.11, 0.11] m");
   CHECK_THAT(all.find(5)->second.text, Catch::StartsWith("rejected: set_commutation"));
   CHECK(server.commands_served() == 5);
 }
@@ -293,8 +361,11 @@ TEST_CASE("load_feedforward reads the file off the cycle, the cycle applies its 
   move.jerk_m_per_s3 = 1000.0;
   REQUIRE(publisher.submit_command(move));
   server.serve_once();
+  daemon.run_cycles(1);
+  server.serve_once();
+  REQUIRE(acks(sink).count(3) == 1);
   REQUIRE(acks(sink).find(3)->second.accepted);
-  daemon.run_cycles(400);
+  daemon.run_cycles(399);
   const auto& record = daemon.cycle().record();
   REQUIRE(record.r_dot_m_per_s == Approx(0.1).margin(1e-9));
   REQUIRE(record.r_ddot_m_per_s2 == Approx(0.0).margin(1e-9));

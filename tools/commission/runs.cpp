@@ -37,7 +37,7 @@ void Recorder::on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming
 namespace {
 
 void check_reply(const servod::CommandReply& reply) {
-  if (!reply.accepted) throw std::runtime_error("daemon refused a command: " + reply.text);
+  if (!reply.accepted()) throw std::runtime_error("daemon refused a command: " + reply.text());
 }
 
 void run_reply_cycle(servod::ServoDaemon& daemon) {

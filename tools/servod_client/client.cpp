@@ -11,6 +11,7 @@
 
 #include "clm_lcm/servo_command_ack_t.hpp"
 #include "config/command_key.hpp"
+#include "daemon/servo/command.hpp"
 #include "daemon/telemetry/message_mac.hpp"
 
 namespace clm::servod_client {
@@ -38,9 +39,10 @@ clm_lcm::servo_command_t make_command(std::int8_t kind) {
 }
 
 bool needs_control(std::int8_t kind) {
-  using C = clm_lcm::servo_command_t;
-  return kind != C::STOP && kind != C::QUICK_STOP && kind != C::DISABLE && kind != C::TAKE_CONTROL &&
-         kind != C::RELEASE_CONTROL && kind != C::GET_PARAMETER;
+  // The daemon's command table: its class for the command authority. A kind
+  // the table does not know is refused by the daemon anyway.
+  return !servo::is_command_kind(kind) ||
+         servo::route(static_cast<servo::CommandKind>(kind)).command_class == servo::CommandClass::kControlled;
 }
 
 std::int64_t default_client_id() {

@@ -71,8 +71,8 @@ bool decode(const std::vector<std::uint8_t>& data, Message& out) {
 /// other field zero or empty; send() sets utime, sequence, axis, session and client.
 clm_lcm::servo_command_t make_command(std::int8_t kind);
 
-/// True for the commands that need control (all but STOP, DISABLE,
-/// TAKE_CONTROL and RELEASE_CONTROL).
+/// True for the commands that need control: class kControlled in the
+/// daemon's command table (servo::kCommandRoutes), and unknown kinds.
 bool needs_control(std::int8_t kind);
 
 /// This user's client id: FNV-1a-64 of "UID@HOSTNAME", as a positive int64,
