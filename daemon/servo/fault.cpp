@@ -22,6 +22,7 @@ const char* describe(Fault fault) noexcept {
     case Fault::kSetpointOutOfRange: return "setpoint outside CAN signal range";
     case Fault::kCommutationNotFinite: return "commutation produced a non-finite setpoint";
     case Fault::kFeedbackNotFinite: return "position loop produced a non-finite force";
+    case Fault::kLoopStalled: return "the loop stalled longer than its limit";
   }
   return "unknown fault";
 }

@@ -29,6 +29,7 @@ enum class Fault : std::uint16_t {
   kSetpointOutOfRange = 207,    ///< a setpoint does not fit the CAN signal range
   kCommutationNotFinite = 208,  ///< the commutation law produced a non-finite setpoint
   kFeedbackNotFinite = 209,     ///< the position loop produced a non-finite force demand
+  kLoopStalled = 210,           ///< the loop did not run for longer than `stall_limit_s` (a stall, SIGSTOP)
 };
 
 /// Short fixed text for logs and telemetry; never allocates.
@@ -53,7 +54,7 @@ struct FaultReactionEntry {
 };
 
 /// Every fault and its reaction, in the order of the enum (docs/servod.md prints it).
-inline constexpr std::array<FaultReactionEntry, 17> kFaultReactions{{
+inline constexpr std::array<FaultReactionEntry, 18> kFaultReactions{{
     {Fault::kEncoderFrameMissing, FaultReaction::kZeroSetpoints},
     {Fault::kForceFrameMissing, FaultReaction::kQuickStop},
     {Fault::kEncoderAliveJump, FaultReaction::kZeroSetpoints},
@@ -71,6 +72,9 @@ inline constexpr std::array<FaultReactionEntry, 17> kFaultReactions{{
     {Fault::kSetpointOutOfRange, FaultReaction::kZeroSetpoints},
     {Fault::kCommutationNotFinite, FaultReaction::kZeroSetpoints},
     {Fault::kFeedbackNotFinite, FaultReaction::kZeroSetpoints},
+    // The feedback is fresh again when the loop resumes; the drive's own
+    // watchdog zeroed its setpoints meanwhile, or the axis ran on the last ones.
+    {Fault::kLoopStalled, FaultReaction::kQuickStop},
 }};
 
 /// The reaction to `fault` from kFaultReactions; kZeroSetpoints for any value

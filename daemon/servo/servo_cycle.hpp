@@ -45,6 +45,9 @@ struct ServoSettings {
   double saturation_time_limit_s = 0.05;  ///< fault when limited longer than this
   int missing_frame_limit = 3;            ///< consecutive cycles without a timely, valid feedback frame → fault
   int overrun_limit = 5;                  ///< consecutive overruns → fault
+  /// A loop that did not wake for longer than this latches kLoopStalled when
+  /// it resumes (a stall, SIGSTOP), whatever the drive did meanwhile [s].
+  double stall_limit_s = 0.1;
   double standstill_velocity_m_per_s = 2e-3;
   /// Largest velocity, acceleration and jerk a move or program may ask for.
   control::MotionLimits motion_limits{0.5, 10.0, 2000.0};
@@ -164,6 +167,9 @@ class ServoCycle {
   std::span<const can::Frame> end_cycle(double time_s) noexcept;
   /// The loop reports whether the previous cycle overran its period.
   void report_overrun(bool overran) noexcept;
+  /// The loop reports, before a cycle, the time since the previous cycle's
+  /// wake-up [s]: above settings().stall_limit_s it latches kLoopStalled.
+  void report_wakeup_gap(double gap_s) noexcept;
   /// The loop reports the bus state and whether sending failed.
   void report_bus(drivers::BusState state, bool send_failed) noexcept;
 

@@ -33,6 +33,7 @@ void ServoSettings::validate() const {
   require(saturation_time_limit_s >= 0.0, "saturation_time_limit_s must not be negative");
   require(missing_frame_limit >= 1, "missing_frame_limit must be at least 1");
   require(overrun_limit >= 1, "overrun_limit must be at least 1");
+  require(stall_limit_s >= 2.0 * period_s && stall_limit_s <= 10.0, "stall_limit_s must be in [2 periods, 10 s]");
   require(standstill_velocity_m_per_s > 0.0, "standstill_velocity_m_per_s must be positive");
   const auto positive = [](double x) { return x > 0.0 && std::isfinite(x); };
   require(positive(motion_limits.velocity_m_per_s) && positive(motion_limits.acceleration_m_per_s2) &&

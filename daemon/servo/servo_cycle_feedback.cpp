@@ -156,6 +156,10 @@ void ServoCycle::report_overrun(bool overran) noexcept {
   if (++consecutive_overruns_ >= settings_.overrun_limit) latch(Fault::kRepeatedOverruns);
 }
 
+void ServoCycle::report_wakeup_gap(double gap_s) noexcept {
+  if (gap_s > settings_.stall_limit_s) latch(Fault::kLoopStalled);
+}
+
 void ServoCycle::report_bus(drivers::BusState bus_state, bool send_failed) noexcept {
   if (bus_state == drivers::BusState::kBusOff) latch(Fault::kBusOff);
   if (bus_state == drivers::BusState::kErrorPassive) latch(Fault::kBusErrorPassive);

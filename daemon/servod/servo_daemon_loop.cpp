@@ -86,11 +86,16 @@ void ServoDaemon::run_realtime(const std::atomic<bool>& stop) {
   const auto window_ns = static_cast<std::int64_t>(config_.loop.receive_window_fraction * static_cast<double>(period_ns));
   const std::int64_t start_ns = monotonic_ns();
   WakeupSchedule schedule(start_ns + period_ns, period_ns);
+  std::int64_t previous_wake = start_ns;
   while (!stop.load(std::memory_order_acquire)) {
     const std::int64_t planned = schedule.next_ns();
     sleep_until(planned);
     const std::int64_t wake = monotonic_ns();
     timing_.wakeup_latency.add(static_cast<double>(wake - planned) * 1e-9);
+    // A loop that did not run for long (a stall, SIGSTOP) faults before this
+    // cycle drives anything, so the cycle already reacts.
+    cycle_->report_wakeup_gap(static_cast<double>(wake - previous_wake) * 1e-9);
+    previous_wake = wake;
     one_cycle(wake, planned + window_ns, static_cast<double>(planned - start_ns) * 1e-9, planned + period_ns, true);
     const std::int64_t done = monotonic_ns();
     timing_.compute_time.add(static_cast<double>(done - wake) * 1e-9);

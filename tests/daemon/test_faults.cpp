@@ -424,6 +424,23 @@ TEST_CASE("a force demand saturated longer than the limit latches kForceSaturate
   axis.require_recovers();
 }
 
+TEST_CASE("a wake-up gap up to stall_limit_s rides through, a longer one latches kLoopStalled with a quick stop",
+          "[daemon][faults]") {
+  EnabledAxis axis;
+  const double limit_s = axis.daemon.config().servo.stall_limit_s;
+  axis.move_to(0.05, kBrisk);
+  axis.daemon.run_cycles(100);  // moving
+  // The virtual loop never stalls: the loop's reports are made here, between cycles.
+  axis.daemon.cycle().report_wakeup_gap(limit_s);
+  axis.daemon.run_cycles(1);
+  REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+  axis.daemon.cycle().report_wakeup_gap(limit_s * 1.01);
+  axis.daemon.run_cycles(1);
+  axis.require_quick_stop_reaction(Fault::kLoopStalled);
+  axis.require_latched(Fault::kLoopStalled);
+  axis.require_recovers();
+}
+
 TEST_CASE("overruns: limit-1 in a row ride through, the limit latches kRepeatedOverruns", "[daemon][faults]") {
   EnabledAxis axis;
   const int limit = axis.daemon.config().servo.overrun_limit;

@@ -95,7 +95,7 @@ url="udpm://239.255.76.67:${port}?ttl=0"
 config=$run/servod-faults.yaml
 if ! missing=$(config_edit "$source_dir/config/servod-vcan.yaml" "$config" \
                "motor_file: $source_dir/config/motor-sim.yaml" "  interface: $iface" "  priority: $priority" \
-               "  lcm_url: \"$url\"" &&
+               "  lcm_url: \"$url\"" "  stall_limit_s: 1" &&
                config_require "$config" "  missing_frame_limit: 3" "  receive_window_fraction: 0.5" "  rate_hz: 1000"); then
   fail "config: no line '$missing' in $config"
   finish

@@ -119,20 +119,23 @@ port=$((9960 + $$ % 30))
 url="udpm://239.255.76.67:${port}?ttl=0"
 # The law's commissioning files: the inline feedforward replaced by the
 # law's file, the calibration and the PGNN model added to commutation:.
+# A loop stall of up to 1 s is let pass (faults.stall_limit_s): the guest runs
+# under emulation on a shared host, and this suite measures tracking.
 write_config() {
   local mode=$1 output=$2 missing
   missing=$(config_edit "$source_dir/config/servod-vcan.yaml" "$output" \
             "motor_file: $source_dir/config/motor-sim.yaml" "  interface: $iface" "  priority: $priority" \
-            "  lcm_url: \"$url\"") || { fail "config: no line '$missing' in $output"; return 1; }
+            "  lcm_url: \"$url\"" "  stall_limit_s: 1") || { fail "config: no line '$missing' in $output"; return 1; }
   sed -i -e "s|^  feedforward: .*|  feedforward_file: $artifacts/feedforward-$mode.yaml|" \
       -e "s|^\(commutation:.*\)|\1\n  calibration_file: $artifacts/calibration.yaml\n  pgnn_model_file: $artifacts/model-pgnn.yaml|" \
       "$output"
   missing=$(config_require "$output" "  feedforward_file: $artifacts/feedforward-$mode.yaml" \
             "  calibration_file: $artifacts/calibration.yaml" "  pgnn_model_file: $artifacts/model-pgnn.yaml") ||
     { fail "config: no line '$missing' in $output"; return 1; }
-  # Commands load files only from the configured directories: the program's.
+  # Commands, and the configuration itself, load files only from the
+  # configured directories: the program's and the commissioning's.
   grep -q "^commands:" "$output" && { fail "config: $output has a commands: section already"; return 1; }
-  printf 'commands:\n  file_directories: ["%s"]\n' "$(dirname "$program")" >> "$output"
+  printf 'commands:\n  file_directories: ["%s", "%s"]\n' "$(dirname "$program")" "$artifacts" >> "$output"
 }
 
 # The simulated motor and the recorders run with SCHED_FIFO below the
@@ -382,7 +385,7 @@ phase_current_suite() {
   pc_config=$run/servod-phase-current.yaml
   missing=$(config_edit "$source_dir/config/servod-vcan.yaml" "$pc_config" \
             "motor_file: $pc_motor" "  interface: $iface" "  priority: $priority" \
-            "  lcm_url: \"$url\"") || { fail "phase_current: config: no line '$missing'"; return; }
+            "  lcm_url: \"$url\"" "  stall_limit_s: 1") || { fail "phase_current: config: no line '$missing'"; return; }
   sed -i -e "s|^  feedforward: .*|  feedforward_file: $pc_artifacts/feedforward-classical.yaml|" \
       -e "s|^\(commutation:.*\)|\1\n  calibration_file: $pc_artifacts/calibration.yaml\n  pgnn_model_file: $pc_artifacts/model-pgnn.yaml|" \
       "$pc_config"

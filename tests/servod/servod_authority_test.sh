@@ -30,10 +30,10 @@ send="$source_dir/tests/support/send_lcm_datagram.py"
 channels="$source_dir/tests/support/lcm_log_channels.py"
 corpus="$source_dir/tests/fuzz/corpus/lcm_datagram"
 
-# A port of its own per mode (10000..10159 and 10200..10239; the other LCM
+# A port of its own per mode (10000..10159 and 10280..10319; the other LCM
 # tests use 7700..9989, tests/servod/test_axis_presence.cpp 10160..10199).
 case $mode in
-  hostile) base=10000 ;; ctl) base=10040 ;; presence) base=10080 ;; replay) base=10120 ;; spoof) base=10200 ;;
+  hostile) base=10000 ;; ctl) base=10040 ;; presence) base=10080 ;; replay) base=10120 ;; spoof) base=10280 ;;
   *) echo "unknown mode $mode" >&2; exit 2 ;;
 esac
 port=$((base + $$ % 40))

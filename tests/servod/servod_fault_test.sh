@@ -70,6 +70,7 @@ write_config() {
   missing=$(config_edit "$source_dir/config/servod.yaml" "$out" \
             "motor_file: $work/motor-sim.yaml" "  clock: realtime" \
             "  lcm_url: \"$url\"" "  following_error_limit_m: $limit" "  interface: sim" "  overrun_limit: 20" \
+            "  stall_limit_s: 1" \
             "  soft_limit_min_m: -$soft" "  soft_limit_max_m: $soft" &&
             config_require "$out" "  velocity_m_per_s: 0.5") || fail "config: no line '$missing' after editing"
   sed -i "s|^  interface: sim\$|  interface: sim\n  sim_fault_plan: \"$plan\"|" "$out"

@@ -279,7 +279,8 @@ loaded_host_motor() { config_edit "$1" "$2" "  watchdog_timeout_s: 0.1"; }
 # OUT: config/servod.yaml for a process test on a loaded host: an absolute
 # motor file ($work/motor-sim.yaml, the drive's watchdog relaxed by
 # loaded_host_motor), no SCHED_FIFO, the real-time clock, the test's $url,
-# overruns tolerated, and EXTRA lines (config_edit). Calls the script's fail.
+# overruns and stalls of up to 1 s tolerated, and EXTRA lines (config_edit).
+# Calls the script's fail.
 process_test_config() {  # OUT EXTRA...
   local out=$1
   shift
@@ -287,7 +288,8 @@ process_test_config() {  # OUT EXTRA...
       fail "motor: the watchdog line is missing after editing"
   config_edit "$source_dir/config/servod.yaml" "$out" \
       "motor_file: $work/motor-sim.yaml" "  priority: 0" "  clock: realtime" \
-      "  lcm_url: \"$url\"" "  overrun_limit: 1000" "$@" > /dev/null || fail "config: a line is missing after editing $out"
+      "  lcm_url: \"$url\"" "  overrun_limit: 1000" "  stall_limit_s: 1" "$@" > /dev/null ||
+      fail "config: a line is missing after editing $out"
 }
 
 # The value of the first line "KEY: value" of FILE, KEY with its indentation, comment aside.
