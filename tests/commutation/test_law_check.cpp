@@ -133,8 +133,8 @@ TEST_CASE("A model with one coil set's gain zeroed is refused naming the coil se
 
   // Zero above y = 0 only: coil set 3's physics part zero, its column a a
   // step network 30 − 30·tanh(10⁴·y) (input y/0.1), so K_y = [v, 0] and the
-  // motor constant is v: 30 N/A at y = 0, below 10⁻⁷ N/A one grid step
-  // (0.24 m / 256) above it.
+  // motor constant is v: 30 N/A at y = 0, 30·(1 − tanh 9.375) ≈ 60·e^−18.75
+  // one grid step (0.24 m / 256) above it.
   model.normalisation = {0.0, 0.1};
   Network step = Network::zeros({1});
   step.layers[0].weights(0, 0) = 1000.0;
@@ -145,7 +145,7 @@ TEST_CASE("A model with one coil set's gain zeroed is refused naming the coil se
   REQUIRE(half.verdict == LawVerdict::kGainOutOfRange);
   CHECK(half.coil_set == 3);
   CHECK(half.position_m == Approx(0.24 / 256).epsilon(1e-12));
-  CHECK(half.value < 1e-7);
+  CHECK(half.value == Approx(60.0 * std::exp(-18.75)).epsilon(1e-6));
 }
 
 TEST_CASE("A coil set's motor constant below a tenth of the nominal is refused, above it accepted", "[law_check]") {
