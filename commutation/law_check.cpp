@@ -8,19 +8,6 @@
 namespace clm {
 namespace {
 
-// The physics part A·cos θ + B·sin θ of one coil set: 3 rows × 2 columns × 2.
-constexpr std::int64_t kPhysicsMultiplyAdds = 12;
-// Per harmonic order: the angle-addition recurrence (angle_harmonics), and
-// add_physics_harmonics' 3 rows × 2 columns × (cos, sin) per gain order and
-// 3 rows × (cos, sin) per cogging order.
-constexpr std::int64_t kRecurrenceMultiplyAddsPerOrder = 4;
-constexpr std::int64_t kGainHarmonicMultiplyAdds = 12;
-constexpr std::int64_t kCoggingHarmonicMultiplyAdds = 6;
-// UniformCubicBasis::evaluate (clamp, floor, four cubic weights), and per
-// spline 3 rows × 4 coefficients.
-constexpr std::int64_t kSplineBasisMultiplyAdds = 25;
-constexpr std::int64_t kSplineMultiplyAdds = 12;
-
 LawCheck too_costly(std::int64_t cost, double loop_rate_hz) {
   const std::int64_t budget = law_cost_budget(loop_rate_hz);
   if (cost <= budget) return {};

@@ -28,6 +28,19 @@ inline constexpr std::int64_t kSinCosMultiplyAdds = 40;
 /// Inverse (37) and eq. (39): fixed part and per coil set.
 inline constexpr std::int64_t kInverseMultiplyAdds = 300;
 inline constexpr std::int64_t kInverseMultiplyAddsPerCoilSet = 80;
+/// The physics part A·cos θ + B·sin θ of one coil set: 3 rows × 2 columns × 2.
+inline constexpr std::int64_t kPhysicsMultiplyAdds = 12;
+/// Per harmonic order: the angle-addition recurrence (angle_harmonics) up to
+/// the highest order once; per coil set add_physics_harmonics' 3 rows ×
+/// 2 columns × (cos, sin) per gain order and 3 rows × (cos, sin) per cogging
+/// order.
+inline constexpr std::int64_t kRecurrenceMultiplyAddsPerOrder = 4;
+inline constexpr std::int64_t kGainHarmonicMultiplyAdds = 12;
+inline constexpr std::int64_t kCoggingHarmonicMultiplyAdds = 6;
+/// UniformCubicBasis::evaluate (clamp, floor, four cubic weights) once, and
+/// per spline 3 rows × 4 coefficients.
+inline constexpr std::int64_t kSplineBasisMultiplyAdds = 25;
+inline constexpr std::int64_t kSplineMultiplyAdds = 12;
 /// Classical law (12) per coil set: one angle (sin_cos), the force share and
 /// the setpoint's polar form.
 inline constexpr std::int64_t kClassicalMultiplyAddsPerCoilSet = 2 * kSinCosMultiplyAdds + 20;
@@ -49,11 +62,9 @@ inline constexpr double kLawShareOfPeriod = 0.1;
 std::int64_t network_cost(const Network& network);
 
 /// Multiply-add equivalents of one cycle of ModelCommutator on `model`:
-/// the angle (sin_cos), per coil set the physics part A·cos + B·sin (12),
-/// its harmonics (12 per gain order, 6 per cogging order, plus the
-/// recurrence's 4 per order up to the highest), the three networks (PGNN) or
-/// the basis (spline: 25 once) and 3 · 3 rows · 4 coefficients; then the
-/// inverse (37).
+/// the angle (sin_cos), per coil set the physics part, its harmonics and the
+/// three networks (PGNN) or the basis once and three splines (spline); then
+/// the inverse (37), all at the weights above.
 std::int64_t model_law_cost(const ElectromagneticModel& model);
 
 /// Multiply-add equivalents of one cycle of ClassicalCommutator.
