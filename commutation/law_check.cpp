@@ -103,12 +103,24 @@ std::string describe(const LawCheck& check) {
 
 LawCheck check_model_law(const ElectromagneticModel& model, const LawLimits& limits) {
   if (LawCheck cost = too_costly(model_law_cost(model), limits.loop_rate_hz); !cost.accepted()) return cost;
-  const double stroke_m = limits.stroke_max_m - limits.stroke_min_m;
-  const double wanted = std::ceil(stroke_m / model.pole_pitch_m * kGainSamplesPerPolePitch);
+  // Where the model was identified: a PGNN's data map to inputs [−1, 1]
+  // (normalisation_for), a spline's knots span its data. Beyond, a model
+  // extrapolates (docs/servod.md, "What a law may cost and mean").
+  const bool pgnn = model.kind == ModelKind::kPgnn;
+  double low_m = std::max(limits.stroke_min_m, pgnn ? model.normalisation.offset_m - model.normalisation.scale_m
+                                                     : model.spline_basis.start_m);
+  double high_m = std::min(limits.stroke_max_m, pgnn ? model.normalisation.offset_m + model.normalisation.scale_m
+                                                      : model.spline_basis.end_m);
+  if (!(high_m >= low_m)) {  // identified off the stroke: the whole stroke
+    low_m = limits.stroke_min_m;
+    high_m = limits.stroke_max_m;
+  }
+  const double range_m = high_m - low_m;
+  const double wanted = std::ceil(range_m / model.pole_pitch_m * kGainSamplesPerPolePitch);
   const int intervals = std::clamp(std::isfinite(wanted) ? static_cast<int>(std::min(wanted, 1e9)) : kMaxGainSamples, 1,
                                    kMaxGainSamples - 1);
   for (int k = 0; k <= intervals; ++k) {
-    const double position_m = limits.stroke_min_m + stroke_m * k / intervals;
+    const double position_m = low_m + range_m * k / intervals;
     for (int l = 0; l < model.coil_set_count(); ++l) {
       CoilGain gain;
       Wrench cogging;

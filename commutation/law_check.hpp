@@ -129,8 +129,10 @@ struct LawCheck {
 /// constant 0 N/A outside [6.7, 670] N/A". Empty when accepted.
 std::string describe(const LawCheck& check);
 
-/// Cost, then every coil set's driving_force_gain_N_per_A on the stroke grid
-/// (from the lower end, coil set by coil set at each point).
+/// Cost, then every coil set's driving_force_gain_N_per_A on a grid over the
+/// part of the stroke where the model was identified (a PGNN's normalised
+/// input in [−1, 1], a spline's knot span; the whole stroke when that misses
+/// it), from its lower end, coil set by coil set at each point.
 LawCheck check_model_law(const ElectromagneticModel& model, const LawLimits& limits);
 
 /// Cost, then each coil set's calibrated motor constant.

@@ -136,12 +136,13 @@ TEST_CASE("A model with one coil set's gain zeroed is refused naming the coil se
   CHECK(describe(check) == "coil set 3 at y = -0.12 m: motor constant 0 N/A outside [6.7, 670] N/A");
 
   // Zero above y = 0 only: coil set 3's physics part zero, its column a a
-  // step network 30 − 30·tanh(10⁴·y) (input y/0.1), so K_y = [v, 0] and the
+  // step network 30 − 30·tanh(10⁴·y) (input y/0.2, identified on ±0.2 m,
+  // so the whole stroke is sampled), so K_y = [v, 0] and the
   // motor constant is v: 30 N/A at y = 0, 30·(1 − tanh 9.375) ≈ 60·e^−18.75
   // one grid step (0.24 m / 256) above it.
-  model.normalisation = {0.0, 0.1};
+  model.normalisation = {0.0, 0.2};
   Network step = Network::zeros({1});
-  step.layers[0].weights(0, 0) = 1000.0;
+  step.layers[0].weights(0, 0) = 2000.0;
   step.layers[1].weights(0, 0) = -30.0;
   step.layers[1].biases[0] = 30.0;
   model.coil_sets[2].column_a = step;
@@ -161,4 +162,35 @@ TEST_CASE("A coil set's motor constant below a tenth of the nominal is refused, 
   CHECK(low.value == Approx(5.0).epsilon(1e-12));
   coil_sets[1].motor_constant_N_per_A = 7.0;
   CHECK(check_model_law(make_classical_model(kPolePitch, coil_sets), kLimits).accepted());
+}
+
+TEST_CASE("A model is judged where it was identified, not where it extrapolates", "[law_check]") {
+  // Coil set 2: physics part zero, column a the step 30 − 30·tanh(w·u + b)
+  // of the input u = (y − offset)/scale, switching off at y = 0.05 m.
+  const auto step_at = [](const PositionNormalisation& normalisation) {
+    Network step = Network::zeros({1});
+    const double w = 1000.0;
+    step.layers[0].weights(0, 0) = w;
+    step.layers[0].biases[0] = -w * (0.05 - normalisation.offset_m) / normalisation.scale_m;
+    step.layers[1].weights(0, 0) = -30.0;
+    step.layers[1].biases[0] = 30.0;
+    return step;
+  };
+  ElectromagneticModel model = make_classical_model(kPolePitch, sim_coil_sets(), {1}, {16});
+  model.coil_sets[1].a_N_per_A.setZero();
+  model.coil_sets[1].b_N_per_A.setZero();
+
+  // Data on ±0.1 m: the step lies inside, refused above 0.05 m.
+  model.normalisation = {0.0, 0.1};
+  model.coil_sets[1].column_a = step_at(model.normalisation);
+  const LawCheck refused = check_model_law(model, kLimits);
+  REQUIRE(refused.verdict == LawVerdict::kGainOutOfRange);
+  CHECK(refused.coil_set == 2);
+  CHECK(refused.position_m > 0.05);
+  CHECK(refused.position_m < 0.05 + 0.2 / 200);
+
+  // Data on −0.12..0.04 m: the step lies beyond them, accepted.
+  model.normalisation = {-0.04, 0.08};
+  model.coil_sets[1].column_a = step_at(model.normalisation);
+  CHECK(check_model_law(model, kLimits).accepted());
 }
