@@ -80,11 +80,13 @@ std::int64_t law_cost_budget(double loop_rate_hz);
 // drive.commutation.motor_constant_N_per_A). Real coil sets differ from the
 // manufacturer's value by a few percent (the simulated motors: 60.1–61.6 N/A
 // against 67), parasitics (field harmonics, magnet track) by a few percent
-// more along the stroke: a factor 10 leaves more than an order of magnitude of
-// margin and still refuses a zeroed, denormal or absurdly scaled coil set.
+// more along the stroke; what clm commission wrote for the three simulated
+// motors lies within 0.53–1.00 of the nominal (docs/servod.md). A factor 10
+// leaves at least a factor 5 of margin there and still refuses a zeroed,
+// denormal or absurdly scaled coil set.
 inline constexpr double kGainFactorLimit = 10.0;
-/// The stroke is sampled at this many points per pole pitch (the gains vary
-/// with the electrical angle), at most kMaxGainSamples in all, both ends
+/// A model's range is sampled at this many points per pole pitch (the gains
+/// vary with the electrical angle), at most kMaxGainSamples in all, both ends
 /// included.
 inline constexpr int kGainSamplesPerPolePitch = 32;
 inline constexpr int kMaxGainSamples = 8192;
@@ -124,7 +126,7 @@ struct LawCheck {
   bool accepted() const { return verdict == LawVerdict::kAccepted; }
 };
 
-/// One line, with the value and the limit: "costs 3352392 multiply-adds per
+/// One line, with the value and the limit: "costs 3352936 multiply-adds per
 /// cycle, budget 25000 at 1000 Hz", "coil set 2 at y = 0.0125 m: motor
 /// constant 0 N/A outside [6.7, 670] N/A". Empty when accepted.
 std::string describe(const LawCheck& check);
