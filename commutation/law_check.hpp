@@ -41,8 +41,9 @@ inline constexpr std::int64_t kCoggingHarmonicMultiplyAdds = 6;
 /// per spline 3 rows × 4 coefficients.
 inline constexpr std::int64_t kSplineBasisMultiplyAdds = 25;
 inline constexpr std::int64_t kSplineMultiplyAdds = 12;
-/// Classical law (12) per coil set: one angle (sin_cos), the force share and
-/// the setpoint's polar form.
+/// Classical law (12) per coil set: one angle (sin_cos), the setpoint's
+/// polar form (an atan2 and a square root, counted as a second sin_cos) and
+/// the force share.
 inline constexpr std::int64_t kClassicalMultiplyAddsPerCoilSet = 2 * kSinCosMultiplyAdds + 20;
 
 // ---- the budget ---------------------------------------------------------------
