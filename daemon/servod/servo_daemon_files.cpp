@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <type_traits>
 
+#include "commutation/law_check.hpp"
 #include "config/regular_file.hpp"
 #include "config/sha256.hpp"
 #include "daemon/servod/feedforward_file.hpp"
@@ -41,6 +42,26 @@ std::string where_in_file(const std::string& message, const std::string& file) {
   return where;
 }
 
+/// A law its file describes well but that the loop cannot afford or that no
+/// motor has (commutation/law_check.hpp). `reason` is describe()'s numbers
+/// and coil set, never text of the file: it may go into an ack.
+class LawRefused : public std::runtime_error {
+ public:
+  LawRefused(const std::string& path, const std::string& what, const std::string& why)
+      : std::runtime_error(path + ": " + what + ": " + why), reason(why) {}
+  std::string reason;
+};
+
+/// Throws LawRefused naming `path` unless `check` accepted the law.
+void require_accepted(const LawCheck& check, const std::string& path, const std::string& what) {
+  if (!check.accepted()) throw LawRefused(path, what, describe(check));
+}
+
+LawLimits law_limits(const ServodConfig& config) {
+  return {config.loop.rate_hz, config.motor.drive.motor_constant_N_per_A, config.motor.stroke_min_m,
+          config.motor.stroke_max_m};
+}
+
 }  // namespace
 
 std::string ServoDaemon::law_source(servo::CommutationMode mode) const {
@@ -68,6 +89,7 @@ std::unique_ptr<ServoDaemon::OwnedLaw> ServoDaemon::build_law(servo::Commutation
     owned->estimates = owned->calibration.estimates();
     owned->law = std::make_unique<ClassicalCommutator>(owned->estimates, config_.motor.pole_pitch_m, config_.motor.drive,
                                                        config_.commutation.options.phase_convention);
+    require_accepted(check_classical_law(owned->estimates, law_limits(config_)), path, "calibration");
   } else {
     owned->model = parse_model_file(yaml::Node::load_string(text, path));
     check_matches_motor(owned->model.model, config_.motor, path, config_.motor_file);
@@ -79,6 +101,8 @@ std::unique_ptr<ServoDaemon::OwnedLaw> ServoDaemon::build_law(servo::Commutation
                                (expected == ModelKind::kPgnn ? "pgnn" : "spline") + " model");
     }
     owned->law = std::make_unique<ModelCommutator>(owned->model.model, config_.motor.drive, config_.commutation.options);
+    require_accepted(check_model_law(owned->model.model, law_limits(config_)), path,
+                     std::string(servo::name(mode)) + " model");
   }
   return owned;
 }
@@ -147,8 +171,12 @@ std::unique_ptr<ServoDaemon::Loaded> ServoDaemon::load(const servo::Command& com
     std::string where = where_in_file(message, file);
     if (where.empty()) where = where_in_file(message, path);
     // Short: an ack's text has 127 characters, and the path comes last.
-    loaded->refusal = what + "invalid " + file_kind + " file" + (where.empty() ? "" : " (" + where + ")") +
-                      ": '" + path + "'";
+    if (const auto* refused = dynamic_cast<const LawRefused*>(&e)) {
+      loaded->refusal = what + refused->reason + ": '" + path + "'";
+    } else {
+      loaded->refusal = what + "invalid " + file_kind + " file" + (where.empty() ? "" : " (" + where + ")") +
+                        ": '" + path + "'";
+    }
     loaded->law.reset();
   }
   return loaded;
