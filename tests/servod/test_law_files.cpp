@@ -81,21 +81,21 @@ TEST_CASE("load_model and load_calibration refuse a law beyond the budget or wit
   using servo::CommandKind;
 
   const CommandReply cost = daemon.submit(load(CommandKind::kLoadModel, costly));
-  CHECK_FALSE(cost.accepted);
-  CHECK(cost.text == "rejected: load_model: costs 159592 multiply-adds per cycle, budget 25000 at 1000 Hz: '" +
+  CHECK_FALSE(cost.accepted());
+  CHECK(cost.text() == "rejected: load_model: costs 159592 multiply-adds per cycle, budget 25000 at 1000 Hz: '" +
                          costly + "'");
 
   const CommandReply gain = daemon.submit(load(CommandKind::kLoadModel, zeroed));
-  CHECK_FALSE(gain.accepted);
-  CHECK_THAT(gain.text, Catch::StartsWith("rejected: load_model: coil set 3 at y = -0.12 m: motor constant 0 N/A "
+  CHECK_FALSE(gain.accepted());
+  CHECK_THAT(gain.text(), Catch::StartsWith("rejected: load_model: coil set 3 at y = -0.12 m: motor constant 0 N/A "
                                           "outside [6.7, 670] N/A"));
 
   const CommandReply k = daemon.submit(load(CommandKind::kLoadCalibration, tiny_k));
-  CHECK_FALSE(k.accepted);
-  CHECK_THAT(k.text, Catch::StartsWith("rejected: load_calibration: coil set 2: motor constant 1e-300 N/A"));
+  CHECK_FALSE(k.accepted());
+  CHECK_THAT(k.text(), Catch::StartsWith("rejected: load_calibration: coil set 2: motor constant 1e-300 N/A"));
 
-  CHECK(daemon.submit(load(CommandKind::kLoadModel, good)).accepted);
-  CHECK(daemon.submit(load(CommandKind::kLoadCalibration, good_k)).accepted);
+  CHECK(daemon.submit(load(CommandKind::kLoadModel, good)).accepted());
+  CHECK(daemon.submit(load(CommandKind::kLoadCalibration, good_k)).accepted());
 }
 
 TEST_CASE("A configuration naming a law beyond the budget does not start, naming file, cost and budget",
