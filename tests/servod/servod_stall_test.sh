@@ -19,7 +19,7 @@ port=$((10320 + $$ % 40))
 url="udpm://239.255.76.67:${port}?ttl=0"
 rm -rf "$work"
 mkdir -p "$work"
-trap cleanup_processes EXIT
+trap "cleanup_processes || true" EXIT
 fail() { fail_with_status "$*" "$work"/servod*.log; }
 
 process_test_config "$work/servod.yaml" "  lock_memory: false"
