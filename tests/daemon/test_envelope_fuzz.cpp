@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <random>
 #include <string>
 
@@ -29,7 +30,7 @@ namespace {
 
 constexpr int kSeeds = 10;
 constexpr int kStepsPerSeed = 1000;  // 10 000 set-and-move sequences in all
-constexpr std::int64_t kMaxMoveCycles = 5000;
+constexpr std::int64_t kMaxMoveCycles = 600;  // a slower move is stopped after 0.6 s: a stop from speed too
 
 struct Walk {
   explicit Walk(std::uint64_t seed) : wired(test::virtual_config()), daemon(wired.daemon), random(seed) {
@@ -101,7 +102,7 @@ struct Walk {
       test::command(daemon, CommandKind::kStop, 1);
       for (k = 0; k < kMaxMoveCycles && !daemon.cycle().idle(); ++k) cycle();
     }
-    for (int settle = 0; settle < 50; ++settle) cycle();  // settle, and a fault's reaction to its end
+    for (int settle = 0; settle < 30; ++settle) cycle();  // settle, and a fault's reaction to its end
     (void)daemon.take_replies();
   }
 
@@ -132,5 +133,7 @@ TEST_CASE("no sequence of accepted sets lets a move reach an end stop (10 000 se
   }
   // The walk must have changed something for the property to mean anything.
   INFO("accepted sets: " << accepted_sets);
+  std::printf("envelope walk: %d of %d in-range sets accepted, a move after each, no end stop reached\n", accepted_sets,
+              kSeeds * kStepsPerSeed);
   CHECK(accepted_sets > kSeeds * kStepsPerSeed / 20);
 }
