@@ -13,7 +13,7 @@
 
 #include "clm_lcm/servo_status_t.hpp"
 #include "daemon/servod/axis_presence.hpp"
-#include "daemon/telemetry/message_mac.hpp"
+#include "support/signed_lcm.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 
 using namespace clm::servod;
@@ -35,22 +35,6 @@ TEST_CASE("Start-up listens 2.5 status periods, at least 0.3 s", "[servod][autho
   CHECK(presence_window_s(0.0) == Approx(0.3));
 }
 
-namespace {
-
-clm::HmacSha256 key_of(const std::string& text) {
-  return clm::HmacSha256(std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
-}
-
-/// Publishes `status` signed with `key` (as a daemon does).
-void publish_signed(lcm::LCM& lcm, const clm_lcm::servo_status_t& status, const clm::HmacSha256& key) {
-  std::vector<std::uint8_t> encoded(static_cast<std::size_t>(status.getEncodedSize()));
-  status.encode(encoded.data(), 0, static_cast<int>(encoded.size()));
-  clm::telemetry::sign_encoded(key, clm::telemetry::kStatusChannel, encoded);
-  lcm.publish(clm::telemetry::kStatusChannel, encoded.data(), static_cast<unsigned int>(encoded.size()));
-}
-
-}  // namespace
-
 TEST_CASE("Another session's status of the same axis is found, the own session, other axes and statuses without "
           "the key's mac are not",
           "[servod][authority][lcm]") {
@@ -58,8 +42,8 @@ TEST_CASE("Another session's status of the same axis is found, the own session, 
   const std::string url = "udpm://239.255.76.67:" + std::to_string(10160 + ::getpid() % 40) + "?ttl=0";
   lcm::LCM other(url);
   if (!other.good()) FAIL("cannot open " + url + " (udpm needs a multicast route, docs/telemetry.md)");
-  const clm::HmacSha256 key = key_of("the operators' key of this test, 32+ bytes");
-  const clm::HmacSha256 other_key = key_of("a key the daemon does not hold, 32+ bytes");
+  const clm::HmacSha256 key = clm::test::key_of("the operators' key of this test, 32+ bytes");
+  const clm::HmacSha256 other_key = clm::test::key_of("a key the daemon does not hold, 32+ bytes");
   std::atomic<std::int64_t> session{0};
   std::atomic<bool> stop{false};
   std::thread publisher([&] {
@@ -68,14 +52,14 @@ TEST_CASE("Another session's status of the same axis is found, the own session, 
       status.axis = "axis0";
       status.session = session.load();
       status.fault_cycle = -1;
-      publish_signed(other, status, key);
+      clm::test::publish_signed(other, clm::telemetry::kStatusChannel, status, &key);
       clm_lcm::servo_status_t elsewhere = status;
       elsewhere.axis = "axis1";
       elsewhere.session = 999;
-      publish_signed(other, elsewhere, key);
+      clm::test::publish_signed(other, clm::telemetry::kStatusChannel, elsewhere, &key);
       clm_lcm::servo_status_t forged = status;  // made up without the key
       forged.session = 77;
-      publish_signed(other, forged, other_key);
+      clm::test::publish_signed(other, clm::telemetry::kStatusChannel, forged, &other_key);
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
   });

@@ -19,6 +19,7 @@
 #include "daemon/telemetry/lcm_datagram.hpp"
 #include "daemon/telemetry/message_mac.hpp"
 #include "daemon/telemetry/wire_check.hpp"
+#include "support/signed_lcm.hpp"
 #include "telemetry/telemetry_samples.hpp"
 
 using namespace clm::telemetry;
@@ -43,9 +44,9 @@ std::string no_multicast(const std::string& what) {
 }
 
 /// The operators' key of these tests.
-clm::HmacSha256 test_key() {
-  const std::string text = "clm-servo test key, 32 bytes at least";
-  return clm::HmacSha256(std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
+const clm::HmacSha256& test_key() {
+  static const clm::HmacSha256 key = clm::test::key_of("clm-servo test key, 32 bytes at least");
+  return key;
 }
 
 /// A publisher's settings on `url` with the test key.
@@ -56,12 +57,9 @@ TelemetryConfig keyed_config(const std::string& url) {
   return config;
 }
 
-/// Publishes `command` with the mac of `key` (as clm ctl does), or with a zero mac when `key` is empty.
-int publish_command(lcm::LCM& lcm, const clm_lcm::servo_command_t& command, const std::optional<clm::HmacSha256>& key) {
-  std::vector<std::uint8_t> encoded(static_cast<std::size_t>(command.getEncodedSize()));
-  command.encode(encoded.data(), 0, static_cast<int>(encoded.size()));
-  if (key) sign_encoded(*key, kCommandChannel, encoded);
-  return lcm.publish(kCommandChannel, encoded.data(), static_cast<unsigned int>(encoded.size()));
+/// Publishes `command` with the mac of the test key, as clm ctl does.
+int publish_command(lcm::LCM& lcm, const clm_lcm::servo_command_t& command) {
+  return clm::test::publish_signed(lcm, kCommandChannel, command, &test_key());
 }
 
 /// Keeps the bytes of every message of one channel.
@@ -171,7 +169,7 @@ TEST_CASE("Commands sent over udpm multicast reach poll_command, an empty path i
   clm::servo::Command command;
   bool taken = false;
   for (int attempt = 0; attempt < 5 && !taken; ++attempt) {
-    REQUIRE(publish_command(operator_side, move, test_key()) == 0);
+    REQUIRE(publish_command(operator_side, move) == 0);
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(1);
     while (!(taken = publisher->poll_command(command)) && std::chrono::steady_clock::now() < deadline) {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -187,7 +185,7 @@ TEST_CASE("Commands sent over udpm multicast reach poll_command, an empty path i
 
   bool refused = false;
   for (int attempt = 0; attempt < 5 && !refused; ++attempt) {
-    REQUIRE(publish_command(operator_side, load, test_key()) == 0);
+    REQUIRE(publish_command(operator_side, load) == 0);
     refused = handle_until(
         operator_side, [&] { return !acks.messages.empty(); }, std::chrono::milliseconds(1000));
   }
@@ -195,7 +193,7 @@ TEST_CASE("Commands sent over udpm multicast reach poll_command, an empty path i
   const std::int64_t malformed_before = publisher->counters().commands_malformed;
   bool counted = false;
   for (int attempt = 0; attempt < 5 && !counted; ++attempt) {
-    REQUIRE(publish_command(operator_side, too_long, test_key()) == 0);
+    REQUIRE(publish_command(operator_side, too_long) == 0);
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(1);
     while (!(counted = publisher->counters().commands_malformed > malformed_before) &&
            std::chrono::steady_clock::now() < deadline) {
@@ -258,7 +256,7 @@ TEST_CASE("A fragment claiming 2^28 bytes is dropped unread and counted; the nex
   clm::servo::Command command;
   bool taken = false;
   for (int attempt = 0; attempt < 5 && !taken; ++attempt) {
-    REQUIRE(publish_command(operator_side, enable, test_key()) == 0);
+    REQUIRE(publish_command(operator_side, enable) == 0);
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(1);
     while (!(taken = publisher->poll_command(command)) && std::chrono::steady_clock::now() < until) {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -292,7 +290,7 @@ TEST_CASE("Over udpm every message published carries the mac of the key; a comma
   enable.command = clm_lcm::servo_command_t::ENABLE;
   bool answered = false;
   for (int attempt = 0; attempt < 5 && !answered; ++attempt) {
-    REQUIRE(publish_command(operator_side, enable, std::nullopt) == 0);
+    REQUIRE(clm::test::publish_signed(operator_side, kCommandChannel, enable, nullptr) == 0);
     answered = handle_until(operator_side, [&] { return !acks.messages.empty(); }, std::chrono::milliseconds(1000));
   }
   REQUIRE(answered);
@@ -303,9 +301,8 @@ TEST_CASE("Over udpm every message published carries the mac of the key; a comma
   CHECK(ack.text.rfind("unauthenticated", 0) == 0);
   CHECK(verify_encoded(test_key(), kCommandAckChannel, acks.messages.front()));
   CHECK_FALSE(verify_encoded(test_key(), kStatusChannel, acks.messages.front()));  // keyed to its channel
-  const std::string other = "another key, also of 32 bytes or more";
-  CHECK_FALSE(verify_encoded(clm::HmacSha256(std::span(reinterpret_cast<const std::uint8_t*>(other.data()), other.size())),
-                             kCommandAckChannel, acks.messages.front()));
+  CHECK_FALSE(verify_encoded(clm::test::key_of("another key, also of 32 bytes or more"), kCommandAckChannel,
+                             acks.messages.front()));
   CHECK(publisher->counters().commands_unauthenticated >= 1);
   clm::servo::Command command;
   CHECK_FALSE(publisher->poll_command(command));
@@ -315,7 +312,7 @@ TEST_CASE("Over udpm every message published carries the mac of the key; a comma
   stop.command = clm_lcm::servo_command_t::STOP;
   bool taken = false;
   for (int attempt = 0; attempt < 5 && !taken; ++attempt) {
-    REQUIRE(publish_command(operator_side, stop, std::nullopt) == 0);
+    REQUIRE(clm::test::publish_signed(operator_side, kCommandChannel, stop, nullptr) == 0);
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(1);
     while (!(taken = publisher->poll_command(command)) && std::chrono::steady_clock::now() < until) {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
