@@ -2,16 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
+
+#include "daemon/control/checks.hpp"
 
 namespace clm::control {
 namespace {
 
-std::string number(double value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.4g", value);
-  return text;
-}
+using detail::format_number;
 
 /// Where a quick stop from `velocity_m_per_s` at rest at 0 comes to rest [m].
 double stopping_distance_m(double velocity_m_per_s, const StopLimits& limits) {
@@ -26,22 +23,22 @@ std::string check_envelope(const Machine& machine, const EnvelopeSettings& s) {
   const double m = machine.mass_kg;
   const double force_N = s.force_limit_N;
   if (!(m > 0.0) || !(force_N > 0.0) || !(s.period_s > 0.0)) {
-    return "control.mass_kg " + number(m) + " kg, control.force_limit_N " + number(force_N) +
+    return "control.mass_kg " + format_number(m) + " kg, control.force_limit_N " + format_number(force_N) +
            " N and the period must be positive";
   }
   // 1. acceleration
   if (m * s.motion_limits.acceleration_m_per_s2 > kMoveForceShare * force_N) {
-    return "motion.acceleration_m_per_s2 " + number(s.motion_limits.acceleration_m_per_s2) + " m/s^2 takes " +
-           number(m * s.motion_limits.acceleration_m_per_s2) + " N on the " + number(m) +
-           " kg translator, more than " + number(kMoveForceShare) + " of control.force_limit_N (" +
-           number(kMoveForceShare * force_N) + " N)";
+    return "motion.acceleration_m_per_s2 " + format_number(s.motion_limits.acceleration_m_per_s2) + " m/s^2 takes " +
+           format_number(m * s.motion_limits.acceleration_m_per_s2) + " N on the " + format_number(m) +
+           " kg translator, more than " + format_number(kMoveForceShare) + " of control.force_limit_N (" +
+           format_number(kMoveForceShare * force_N) + " N)";
   }
   for (const auto& [key, limits] : {std::pair{"motion.stop_deceleration_m_per_s2", s.stop_limits},
                                     std::pair{"motion.quick_stop_deceleration_m_per_s2", s.quick_stop_limits}}) {
     if (m * limits.deceleration_m_per_s2 > kStopForceShare * force_N) {
-      return std::string(key) + " " + number(limits.deceleration_m_per_s2) + " m/s^2 takes " +
-             number(m * limits.deceleration_m_per_s2) + " N on the " + number(m) + " kg translator, more than " +
-             number(kStopForceShare) + " of control.force_limit_N (" + number(kStopForceShare * force_N) + " N)";
+      return std::string(key) + " " + format_number(limits.deceleration_m_per_s2) + " m/s^2 takes " +
+             format_number(m * limits.deceleration_m_per_s2) + " N on the " + format_number(m) + " kg translator, more than " +
+             format_number(kStopForceShare) + " of control.force_limit_N (" + format_number(kStopForceShare * force_N) + " N)";
     }
   }
   // 2. jerk
@@ -50,43 +47,43 @@ std::string check_envelope(const Machine& machine, const EnvelopeSettings& s) {
                                   std::pair{"motion.stop_jerk_m_per_s3", s.stop_limits.jerk_m_per_s3},
                                   std::pair{"motion.quick_stop_jerk_m_per_s3", s.quick_stop_limits.jerk_m_per_s3}}) {
     if (jerk > max_jerk) {
-      return std::string(key) + " " + number(jerk) + " m/s^3 asks the force to rise to control.force_limit_N in " +
-             "fewer than " + number(kMinForceRiseCycles) + " cycles (at most " + number(max_jerk) + " m/s^3)";
+      return std::string(key) + " " + format_number(jerk) + " m/s^3 asks the force to rise to control.force_limit_N in " +
+             "fewer than " + format_number(kMinForceRiseCycles) + " cycles (at most " + format_number(max_jerk) + " m/s^3)";
     }
   }
   // 3. velocity
   const double half_span_m = 0.5 * (s.soft_limit_max_m - s.soft_limit_min_m);
   const double stop_m = stopping_distance_m(s.motion_limits.velocity_m_per_s, s.quick_stop_limits);
   if (stop_m > half_span_m) {
-    return "motion.velocity_m_per_s " + number(s.motion_limits.velocity_m_per_s) + " m/s: a quick stop from it takes " +
-           number(stop_m) + " m, more than half the span between the soft limits (" + number(half_span_m) + " m)";
+    return "motion.velocity_m_per_s " + format_number(s.motion_limits.velocity_m_per_s) + " m/s: a quick stop from it takes " +
+           format_number(stop_m) + " m, more than half the span between the soft limits (" + format_number(half_span_m) + " m)";
   }
   // 4. feedforward
   const FeedforwardParameters& ff = s.feedforward;
   if (ff.mass_kg != 0.0 && (ff.mass_kg < m / kFeedforwardMassFactor || ff.mass_kg > m * kFeedforwardMassFactor)) {
-    return "control.feedforward.mass_kg " + number(ff.mass_kg) + " kg: 0 or within a factor " +
-           number(kFeedforwardMassFactor) + " of the translator's " + number(m) + " kg (control.mass_kg): [" +
-           number(m / kFeedforwardMassFactor) + ", " + number(m * kFeedforwardMassFactor) + "] kg";
+    return "control.feedforward.mass_kg " + format_number(ff.mass_kg) + " kg: 0 or within a factor " +
+           format_number(kFeedforwardMassFactor) + " of the translator's " + format_number(m) + " kg (control.mass_kg): [" +
+           format_number(m / kFeedforwardMassFactor) + ", " + format_number(m * kFeedforwardMassFactor) + "] kg";
   }
   const double friction_N = std::fabs(ff.viscous_N_s_per_m) * s.motion_limits.velocity_m_per_s + std::fabs(ff.coulomb_N);
   if (friction_N > kFeedforwardForceShare * force_N) {
-    return "control.feedforward: viscous " + number(ff.viscous_N_s_per_m) + " N*s/m at " +
-           number(s.motion_limits.velocity_m_per_s) + " m/s plus Coulomb " + number(ff.coulomb_N) + " N make " +
-           number(friction_N) + " N, more than " + number(kFeedforwardForceShare) + " of control.force_limit_N (" +
-           number(kFeedforwardForceShare * force_N) + " N)";
+    return "control.feedforward: viscous " + format_number(ff.viscous_N_s_per_m) + " N*s/m at " +
+           format_number(s.motion_limits.velocity_m_per_s) + " m/s plus Coulomb " + format_number(ff.coulomb_N) + " N make " +
+           format_number(friction_N) + " N, more than " + format_number(kFeedforwardForceShare) + " of control.force_limit_N (" +
+           format_number(kFeedforwardForceShare * force_N) + " N)";
   }
   // 5. following error
   const double inside_m = std::min(machine.stroke_max_m - s.soft_limit_max_m, s.soft_limit_min_m - machine.stroke_min_m);
   if (2.0 * s.following_error_limit_m > inside_m) {
-    return "control.following_error_limit_m " + number(s.following_error_limit_m) +
-           " m: the soft limits must lie inside the stroke [" + number(machine.stroke_min_m) + ", " +
-           number(machine.stroke_max_m) + "] m by at least twice it (" + number(2.0 * s.following_error_limit_m) +
-           " m), they lie inside by " + number(inside_m) + " m";
+    return "control.following_error_limit_m " + format_number(s.following_error_limit_m) +
+           " m: the soft limits must lie inside the stroke [" + format_number(machine.stroke_min_m) + ", " +
+           format_number(machine.stroke_max_m) + "] m by at least twice it (" + format_number(2.0 * s.following_error_limit_m) +
+           " m), they lie inside by " + format_number(inside_m) + " m";
   }
   // 6. saturation
   if (s.saturation_time_limit_s > kMaxSaturationTime_s || s.saturation_time_limit_s < s.period_s) {
-    return "control.saturation_time_limit_s " + number(s.saturation_time_limit_s) + " s: between one period (" +
-           number(s.period_s) + " s) and " + number(kMaxSaturationTime_s) + " s";
+    return "control.saturation_time_limit_s " + format_number(s.saturation_time_limit_s) + " s: between one period (" +
+           format_number(s.period_s) + " s) and " + format_number(kMaxSaturationTime_s) + " s";
   }
   return "";
 }
