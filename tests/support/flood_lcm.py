@@ -24,8 +24,6 @@ with the same client and sequence). Prints one line per command and one
 `median_ms M max_ms X acked K/N` line; exit 1 when a command is refused or
 unacked within 2 s."""
 import argparse
-import hashlib
-import hmac
 import os
 import socket
 import statistics
@@ -34,23 +32,9 @@ import sys
 import time
 from urllib.parse import urlparse
 
-MAGIC_SHORT = 0x4C433032  # "LC02"
-MAGIC_FRAGMENT = 0x4C433033  # "LC03"
-# servo_command_t's and servo_command_ack_t's fingerprints are read from the
-# fuzz corpus (lcm-gen's encodings), so this script never carries a stale one.
-CORPUS = os.path.join(os.path.dirname(__file__), "..", "fuzz", "corpus", "lcm_datagram")
+from lcm_wire import MAGIC_FRAGMENT, MAGIC_SHORT, corpus_hash, lcm_string, short_datagram, signed
 
 ENABLE, DISABLE, MOVE_TO, STOP, QUICK_STOP, GET_PARAMETER = 1, 2, 4, 10, 14, 16
-
-
-def corpus_hash(name):
-    with open(os.path.join(CORPUS, name), "rb") as f:
-        return f.read()[1:9]
-
-
-def lcm_string(text):
-    data = text.encode() + b"\0"
-    return struct.pack(">i", len(data)) + data
 
 
 def command(hash_bytes, axis, session, client, sequence, kind, parameter="", target_m=0.0):
@@ -60,15 +44,6 @@ def command(hash_bytes, axis, session, client, sequence, kind, parameter="", tar
             struct.pack(">qqb", session, client, kind) +
             struct.pack(">dddd", target_m, 0.1, 1.0, 1000.0) + lcm_string("") + struct.pack(">bbd", 0, 0, 0.0) +
             lcm_string("") + lcm_string(parameter) + struct.pack(">d", 0.0) + bytes(32))
-
-
-def signed(key, channel, payload):
-    """payload with its last 32 bytes (the mac field) the HMAC-SHA256 of the channel, a NUL and the rest."""
-    return payload[:-32] + hmac.new(key, channel.encode() + b"\0" + payload[:-32], hashlib.sha256).digest()
-
-
-def short_datagram(sequence, channel, payload):
-    return struct.pack(">II", MAGIC_SHORT, sequence & 0xFFFFFFFF) + channel.encode() + b"\0" + payload
 
 
 def fragment_datagram(sequence):

@@ -20,8 +20,6 @@ in a socket buffer. --sign: after the patches, the message's last 32 bytes
 keyed with the file $CLM_SERVO_KEY_FILE names (daemon/telemetry/message_mac.hpp):
 what a holder of the operators' key sends."""
 import argparse
-import hashlib
-import hmac
 import os
 import random
 import socket
@@ -29,6 +27,8 @@ import struct
 import sys
 import time
 from urllib.parse import urlparse
+
+from lcm_wire import signed
 
 MAGIC_SHORT = 0x4C433032  # "LC02", LCM's short-message header
 
@@ -63,7 +63,7 @@ def main():
     if args.sign:
         with open(os.environ["CLM_SERVO_KEY_FILE"], "rb") as f:
             key = f.read()
-        payload[-32:] = hmac.new(key, args.channel.encode() + b"\0" + bytes(payload[:-32]), hashlib.sha256).digest()
+        payload = bytearray(signed(key, args.channel, payload))
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
     sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_LOOP, 1)

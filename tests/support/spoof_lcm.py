@@ -17,25 +17,7 @@ import sys
 import time
 from urllib.parse import urlparse
 
-MAGIC_SHORT = 0x4C433032  # "LC02"
-CORPUS = os.path.join(os.path.dirname(__file__), "..", "fuzz", "corpus", "lcm_datagram")
-MAC_BYTES = 32
-
-
-def corpus_hash(name):
-    with open(os.path.join(CORPUS, name), "rb") as f:
-        return f.read()[1:9]
-
-
-def lcm_string(text):
-    data = text.encode() + b"\0"
-    return struct.pack(">i", len(data)) + data
-
-
-def read_string(payload, pos):
-    (length,) = struct.unpack_from(">i", payload, pos)
-    return payload[pos + 4:pos + 4 + length - 1].decode(errors="replace"), pos + 4 + length
-
+from lcm_wire import MAC_BYTES, MAGIC_SHORT, corpus_hash, lcm_string, read_string, short_datagram
 
 def parse_short(datagram):
     """(channel, payload) of an LCM short message, or None."""
@@ -117,7 +99,7 @@ def main():
         except (struct.error, IndexError):
             continue
         sequence += 1
-        packet = struct.pack(">II", MAGIC_SHORT, sequence & 0xFFFFFFFF) + channel.encode() + b"\0" + forged
+        packet = short_datagram(sequence, channel, forged)
         sender.sendto(packet, (url.hostname, url.port))
     print(f"spoof: {statuses} statuses and {acks} acks forged")
     return 0
