@@ -138,7 +138,9 @@ class ServoCycle {
   /// under way.
   CommandResult quick_stop() noexcept;
   /// Switch the commutation law (deferred to standstill). For kExperiment,
-  /// `coil_set` (1-based) and `delta_rad` select the experiment.
+  /// `coil_set` (1-based) and `delta_rad` select the experiment. Any other
+  /// law becomes the service law, which disable() and every fault return to
+  /// (an experiment never survives either).
   CommandResult request_mode(CommutationMode mode, int coil_set = 0, double delta_rad = 0.0) noexcept;
   /// Replace the feedforward parameters (takes effect at once).
   void set_feedforward(const control::FeedforwardParameters& parameters) noexcept;
@@ -179,6 +181,9 @@ class ServoCycle {
   Fault fault() const noexcept { return fault_; }
   std::int64_t fault_cycle() const noexcept { return fault_cycle_; }
   CommutationMode mode() const noexcept { return mode_; }
+  /// The law the axis returns to when an experiment ends (the last law
+  /// requested other than kExperiment).
+  CommutationMode service_mode() const noexcept { return service_mode_; }
   /// A requested law waits for standstill (request_mode said kDeferred).
   bool mode_change_pending() const noexcept { return mode_pending_; }
   /// The law the cycle uses for `mode` now (nullptr: none).
@@ -212,6 +217,8 @@ class ServoCycle {
   /// Plans a stop from the present reference and follows it from the next sample.
   void begin_stop(const control::StopLimits& limits, bool quick) noexcept;
   void end_program() noexcept;
+  /// Back to the service law at once, a pending experiment dropped (disable, fault).
+  void leave_experiment() noexcept;
   bool outside_soft_limits(double position_m) const noexcept;
 
   ServoSettings settings_;
@@ -240,6 +247,7 @@ class ServoCycle {
   bool clear_drive_fault_ = false;
   CommutationMode mode_ = CommutationMode::kOriginal;
   CommutationMode requested_mode_ = CommutationMode::kOriginal;
+  CommutationMode service_mode_ = CommutationMode::kOriginal;
   int experiment_coil_set_ = 0, requested_coil_set_ = 0;
   double experiment_delta_rad_ = 0.0, requested_delta_rad_ = 0.0;
   bool mode_pending_ = false;
