@@ -81,8 +81,7 @@ void ServoCycle::begin_stop(const control::StopLimits& limits, bool quick) noexc
 }
 
 void ServoCycle::leave_experiment() noexcept {
-  const bool experiment_pending = mode_pending_ && requested_mode_ == CommutationMode::kExperiment;
-  if (mode_ != CommutationMode::kExperiment && !experiment_pending) return;
+  if (!in_experiment()) return;
   // A pending law other than an experiment is the service law already.
   mode_ = requested_mode_ = service_mode_;
   mode_pending_ = false;

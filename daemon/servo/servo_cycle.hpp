@@ -142,6 +142,10 @@ class ServoCycle {
   /// law becomes the service law, which disable() and every fault return to
   /// (an experiment never survives either).
   CommandResult request_mode(CommutationMode mode, int coil_set = 0, double delta_rad = 0.0) noexcept;
+  /// Ends an experiment in use or pending: back to the service law at the
+  /// next standstill (at once when the axis is not driven), as request_mode.
+  /// kAccepted when there is none.
+  CommandResult end_experiment() noexcept;
   /// Replace the feedforward parameters (takes effect at once).
   void set_feedforward(const control::FeedforwardParameters& parameters) noexcept;
   /// Replace the run-time settings (gains, feedforward, limits) when no
@@ -217,6 +221,10 @@ class ServoCycle {
   /// Plans a stop from the present reference and follows it from the next sample.
   void begin_stop(const control::StopLimits& limits, bool quick) noexcept;
   void end_program() noexcept;
+  /// An experiment is in use or waits for standstill.
+  bool in_experiment() const noexcept {
+    return mode_ == CommutationMode::kExperiment || (mode_pending_ && requested_mode_ == CommutationMode::kExperiment);
+  }
   /// Back to the service law at once, a pending experiment dropped (disable, fault).
   void leave_experiment() noexcept;
   bool outside_soft_limits(double position_m) const noexcept;

@@ -189,6 +189,10 @@ CommandResult ServoCycle::request_mode(CommutationMode mode, int coil_set, doubl
   return CommandResult::kDeferred;
 }
 
+CommandResult ServoCycle::end_experiment() noexcept {
+  return in_experiment() ? request_mode(service_mode_) : CommandResult::kAccepted;
+}
+
 void ServoCycle::set_feedforward(const control::FeedforwardParameters& parameters) noexcept {
   controller_.set_feedforward(parameters);
   settings_.feedforward = parameters;

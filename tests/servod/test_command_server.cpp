@@ -147,7 +147,7 @@ TEST_CASE("The command table decides class, file and legal states; the gate, the
   using servo::CommandClass;
   using servo::CommandResult;
   using servo::ServoState;
-  // Classes: the three safety kinds, one read, take and release, and every
+  // Classes: the three safety kinds, one read, take, release and renew, and every
   // other kind controlled; the client takes control exactly for those.
   int controlled = 0;
   for (int code = 1; code <= servo::kCommandKinds; ++code) {
@@ -156,7 +156,7 @@ TEST_CASE("The command table decides class, file and legal states; the gate, the
     controlled += is_controlled ? 1 : 0;
     CHECK(servod_client::needs_control(static_cast<std::int8_t>(code)) == is_controlled);
   }
-  CHECK(controlled == servo::kCommandKinds - 6);
+  CHECK(controlled == servo::kCommandKinds - 7);  // 3 safety, 1 read, take, release, renew
   CHECK(command_class(CommandKind::kQuickStop) == CommandClass::kSafety);
   CHECK(command_class(CommandKind::kGetParameter) == CommandClass::kRead);
   CHECK(command_class(CommandKind::kJog) == CommandClass::kControlled);
