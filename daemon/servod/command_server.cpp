@@ -116,12 +116,17 @@ int CommandServer::serve_once() {
       check_deadman();  // a lapse first: never hidden by another client taking control
       const CommandOrigin origin{received.axis.view(), received.session, received.client, received.sequence,
                                  received.utime};
-      const GateDecision decision = gate_->admit(origin, command_class(received.kind), telemetry::wall_clock_utime());
+      const std::int64_t now_us = telemetry::wall_clock_utime();
+      const bool deadman_holder = gate_->deadman() && gate_->holder(now_us) == received.client;
+      const GateDecision decision = gate_->admit(origin, command_class(received.kind), now_us);
       if (!decision.admitted()) {
         ack(received.sequence, received.client, false,
             std::string("refused ") + name(decision.refusal) + ": " + decision.reason, acks);
         continue;
       }
+      // A tool that ran a sequence hands the axis back as its deadman would:
+      // stopped, in the service law.
+      if (deadman_holder && received.kind == servo::CommandKind::kReleaseControl) daemon_.request_owner_gone();
     }
     if (route.answered_by == servo::AnsweredBy::kAuthority) {
       if (!gate_) {
