@@ -40,8 +40,8 @@ void CommandGateSettings::validate() const {
   if (!(control_lease_s > 0.0 && control_lease_s <= 86400.0)) {
     throw std::invalid_argument("control_lease_s must be in (0, 86400], got " + std::to_string(control_lease_s));
   }
-  if (!(deadman_timeout_s >= 0.1 && deadman_timeout_s <= 10.0)) {
-    throw std::invalid_argument("deadman_timeout_s must be in [0.1, 10], got " + std::to_string(deadman_timeout_s));
+  if (!(deadman_timeout_s >= 0.5 && deadman_timeout_s <= 10.0)) {
+    throw std::invalid_argument("deadman_timeout_s must be in [0.5, 10], got " + std::to_string(deadman_timeout_s));
   }
 }
 

@@ -327,7 +327,7 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     if (const auto v = commands->optional("max_age_s")) config.commands.max_age_s = v->as_double_in(0.01, 3600.0);
     if (const auto v = commands->optional("control_lease_s")) config.commands.control_lease_s = v->as_double_in(0.1, 86400.0);
     if (const auto v = commands->optional("deadman_timeout_s")) {
-      config.commands.deadman_timeout_s = v->as_double_in(0.1, 10.0);
+      config.commands.deadman_timeout_s = v->as_double_in(0.5, 10.0);
     }
     if (const auto v = commands->optional("max_file_bytes")) config.commands.max_file_bytes = v->as_integer_in(1024, 1L << 30);
     if (const auto v = commands->optional("file_directories")) {

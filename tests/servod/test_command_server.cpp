@@ -578,7 +578,7 @@ TEST_CASE("A deadman lease that lapses stops the axis, ends the experiment and r
   const servo::CommutationMode service = daemon.config().commutation.mode;
   telemetry::MemorySink sink;
   telemetry::TelemetryPublisher publisher(telemetry::TelemetryConfig{}, sink);
-  constexpr double kDeadman_s = 0.2;
+  constexpr double kDeadman_s = 0.5;
   CommandServer server(publisher, daemon, CommandGateSettings{"axis0", 77, 2.0, 30.0, kDeadman_s});
   const auto serve = [&] {
     server.serve_once();
