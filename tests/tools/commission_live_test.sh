@@ -160,10 +160,12 @@ if [ "$mode" = killed ]; then
     [ $reached = 1 ] || { kill -KILL $tool; fail "$name: the kill point not reached within 60 s: $status"; }
     kill -"$signal" $tool
     start=$(date +%s.%N)
+    local at="killed at: commutation $(field commutation "$status"), program_running $(field program_running "$status")"
+
     wait $tool || rc=$?
     while :; do
-      elapsed=$(echo "$(date +%s.%N) - $start" | bc)
       status=$(ctl status --timeout-s 1 2>/dev/null) || status=""
+      elapsed=$(echo "$(date +%s.%N) - $start" | bc)  # when this status was in
       if [ -n "$status" ] && [ "$(field control_client "$status")" = 0 ] &&
          { [ "$(field state "$status")" = disabled ] ||
            { [ "$(field state "$status")" = enabled ] && [ "$(field commutation "$status")" = "$service" ] &&
@@ -176,7 +178,7 @@ if [ "$mode" = killed ]; then
                "program_running $(field program_running "$status")"
     done
     grep -qx "fault: 0" <<< "$status" || fail "$name: a fault after the kill: $status"
-    echo "$name: SIG$signal; after $elapsed s: state $(field state "$status"), commutation" \
+    echo "$name: SIG$signal ($at); after $elapsed s: state $(field state "$status"), commutation" \
          "$(field commutation "$status"), program_running false, control_client 0 (tool exit $rc)"
     if [ "$signal" = TERM ]; then
       [ $rc = 1 ] || fail "$name: clm commission exit status $rc after SIGTERM, expected 1"
