@@ -217,8 +217,7 @@ void add_ctl(CLI::App& app) {
          next += period) {
       if (servod_client::stop_signal() != 0) {
         // Stop the jog now rather than after the daemon's jog timeout, give control back, exit 1.
-        (void)send(client, *options, make_command(Command::STOP));
-        (void)send(client, *options, make_command(Command::RELEASE_CONTROL));
+        client.stop_and_release(options->timeout_s);
         servod_client::throw_if_interrupted();
       }
       Command command = make_command(Command::JOG);

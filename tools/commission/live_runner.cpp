@@ -69,8 +69,7 @@ LcmRunner::~LcmRunner() {
   if (!took_control_) return;
   client_.stop_deadman();
   try {
-    client_.command("STOP", make_command(Command::STOP), options_.ack_timeout_s);
-    client_.release_control(options_.ack_timeout_s);
+    client_.stop_and_release(options_.ack_timeout_s);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "clm commission: warning: control of the axis not released (the daemon's deadman "
                          "stops the axis and releases it): %s\n", e.what());

@@ -282,6 +282,11 @@ void Client::release_control(double timeout_s) {
   command("RELEASE_CONTROL", make_command(clm_lcm::servo_command_t::RELEASE_CONTROL), timeout_s);
 }
 
+void Client::stop_and_release(double timeout_s) {
+  command("STOP", make_command(clm_lcm::servo_command_t::STOP), timeout_s);
+  release_control(timeout_s);
+}
+
 Ack Client::send(clm_lcm::servo_command_t command, double timeout_s, const std::string& what) {
   const Target to = target_for(timeout_s, what);
   bool renewing = false;

@@ -210,6 +210,10 @@ class Client {
   void take_control(double timeout_s, const std::string& what = "TAKE_CONTROL");
   /// RELEASE_CONTROL; Refused when the daemon refuses.
   void release_control(double timeout_s);
+  /// What a tool that ran something does when it ends early: STOP, then
+  /// RELEASE_CONTROL (for a deadman lease the daemon then also ends an
+  /// experiment). Refused or NoAck as command().
+  void stop_and_release(double timeout_s);
   /// Makes control a deadman lease and keeps it: sends RENEW_CONTROL now and
   /// every kDeadmanRenewPeriod_s from a thread of its own (without waiting
   /// for acks), until stop_deadman(), the destructor, or a SIGINT/SIGTERM
