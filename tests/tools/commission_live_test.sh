@@ -16,8 +16,9 @@
 #       positions. About 1.5 min.
 #   commission_live_test.sh killed CLM_SERVOD CLM SOURCE_DIR WORK_DIR
 #       the daemon as for run; `clm commission --live` killed three times:
-#       SIGKILL once it holds control (before any experiment), SIGKILL while
-#       an experiment program runs, SIGTERM while one runs. Each time, within
+#       SIGKILL at the first status that shows it holding control (early:
+#       within its first experiment's first second on this host), SIGKILL
+#       2 s into an experiment program, SIGTERM 2 s into one. Each time, within
 #       3 s, the axis is disabled or holding still in the service law (status:
 #       commutation not experiment, no program running) and nobody holds
 #       control (control_client 0); after SIGTERM the tool exits 1 and says
@@ -160,7 +161,7 @@ if [ "$mode" = killed ]; then
     [ $reached = 1 ] || { kill -KILL $tool; fail "$name: the kill point not reached within 60 s: $status"; }
     kill -"$signal" $tool
     start=$(date +%s.%N)
-    local at="killed at: commutation $(field commutation "$status"), program_running $(field program_running "$status")"
+    local at="killed at: commutation $(field commutation "$status"), program_running $(field program_running "$status"), program_time_s $(field program_time_s "$status")"
 
     wait $tool || rc=$?
     while :; do
@@ -187,7 +188,10 @@ if [ "$mode" = killed ]; then
     fi
   }
   holds_control() { [ "$(field control_client "$1")" != 0 ]; }
-  in_experiment() { [ "$(field commutation "$1")" = experiment ] && [ "$(field program_running "$1")" = true ]; }
+  in_experiment() {
+    [ "$(field commutation "$1")" = experiment ] && [ "$(field program_running "$1")" = true ] &&
+    [ "$(echo "$(field program_time_s "$1") >= 2" | bc)" = 1 ]
+  }
   kill_commission early KILL holds_control
   kill_commission experiment KILL in_experiment
   kill_commission experiment-term TERM in_experiment
