@@ -185,9 +185,6 @@ class ServoCycle {
   Fault fault() const noexcept { return fault_; }
   std::int64_t fault_cycle() const noexcept { return fault_cycle_; }
   CommutationMode mode() const noexcept { return mode_; }
-  /// The law the axis returns to when an experiment ends (the last law
-  /// requested other than kExperiment).
-  CommutationMode service_mode() const noexcept { return service_mode_; }
   /// A requested law waits for standstill (request_mode said kDeferred).
   bool mode_change_pending() const noexcept { return mode_pending_; }
   /// The law the cycle uses for `mode` now (nullptr: none).
@@ -255,7 +252,7 @@ class ServoCycle {
   bool clear_drive_fault_ = false;
   CommutationMode mode_ = CommutationMode::kOriginal;
   CommutationMode requested_mode_ = CommutationMode::kOriginal;
-  CommutationMode service_mode_ = CommutationMode::kOriginal;
+  CommutationMode service_mode_ = CommutationMode::kOriginal;  // the last law requested other than kExperiment
   int experiment_coil_set_ = 0, requested_coil_set_ = 0;
   double experiment_delta_rad_ = 0.0, requested_delta_rad_ = 0.0;
   bool mode_pending_ = false;
