@@ -52,6 +52,10 @@ GateDecision CommandGate::refuse(GateRefusal refusal, std::string reason) {
   return {refusal, std::move(reason)};
 }
 
+void CommandGate::count_admitted() noexcept {
+  counts_[static_cast<std::size_t>(GateRefusal::kAdmitted)].fetch_add(1, std::memory_order_relaxed);
+}
+
 CommandGate::Client* CommandGate::find_client(std::int64_t id) noexcept {
   for (Client& c : clients_) {
     if (c.id == id) return &c;
@@ -75,7 +79,7 @@ void CommandGate::record(Client* client, const CommandOrigin& origin, std::int64
 
 bool CommandGate::admit_safety(std::string_view axis) noexcept {
   if (axis != settings_.axis) return false;
-  counts_[static_cast<std::size_t>(GateRefusal::kAdmitted)].fetch_add(1, std::memory_order_relaxed);
+  count_admitted();
   return true;
 }
 
@@ -98,7 +102,7 @@ GateDecision CommandGate::admit(const CommandOrigin& origin, CommandClass comman
                                            ", the limit is " + seconds_text(settings_.max_age_s));
   }
   if (command_class == CommandClass::kRead) {
-    counts_[static_cast<std::size_t>(GateRefusal::kAdmitted)].fetch_add(1, std::memory_order_relaxed);
+    count_admitted();
     return {};
   }
   const std::int64_t holder_now = holder(now_us);
@@ -107,7 +111,7 @@ GateDecision CommandGate::admit(const CommandOrigin& origin, CommandClass comman
     if (!holds) return refuse(GateRefusal::kNotInControl, "this client does not hold control");
     deadman_.store(true, std::memory_order_release);
     lease_end_us_.store(now_us + to_us(settings_.deadman_timeout_s), std::memory_order_release);
-    counts_[static_cast<std::size_t>(GateRefusal::kAdmitted)].fetch_add(1, std::memory_order_relaxed);
+    count_admitted();
     return {};
   }
   if (command_class == CommandClass::kTakeControl && holder_now != 0 && !holds) {
@@ -151,7 +155,7 @@ GateDecision CommandGate::admit(const CommandOrigin& origin, CommandClass comman
       break;
   }
   record(client, origin, now_us);
-  counts_[static_cast<std::size_t>(GateRefusal::kAdmitted)].fetch_add(1, std::memory_order_relaxed);
+  count_admitted();
   return {};
 }
 

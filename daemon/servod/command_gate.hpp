@@ -120,6 +120,8 @@ class CommandGate {
     std::int64_t last_seen_us = 0;
   };
   GateDecision refuse(GateRefusal refusal, std::string reason);
+  /// Counts one admitted command (any thread).
+  void count_admitted() noexcept;
   /// The client's slot, nullptr when it has none.
   Client* find_client(std::int64_t id) noexcept;
   /// Records an admitted command of `origin`'s client, in its slot or in the
