@@ -41,8 +41,9 @@ enum class CommandKind : std::int8_t {
   kJog = 15,             ///< move at a velocity while repeated (ServoCycle::post_jog, renew_jog)
   kGetParameter = 16,    ///< the value of a run-time parameter (daemon/servod/parameters.hpp)
   kSetParameter = 17,    ///< change a run-time parameter at standstill (ServoCycle::apply_tuning)
+  kRenewControl = 18,    ///< the holder's heartbeat: a deadman lease (daemon/servod/command_gate.hpp)
 };
-inline constexpr int kCommandKinds = 17;
+inline constexpr int kCommandKinds = 18;
 
 /// True when `code` is a CommandKind value (1..kCommandKinds).
 constexpr bool is_command_kind(int code) noexcept { return code >= 1 && code <= kCommandKinds; }
@@ -61,6 +62,7 @@ enum class CommandClass : std::uint8_t {
   kRead,            ///< changes nothing, answered for any client
   kTakeControl,
   kReleaseControl,
+  kRenewControl,    ///< only from the holder; no sequence kept (a heartbeat from a thread of its own)
   kControlled,      ///< the sender must hold control
 };
 
@@ -122,6 +124,7 @@ inline constexpr std::array<CommandRoute, kCommandKinds> kCommandRoutes{{
     {CommandKind::kJog,              "jog",               AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInEnabled,   false},
     {CommandKind::kGetParameter,     "get_parameter",     AnsweredBy::kDaemon,     CommandClass::kRead,            FileUse::kNone,          "",             kInAnyState,  false},
     {CommandKind::kSetParameter,     "set_parameter",     AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  true},
+    {CommandKind::kRenewControl,     "renew_control",     AnsweredBy::kAuthority,  CommandClass::kRenewControl,    FileUse::kNone,          "",             kInAnyState,  false},
 }};
 
 constexpr bool routes_in_order() noexcept {

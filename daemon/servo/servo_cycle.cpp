@@ -80,7 +80,19 @@ void ServoCycle::begin_stop(const control::StopLimits& limits, bool quick) noexc
   ++(quick ? counters_.quick_stops : counters_.stops);
 }
 
+void ServoCycle::leave_experiment() noexcept {
+  if (!in_experiment()) return;
+  // A pending law other than an experiment is the service law already.
+  mode_ = requested_mode_ = service_mode_;
+  mode_pending_ = false;
+  experiment_coil_set_ = requested_coil_set_ = 0;
+  experiment_delta_rad_ = requested_delta_rad_ = 0.0;
+}
+
 void ServoCycle::latch(Fault fault) noexcept {
+  // Whatever the fault, an experiment ends here: a quick stop is driven by
+  // the service law, and a later enable starts in it.
+  leave_experiment();
   if (state_ == ServoState::kFault) {  // the first reason stays
     // A fault that distrusts the feedback ends a quick stop under way.
     if (reacting_ && reaction(fault) == FaultReaction::kZeroSetpoints) {
@@ -98,7 +110,8 @@ void ServoCycle::latch(Fault fault) noexcept {
   const bool plausible = have_position_ && std::abs(reference_.position_m - position_m_) <=
                                                kPlausibleErrorFactor * settings_.following_error_limit_m;
   reacting_ = false;
-  if (driving && moving && plausible && reaction(fault) == FaultReaction::kQuickStop) {
+  const bool law_ready = laws_[static_cast<std::size_t>(mode_)] != nullptr;
+  if (driving && moving && plausible && law_ready && reaction(fault) == FaultReaction::kQuickStop) {
     begin_stop(settings_.quick_stop_limits, true);
     reacting_ = true;
   } else {

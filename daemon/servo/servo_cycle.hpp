@@ -141,8 +141,14 @@ class ServoCycle {
   /// under way.
   CommandResult quick_stop() noexcept;
   /// Switch the commutation law (deferred to standstill). For kExperiment,
-  /// `coil_set` (1-based) and `delta_rad` select the experiment.
+  /// `coil_set` (1-based) and `delta_rad` select the experiment. Any other
+  /// law becomes the service law, which disable() and every fault return to
+  /// (an experiment never survives either).
   CommandResult request_mode(CommutationMode mode, int coil_set = 0, double delta_rad = 0.0) noexcept;
+  /// Ends an experiment in use or pending: back to the service law at the
+  /// next standstill (at once when the axis is not driven), as request_mode.
+  /// kAccepted when there is none.
+  CommandResult end_experiment() noexcept;
   /// Replace the feedforward parameters (takes effect at once).
   void set_feedforward(const control::FeedforwardParameters& parameters) noexcept;
   /// Replace the run-time settings (gains, feedforward, limits) when no
@@ -218,6 +224,12 @@ class ServoCycle {
   /// Plans a stop from the present reference and follows it from the next sample.
   void begin_stop(const control::StopLimits& limits, bool quick) noexcept;
   void end_program() noexcept;
+  /// An experiment is in use or waits for standstill.
+  bool in_experiment() const noexcept {
+    return mode_ == CommutationMode::kExperiment || (mode_pending_ && requested_mode_ == CommutationMode::kExperiment);
+  }
+  /// Back to the service law at once, a pending experiment dropped (disable, fault).
+  void leave_experiment() noexcept;
   bool outside_soft_limits(double position_m) const noexcept;
 
   ServoSettings settings_;
@@ -246,6 +258,7 @@ class ServoCycle {
   bool clear_drive_fault_ = false;
   CommutationMode mode_ = CommutationMode::kOriginal;
   CommutationMode requested_mode_ = CommutationMode::kOriginal;
+  CommutationMode service_mode_ = CommutationMode::kOriginal;  // the last law requested other than kExperiment
   int experiment_coil_set_ = 0, requested_coil_set_ = 0;
   double experiment_delta_rad_ = 0.0, requested_delta_rad_ = 0.0;
   bool mode_pending_ = false;

@@ -125,6 +125,7 @@ CommandResult ServoCycle::enable() noexcept {
 CommandResult ServoCycle::disable() noexcept {
   if (state_ == ServoState::kEnabled) state_ = ServoState::kDisabled;
   end_program();
+  leave_experiment();
   stopping_ = reacting_ = false;
   restricted_.store(false, std::memory_order_release);
   idle_.store(true, std::memory_order_release);
@@ -175,6 +176,7 @@ CommandResult ServoCycle::request_mode(CommutationMode mode, int coil_set, doubl
     return CommandResult::kRejectedNoLaw;
   }
   requested_mode_ = mode;
+  if (mode != CommutationMode::kExperiment) service_mode_ = mode;
   requested_coil_set_ = mode == CommutationMode::kExperiment ? coil_set : 0;
   requested_delta_rad_ = mode == CommutationMode::kExperiment ? delta_rad : 0.0;
   mode_pending_ = true;
@@ -186,6 +188,10 @@ CommandResult ServoCycle::request_mode(CommutationMode mode, int coil_set, doubl
     return CommandResult::kAccepted;
   }
   return CommandResult::kDeferred;
+}
+
+CommandResult ServoCycle::end_experiment() noexcept {
+  return in_experiment() ? request_mode(service_mode_) : CommandResult::kAccepted;
 }
 
 void ServoCycle::set_feedforward(const control::FeedforwardParameters& parameters) noexcept {

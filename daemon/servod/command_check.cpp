@@ -88,6 +88,7 @@ std::string check_command(servo::Command& command) {
       return "";
     case CommandKind::kTakeControl:
     case CommandKind::kReleaseControl:
+    case CommandKind::kRenewControl:
       return std::string(servo::route(command.kind).name) + " is answered by the command authority, not the daemon";
   }
   return "unknown command " + std::to_string(static_cast<int>(command.kind));

@@ -40,6 +40,9 @@ void CommandGateSettings::validate() const {
   if (!(control_lease_s > 0.0 && control_lease_s <= 86400.0)) {
     throw std::invalid_argument("control_lease_s must be in (0, 86400], got " + std::to_string(control_lease_s));
   }
+  if (!(deadman_timeout_s >= 0.5 && deadman_timeout_s <= 10.0)) {
+    throw std::invalid_argument("deadman_timeout_s must be in [0.5, 10], got " + std::to_string(deadman_timeout_s));
+  }
 }
 
 CommandGate::CommandGate(CommandGateSettings settings) : settings_(std::move(settings)) { settings_.validate(); }
@@ -47,6 +50,10 @@ CommandGate::CommandGate(CommandGateSettings settings) : settings_(std::move(set
 GateDecision CommandGate::refuse(GateRefusal refusal, std::string reason) {
   counts_[static_cast<std::size_t>(refusal)].fetch_add(1, std::memory_order_relaxed);
   return {refusal, std::move(reason)};
+}
+
+void CommandGate::count_admitted() noexcept {
+  counts_[static_cast<std::size_t>(GateRefusal::kAdmitted)].fetch_add(1, std::memory_order_relaxed);
 }
 
 CommandGate::Client* CommandGate::find_client(std::int64_t id) noexcept {
@@ -72,7 +79,7 @@ void CommandGate::record(Client* client, const CommandOrigin& origin, std::int64
 
 bool CommandGate::admit_safety(std::string_view axis) noexcept {
   if (axis != settings_.axis) return false;
-  counts_[static_cast<std::size_t>(GateRefusal::kAdmitted)].fetch_add(1, std::memory_order_relaxed);
+  count_admitted();
   return true;
 }
 
@@ -95,11 +102,18 @@ GateDecision CommandGate::admit(const CommandOrigin& origin, CommandClass comman
                                            ", the limit is " + seconds_text(settings_.max_age_s));
   }
   if (command_class == CommandClass::kRead) {
-    counts_[static_cast<std::size_t>(GateRefusal::kAdmitted)].fetch_add(1, std::memory_order_relaxed);
+    count_admitted();
     return {};
   }
   const std::int64_t holder_now = holder(now_us);
   const bool holds = holder_now == origin.client;
+  if (command_class == CommandClass::kRenewControl) {
+    if (!holds) return refuse(GateRefusal::kNotInControl, "this client does not hold control");
+    deadman_.store(true, std::memory_order_release);
+    lease_end_us_.store(now_us + to_us(settings_.deadman_timeout_s), std::memory_order_release);
+    count_admitted();
+    return {};
+  }
   if (command_class == CommandClass::kTakeControl && holder_now != 0 && !holds) {
     return refuse(GateRefusal::kNotInControl, "client " + std::to_string(holder_now) + " holds control for another " +
                                                   seconds_text(lease_remaining_s(now_us)) + " unless it releases it");
@@ -122,23 +136,36 @@ GateDecision CommandGate::admit(const CommandOrigin& origin, CommandClass comman
     return refuse(GateRefusal::kReplayed, "sent no later than the last command of a client no longer tracked; "
                                           "send it again");
   }
+  // A new holder starts with an ordinary lease; the holder's renewals keep its kind.
+  if (!holds) deadman_.store(false, std::memory_order_release);
+  const double lease_s = deadman() ? settings_.deadman_timeout_s : settings_.control_lease_s;
   switch (command_class) {
     case CommandClass::kTakeControl:
       // The lease first, so a reader never sees the new holder with an old lease.
-      lease_end_us_.store(now_us + to_us(settings_.control_lease_s), std::memory_order_release);
+      lease_end_us_.store(now_us + to_us(lease_s), std::memory_order_release);
       holder_.store(origin.client, std::memory_order_release);
       break;
     case CommandClass::kReleaseControl:
       holder_.store(0, std::memory_order_release);
       lease_end_us_.store(0, std::memory_order_release);
+      deadman_.store(false, std::memory_order_release);
       break;
     default:
-      lease_end_us_.store(now_us + to_us(settings_.control_lease_s), std::memory_order_release);
+      lease_end_us_.store(now_us + to_us(lease_s), std::memory_order_release);
       break;
   }
   record(client, origin, now_us);
-  counts_[static_cast<std::size_t>(GateRefusal::kAdmitted)].fetch_add(1, std::memory_order_relaxed);
+  count_admitted();
   return {};
+}
+
+std::int64_t CommandGate::take_lapsed_deadman(std::int64_t now_us) noexcept {
+  const std::int64_t id = holder_.load(std::memory_order_acquire);
+  if (!deadman() || id == 0 || now_us < lease_end_us_.load(std::memory_order_acquire)) return 0;
+  holder_.store(0, std::memory_order_release);
+  lease_end_us_.store(0, std::memory_order_release);
+  deadman_.store(false, std::memory_order_release);
+  return id;
 }
 
 std::int64_t CommandGate::holder(std::int64_t now_us) const noexcept {

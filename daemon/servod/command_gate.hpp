@@ -13,7 +13,13 @@
 //     passes the control check (take_control: nobody else holds an
 //     unexpired lease; the others: its client holds control) and then the
 //     replay check (its sequence is above the last one admitted from that
-//     client). Every admitted command of the holder renews the lease.
+//     client). Every admitted command of the holder renews the lease;
+//   - renew_control (the heartbeat of a tool that runs a sequence) when it
+//     passes 1-4 and comes from the holder: no sequence is kept, so the
+//     heartbeat thread never races the tool's other commands. It makes the
+//     lease a deadman lease of deadman_timeout_s (renewed by every admitted
+//     command of the holder); when one lapses, take_lapsed_deadman() hands
+//     the holder to the command server once, which stops the axis.
 // Only these last commands, once admitted, take a slot of the client table:
 // reads, safety commands and refused commands never do, so traffic that
 // anyone can send cannot fill it. A full table forgets the client seen
@@ -66,6 +72,8 @@ struct CommandGateSettings {
   std::int64_t session = 0;      ///< this run's session id, non-zero
   double max_age_s = 2.0;        ///< oldest command admitted [s]
   double control_lease_s = 30.0; ///< control lapses this long after the holder's last command [s]
+  /// A deadman lease (after renew_control) lapses this long after the holder's last command [s].
+  double deadman_timeout_s = 1.0;
   /// Validates; throws std::invalid_argument naming the field.
   void validate() const;
 };
@@ -90,6 +98,12 @@ class CommandGate {
   /// with this.
   bool admit_safety(std::string_view axis) noexcept;
 
+  /// Command thread: when the holder's deadman lease has lapsed by `now_us`,
+  /// forgets it and returns that client, once; else 0. Call it before admit()
+  /// so that a lapse is never hidden by another client taking control.
+  std::int64_t take_lapsed_deadman(std::int64_t now_us) noexcept;
+  /// The holder's lease is a deadman lease (any thread).
+  bool deadman() const noexcept { return deadman_.load(std::memory_order_acquire); }
   /// The client holding control at `now_us`, 0 for nobody.
   std::int64_t holder(std::int64_t now_us) const noexcept;
   /// Lease left to the holder at `now_us` [s], 0 when nobody holds control.
@@ -106,6 +120,8 @@ class CommandGate {
     std::int64_t last_seen_us = 0;
   };
   GateDecision refuse(GateRefusal refusal, std::string reason);
+  /// Counts one admitted command (any thread).
+  void count_admitted() noexcept;
   /// The client's slot, nullptr when it has none.
   Client* find_client(std::int64_t id) noexcept;
   /// Records an admitted command of `origin`'s client, in its slot or in the
@@ -120,6 +136,7 @@ class CommandGate {
   std::int64_t forgotten_utime_us_ = 0;
   std::atomic<std::int64_t> holder_{0};
   std::atomic<std::int64_t> lease_end_us_{0};
+  std::atomic<bool> deadman_{false};
   std::array<std::atomic<std::int64_t>, kGateRefusalKinds> counts_{};
 };
 

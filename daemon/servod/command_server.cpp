@@ -85,6 +85,27 @@ void CommandServer::check_other_daemon() {
   }
 }
 
+void CommandServer::check_deadman() {
+  if (!gate_) return;
+  const std::int64_t lapsed = gate_->take_lapsed_deadman(telemetry::wall_clock_utime());
+  if (lapsed == 0) return;
+  // Past every queue, as a stop: the next cycle stops the program and ends an experiment.
+  daemon_.request_owner_gone();
+  ++deadman_lapses_;
+  telemetry::ServoEventSample event;
+  event.severity = 1;  // clm_lcm::servo_event_t::SEVERITY_WARNING
+  char text[160];
+  std::snprintf(text, sizeof(text),
+                "client %lld sent nothing for %g s (deadman): axis stopped, experiment ended, control released",
+                static_cast<long long>(lapsed), gate_->settings().deadman_timeout_s);
+  event.text.assign(text);
+  try {
+    publisher_.publish_event(event);
+  } catch (const std::exception&) {
+    // The stop above is what matters; the status shows control released.
+  }
+}
+
 int CommandServer::serve_once() {
   int acks = 0;
   servo::Command received;
@@ -92,23 +113,31 @@ int CommandServer::serve_once() {
     served_.fetch_add(1, std::memory_order_relaxed);
     const servo::CommandRoute& route = servo::route(received.kind);
     if (gate_) {
+      check_deadman();  // a lapse first: never hidden by another client taking control
       const CommandOrigin origin{received.axis.view(), received.session, received.client, received.sequence,
                                  received.utime};
-      const GateDecision decision = gate_->admit(origin, command_class(received.kind), telemetry::wall_clock_utime());
+      const std::int64_t now_us = telemetry::wall_clock_utime();
+      const bool deadman_holder = gate_->deadman() && gate_->holder(now_us) == received.client;
+      const GateDecision decision = gate_->admit(origin, command_class(received.kind), now_us);
       if (!decision.admitted()) {
         ack(received.sequence, received.client, false,
             std::string("refused ") + name(decision.refusal) + ": " + decision.reason, acks);
         continue;
       }
+      // A tool that ran a sequence hands the axis back as its deadman would:
+      // stopped, in the service law.
+      if (deadman_holder && received.kind == servo::CommandKind::kReleaseControl) daemon_.request_owner_gone();
     }
     if (route.answered_by == servo::AnsweredBy::kAuthority) {
       if (!gate_) {
         ack(received.sequence, received.client, false,
             std::string("rejected: ") + route.name + ": no command authority in this process", acks);
-      } else if (received.kind == servo::CommandKind::kTakeControl) {
+      } else if (received.kind == servo::CommandKind::kTakeControl ||
+                 received.kind == servo::CommandKind::kRenewControl) {
         char text[96];
-        std::snprintf(text, sizeof(text), "control taken, lease %g s",
-                      gate_->lease_remaining_s(telemetry::wall_clock_utime()));
+        std::snprintf(text, sizeof(text), "control %s, %slease %g s",
+                      received.kind == servo::CommandKind::kTakeControl ? "taken" : "renewed",
+                      gate_->deadman() ? "deadman " : "", gate_->lease_remaining_s(telemetry::wall_clock_utime()));
         ack(received.sequence, received.client, true, text, acks);
       } else {
         ack(received.sequence, received.client, true, "control released", acks);
@@ -124,6 +153,7 @@ int CommandServer::serve_once() {
     if (own_command(reply)) continue;
     ack(reply, acks);
   }
+  check_deadman();
   check_other_daemon();
   if (++passes_ % kGarbagePasses == 0) daemon_.collect_garbage();
   return acks;

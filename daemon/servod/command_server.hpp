@@ -73,6 +73,8 @@ class CommandServer final : public AuthorityReport, public telemetry::SafetyLatc
   int serve_once();
 
   std::int64_t commands_served() const noexcept { return served_.load(std::memory_order_relaxed); }
+  /// Deadman leases that lapsed so far (command thread).
+  std::int64_t deadman_lapses() const noexcept { return deadman_lapses_; }
   /// Commands admitted by the gate (or submitted, without one) that the daemon then refused.
   /// The gate; nullptr without command authority.
   const CommandGate* gate() const noexcept { return gate_ ? &*gate_ : nullptr; }
@@ -88,6 +90,9 @@ class CommandServer final : public AuthorityReport, public telemetry::SafetyLatc
   void ack(const CommandReply& reply, int& acks);
   void ack(std::int64_t sequence, std::int64_t client, bool accepted, const std::string& text, int& acks);
   void check_other_daemon();
+  /// A deadman lease that lapsed: the daemon stops the axis and ends an
+  /// experiment (ServoDaemon::request_owner_gone); the holder is forgotten.
+  void check_deadman();
 
   telemetry::TelemetryPublisher& publisher_;
   ServoDaemon& daemon_;
@@ -95,6 +100,7 @@ class CommandServer final : public AuthorityReport, public telemetry::SafetyLatc
   double poll_period_s_;
   std::int64_t passes_ = 0;
   std::int64_t other_session_handled_ = 0;
+  std::int64_t deadman_lapses_ = 0;
   std::atomic<std::int64_t> served_{0};
   std::atomic<bool> stop_requested_{false};
   std::thread thread_;

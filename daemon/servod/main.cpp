@@ -265,7 +265,7 @@ int run(const std::string& config_path, double duration_s) {
   if (publisher) {
     commands.emplace(*publisher, daemon,
                      servod::CommandGateSettings{config.axis_name, session, config.commands.max_age_s,
-                                                 config.commands.control_lease_s});
+                                                 config.commands.control_lease_s, config.commands.deadman_timeout_s});
     bridge->set_authority(&*commands);
     // Stop, quick stop and disable: from the receiver straight to the loop.
     publisher->set_safety_latch(*commands);

@@ -239,11 +239,20 @@ std::uint8_t safety_bit(servo::CommandKind kind) noexcept {
   }
 }
 
+/// request_owner_gone's bit, beside the safety kinds'.
+constexpr std::uint8_t kOwnerGoneBit = 8;
+
 }  // namespace
 
 std::uint64_t ServoDaemon::request_safety(servo::CommandKind kind) noexcept {
+  return latch_request(safety_bit(kind));
+}
+
+std::uint64_t ServoDaemon::request_owner_gone() noexcept { return latch_request(kOwnerGoneBit); }
+
+std::uint64_t ServoDaemon::latch_request(std::uint8_t bit) noexcept {
   // The flag before the ticket: a cycle that has seen the ticket sees the flag.
-  safety_requests_.fetch_or(safety_bit(kind), std::memory_order_acq_rel);
+  safety_requests_.fetch_or(bit, std::memory_order_acq_rel);
   return safety_requested_.fetch_add(1, std::memory_order_acq_rel) + 1;
 }
 
@@ -262,9 +271,14 @@ void ServoDaemon::obey_safety_requests() noexcept {
   const std::uint64_t requested = safety_requested_.load(std::memory_order_acquire);
   const std::uint8_t flags = safety_requests_.exchange(0, std::memory_order_acq_rel);
   // Weakest first: a disable latched with a stop leaves the axis disabled.
-  for (const auto kind : {servo::CommandKind::kStop, servo::CommandKind::kQuickStop, servo::CommandKind::kDisable}) {
+  for (const auto kind : {servo::CommandKind::kStop, servo::CommandKind::kQuickStop}) {
     if ((flags & safety_bit(kind)) != 0) obey_safety(kind);
   }
+  if ((flags & kOwnerGoneBit) != 0) {
+    cycle_->quick_stop();
+    cycle_->end_experiment();
+  }
+  if ((flags & safety_bit(servo::CommandKind::kDisable)) != 0) obey_safety(servo::CommandKind::kDisable);
   if (flags != 0) mirror_state();
   safety_obeyed_.store(requested, std::memory_order_release);
 }

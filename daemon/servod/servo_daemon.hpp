@@ -139,6 +139,11 @@ class ServoDaemon {
   /// (commands, files, a full queue) can keep them out. Returns a ticket
   /// (> 0); safety_obeyed() reaches it once a cycle has obeyed the request.
   std::uint64_t request_safety(servo::CommandKind kind) noexcept;
+  /// Any thread, lock-free, no allocation: the holder of a deadman lease is
+  /// gone (CommandGate::take_lapsed_deadman). Latched as request_safety: the
+  /// next cycle quick-stops a running program and ends an experiment (the
+  /// service law at standstill). Returns a ticket as request_safety.
+  std::uint64_t request_owner_gone() noexcept;
   /// Any thread: the highest ticket a cycle has obeyed.
   std::uint64_t safety_obeyed() const noexcept { return safety_obeyed_.load(std::memory_order_acquire); }
   /// After request_disable: the cycles completed before the cycle that
@@ -255,6 +260,8 @@ class ServoDaemon {
   void obey_safety_requests() noexcept;
   /// Loop thread: the cycle's stop, quick stop or disable.
   servo::CommandResult obey_safety(servo::CommandKind kind) noexcept;
+  /// Sets `bit` of safety_requests_ and hands out a ticket.
+  std::uint64_t latch_request(std::uint8_t bit) noexcept;
   std::atomic<std::uint8_t> safety_requests_{0};    // one bit per safety kind
   std::atomic<std::uint64_t> safety_requested_{0};  // tickets handed out
   std::atomic<std::uint64_t> safety_obeyed_{0};     // tickets obeyed

@@ -323,10 +323,13 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
   config.commands.file_directories = {canonical_directory(root, directory)};
   config.commands.key_file = default_command_key_path();
   if (const auto commands = root.optional("commands")) {
-    commands->expect_keys({"max_age_s", "control_lease_s", "file_directories", "max_file_bytes", "key_file"});
+    commands->expect_keys({"max_age_s", "control_lease_s", "deadman_timeout_s", "file_directories", "max_file_bytes", "key_file"});
     if (const auto v = commands->optional("key_file")) config.commands.key_file = resolve(directory, v->as_string());
     if (const auto v = commands->optional("max_age_s")) config.commands.max_age_s = v->as_double_in(0.01, 3600.0);
     if (const auto v = commands->optional("control_lease_s")) config.commands.control_lease_s = v->as_double_in(0.1, 86400.0);
+    if (const auto v = commands->optional("deadman_timeout_s")) {
+      config.commands.deadman_timeout_s = v->as_double_in(0.5, 10.0);
+    }
     if (const auto v = commands->optional("max_file_bytes")) config.commands.max_file_bytes = v->as_integer_in(1024, 1L << 30);
     if (const auto v = commands->optional("file_directories")) {
       config.commands.file_directories.clear();

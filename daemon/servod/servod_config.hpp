@@ -71,6 +71,7 @@ struct TelemetryConfig {
 struct CommandsConfig {
   double max_age_s = 2.0;             ///< older commands are refused [s]
   double control_lease_s = 30.0;      ///< control lapses this long after the holder's last command [s]
+  double deadman_timeout_s = 1.0;     ///< a deadman lease (renew_control) lapses this long after the holder's last command [s]
   /// Directories (canonical, absolute) that model, calibration, feedforward
   /// and program files are loaded from; default: the config file's directory.
   std::vector<std::string> file_directories;

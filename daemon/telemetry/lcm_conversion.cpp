@@ -24,11 +24,12 @@ static_assert(static_cast<int>(CommandKind::kStop) == servo_command_t::STOP);
 static_assert(static_cast<int>(CommandKind::kLoadFeedforward) == servo_command_t::LOAD_FEEDFORWARD);
 static_assert(static_cast<int>(CommandKind::kTakeControl) == servo_command_t::TAKE_CONTROL);
 static_assert(static_cast<int>(CommandKind::kReleaseControl) == servo_command_t::RELEASE_CONTROL);
+static_assert(static_cast<int>(CommandKind::kRenewControl) == servo_command_t::RENEW_CONTROL);
 static_assert(static_cast<int>(CommandKind::kQuickStop) == servo_command_t::QUICK_STOP);
 static_assert(static_cast<int>(CommandKind::kJog) == servo_command_t::JOG);
 static_assert(static_cast<int>(CommandKind::kGetParameter) == servo_command_t::GET_PARAMETER);
 static_assert(static_cast<int>(CommandKind::kSetParameter) == servo_command_t::SET_PARAMETER);
-static_assert(servo::kCommandKinds == servo_command_t::SET_PARAMETER);
+static_assert(servo::kCommandKinds == servo_command_t::RENEW_CONTROL);
 static_assert(static_cast<int>(servo::CommutationMode::kOriginal) == servo_state_t::COMMUTATION_ORIGINAL);
 static_assert(static_cast<int>(servo::CommutationMode::kClassical) == servo_state_t::COMMUTATION_CLASSICAL);
 static_assert(static_cast<int>(servo::CommutationMode::kPgnn) == servo_state_t::COMMUTATION_PGNN);
@@ -279,6 +280,7 @@ std::string to_command(const clm_lcm::servo_command_t& message, servo::Command& 
     case CommandKind::kQuickStop:
     case CommandKind::kTakeControl:
     case CommandKind::kReleaseControl:
+    case CommandKind::kRenewControl:
     case CommandKind::kRunProgram:       // its file: above
     case CommandKind::kLoadCalibration:
     case CommandKind::kLoadModel:

@@ -541,3 +541,34 @@ TEST_CASE("a lost setpoint frame never makes the drive apply a mix of two cycles
     }
   }
 }
+
+TEST_CASE("an experiment ends with a disable and with a fault: the next enable drives the service law",
+          "[daemon][faults][experiment]") {
+  EnabledAxis axis;
+  // The service law is the configuration's, independent of the cycle's bookkeeping.
+  const servo::CommutationMode service = axis.daemon.config().commutation.mode;
+  REQUIRE(service != servo::CommutationMode::kExperiment);
+  axis.start_experiment();
+  SECTION("disable") {
+    test::command(axis.daemon, Kind::kDisable, 2);
+    INFO("commutation after disable: " << servo::name(axis.daemon.cycle().mode()));
+    CHECK(axis.daemon.cycle().state() == ServoState::kDisabled);
+    CHECK(axis.daemon.cycle().mode() == service);
+  }
+  SECTION("fault") {
+    axis.injection().drop_drive_frames = axis.limit();
+    REQUIRE(test::run_until_fault(axis.daemon, 50) == axis.limit());
+    INFO("commutation after the fault: " << servo::name(axis.daemon.cycle().mode()));
+    CHECK(axis.daemon.cycle().mode() == service);
+    test::command(axis.daemon, Kind::kClearFault, 2);
+    REQUIRE(axis.daemon.cycle().state() == ServoState::kDisabled);
+  }
+  test::command(axis.daemon, Kind::kEnable, 5);
+  REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+  INFO("commutation after enable: " << servo::name(axis.daemon.cycle().mode()));
+  CHECK(axis.daemon.cycle().mode() == service);
+  CHECK(axis.daemon.cycle().record().commutation == service);
+  CHECK(axis.daemon.cycle().record().coil_set == 0);
+  CHECK_FALSE(axis.daemon.cycle().mode_change_pending());
+  test::require_driving_output(axis.wired);
+}

@@ -146,3 +146,41 @@ TEST_CASE("settings are validated", "[gate]") {
   CHECK_THROWS_WITH(CommandGate({"a", 1, 0.0, 30.0}), Catch::Contains("max_age_s"));
   CHECK_THROWS_WITH(CommandGate({"a", 1, 2.0, -1.0}), Catch::Contains("control_lease_s"));
 }
+
+TEST_CASE("renew_control makes the holder's lease a deadman lease that lapses after deadman_timeout_s, handed over once",
+          "[gate][deadman]") {
+  CommandGate gate({"x-axis", kSession, 2.0, 30.0, 0.5});
+  REQUIRE(gate.admit(from(1, 10), CommandClass::kTakeControl, kNow).admitted());
+  CHECK_FALSE(gate.deadman());
+  CHECK(gate.lease_remaining_s(kNow) == Approx(30.0));
+  // Only the holder renews; no sequence is kept, so an older one is no replay.
+  CHECK(gate.admit(from(2, 1), CommandClass::kRenewControl, kNow).refusal == GateRefusal::kNotInControl);
+  REQUIRE(gate.admit(from(1, 5), CommandClass::kRenewControl, kNow).admitted());
+  CHECK(gate.deadman());
+  CHECK(gate.lease_remaining_s(kNow) == Approx(0.5));
+  CHECK(gate.admit(from(1, 11), CommandClass::kControlled, kNow).admitted());  // sequence 10 is still the last
+  // Renewed by a command 0.4 s later: still held at 0.8 s, nothing lapsed.
+  const std::int64_t t1 = kNow + 400'000;
+  REQUIRE(gate.admit(from(1, 12, t1), CommandClass::kControlled, t1).admitted());
+  CHECK(gate.take_lapsed_deadman(kNow + 800'000) == 0);
+  CHECK(gate.holder(kNow + 800'000) == 1);
+  // 0.5 s after the last command: lapsed, handed over exactly once, control free.
+  CHECK(gate.take_lapsed_deadman(t1 + 500'000) == 1);
+  CHECK(gate.take_lapsed_deadman(t1 + 500'000) == 0);
+  CHECK(gate.holder(t1 + 500'000) == 0);
+  CHECK_FALSE(gate.deadman());
+  // The next holder starts with an ordinary lease, which never hands anyone over.
+  REQUIRE(gate.admit(from(2, 1, t1), CommandClass::kTakeControl, t1 + 500'000).admitted());
+  CHECK_FALSE(gate.deadman());
+  CHECK(gate.take_lapsed_deadman(t1 + 100 * kSecond) == 0);
+}
+
+TEST_CASE("a release ends a deadman lease without a lapse", "[gate][deadman]") {
+  CommandGate gate({"x-axis", kSession, 2.0, 30.0, 0.5});
+  REQUIRE(gate.admit(from(1, 1), CommandClass::kTakeControl, kNow).admitted());
+  REQUIRE(gate.admit(from(1, 1), CommandClass::kRenewControl, kNow).admitted());
+  REQUIRE(gate.admit(from(1, 2), CommandClass::kReleaseControl, kNow).admitted());
+  CHECK_FALSE(gate.deadman());
+  CHECK(gate.take_lapsed_deadman(kNow + kSecond) == 0);
+  CHECK_THROWS_WITH(CommandGate({"x-axis", kSession, 2.0, 30.0, 0.01}), Catch::Contains("deadman_timeout_s"));
+}

@@ -3,9 +3,11 @@
 // virtual time.
 #include <catch2/catch.hpp>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <thread>
 
 #include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/command_check.hpp"
@@ -147,7 +149,7 @@ TEST_CASE("The command table decides class, file and legal states; the gate, the
   using servo::CommandClass;
   using servo::CommandResult;
   using servo::ServoState;
-  // Classes: the three safety kinds, one read, take and release, and every
+  // Classes: the three safety kinds, one read, take, release and renew, and every
   // other kind controlled; the client takes control exactly for those.
   int controlled = 0;
   for (int code = 1; code <= servo::kCommandKinds; ++code) {
@@ -156,7 +158,7 @@ TEST_CASE("The command table decides class, file and legal states; the gate, the
     controlled += is_controlled ? 1 : 0;
     CHECK(servod_client::needs_control(static_cast<std::int8_t>(code)) == is_controlled);
   }
-  CHECK(controlled == servo::kCommandKinds - 6);
+  CHECK(controlled == servo::kCommandKinds - 7);  // 3 safety, 1 read, take, release, renew
   CHECK(command_class(CommandKind::kQuickStop) == CommandClass::kSafety);
   CHECK(command_class(CommandKind::kGetParameter) == CommandClass::kRead);
   CHECK(command_class(CommandKind::kJog) == CommandClass::kControlled);
@@ -566,4 +568,82 @@ TEST_CASE("Without command authority, take and release control are refused and o
   CHECK(command_class(CommandKind::kReleaseControl) == CommandClass::kReleaseControl);
   CHECK(servo::route(CommandKind::kTakeControl).answered_by == servo::AnsweredBy::kAuthority);
   CHECK(servo::route(CommandKind::kReleaseControl).answered_by == servo::AnsweredBy::kAuthority);
+}
+
+TEST_CASE("A deadman lease that lapses stops the axis, ends the experiment and releases control; renewals keep it",
+          "[servod][commands][authority][deadman]") {
+  using C = clm_lcm::servo_command_t;
+  WiredAxis axis(virtual_config());
+  ServoDaemon& daemon = axis.daemon;
+  const servo::CommutationMode service = daemon.config().commutation.mode;
+  telemetry::MemorySink sink;
+  telemetry::TelemetryPublisher publisher(telemetry::TelemetryConfig{}, sink);
+  constexpr double kDeadman_s = 0.5;
+  CommandServer server(publisher, daemon, CommandGateSettings{"axis0", 77, 2.0, 30.0, kDeadman_s});
+  const auto serve = [&] {
+    server.serve_once();
+    daemon.run_cycles(1);
+    server.serve_once();
+  };
+  daemon.run_cycles(10);
+  REQUIRE(publisher.submit_command(authored(C::TAKE_CONTROL, 1, 5)));
+  REQUIRE(publisher.submit_command(authored(C::RENEW_CONTROL, 1, 5)));  // no sequence kept: not a replay
+  REQUIRE(publisher.submit_command(authored(C::ENABLE, 2, 5)));
+  auto experiment = authored(C::SET_EXPERIMENT, 3, 5);
+  experiment.coil_set = 1;
+  experiment.delta_rad = -0.785;
+  REQUIRE(publisher.submit_command(experiment));
+  serve();
+  daemon.run_cycles(2);
+  serve();
+  {
+    const auto all = acks(sink);
+    REQUIRE(all.count(1) == 2);
+    for (auto [it, end] = all.equal_range(1); it != end; ++it) CHECK(it->second.accepted);
+    REQUIRE(all.count(3) == 1);
+    CHECK(all.find(3)->second.accepted);
+  }
+  REQUIRE(daemon.cycle().mode() == servo::CommutationMode::kExperiment);
+  REQUIRE(server.gate()->deadman());
+  // A slow move that runs for seconds of virtual time.
+  auto move = authored(C::MOVE_TO, 4, 5);
+  move.target_m = daemon.cycle().hold_position_m() + 0.02;
+  move.velocity_m_per_s = 0.01;
+  move.acceleration_m_per_s2 = 0.1;
+  move.jerk_m_per_s3 = 100.0;
+  REQUIRE(publisher.submit_command(move));
+  serve();
+  daemon.run_cycles(20);
+  REQUIRE(daemon.cycle().record().program_running);
+
+  // Renewed every half deadman for two deadmen: still held, nothing stopped.
+  for (int k = 0; k < 4; ++k) {
+    std::this_thread::sleep_for(std::chrono::duration<double>(kDeadman_s / 2));
+    REQUIRE(publisher.submit_command(authored(C::RENEW_CONTROL, 2, 5)));
+    serve();
+  }
+  CHECK(server.gate()->holder(telemetry::wall_clock_utime()) == 5);
+  CHECK(server.deadman_lapses() == 0);
+  CHECK(daemon.cycle().record().program_running);
+
+  // Silence for more than the deadman: lapsed once, control free, the program stopped.
+  std::this_thread::sleep_for(std::chrono::duration<double>(kDeadman_s * 1.5));
+  server.serve_once();
+  CHECK(server.deadman_lapses() == 1);
+  CHECK(server.gate()->holder(telemetry::wall_clock_utime()) == 0);
+  const auto events = sink.decode<clm_lcm::servo_event_t>(telemetry::kEventChannel);
+  REQUIRE_FALSE(events.empty());
+  CHECK_THAT(events.back().text, Catch::Contains("client 5") && Catch::Contains("deadman"));
+  daemon.run_cycles(1);
+  CHECK_FALSE(daemon.cycle().record().program_running);
+  CHECK(daemon.cycle().stopping());
+  daemon.run_cycles(2000);  // the quick stop ends; the service law at standstill
+  CHECK(daemon.cycle().state() == servo::ServoState::kEnabled);
+  CHECK_FALSE(daemon.cycle().stopping());
+  INFO("commutation: " << servo::name(daemon.cycle().mode()));
+  CHECK(daemon.cycle().mode() == service);
+  // The client that lapsed must take control again.
+  REQUIRE(publisher.submit_command(authored(C::ENABLE, 5, 5)));
+  serve();
+  CHECK_THAT(acks(sink).find(5)->second.text, Catch::StartsWith("refused not_in_control"));
 }

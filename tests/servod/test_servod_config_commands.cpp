@@ -27,14 +27,16 @@ TEST_CASE("axis name, command age, lease and file directories have defaults and 
   CHECK(defaults.axis_name == "axis0");
   CHECK(defaults.commands.max_age_s == 2.0);
   CHECK(defaults.commands.control_lease_s == 30.0);
+  CHECK(defaults.commands.deadman_timeout_s == 1.0);
   REQUIRE(defaults.commands.file_directories.size() == 1);
   CHECK(defaults.commands.file_directories[0] == std::filesystem::canonical(kSource + "/config").string());
 
   const auto set = parse("axis:\n  name: stage-x.1\ncommands:\n  max_age_s: 0.5\n  control_lease_s: 5\n"
-                         "  max_file_bytes: 4096\n  file_directories: [programs, /tmp]\n");
+                         "  deadman_timeout_s: 0.5\n  max_file_bytes: 4096\n  file_directories: [programs, /tmp]\n");
   CHECK(set.axis_name == "stage-x.1");
   CHECK(set.commands.max_age_s == 0.5);
   CHECK(set.commands.control_lease_s == 5.0);
+  CHECK(set.commands.deadman_timeout_s == 0.5);
   CHECK(set.commands.max_file_bytes == 4096);
   REQUIRE(set.commands.file_directories.size() == 2);
   CHECK(set.commands.file_directories[0] == std::filesystem::canonical(kSource + "/config/programs").string());

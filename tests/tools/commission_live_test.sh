@@ -14,6 +14,15 @@
 #       encoder, only the laws from positions are evaluated, and a daemon
 #       restarted on the saved configuration runs the spline law from
 #       positions. About 1.5 min.
+#   commission_live_test.sh killed CLM_SERVOD CLM SOURCE_DIR WORK_DIR
+#       the daemon as for run; `clm commission --live` killed three times:
+#       SIGKILL at the first status that shows it holding control (early:
+#       within its first experiment's first second on this host), SIGKILL
+#       2 s into an experiment program, SIGTERM 2 s into one. Each time, within
+#       3 s, the axis is disabled or holding still in the service law (status:
+#       commutation not experiment, no program running) and nobody holds
+#       control (control_client 0); after SIGTERM the tool exits 1 and says
+#       why. About 1 min.
 #   commission_live_test.sh no-daemon CLM_SERVOD CLM SOURCE_DIR WORK_DIR
 #       nobody answers: one stderr line naming the command, a non-zero exit
 #       within the ack timeout, nothing written.
@@ -87,14 +96,14 @@ if [ "$mode" = no-daemon ]; then
   exit 0
 fi
 
-[ "$mode" = run ] || [ "$mode" = no-sensor ] || fail "unknown mode $mode"
-# A port range of each mode's own: ctest runs the two modes side by side
-# (no-sensor: 10300..10339, no other test's).
-if [ "$mode" = run ]; then
-  url="udpm://239.255.76.67:$((9920 + $$ % 30))?ttl=0"
-else
-  url="udpm://239.255.76.67:$((10300 + $$ % 40))?ttl=0"
-fi
+[ "$mode" = run ] || [ "$mode" = no-sensor ] || [ "$mode" = killed ] || fail "unknown mode $mode"
+# A port range of each mode's own: ctest runs the modes side by side
+# (no-sensor: 10300..10339, killed: 10400..10439, no other test's).
+case "$mode" in
+  run) url="udpm://239.255.76.67:$((9920 + $$ % 30))?ttl=0" ;;
+  no-sensor) url="udpm://239.255.76.67:$((10300 + $$ % 40))?ttl=0" ;;
+  killed) url="udpm://239.255.76.67:$((10400 + $$ % 40))?ttl=0" ;;
+esac
 
 # config/servod.yaml as it is (SCHED_FIFO 80 and mlockall where allowed, else
 # a warning and without), with our port and a copy of the simulated motor
@@ -128,6 +137,70 @@ rc=0
 wait_for_status $pid 20 || rc=$?
 [ $rc != 2 ] || fail "clm-servod exited at start-up"
 [ $rc = 0 ] || fail "no CLM_SERVO_STATUS within 20 s"
+
+if [ "$mode" = killed ]; then
+  # Independent of the tool: the daemon's configured law, read before any commissioning.
+  status=$(ctl status) || fail "no status before commissioning"
+  service=$(field commutation "$status")
+  [ -n "$service" ] && [ "$service" != experiment ] || fail "the configured law is '$service'"
+  # kill_commission NAME SIGNAL CONDITION: starts clm commission --live, waits
+  # (up to 60 s) until `ctl status` satisfies CONDITION (a function of the
+  # status text), sends SIGNAL, and then requires within 3 s: no control
+  # held, and the axis disabled or enabled in the service law with no
+  # program running.
+  kill_commission() {
+    local name=$1 signal=$2 condition=$3 tool start elapsed reached=0 rc=0
+    "$clm" commission --live --lcm-url "$url" --config "$work/servod.yaml" --program "$work/program.yaml"         --experiment-program "$work/program.yaml" --validation-program none --out "$work/out-$name" --no-plots         > "$work/commission-$name.out" 2> "$work/commission.err" &
+    tool=$!
+    start=$(date +%s)
+    while [ $(( $(date +%s) - start )) -lt 60 ]; do
+      kill -0 $tool 2>/dev/null || fail "$name: clm commission ended before the kill point: $(tail -n 1 "$work/commission.err")"
+      status=$(ctl status --timeout-s 1 2>/dev/null) || continue
+      if $condition "$status"; then reached=1; break; fi
+    done
+    [ $reached = 1 ] || { kill -KILL $tool; fail "$name: the kill point not reached within 60 s: $status"; }
+    kill -"$signal" $tool
+    start=$(date +%s.%N)
+    local at="killed at: commutation $(field commutation "$status"), program_running $(field program_running "$status"), program_time_s $(field program_time_s "$status")"
+
+    wait $tool || rc=$?
+    while :; do
+      status=$(ctl status --timeout-s 1 2>/dev/null) || status=""
+      elapsed=$(echo "$(date +%s.%N) - $start" | bc)  # when this status was in
+      if [ -n "$status" ] && [ "$(field control_client "$status")" = 0 ] &&
+         { [ "$(field state "$status")" = disabled ] ||
+           { [ "$(field state "$status")" = enabled ] && [ "$(field commutation "$status")" = "$service" ] &&
+             [ "$(field program_running "$status")" = false ]; }; }; then
+        break
+      fi
+      [ "$(echo "$elapsed < 3" | bc)" = 1 ] ||
+          fail "$name: $elapsed s after SIG$signal: control_client $(field control_client "$status"), state" \
+               "$(field state "$status"), commutation $(field commutation "$status") (service law $service)," \
+               "program_running $(field program_running "$status")"
+    done
+    grep -qx "fault: 0" <<< "$status" || fail "$name: a fault after the kill: $status"
+    echo "$name: SIG$signal ($at); after $elapsed s: state $(field state "$status"), commutation" \
+         "$(field commutation "$status"), program_running false, control_client 0 (tool exit $rc)"
+    if [ "$signal" = TERM ]; then
+      [ $rc = 1 ] || fail "$name: clm commission exit status $rc after SIGTERM, expected 1"
+      grep -q "interrupted by SIGTERM" "$work/commission.err" ||
+          fail "$name: stderr does not say why: $(tail -n 2 "$work/commission.err")"
+    fi
+  }
+  holds_control() { [ "$(field control_client "$1")" != 0 ]; }
+  in_experiment() {
+    [ "$(field commutation "$1")" = experiment ] && [ "$(field program_running "$1")" = true ] &&
+    [ "$(echo "$(field program_time_s "$1") >= 2" | bc)" = 1 ]
+  }
+  kill_commission early KILL holds_control
+  kill_commission experiment KILL in_experiment
+  kill_commission experiment-term TERM in_experiment
+  rc=0
+  stop_process $pid 20 || rc=$?
+  trap - EXIT
+  [ $rc = 0 ] || fail "clm-servod exit status $rc after SIGTERM"
+  exit 0
+fi
 
 out="$work/out"
 start=$(date +%s.%N)

@@ -17,6 +17,7 @@
 #include "config/command_line.hpp"
 #include "config/yaml_edit.hpp"
 #include "tools/servod_client/config_update.hpp"
+#include "tools/servod_client/stop_signals.hpp"
 
 #include "tools/cli/commands.hpp"
 #include "tools/commission/commission.hpp"
@@ -159,6 +160,10 @@ void add_commission(CLI::App& app) {
         !std::filesystem::is_regular_file(options->run.validation_program_path)) {
       throw std::runtime_error("--validation-program: " + options->run.validation_program_path + ": no such file");
     }
+    // Live: SIGINT and SIGTERM end the commissioning through its waits (the
+    // runner then stops the axis and releases control, exit 1); the
+    // deadman's renewals stop at once.
+    if (options->run.live) servod_client::install_stop_signals();
     const auto start = std::chrono::steady_clock::now();
     const auto seconds_since = [](std::chrono::steady_clock::time_point from) {
       return std::chrono::duration<double>(std::chrono::steady_clock::now() - from).count();

@@ -32,6 +32,7 @@
 #include "tools/cli/commands.hpp"
 #include "tools/cli/ctl_support.hpp"
 #include "tools/servod_client/client.hpp"
+#include "tools/servod_client/stop_signals.hpp"
 
 namespace clm::cli {
 namespace {
@@ -206,6 +207,7 @@ void add_ctl(CLI::App& app) {
     if (!std::isfinite(jog->velocity_m_per_s) || jog->velocity_m_per_s == 0.0) {
       throw std::runtime_error("--velocity-m-per-s must be finite and not 0 (its sign is the direction)");
     }
+    servod_client::install_stop_signals();
     servod_client::Client client(command_client_options(*options));
     const auto start = std::chrono::steady_clock::now();
     const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -213,6 +215,11 @@ void add_ctl(CLI::App& app) {
     int repeats = 0;
     for (auto next = start; std::chrono::steady_clock::now() - start < std::chrono::duration<double>(jog->duration_s);
          next += period) {
+      if (servod_client::stop_signal() != 0) {
+        // Stop the jog now rather than after the daemon's jog timeout, give control back, exit 1.
+        client.stop_and_release(options->timeout_s);
+        servod_client::throw_if_interrupted();
+      }
       Command command = make_command(Command::JOG);
       command.velocity_m_per_s = jog->velocity_m_per_s;
       command.acceleration_m_per_s2 = jog->acceleration_m_per_s2;
@@ -220,7 +227,7 @@ void add_ctl(CLI::App& app) {
       const servod_client::Ack ack = send(client, *options, command);
       require_accepted(ack);
       if (repeats++ == 0) std::printf("%s\n", ack.text.c_str());
-      std::this_thread::sleep_until(next + period);
+      std::this_thread::sleep_until(next + period);  // a signal is seen at the next repeat, --repeat-s at most
     }
     std::printf("jogged: %d repeats in %.2f s; the daemon stops the axis once no repeat has come for its jog_timeout_s\n",
                 repeats, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());

@@ -38,6 +38,9 @@ servod_client::Options client_options(const LiveOptions& options) {
   client.key_file = options.key_file;
   client.channels = ".*";
   client.every_state = true;
+  // An identity of its own: `clm ctl` of the same user is another client, so
+  // their leases never mix (docs/servod.md, "The deadman").
+  client.client_id = servod_client::commission_client_id();
   return client;
 }
 
@@ -59,12 +62,17 @@ LcmRunner::LcmRunner(const servod::ServodConfig& config, LiveOptions options)
 }
 
 LcmRunner::~LcmRunner() {
-  // Control goes back at the end, also when commissioning failed.
+  // Control goes back at the end, also when commissioning failed or a signal
+  // ended it: the renewals stop, whatever runs is stopped, and releasing the
+  // deadman lease has the daemon end an experiment (the service law at
+  // standstill). Should any of this not get through, the deadman does it.
   if (!took_control_) return;
+  client_.stop_deadman();
   try {
-    client_.release_control(options_.ack_timeout_s);
+    client_.stop_and_release(options_.ack_timeout_s);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "clm commission: warning: control of the axis not released: %s\n", e.what());
+    std::fprintf(stderr, "clm commission: warning: control of the axis not released (the daemon's deadman "
+                         "stops the axis and releases it): %s\n", e.what());
   }
 }
 
@@ -81,6 +89,7 @@ void LcmRunner::enable() {
   // The first command of commissioning: take control for all of it.
   client_.take_control(options_.ack_timeout_s, "ENABLE");
   took_control_ = true;
+  client_.start_deadman();
   // A configuration with a force sensor measures forces: a daemon without a
   // working sensor is refused before the axis is enabled (control, taken
   // above from a status of the axis, is given back by the destructor). One

@@ -13,6 +13,7 @@
 #include "config/command_key.hpp"
 #include "daemon/servo/command.hpp"
 #include "daemon/telemetry/message_mac.hpp"
+#include "tools/servod_client/stop_signals.hpp"
 
 namespace clm::servod_client {
 namespace {
@@ -45,10 +46,13 @@ bool needs_control(std::int8_t kind) {
          servo::route(static_cast<servo::CommandKind>(kind)).command_class == servo::CommandClass::kControlled;
 }
 
-std::int64_t default_client_id() {
+namespace {
+
+/// FNV-1a-64 of `prefix` "UID@HOSTNAME", as a positive int64, never 0.
+std::int64_t client_id_of(const std::string& prefix) {
   char host[256] = {};
   if (::gethostname(host, sizeof(host) - 1) != 0) host[0] = '\0';
-  const std::string text = std::to_string(::getuid()) + "@" + host;
+  const std::string text = prefix + std::to_string(::getuid()) + "@" + host;
   std::uint64_t hash = 0xcbf29ce484222325ULL;  // FNV-1a-64 offset basis
   for (const unsigned char c : text) {
     hash ^= c;
@@ -57,6 +61,12 @@ std::int64_t default_client_id() {
   const auto id = static_cast<std::int64_t>(hash & 0x7fffffffffffffffULL);
   return id != 0 ? id : 1;
 }
+
+}  // namespace
+
+std::int64_t default_client_id() { return client_id_of(""); }
+
+std::int64_t commission_client_id() { return client_id_of("commission:"); }
 
 Client::Client(Options options)
     : options_(std::move(options)),
@@ -78,12 +88,57 @@ Client::Client(Options options)
 }
 
 Client::~Client() {
+  stop_deadman();
   stop_.store(true);
   if (receiver_.joinable()) receiver_.join();
 }
 
 void Client::receive_loop() {
-  while (!stop_.load()) lcm_->handleTimeout(50);
+  while (!stop_.load()) {
+    lcm_->handleTimeout(50);
+    // A stop signal wakes every wait within 50 ms, messages or not.
+    if (stop_signal() != 0) changed_.notify_all();
+  }
+}
+
+void Client::start_deadman() {
+  std::lock_guard lock(mutex_);
+  if (renewing_) return;
+  renewing_ = true;
+  renewer_ = std::thread([this] { renew_loop(); });
+}
+
+void Client::stop_deadman() {
+  {
+    std::lock_guard lock(mutex_);
+    renewing_ = false;
+  }
+  changed_.notify_all();
+  if (renewer_.joinable()) renewer_.join();
+}
+
+void Client::renew_loop() {
+  const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(duration(kDeadmanRenewPeriod_s));
+  for (auto next = std::chrono::steady_clock::now();; next += period) {
+    // Stopped, or a stop signal: no more renewals, the daemon's deadman takes over.
+    if (stop_signal() != 0) return;
+    std::optional<Target> to;
+    {
+      std::lock_guard lock(mutex_);
+      if (!renewing_) return;
+      to = target_;
+    }
+    if (to) {
+      clm_lcm::servo_command_t renew = make_command(clm_lcm::servo_command_t::RENEW_CONTROL);
+      try {
+        publish(renew, *to, false, "RENEW_CONTROL");
+      } catch (const Error&) {
+        // LCM refused this one; the next may pass, else the deadman runs out as it should.
+      }
+    }
+    std::unique_lock lock(mutex_);
+    changed_.wait_until(lock, next + period, [&] { return !renewing_ || stop_signal() != 0; });
+  }
 }
 
 bool Client::reported(const servo_status_t& status) const {
@@ -227,9 +282,21 @@ void Client::release_control(double timeout_s) {
   command("RELEASE_CONTROL", make_command(clm_lcm::servo_command_t::RELEASE_CONTROL), timeout_s);
 }
 
+void Client::stop_and_release(double timeout_s) {
+  command("STOP", make_command(clm_lcm::servo_command_t::STOP), timeout_s);
+  release_control(timeout_s);
+}
+
 Ack Client::send(clm_lcm::servo_command_t command, double timeout_s, const std::string& what) {
   const Target to = target_for(timeout_s, what);
-  if (needs_control(command.command) && !holds_control()) {
+  bool renewing = false;
+  {
+    std::lock_guard lock(mutex_);
+    renewing = renewing_;
+  }
+  // A deadman lease is kept by the renewals; one that ran out is not taken
+  // again behind the daemon's back: the command is refused not_in_control.
+  if (needs_control(command.command) && !renewing && !holds_control()) {
     const std::string name = what.empty() ? "the command" : what;
     Ack taken = send_once(make_command(clm_lcm::servo_command_t::TAKE_CONTROL), to, timeout_s,
                           "TAKE_CONTROL (for " + name + ")");
@@ -241,7 +308,8 @@ Ack Client::send(clm_lcm::servo_command_t command, double timeout_s, const std::
   return send_once(std::move(command), to, timeout_s, what);
 }
 
-Ack Client::send_once(clm_lcm::servo_command_t command, const Target& to, double timeout_s, const std::string& what) {
+std::int64_t Client::publish(clm_lcm::servo_command_t& command, const Target& to, bool awaited,
+                             const std::string& what) {
   command.axis = to.axis;
   command.session = to.session;
   command.client = client_id_;
@@ -249,25 +317,27 @@ Ack Client::send_once(clm_lcm::servo_command_t command, const Target& to, double
   {
     std::lock_guard lock(mutex_);
     command.sequence = fresh_sequence();
+    if (awaited) pending_.insert(command.sequence);  // before publishing, so a fast ack is not missed
   }
-  const std::int64_t sequence = command.sequence;
-  {
+  std::vector<std::uint8_t> encoded(static_cast<std::size_t>(command.getEncodedSize()));
+  command.encode(encoded.data(), 0, static_cast<int>(encoded.size()));
+  telemetry::sign_encoded(key_, telemetry::kCommandChannel, encoded);
+  if (lcm_->publish(telemetry::kCommandChannel, encoded.data(), static_cast<unsigned int>(encoded.size())) != 0) {
     std::lock_guard lock(mutex_);
-    pending_.insert(sequence);  // before publishing, so a fast ack is not missed
+    pending_.erase(command.sequence);
+    throw Error("LCM refused to publish " + (what.empty() ? std::string() : what + " ") + "on " +
+                telemetry::kCommandChannel + " at " + options_.lcm_url);
   }
+  return command.sequence;
+}
+
+Ack Client::send_once(clm_lcm::servo_command_t command, const Target& to, double timeout_s, const std::string& what) {
+  const std::int64_t sequence = publish(command, to, true, what);
   const auto forget = [&] {
     std::lock_guard lock(mutex_);
     pending_.erase(sequence);
     acks_.erase(sequence);
   };
-  std::vector<std::uint8_t> encoded(static_cast<std::size_t>(command.getEncodedSize()));
-  command.encode(encoded.data(), 0, static_cast<int>(encoded.size()));
-  telemetry::sign_encoded(key_, telemetry::kCommandChannel, encoded);
-  if (lcm_->publish(telemetry::kCommandChannel, encoded.data(), static_cast<unsigned int>(encoded.size())) != 0) {
-    forget();
-    throw Error("LCM refused to publish " + (what.empty() ? std::string() : what + " ") + "on " +
-                telemetry::kCommandChannel + " at " + options_.lcm_url);
-  }
   std::unique_lock lock(mutex_);
   if (!changed_.wait_for(lock, duration(timeout_s), [&] { return acks_.count(sequence) > 0; })) {
     lock.unlock();
@@ -305,7 +375,9 @@ std::string Client::command(const std::string& what, clm_lcm::servo_command_t co
 servo_status_t Client::wait_for_status(double timeout_s) {
   std::unique_lock lock(mutex_);
   const std::int64_t returned = statuses_returned_;
-  if (!changed_.wait_for(lock, duration(timeout_s), [&] { return statuses_seen_ > returned; })) {
+  const bool came = changed_.wait_for(lock, duration(timeout_s), [&] { return stop_signal() != 0 || statuses_seen_ > returned; });
+  throw_if_interrupted();
+  if (!came) {
     throw Timeout(std::string("no ") + telemetry::kStatusChannel + " on " + options_.lcm_url + " within " +
                   seconds(timeout_s) + " (is clm-servod running with that lcm_url?)");
   }
@@ -325,8 +397,9 @@ void Client::wait_for_state(const std::string& what, double timeout_s,
                             const std::function<bool(const servo_state_t&)>& done) {
   std::unique_lock lock(mutex_);
   const bool finished = changed_.wait_for(lock, duration(timeout_s), [&] {
-    return state_ && (state_->state == kStateFault || done(*state_));
+    return stop_signal() != 0 || (state_ && (state_->state == kStateFault || done(*state_)));
   });
+  throw_if_interrupted();
   if (finished && state_->state == kStateFault) {
     // The status may trail the state by up to one status period.
     changed_.wait_for(lock, std::chrono::milliseconds(300), [&] { return status_ && status_->fault != 0; });
@@ -345,7 +418,9 @@ void Client::wait_for_state(const std::string& what, double timeout_s,
 void Client::wait_states(std::int64_t count, double timeout_s, const std::string& what) {
   std::unique_lock lock(mutex_);
   const std::int64_t target = states_seen_ + count;
-  if (!changed_.wait_for(lock, duration(timeout_s), [&] { return states_seen_ >= target; })) {
+  const bool came = changed_.wait_for(lock, duration(timeout_s), [&] { return stop_signal() != 0 || states_seen_ >= target; });
+  throw_if_interrupted();
+  if (!came) {
     throw Timeout(what + ": " + std::to_string(count) + " CLM_SERVO_STATE messages did not come within " +
                   seconds(timeout_s) + " on " + options_.lcm_url);
   }

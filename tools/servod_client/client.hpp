@@ -78,6 +78,13 @@ bool needs_control(std::int8_t kind);
 /// This user's client id: FNV-1a-64 of "UID@HOSTNAME", as a positive int64,
 /// never 0. The same in every process of the user on the host.
 std::int64_t default_client_id();
+/// The client id of `clm commission`: FNV-1a-64 of "commission:UID@HOSTNAME",
+/// as default_client_id(); never that of `clm ctl`, so their leases do not mix.
+std::int64_t commission_client_id();
+
+/// How often a deadman lease is renewed (Client::start_deadman) [s]: a fifth
+/// of the shortest commands.deadman_timeout_s the daemon accepts (0.5 s).
+inline constexpr double kDeadmanRenewPeriod_s = 0.1;
 
 /// The daemon a client commands: its axis and session (from its status).
 struct Target {
@@ -127,6 +134,11 @@ class Refused : public Error {
 };
 /// The daemon latched a fault (CLM_SERVO_STATE state FAULT) while waiting for states.
 class Faulted : public Error {
+ public:
+  using Error::Error;
+};
+/// A SIGINT or SIGTERM came while waiting (stop_signals.hpp).
+class Interrupted : public Error {
  public:
   using Error::Error;
 };
@@ -198,6 +210,21 @@ class Client {
   void take_control(double timeout_s, const std::string& what = "TAKE_CONTROL");
   /// RELEASE_CONTROL; Refused when the daemon refuses.
   void release_control(double timeout_s);
+  /// What a tool that ran something does when it ends early: STOP, then
+  /// RELEASE_CONTROL (for a deadman lease the daemon then also ends an
+  /// experiment). Refused or NoAck as command().
+  void stop_and_release(double timeout_s);
+  /// Makes control a deadman lease and keeps it: sends RENEW_CONTROL now and
+  /// every kDeadmanRenewPeriod_s from a thread of its own (without waiting
+  /// for acks), until stop_deadman(), the destructor, or a SIGINT/SIGTERM
+  /// (stop_signals.hpp): then the renewals stop, and the daemon, once its
+  /// deadman_timeout_s passes without any command of this client, stops the
+  /// axis, ends an experiment and releases control, whatever this process is
+  /// busy with. Take control first. Idempotent.
+  void start_deadman();
+  /// Stops the renewals (the daemon's deadman then runs out unless control is
+  /// released or commands follow). Idempotent.
+  void stop_deadman();
   /// True when the latest status of the target shows this client holding
   /// control with more than `margin_s` [s] of lease left.
   bool holds_control(double margin_s = 1.0) const;
@@ -241,6 +268,11 @@ class Client {
   void receive_loop();
   void on_message(const lcm::ReceiveBuffer* buffer, const std::string& channel);
   std::int64_t fresh_sequence();
+  /// Signs and publishes `command` for `to` as this client with a fresh
+  /// sequence; returns the sequence. With `awaited`, its ack is kept for
+  /// send_once. Throws Error when LCM refuses.
+  std::int64_t publish(clm_lcm::servo_command_t& command, const Target& to, bool awaited, const std::string& what);
+  void renew_loop();
   std::string fault_text() const;  ///< with mutex_ held
   /// Publishes `command` for `target` and waits for its ack (send() without
   /// taking control).
@@ -262,6 +294,8 @@ class Client {
   std::unique_ptr<lcm::LCM> lcm_;
   std::thread receiver_;
   std::atomic<bool> stop_{false};
+  std::thread renewer_;  ///< start_deadman's thread
+  bool renewing_ = false;  ///< with mutex_ held
   std::mt19937_64 random_{std::random_device{}()};
 
   mutable std::mutex mutex_;
