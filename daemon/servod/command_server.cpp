@@ -73,6 +73,7 @@ void CommandServer::check_other_daemon() {
   disable.client = 0;
   daemon_.submit(disable);
   telemetry::ServoEventSample event;
+  event.code = static_cast<std::int16_t>(EventCode::kOtherSession);
   event.severity = 2;  // clm_lcm::servo_event_t::SEVERITY_ERROR
   char text[128];
   std::snprintf(text, sizeof(text), "axis %s is also driven by session %lld on this URL: axis disabled",
@@ -93,6 +94,7 @@ void CommandServer::check_deadman() {
   daemon_.request_owner_gone();
   ++deadman_lapses_;
   telemetry::ServoEventSample event;
+  event.code = static_cast<std::int16_t>(EventCode::kDeadmanLapsed);
   event.severity = 1;  // clm_lcm::servo_event_t::SEVERITY_WARNING
   char text[160];
   std::snprintf(text, sizeof(text),

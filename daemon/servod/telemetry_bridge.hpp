@@ -26,6 +26,8 @@ enum class EventCode : std::int16_t {
   kForceSensorLost = 306,     ///< the force sensor was lost in service (a warning, not a fault)
   kForceSensorBack = 307,     ///< its frames come again
   // 308 is a recorder's, not the daemon's: telemetry::kRecordingResumedEvent.
+  kOtherSession = 309,        ///< another session's status of this axis: the axis was disabled (command server)
+  kDeadmanLapsed = 310,       ///< a deadman lease lapsed: axis stopped, experiment ended, control released (command server)
 };
 
 /// Who reports the command authority's part of the status (the command
