@@ -37,10 +37,10 @@ enum class CommandKind : std::int8_t {
   kLoadFeedforward = 11,
   kTakeControl = 12,     ///< command authority (daemon/servod/command_gate.hpp)
   kReleaseControl = 13,  ///< command authority (daemon/servod/command_gate.hpp)
-  kQuickStop = 14,       ///< stop within the quick-stop limits (ServoCycle::quick_stop)
-  kJog = 15,             ///< move at a velocity while repeated (ServoCycle::post_jog, renew_jog)
+  kQuickStop = 14,       ///< stop within the quick-stop limits (ServoCycle::execute)
+  kJog = 15,             ///< move at a velocity while repeated (CycleMailbox::post_jog, renew_jog)
   kGetParameter = 16,    ///< the value of a run-time parameter (daemon/servod/parameters.hpp)
-  kSetParameter = 17,    ///< change a run-time parameter at standstill (ServoCycle::apply_tuning)
+  kSetParameter = 17,    ///< change a run-time parameter at standstill (ServoCycle::execute)
   kRenewControl = 18,    ///< the holder's heartbeat: a deadman lease (daemon/servod/command_gate.hpp)
 };
 inline constexpr int kCommandKinds = 18;
@@ -142,6 +142,12 @@ constexpr const CommandRoute& route(CommandKind kind) noexcept {
 /// True for the kinds the cycle answers (see AnsweredBy).
 constexpr bool answered_by_cycle(CommandKind kind) noexcept { return route(kind).answered_by == AnsweredBy::kCycle; }
 
+/// move_to, run_program and jog: decided by servo::decide_move and offered
+/// to the cycle as a program (CycleMailbox), answered once the cycle has
+/// taken it or said why not.
+constexpr bool is_move(CommandKind kind) noexcept {
+  return kind == CommandKind::kMoveTo || kind == CommandKind::kRunProgram || kind == CommandKind::kJog;
+}
 /// Stop, quick stop and disable: obeyed from anyone who names the axis, on a
 /// path of their own that nothing else can fill (docs/servod.md, "Command
 /// authority"). The cycle obeys each without condition (its answer is always
@@ -167,31 +173,31 @@ constexpr CommandResult check_legal(CommandKind kind, ServoState state, bool at_
 struct Command {
   std::int64_t utime = 0;     ///< sender's wall-clock time [µs since the UNIX epoch]
   std::int64_t sequence = 0;  ///< echoed in the reply
-  FixedText<33> axis;         ///< the axis it is for (daemon/servod/command_gate.hpp)
+  FixedText<33> axis{};         ///< the axis it is for (daemon/servod/command_gate.hpp)
   std::int64_t session = 0;   ///< the daemon run it is for
   std::int64_t client = 0;    ///< the sender; echoed in the reply
   CommandKind kind = CommandKind::kStop;
   double target_m = 0.0;                                  ///< kMoveTo [m]
   control::MotionLimits limits{0.1, 1.0, 1000.0};         ///< kMoveTo, kJog (velocity: its size)
   double jog_velocity_m_per_s = 0.0;                      ///< kJog: signed velocity [m/s], + towards soft_limit_max_m
-  PathText program;                                       ///< kRunProgram: program file
+  PathText program{};                                       ///< kRunProgram: program file
   /// kSetCommutation: the law; kSetExperiment: kExperiment; kLoadModel: the
   /// law it loads into (pgnn or spline; any other value: the model file's
   /// `kind:` chooses, as for commands from LCM, which have no such field).
   CommutationMode commutation = CommutationMode::kOriginal;
   int coil_set = 0;                                       ///< kSetExperiment: 1..L
   double delta_rad = 0.0;                                 ///< kSetExperiment [rad]
-  PathText path;                                          ///< kLoadCalibration, kLoadModel, kLoadFeedforward
+  PathText path{};                                          ///< kLoadCalibration, kLoadModel, kLoadFeedforward
   /// kLoadFeedforward: read from `path` by ServoDaemon::submit; with an empty
   /// path (in-process callers only) used as given.
   control::FeedforwardParameters feedforward{};
-  FixedText<48> parameter;  ///< kGetParameter, kSetParameter: its name, e.g. "control.bandwidth_hz"
+  FixedText<48> parameter{};  ///< kGetParameter, kSetParameter: its name, e.g. "control.bandwidth_hz"
   double value = 0.0;       ///< kSetParameter: the new value, in the parameter's unit
   /// kSetParameter: every run-time setting with the change, made by
   /// ServoDaemon::submit from `parameter` and `value`.
   Tuning tuning{};
   /// kMoveTo, kRunProgram, kJog on the cycle's queue: the number of the
-  /// program offered for it (ServoCycle::offers_decided() once decided).
+  /// program offered for it (CycleMailbox::offers_decided() once decided).
   std::int64_t offer = 0;
 };
 

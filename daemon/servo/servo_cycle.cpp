@@ -46,15 +46,11 @@ ServoCycle::ServoCycle(const ServoSettings& settings)
 void ServoCycle::install_law(CommutationMode mode, const CommutationLaw* law) noexcept {
   const auto index = static_cast<std::size_t>(mode);
   laws_[index] = law;
-  law_offers_[index].set_current(law);
-}
-
-Handover<CommutationLaw>& ServoCycle::law_handover(CommutationMode mode) noexcept {
-  return law_offers_[static_cast<std::size_t>(mode)];
+  mailbox_.laws_[index].set_current(law);
 }
 
 bool ServoCycle::at_standstill() const noexcept {
-  return running_ == nullptr && !stopping_ && std::abs(velocity_estimate_m_per_s_) < settings_.standstill_velocity_m_per_s;
+  return running_ == nullptr && !status_.stopping && std::abs(velocity_estimate_m_per_s_) < settings_.standstill_velocity_m_per_s;
 }
 
 bool ServoCycle::outside_soft_limits(double position_m) const noexcept {
@@ -63,28 +59,28 @@ bool ServoCycle::outside_soft_limits(double position_m) const noexcept {
 
 void ServoCycle::end_program() noexcept {
   running_ = nullptr;
-  program_.set_current(nullptr);
-  if (jogging_.load(std::memory_order_relaxed)) {
-    jog_token_.store(kJogStopped, std::memory_order_release);
-    jogging_.store(false, std::memory_order_release);
+  mailbox_.program_.set_current(nullptr);
+  if (mailbox_.jogging_.load(std::memory_order_relaxed)) {
+    mailbox_.jog_token_.store(CycleMailbox::kJogStopped, std::memory_order_release);
+    mailbox_.jogging_.store(false, std::memory_order_release);
   }
 }
 
 void ServoCycle::begin_stop(const control::StopLimits& limits, bool quick) noexcept {
   stop_profile_ = control::StopProfile::plan(reference_, limits);
   stop_start_cycle_ = reference_cycle_;
-  stopping_ = true;
+  status_.stopping = true;
   stop_quick_ = quick;
   end_program();
-  idle_.store(false, std::memory_order_release);
-  ++(quick ? counters_.quick_stops : counters_.stops);
+  mailbox_.idle_.store(false, std::memory_order_release);
+  ++(quick ? status_.counters.quick_stops : status_.counters.stops);
 }
 
 void ServoCycle::leave_experiment() noexcept {
   if (!in_experiment()) return;
   // A pending law other than an experiment is the service law already.
-  mode_ = requested_mode_ = service_mode_;
-  mode_pending_ = false;
+  status_.mode = requested_mode_ = service_mode_;
+  status_.mode_change_pending = false;
   experiment_coil_set_ = requested_coil_set_ = 0;
   experiment_delta_rad_ = requested_delta_rad_ = 0.0;
 }
@@ -93,56 +89,56 @@ void ServoCycle::latch(Fault fault) noexcept {
   // Whatever the fault, an experiment ends here: a quick stop is driven by
   // the service law, and a later enable starts in it.
   leave_experiment();
-  if (state_ == ServoState::kFault) {  // the first reason stays
+  if (status_.state == ServoState::kFault) {  // the first reason stays
     // A fault that distrusts the feedback ends a quick stop under way.
-    if (reacting_ && reaction(fault) == FaultReaction::kZeroSetpoints) {
-      reacting_ = stopping_ = false;
-      idle_.store(true, std::memory_order_release);
+    if (status_.fault_reaction_running && reaction(fault) == FaultReaction::kZeroSetpoints) {
+      status_.fault_reaction_running = status_.stopping = false;
+      mailbox_.idle_.store(true, std::memory_order_release);
     }
     return;
   }
-  const bool driving = state_ == ServoState::kEnabled;
-  state_ = ServoState::kFault;
-  fault_ = fault;
-  fault_cycle_ = cycle_;
-  restricted_.store(false, std::memory_order_release);
-  const bool moving = running_ != nullptr || stopping_;
+  const bool driving = status_.state == ServoState::kEnabled;
+  status_.state = ServoState::kFault;
+  status_.fault = fault;
+  status_.fault_cycle = cycle_;
+  mailbox_.restricted_.store(false, std::memory_order_release);
+  const bool moving = running_ != nullptr || status_.stopping;
   const bool plausible = have_position_ && std::abs(reference_.position_m - position_m_) <=
                                                kPlausibleErrorFactor * settings_.following_error_limit_m;
-  reacting_ = false;
-  const bool law_ready = laws_[static_cast<std::size_t>(mode_)] != nullptr;
+  status_.fault_reaction_running = false;
+  const bool law_ready = laws_[static_cast<std::size_t>(status_.mode)] != nullptr;
   if (driving && moving && plausible && law_ready && reaction(fault) == FaultReaction::kQuickStop) {
     begin_stop(settings_.quick_stop_limits, true);
-    reacting_ = true;
+    status_.fault_reaction_running = true;
   } else {
-    stopping_ = false;
+    status_.stopping = false;
     end_program();
   }
-  if (!reacting_) idle_.store(true, std::memory_order_release);
+  if (!status_.fault_reaction_running) mailbox_.idle_.store(true, std::memory_order_release);
 }
 
 void ServoCycle::adopt_offers() noexcept {
   // Laws change only at standstill (or when the axis is not driven).
-  if (state_ != ServoState::kEnabled || at_standstill()) {
-    for (std::size_t m = 0; m < law_offers_.size(); ++m) {
-      if (const CommutationLaw* law = law_offers_[m].adopt()) laws_[m] = law;
+  if (status_.state != ServoState::kEnabled || at_standstill()) {
+    for (std::size_t m = 0; m < mailbox_.laws_.size(); ++m) {
+      if (const CommutationLaw* law = mailbox_.laws_[m].adopt()) laws_[m] = law;
     }
-    if (mode_pending_) {
-      mode_ = requested_mode_;
+    if (status_.mode_change_pending) {
+      status_.mode = requested_mode_;
       experiment_coil_set_ = requested_coil_set_;
       experiment_delta_rad_ = requested_delta_rad_;
-      mode_pending_ = false;
+      status_.mode_change_pending = false;
     }
   }
-  if (const control::MoveProgram* offered = program_.adopt()) {
+  if (const control::MoveProgram* offered = mailbox_.program_.adopt()) {
     // Taken once: a later program at a reused address is never a jog.
-    const bool jog = offered == jog_offer_.exchange(nullptr, std::memory_order_acq_rel);
+    const bool jog = offered == mailbox_.jog_offer_.exchange(nullptr, std::memory_order_acq_rel);
     // The daemon decided against the state it last saw; this is the state now.
     // Every offer is a move: enabled and at rest, as the command table's row
     // of move_to says; in restricted mode only one that ends inside the soft limits.
-    CommandResult result = check_legal(CommandKind::kMoveTo, state_, running_ == nullptr && !stopping_);
+    CommandResult result = check_legal(CommandKind::kMoveTo, status_.state, running_ == nullptr && !status_.stopping);
     if (result == CommandResult::kAccepted) {
-      if (restricted_.load(std::memory_order_relaxed) && outside_soft_limits(offered->end_m())) {
+      if (mailbox_.restricted_.load(std::memory_order_relaxed) && outside_soft_limits(offered->end_m())) {
         result = CommandResult::kRejectedRestricted;
       } else if (std::abs(offered->start_m() - hold_m_) > kProgramStartTolerance_m) {
         result = CommandResult::kRejectedStartMoved;
@@ -150,42 +146,49 @@ void ServoCycle::adopt_offers() noexcept {
         result = jog ? CommandResult::kJogStarted : CommandResult::kProgramPosted;
       }
     }
-    last_offer_result_ = result;
-    offers_decided_.fetch_add(1, std::memory_order_acq_rel);
+    status_.last_offer_result = result;
+    mailbox_.offers_decided_.fetch_add(1, std::memory_order_acq_rel);
     if (is_accepted(result)) {
       running_ = offered;
       program_start_cycle_ = cycle_;
-      idle_.store(false, std::memory_order_release);
+      mailbox_.idle_.store(false, std::memory_order_release);
       if (jog) {
-        jog_token_seen_ = jog_token_.load(std::memory_order_acquire);
+        jog_token_seen_ = mailbox_.jog_token_.load(std::memory_order_acquire);
         jog_renewed_cycle_ = cycle_;
-        jogging_.store(true, std::memory_order_release);
+        mailbox_.jogging_.store(true, std::memory_order_release);
       }
     } else {
-      program_.set_current(running_);
-      ++counters_.programs_rejected;
+      mailbox_.program_.set_current(running_);
+      ++status_.counters.programs_rejected;
     }
   }
 }
 
-can::Frame ServoCycle::begin_cycle(std::int64_t sync_time_ns) noexcept {
+can::Frame ServoCycle::begin_cycle(const CycleStart& start) noexcept {
+  // A loop that did not run for long (a stall, SIGSTOP) faults before this
+  // cycle drives anything, so the cycle already reacts.
+  if (start.wakeup_gap_s > settings_.stall_limit_s) latch(Fault::kLoopStalled);
+  if (start.previous_overran) {
+    ++status_.counters.overruns;
+    if (++consecutive_overruns_ >= settings_.overrun_limit) latch(Fault::kRepeatedOverruns);
+  } else {
+    consecutive_overruns_ = 0;
+  }
   ++cycle_;
-  ++counters_.cycles;
-  sync_time_ns_ = sync_time_ns;
+  ++status_.counters.cycles;
+  sync_time_ns_ = start.sync_time_ns;
   drive_fresh_ = force_fresh_ = false;
   adopt_offers();
   can::Frame sync;
   can::encode_sync(sync_counter_, sync);
   sync_counter_ = can::next_sync_counter(sync_counter_);
-  ++counters_.frames_sent;
+  ++status_.counters.frames_sent;
   return sync;
 }
 
 void ServoCycle::zero_setpoints() noexcept {
-  record_.magnitude_N.fill(0.0);
-  record_.setpoint_delta_rad.fill(0.0);
-  record_.ia_A.fill(0.0);
-  record_.ib_A.fill(0.0);
+  setpoints_.setpoints.fill({});
+  setpoints_.currents.fill({});
   record_.damping_engaged = false;
   record_.current_square_sum_A2 = 0.0;
 }
@@ -196,46 +199,46 @@ void ServoCycle::commutate(double position_m, double force_N) noexcept {
   record_.Fy_star_N = desired.x();
   record_.Fx_star_N = desired.y();
   record_.Tz_star_Nm = desired.z();
-  if (mode_ == CommutationMode::kExperiment) {
+  if (status_.mode == CommutationMode::kExperiment) {
     // Algorithms 1 and 2: the whole demand through one coil set at Δ.
     zero_setpoints();
     const auto l = static_cast<std::size_t>(experiment_coil_set_ - 1);
     const DriveSetpoint setpoint{force_N, experiment_delta_rad_};
-    record_.magnitude_N[l] = setpoint.magnitude_N;
-    record_.setpoint_delta_rad[l] = setpoint.delta_rad;
     const Eigen::Vector2d i = drive_phase_currents(settings_.drive, setpoint, position_m, settings_.pole_pitch_m);
-    record_.ia_A[l] = i.x();
-    record_.ib_A[l] = i.y();
+    setpoints_.setpoints[l] = setpoint;
+    setpoints_.currents[l] = {i.x(), i.y()};
     record_.current_square_sum_A2 = i.squaredNorm() + (i.x() + i.y()) * (i.x() + i.y());
     return;
   }
-  const CommutationLaw* law = laws_[static_cast<std::size_t>(mode_)];
+  const CommutationLaw* law = laws_[static_cast<std::size_t>(status_.mode)];
   law->commutate(position_m, desired, commutation_);
   for (int l = 0; l < coil_sets; ++l) {
     const auto s = static_cast<std::size_t>(l);
-    record_.magnitude_N[s] = commutation_.setpoints[s].magnitude_N;
-    record_.setpoint_delta_rad[s] = commutation_.setpoints[s].delta_rad;
-    record_.ia_A[s] = commutation_.currents_A[2 * l];
-    record_.ib_A[s] = commutation_.currents_A[2 * l + 1];
-    if (!std::isfinite(record_.magnitude_N[s]) || !std::isfinite(record_.setpoint_delta_rad[s]) ||
-        !std::isfinite(record_.ia_A[s]) || !std::isfinite(record_.ib_A[s])) {
+    const DriveSetpoint& setpoint = commutation_.setpoints[s];
+    const double ia_A = commutation_.currents_A[2 * l], ib_A = commutation_.currents_A[2 * l + 1];
+    setpoints_.setpoints[s] = setpoint;
+    setpoints_.currents[s] = {ia_A, ib_A};
+    if (!std::isfinite(setpoint.magnitude_N) || !std::isfinite(setpoint.delta_rad) || !std::isfinite(ia_A) ||
+        !std::isfinite(ib_A)) {
       latch(Fault::kCommutationNotFinite);
     }
   }
   record_.damping_engaged = commutation_.damping_engaged;
   record_.current_square_sum_A2 = commutation_.current_square_sum_A2;
-  if (commutation_.damping_engaged) ++counters_.damping_cycles;
+  if (commutation_.damping_engaged) ++status_.counters.damping_cycles;
 }
 
-std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
-  // 1. Feedback bookkeeping (servo_cycle_feedback.cpp).
+std::span<const can::Frame> ServoCycle::end_cycle(double time_s, const BusReport& bus) noexcept {
+  // 1. Feedback bookkeeping (servo_cycle_feedback.cpp); a bus fault known
+  // before the setpoints are built already zeroes them.
+  report_bus(bus);
   account_feedback();
-  if (have_position_ && restricted_.load(std::memory_order_relaxed)) {
+  if (have_position_ && mailbox_.restricted_.load(std::memory_order_relaxed)) {
     // Restricted mode: back inside ends it; farther out than where it was
     // enabled (by more than the following-error limit) latches.
     if (!outside_soft_limits(position_m_)) {
-      restricted_.store(false, std::memory_order_release);
-    } else if (position_m_ < restricted_min_m_ || position_m_ > restricted_max_m_ || state_ != ServoState::kEnabled) {
+      mailbox_.restricted_.store(false, std::memory_order_release);
+    } else if (position_m_ < restricted_min_m_ || position_m_ > restricted_max_m_ || status_.state != ServoState::kEnabled) {
       latch(Fault::kPositionOutOfRange);
     }
   } else if (have_position_ && outside_soft_limits(position_m_)) {
@@ -244,19 +247,19 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
 
   // 2. Reference and position loop.
   record_.force_limited = false;
-  if (state_ == ServoState::kEnabled || reacting_) {
+  if (status_.state == ServoState::kEnabled || status_.fault_reaction_running) {
     control::ReferenceSample now{hold_m_, 0.0, 0.0, 0.0};
     control::ReferenceSample next = now;
-    if (running_ != nullptr && jogging_.load(std::memory_order_relaxed)) {
+    if (running_ != nullptr && mailbox_.jogging_.load(std::memory_order_relaxed)) {
       // A jog without renewal for jog_timeout_s stops; a renewal that comes
       // while the cycle decides wins (the exchange fails) and is seen next cycle.
-      std::int64_t token = jog_token_.load(std::memory_order_acquire);
+      std::int64_t token = mailbox_.jog_token_.load(std::memory_order_acquire);
       if (token != jog_token_seen_) {
         jog_token_seen_ = token;
         jog_renewed_cycle_ = cycle_;
       } else if (static_cast<double>(cycle_ - jog_renewed_cycle_) * settings_.period_s > settings_.jog_timeout_s &&
-                 jog_token_.compare_exchange_strong(token, kJogStopped, std::memory_order_acq_rel)) {
-        ++counters_.jog_timeouts;
+                 mailbox_.jog_token_.compare_exchange_strong(token, CycleMailbox::kJogStopped, std::memory_order_acq_rel)) {
+        ++status_.counters.jog_timeouts;
         begin_stop(settings_.stop_limits, false);
       }
     }
@@ -267,21 +270,21 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
       record_.program_time_s = t;
       if (t >= running_->duration_s()) {
         hold_m_ = running_->end_m();
-        hold_position_m_.store(hold_m_, std::memory_order_release);
+        mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
         end_program();
-        idle_.store(true, std::memory_order_release);
+        mailbox_.idle_.store(true, std::memory_order_release);
       }
-    } else if (stopping_) {
+    } else if (status_.stopping) {
       const double t = static_cast<double>(cycle_ - stop_start_cycle_) * settings_.period_s;
       now = stop_profile_.sample(t);
       next = stop_profile_.sample(t + settings_.period_s);
       if (t >= stop_profile_.duration_s()) {
         // At rest: hold there; a fault reaction ends with zero setpoints.
         hold_m_ = stop_profile_.rest_position_m();
-        hold_position_m_.store(hold_m_, std::memory_order_release);
-        stopping_ = false;
-        reacting_ = false;
-        idle_.store(true, std::memory_order_release);
+        mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
+        status_.stopping = false;
+        status_.fault_reaction_running = false;
+        mailbox_.idle_.store(true, std::memory_order_release);
       }
     }
     reference_ = now;
@@ -291,7 +294,7 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
     // quick-stopped from this one. A last resort, so the harder quick stop:
     // admission (decide_move, move_decision.hpp) already guarantees that the
     // ordinary stop, never harder than this one, rests inside.
-    if (running_ != nullptr && !restricted_.load(std::memory_order_relaxed)) {
+    if (running_ != nullptr && !mailbox_.restricted_.load(std::memory_order_relaxed)) {
       const double reference_stop_m = control::stopping_position_m(next, settings_.quick_stop_limits);
       // A step whose target lies outside the soft limits (a program no check
       // let in) is stopped a following-error limit before the soft limit, so
@@ -314,7 +317,7 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
           reference_stop_m > settings_.soft_limit_max_m + kStopTolerance_m || (target_outside && near_limit) ||
           axis_stop_m < settings_.soft_limit_min_m - axis_margin_m ||
           axis_stop_m > settings_.soft_limit_max_m + axis_margin_m) {
-        ++counters_.guard_stops;
+        ++status_.counters.guard_stops;
         begin_stop(settings_.quick_stop_limits, true);
       }
     }
@@ -330,18 +333,18 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
     if (std::abs(force) > settings_.force_limit_N) {
       force = std::copysign(settings_.force_limit_N, force);
       record_.force_limited = true;
-      ++counters_.force_limited_cycles;
+      ++status_.counters.force_limited_cycles;
       saturated_time_s_ += settings_.period_s;
       if (saturated_time_s_ > settings_.saturation_time_limit_s) latch(Fault::kForceSaturated);
     } else {
       saturated_time_s_ = 0.0;
     }
     record_.F_star_N = force;
-    if (state_ == ServoState::kEnabled || reacting_) commutate(position_m_, force);
+    if (status_.state == ServoState::kEnabled || status_.fault_reaction_running) commutate(position_m_, force);
   } else {
     // Not driving: the reference follows the axis so that enabling is bumpless.
     hold_m_ = position_m_;
-    hold_position_m_.store(hold_m_, std::memory_order_release);
+    mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
     record_.r_m = position_m_;
     record_.r_dot_m_per_s = record_.r_ddot_m_per_s2 = 0.0;
     record_.e_m = record_.u_fb_N = record_.u_ff_N = record_.F_star_N = 0.0;
@@ -349,50 +352,48 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s) noexcept {
     reference_ = {position_m_, 0.0, 0.0, 0.0};
     reference_cycle_ = cycle_;
   }
-  const bool driving = state_ == ServoState::kEnabled || reacting_;
+  const bool driving = status_.state == ServoState::kEnabled || status_.fault_reaction_running;
   if (!driving) zero_setpoints();
 
-  // 3. Setpoint frames. A fault found while encoding sends zero at once.
-  can::SetpointCommand command;
-  command.coil_sets = settings_.protocol.coil_sets;
-  command.enable = driving;
-  command.clear_fault = clear_drive_fault_;
-  command.alive_counter = setpoint_alive_++;
-  // Profile magnitude_phase: the (39) setpoints; phase_current: the law's
-  // currents as they are (the drive does no commutation of its own).
-  for (int l = 0; l < command.coil_sets; ++l) {
-    const auto s = static_cast<std::size_t>(l);
-    command.setpoints[s] = {record_.magnitude_N[s], record_.setpoint_delta_rad[s]};
-    command.currents[s] = {record_.ia_A[s], record_.ib_A[s]};
-  }
+  // 3. Setpoint frames. Profile magnitude_phase: the (39) setpoints;
+  // phase_current: the law's currents as they are (the drive does no
+  // commutation of its own). A fault found while encoding sends zero at once.
+  setpoints_.coil_sets = settings_.protocol.coil_sets;
+  setpoints_.enable = driving;
+  setpoints_.clear_fault = clear_drive_fault_;
+  setpoints_.alive_counter = setpoint_alive_++;
   can::CodecStatus status = can::CodecStatus::kOk;
-  std::size_t count = can::encode_setpoints(settings_.protocol, command, frames_, status);
+  std::size_t count = can::encode_setpoints(settings_.protocol, setpoints_, frames_, status);
   if (status != can::CodecStatus::kOk) {
     latch(Fault::kSetpointOutOfRange);
-    reacting_ = stopping_ = false;
+    status_.fault_reaction_running = status_.stopping = false;
     zero_setpoints();
-    command.enable = false;
-    for (auto& setpoint : command.setpoints) setpoint = {};
-    for (auto& currents : command.currents) currents = {};
-    count = can::encode_setpoints(settings_.protocol, command, frames_, status);
+    setpoints_.enable = false;
+    count = can::encode_setpoints(settings_.protocol, setpoints_, frames_, status);
   }
   clear_drive_fault_ = false;
-  counters_.frames_sent += static_cast<std::int64_t>(count);
+  status_.counters.frames_sent += static_cast<std::int64_t>(count);
 
-  // 4. Record.
+  // 4. Record: the setpoints as sent.
+  for (std::size_t l = 0; l < static_cast<std::size_t>(setpoints_.coil_sets); ++l) {
+    record_.magnitude_N[l] = setpoints_.setpoints[l].magnitude_N;
+    record_.setpoint_delta_rad[l] = setpoints_.setpoints[l].delta_rad;
+    record_.ia_A[l] = setpoints_.currents[l].ia_A;
+    record_.ib_A[l] = setpoints_.currents[l].ib_A;
+  }
   record_.cycle = cycle_;
   record_.t_s = time_s;
-  record_.state = state_;
-  record_.fault = fault_;
-  record_.commutation = mode_;
-  record_.coil_set = mode_ == CommutationMode::kExperiment ? experiment_coil_set_ : 0;
-  record_.delta_rad = mode_ == CommutationMode::kExperiment ? experiment_delta_rad_ : 0.0;
+  record_.state = status_.state;
+  record_.fault = status_.fault;
+  record_.commutation = status_.mode;
+  record_.coil_set = status_.mode == CommutationMode::kExperiment ? experiment_coil_set_ : 0;
+  record_.delta_rad = status_.mode == CommutationMode::kExperiment ? experiment_delta_rad_ : 0.0;
   record_.y_m = position_m_;
   record_.program_running = running_ != nullptr;
   if (!record_.program_running) record_.program_time_s = 0.0;
   record_.drive_status_word = drive_.status_word;
-  record_.stopping = stopping_;
-  record_.restricted = restricted_.load(std::memory_order_relaxed);
+  record_.stopping = status_.stopping;
+  record_.restricted = mailbox_.restricted_.load(std::memory_order_relaxed);
   record_.drive_profile = settings_.protocol.drive_profile;
   return {frames_.data(), count};
 }

@@ -1,7 +1,7 @@
 // The owner's and the command side of the servo cycle: the settings and
-// their validation, the commands the daemon's loop executes between two
+// their validation, and the commands the daemon's loop executes between two
 // cycles (enable, disable, clear-fault, stops, law requests, run-time
-// settings) and the jog offer. The cycle itself is in servo_cycle.cpp, the
+// settings). The cycle itself is in servo_cycle.cpp, the
 // feedback it receives in servo_cycle_feedback.cpp.
 #include <cmath>
 #include <stdexcept>
@@ -70,75 +70,80 @@ void ServoSettings::apply(const Tuning& tuning) noexcept {
   quick_stop_limits = tuning.quick_stop_limits;
 }
 
-bool ServoCycle::post_jog(const control::MoveProgram* jog) noexcept {
-  if (program_.pending()) return false;
-  jog_offer_.store(jog, std::memory_order_release);
-  jog_token_.store(0, std::memory_order_release);
-  return program_.post(jog);
+CommandResult ServoCycle::execute(const Command& command) noexcept {
+  switch (command.kind) {
+    case CommandKind::kEnable: return enable();
+    case CommandKind::kDisable: return disable();
+    case CommandKind::kClearFault: return clear_fault();
+    case CommandKind::kStop: return stop();
+    case CommandKind::kQuickStop: return quick_stop();
+    case CommandKind::kSetCommutation: return request_mode(command.commutation);
+    case CommandKind::kSetExperiment:
+      return request_mode(CommutationMode::kExperiment, command.coil_set, command.delta_rad);
+    case CommandKind::kLoadFeedforward: set_feedforward(command.feedforward); return CommandResult::kAccepted;
+    case CommandKind::kSetParameter: return apply_tuning(command.tuning);
+    default: return CommandResult::kRejectedInvalid;  // not a kind the cycle executes (moves come as offers)
+  }
 }
 
-bool ServoCycle::renew_jog() noexcept {
-  if (!jogging_.load(std::memory_order_acquire)) return false;
-  std::int64_t token = jog_token_.load(std::memory_order_acquire);
-  while (token != kJogStopped) {
-    if (jog_token_.compare_exchange_weak(token, token + 1, std::memory_order_acq_rel)) return true;
-  }
-  return false;
+void ServoCycle::owner_gone() noexcept {
+  quick_stop();
+  end_experiment();
 }
 
 CommandResult ServoCycle::enable() noexcept {
   bool recovering = false;
-  if (state_ == ServoState::kFault) {
+  if (status_.state == ServoState::kFault) {
     // Restricted mode: kPositionOutOfRange with the axis still outside the
     // soft limits, near enough to them, and its stop finished.
     const bool near = have_position_ && std::isfinite(position_m_) &&
                       position_m_ >= settings_.soft_limit_min_m - settings_.recovery_margin_m &&
                       position_m_ <= settings_.soft_limit_max_m + settings_.recovery_margin_m;
-    if (fault_ != Fault::kPositionOutOfRange || reacting_ || !near || !outside_soft_limits(position_m_)) {
+    if (status_.fault != Fault::kPositionOutOfRange || status_.fault_reaction_running || !near || !outside_soft_limits(position_m_)) {
       return CommandResult::kRejectedFault;
     }
     recovering = true;
   }
-  if (state_ == ServoState::kEnabled) return CommandResult::kAccepted;
-  if (mode_ != CommutationMode::kExperiment && laws_[static_cast<std::size_t>(mode_)] == nullptr) {
+  if (status_.state == ServoState::kEnabled) return CommandResult::kAccepted;
+  if (status_.mode != CommutationMode::kExperiment && laws_[static_cast<std::size_t>(status_.mode)] == nullptr) {
     return CommandResult::kRejectedNoLaw;
   }
   if (recovering) {
-    fault_ = Fault::kNone;
-    fault_cycle_ = -1;
+    status_.fault = Fault::kNone;
+    status_.fault_cycle = -1;
     clear_drive_fault_ = true;
     restricted_min_m_ = std::min(settings_.soft_limit_min_m, position_m_ - settings_.following_error_limit_m);
     restricted_max_m_ = std::max(settings_.soft_limit_max_m, position_m_ + settings_.following_error_limit_m);
   }
-  restricted_.store(recovering, std::memory_order_release);
+  mailbox_.restricted_.store(recovering, std::memory_order_release);
   // Bumpless: hold where the axis is, fresh integrator.
-  state_ = ServoState::kEnabled;
-  stopping_ = reacting_ = false;
+  status_.state = ServoState::kEnabled;
+  status_.stopping = status_.fault_reaction_running = false;
   reference_ = {position_m_, 0.0, 0.0, 0.0};
   hold_m_ = position_m_;
-  hold_position_m_.store(hold_m_, std::memory_order_release);
+  mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
   controller_.reset();
   saturated_time_s_ = 0.0;
   return CommandResult::kAccepted;
 }
 
 CommandResult ServoCycle::disable() noexcept {
-  if (state_ == ServoState::kEnabled) state_ = ServoState::kDisabled;
+  if (status_.state == ServoState::kEnabled) status_.state = ServoState::kDisabled;
   end_program();
   leave_experiment();
-  stopping_ = reacting_ = false;
-  restricted_.store(false, std::memory_order_release);
-  idle_.store(true, std::memory_order_release);
+  status_.stopping = status_.fault_reaction_running = false;
+  mailbox_.restricted_.store(false, std::memory_order_release);
+  mailbox_.idle_.store(true, std::memory_order_release);
   return CommandResult::kAccepted;
 }
 
 CommandResult ServoCycle::clear_fault() noexcept {
-  if (state_ != ServoState::kFault) return CommandResult::kAccepted;
-  state_ = ServoState::kDisabled;
-  fault_ = Fault::kNone;
-  fault_cycle_ = -1;
-  stopping_ = reacting_ = false;
-  idle_.store(true, std::memory_order_release);
+  if (status_.state != ServoState::kFault) return CommandResult::kAccepted;
+  status_.state = ServoState::kDisabled;
+  status_.fault = Fault::kNone;
+  status_.fault_cycle = -1;
+  status_.stopping = status_.fault_reaction_running = false;
+  mailbox_.idle_.store(true, std::memory_order_release);
   clear_drive_fault_ = true;  // one cycle with the clear bit to the drive
   drive_missed_ = force_missed_ = 0;
   drive_unseen_ = force_unseen_ = 0;
@@ -149,12 +154,12 @@ CommandResult ServoCycle::clear_fault() noexcept {
 }
 
 CommandResult ServoCycle::stop() noexcept {
-  if (state_ == ServoState::kEnabled && running_ != nullptr) begin_stop(settings_.stop_limits, false);
+  if (status_.state == ServoState::kEnabled && running_ != nullptr) begin_stop(settings_.stop_limits, false);
   return CommandResult::kAccepted;
 }
 
 CommandResult ServoCycle::quick_stop() noexcept {
-  if (state_ == ServoState::kEnabled && (running_ != nullptr || (stopping_ && !stop_quick_))) {
+  if (status_.state == ServoState::kEnabled && (running_ != nullptr || (status_.stopping && !stop_quick_))) {
     begin_stop(settings_.quick_stop_limits, true);
   }
   return CommandResult::kAccepted;
@@ -168,23 +173,23 @@ CommandResult ServoCycle::request_mode(CommutationMode mode, int coil_set, doubl
     }
     // An axis without a force sensor runs experiments for the identification
     // from positions; one whose sensor is lost would record forces of nothing.
-    if (can::has_force_sensor(settings_.protocol) && force_warning_ != Fault::kNone) {
+    if (can::has_force_sensor(settings_.protocol) && status_.force_sensor_warning != Fault::kNone) {
       return CommandResult::kRejectedNoForceSensor;
     }
   } else if (laws_[static_cast<std::size_t>(mode)] == nullptr &&
-             !law_offers_[static_cast<std::size_t>(mode)].pending()) {
+             !mailbox_.laws_[static_cast<std::size_t>(mode)].pending()) {
     return CommandResult::kRejectedNoLaw;
   }
   requested_mode_ = mode;
   if (mode != CommutationMode::kExperiment) service_mode_ = mode;
   requested_coil_set_ = mode == CommutationMode::kExperiment ? coil_set : 0;
   requested_delta_rad_ = mode == CommutationMode::kExperiment ? delta_rad : 0.0;
-  mode_pending_ = true;
-  if (state_ != ServoState::kEnabled || at_standstill()) {
-    mode_ = requested_mode_;
+  status_.mode_change_pending = true;
+  if (status_.state != ServoState::kEnabled || at_standstill()) {
+    status_.mode = requested_mode_;
     experiment_coil_set_ = requested_coil_set_;
     experiment_delta_rad_ = requested_delta_rad_;
-    mode_pending_ = false;
+    status_.mode_change_pending = false;
     return CommandResult::kAccepted;
   }
   return CommandResult::kDeferred;
@@ -201,7 +206,7 @@ void ServoCycle::set_feedforward(const control::FeedforwardParameters& parameter
 
 CommandResult ServoCycle::apply_tuning(const Tuning& tuning) noexcept {
   // At standstill only: no reference is under way whose limits would change.
-  if (running_ != nullptr || stopping_ || program_.pending()) return CommandResult::kRejectedBusy;
+  if (running_ != nullptr || status_.stopping || mailbox_.program_.pending()) return CommandResult::kRejectedBusy;
   settings_.apply(tuning);
   controller_.set_gains(tuning.pid);  // the integrator keeps its force: no bump at rest
   controller_.set_feedforward(tuning.feedforward);

@@ -1,8 +1,8 @@
 // The feedback half of the servo cycle: frames received during a cycle
 // (alive counters, lateness, duplicates, rejected frames), what the cycle
-// makes of them (missing frames, the force sensor's warning), overruns and
-// the bus state reported by the loop. The reference, the position loop and
-// the setpoints are in servo_cycle.cpp.
+// makes of them (missing frames, the force sensor's warning) and the bus
+// state reported by the loop. Overruns and stalls, the reference, the
+// position loop and the setpoints are in servo_cycle.cpp.
 #include <cmath>
 
 #include "daemon/servo/servo_cycle.hpp"
@@ -29,14 +29,14 @@ bool ServoCycle::track_alive(std::uint8_t counter, std::uint8_t& last, bool& kno
 void ServoCycle::force_sensor_trouble(Fault reason) noexcept {
   // An experiment measures with the sensor: losing it there is a fault. In
   // service the loop does not use it: a warning, until it is healthy again.
-  if (mode_ == CommutationMode::kExperiment) {
+  if (status_.mode == CommutationMode::kExperiment) {
     latch(reason);
     return;
   }
   force_good_ = 0;
-  if (force_warning_ == Fault::kNone) {
-    force_warning_ = reason;
-    ++counters_.force_sensor_losses;
+  if (status_.force_sensor_warning == Fault::kNone) {
+    status_.force_sensor_warning = reason;
+    ++status_.counters.force_sensor_losses;
   }
 }
 
@@ -48,7 +48,7 @@ void ServoCycle::account_feedback() noexcept {
     drive_missed_ = 0;
     drive_rejected_ = false;
   } else {
-    ++counters_.frames_missing;
+    ++status_.counters.frames_missing;
     ++drive_unseen_;
     if (++drive_missed_ >= settings_.missing_frame_limit && have_position_) {
       latch(drive_rejected_ ? Fault::kFrameRejected : Fault::kEncoderFrameMissing);
@@ -80,8 +80,8 @@ void ServoCycle::account_force_feedback() noexcept {
     force_missed_ = 0;
     force_rejected_ = false;
     // Healthy again after missing_frame_limit good cycles in a row.
-    if (force_warning_ != Fault::kNone && ++force_good_ >= settings_.missing_frame_limit) {
-      force_warning_ = Fault::kNone;
+    if (status_.force_sensor_warning != Fault::kNone && ++force_good_ >= settings_.missing_frame_limit) {
+      status_.force_sensor_warning = Fault::kNone;
     }
     return;
   }
@@ -89,7 +89,7 @@ void ServoCycle::account_force_feedback() noexcept {
     force_sensor_trouble(Fault::kMeasurementNotFinite);
     return;
   }
-  ++counters_.frames_missing;
+  ++status_.counters.frames_missing;
   ++force_unseen_;
   if (++force_missed_ >= settings_.missing_frame_limit && have_position_) {
     force_sensor_trouble(force_rejected_ ? Fault::kFrameRejected : Fault::kForceFrameMissing);
@@ -97,18 +97,18 @@ void ServoCycle::account_force_feedback() noexcept {
 }
 
 void ServoCycle::on_frame(const drivers::ReceivedFrame& received) noexcept {
-  ++counters_.frames_received;
+  ++status_.counters.frames_received;
   const can::Frame& frame = received.frame;
   const bool late = received.timestamp_ns < sync_time_ns_;
   if (frame.id == can::drive_feedback_id(settings_.protocol)) {
     can::DriveFeedback feedback;
     if (can::decode_drive_feedback(settings_.protocol, frame, feedback) != can::CodecStatus::kOk) {
-      ++counters_.frames_rejected;
+      ++status_.counters.frames_rejected;
       drive_rejected_ = true;
       return;
     }
     if (drive_fresh_ && feedback.alive_counter == drive_alive_) {
-      ++counters_.frames_duplicate;
+      ++status_.counters.frames_duplicate;
       return;
     }
     if (!track_alive(feedback.alive_counter, drive_alive_, drive_alive_known_, drive_unseen_, late)) {
@@ -117,7 +117,7 @@ void ServoCycle::on_frame(const drivers::ReceivedFrame& received) noexcept {
     if (late) {
       // Belongs to an earlier cycle, which counted it missing; it does not
       // end the run of cycles without a timely frame either.
-      ++counters_.frames_late;
+      ++status_.counters.frames_late;
       return;
     }
     drive_ = feedback;
@@ -125,45 +125,34 @@ void ServoCycle::on_frame(const drivers::ReceivedFrame& received) noexcept {
   } else if (can::has_force_sensor(settings_.protocol) && frame.id == can::force_feedback_id(settings_.protocol)) {
     can::ForceFeedback feedback;
     if (can::decode_force_feedback(settings_.protocol, frame, feedback) != can::CodecStatus::kOk) {
-      ++counters_.frames_rejected;
+      ++status_.counters.frames_rejected;
       force_rejected_ = true;
       return;
     }
     if (force_fresh_ && feedback.alive_counter == force_alive_) {
-      ++counters_.frames_duplicate;
+      ++status_.counters.frames_duplicate;
       return;
     }
     if (!track_alive(feedback.alive_counter, force_alive_, force_alive_known_, force_unseen_, late)) {
       force_sensor_trouble(Fault::kForceAliveJump);
     }
     if (late) {
-      ++counters_.frames_late;
+      ++status_.counters.frames_late;
       return;
     }
     force_ = feedback;
     force_fresh_ = true;
   } else {
-    ++counters_.frames_rejected;
+    ++status_.counters.frames_rejected;
   }
 }
 
-void ServoCycle::report_overrun(bool overran) noexcept {
-  if (!overran) {
-    consecutive_overruns_ = 0;
-    return;
-  }
-  ++counters_.overruns;
-  if (++consecutive_overruns_ >= settings_.overrun_limit) latch(Fault::kRepeatedOverruns);
+void ServoCycle::report_bus(const BusReport& bus) noexcept {
+  if (bus.state == drivers::BusState::kBusOff) latch(Fault::kBusOff);
+  if (bus.state == drivers::BusState::kErrorPassive) latch(Fault::kBusErrorPassive);
+  if (bus.send_failed) latch(Fault::kSendFailed);
 }
 
-void ServoCycle::report_wakeup_gap(double gap_s) noexcept {
-  if (gap_s > settings_.stall_limit_s) latch(Fault::kLoopStalled);
-}
-
-void ServoCycle::report_bus(drivers::BusState bus_state, bool send_failed) noexcept {
-  if (bus_state == drivers::BusState::kBusOff) latch(Fault::kBusOff);
-  if (bus_state == drivers::BusState::kErrorPassive) latch(Fault::kBusErrorPassive);
-  if (send_failed) latch(Fault::kSendFailed);
-}
+void ServoCycle::sent(const BusReport& bus) noexcept { report_bus(bus); }
 
 }  // namespace clm::servo

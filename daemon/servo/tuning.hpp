@@ -3,7 +3,7 @@
 // (docs/servod.md, "Run-time parameters"): the position loop's gains and
 // feedforward, the motion and stop limits, the following-error and force
 // limits. The daemon validates a change, the cycle takes it at standstill
-// (ServoCycle::apply_tuning); everything else is fixed at start-up.
+// (ServoCycle::execute); everything else is fixed at start-up.
 
 #include "daemon/control/position_controller.hpp"
 #include "daemon/control/stop_profile.hpp"

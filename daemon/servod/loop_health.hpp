@@ -19,8 +19,8 @@ class LoopHealth final : public CycleObserver {
   explicit LoopHealth(CycleObserver* next = nullptr) noexcept : next_(next) {}
 
   void on_cycle(const servo::ServoCycle& cycle, const LoopTiming& timing) noexcept override {
-    state_.store(cycle.state(), std::memory_order_relaxed);
-    fault_.store(cycle.fault(), std::memory_order_relaxed);
+    state_.store(cycle.status().state, std::memory_order_relaxed);
+    fault_.store(cycle.status().fault, std::memory_order_relaxed);
     if (next_ != nullptr) next_->on_cycle(cycle, timing);
   }
 

@@ -1,7 +1,10 @@
-// ServoDaemon: construction, the command path (submit, the cycle's queue and
-// its replies, moves and jogs planned and checked), and the commands the loop
-// executes between cycles. Files are in servo_daemon_files.cpp, the run-time
-// parameters in servo_daemon_parameters.cpp, the loop in servo_daemon_loop.cpp.
+// ServoDaemon: construction, the routing of a command to what answers it
+// (the command table's check first; then the file loader, the move offers,
+// the parameter store or the cycle's queue) and the replies, and the
+// commands the loop executes between cycles. Files are in
+// servo_daemon_files.cpp, the loop in servo_daemon_loop.cpp; moves are
+// decided and offered in move_offers.cpp, the run-time parameters kept in
+// parameter_store.cpp.
 #include "daemon/servod/servo_daemon.hpp"
 
 #include <filesystem>
@@ -19,7 +22,9 @@ ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drive
                          std::vector<ExtraLaw> extra_laws)
     : config_(config), bus_(&bus), clock_(&clock), extra_laws_(std::move(extra_laws)) {
   cycle_ = std::make_unique<servo::ServoCycle>(config_.servo);
-  runtime_ = {config_.servo.tuning(), config_.control_mass_kg, config_.control_bandwidth_hz};
+  parameters_ = std::make_unique<ParameterStore>(
+      config_.servo, config_.loop.rate_hz,
+      RuntimeValues{config_.servo.tuning(), config_.control_mass_kg, config_.control_bandwidth_hz});
 
   // The drive's own law, always available.
   auto original = std::make_unique<OwnedLaw>();
@@ -46,12 +51,14 @@ ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drive
     laws_.push_back(std::move(law));
   }
   for (const ExtraLaw& extra : extra_laws_) cycle_->install_law(extra.mode, extra.law);
-  const auto status = cycle_->request_mode(config_.commutation.mode);
+  const auto status =
+      cycle_->execute({.kind = servo::CommandKind::kSetCommutation, .commutation = config_.commutation.mode});
   if (status != servo::CommandResult::kAccepted) {
     throw std::runtime_error(config_.origin + ": commutation.mode: " + servo::describe(status));
   }
   commands_ = std::make_unique<telemetry::SpscQueue<servo::Command>>(64);
   replies_ = std::make_unique<telemetry::SpscQueue<RtReply>>(64);
+  moves_ = std::make_unique<MoveOffers>(cycle_->mailbox(), *commands_);
   update_law_files();
   if (!config_.feedforward_file.empty()) {
     std::error_code error;
@@ -72,53 +79,16 @@ CommandReply ServoDaemon::queue(const servo::Command& command) {
   if (!commands_->try_push(command)) return reply_to(command, servo::CommandResult::kRejectedQueueFull);
   if (command.kind == servo::CommandKind::kLoadFeedforward) {
     // The cycle takes it without condition: the run-time values follow now.
-    std::lock_guard lock(runtime_mutex_);
-    runtime_.tuning.feedforward = command.feedforward;
+    parameters_->set_feedforward(command.feedforward);
   }
   return reply_to(command, servo::CommandResult::kQueued);
 }
 
-servo::AxisSnapshot ServoDaemon::snapshot() const {
-  servo::AxisSnapshot axis;
-  axis.state = state_seen_.load(std::memory_order_acquire);
-  axis.at_rest = cycle_->idle() && !cycle_->program_handover().pending();
-  axis.restricted = cycle_->restricted();
-  axis.hold_position_m = cycle_->hold_position_m();
-  axis.parameter_change_pending = parameter_change_pending();
-  axis.jog_running = cycle_->jogging() || cycle_->jog_pending();
-  axis.jog_velocity_m_per_s = jog_velocity_m_per_s_;
-  axis.jog_limits = jog_limits_;
-  return axis;
-}
-
 CommandReply ServoDaemon::post_move(const servo::Command& command, const servo::ProgramSteps& program) {
-  using Result = servo::CommandResult;
-  const auto reply = [&](Result result, std::string detail = "") { return reply_to(command, result, std::move(detail)); };
-  servo::MoveDecision decision = servo::decide_move(planning_settings(), snapshot(), command, program);
-  if (decision.result == Result::kJogging) {
-    // A repeat of the running jog: a renewal that comes after the cycle began
-    // its stop is refused, so the answer never says jogging of a jog that stops.
-    return reply(cycle_->jog_pending() || cycle_->renew_jog() ? Result::kJogging : Result::kRejectedJogStopping);
-  }
-  if (!decision.program) return reply(decision.result, std::move(decision.detail));
-  auto move = std::make_unique<control::MoveProgram>(std::move(*decision.program));
-  // The command goes to the cycle's queue before its program is offered, so
-  // the loop knows whom to answer when the cycle takes the offer or drops it
-  // (answer_offer). No offer is pending (decide_move saw the axis at rest), so
-  // this one is the cycle's next.
-  servo::Command posted = command;
-  posted.offer = cycle_->offers_decided() + 1;
-  if (!commands_->try_push(posted)) return reply(Result::kRejectedQueueFull);
-  const bool jog = command.kind == servo::CommandKind::kJog;
-  if (!(jog ? cycle_->post_jog(move.get()) : cycle_->program_handover().post(move.get()))) {
-    throw std::logic_error("a program was offered while another was pending");
-  }
-  programs_.push_back(std::move(move));
-  if (jog) {
-    jog_velocity_m_per_s_ = command.jog_velocity_m_per_s;
-    jog_limits_ = command.limits;
-  }
-  return reply(Result::kQueued);
+  const servo::AxisSnapshot axis =
+      moves_->snapshot(state_seen_.load(std::memory_order_acquire), parameters_->change_pending());
+  MoveOffers::Outcome outcome = moves_->post(command, parameters_->planning_settings(), axis, program);
+  return reply_to(command, outcome.result, std::move(outcome.detail));
 }
 
 CommandReply ServoDaemon::submit_program(const ProgramFile& program, std::int64_t sequence) {
@@ -152,8 +122,9 @@ CommandReply ServoDaemon::answer(const servo::Command& received) {
   try {
     // The table first: a command the present state does not allow is refused
     // before anything else, a file before it is read.
-    const servo::AxisSnapshot axis = snapshot();
-    if (const Result legal = servo::check_legal(command.kind, axis.state, axis.at_rest); legal != Result::kAccepted) {
+    const servo::ServoState state = state_seen_.load(std::memory_order_acquire);
+    const bool at_rest = cycle_->mailbox().at_rest();
+    if (const Result legal = servo::check_legal(command.kind, state, at_rest); legal != Result::kAccepted) {
       return reply(legal);
     }
     if (servo::reads_file(command)) {
@@ -172,10 +143,22 @@ CommandReply ServoDaemon::answer(const servo::Command& received) {
     const std::string reason = check_command(command);
     if (!reason.empty()) return reply(Result::kRejectedInvalid, reason);
     switch (command.kind) {
-      case Kind::kSetParameter: return set_parameter(command);
+      case Kind::kSetParameter: {
+        // At rest only: the command table (check_legal, above).
+        const auto queue_tuning = [&](const servo::Tuning& tuning) {
+          command.tuning = tuning;
+          return queue(command).result;
+        };
+        ParameterStore::Answer answer =
+            parameters_->set(command.parameter.view(), command.value, command.sequence, command.client, queue_tuning);
+        return reply(answer.result, std::move(answer.text));
+      }
       case Kind::kMoveTo:
       case Kind::kJog: return post_move(command);
-      case Kind::kGetParameter: return get_parameter(command);
+      case Kind::kGetParameter: {
+        ParameterStore::Answer answer = parameters_->get(command.parameter.view());
+        return reply(answer.result, std::move(answer.text));
+      }
       default:
         if (servo::answered_by_cycle(command.kind)) return queue(command);
         break;
@@ -192,7 +175,10 @@ std::vector<CommandReply> ServoDaemon::take_replies() {
   while (replies_->try_pop(answered)) {
     const CommandReply reply{answered.sequence, answered.client, answered.result, ""};
     if (!reply.accepted()) refused_.fetch_add(1, std::memory_order_relaxed);
-    settle_parameter_change(answered);
+    // The status names the feedforward file only while its parameters are in use.
+    if (parameters_->settle(answered.sequence, answered.client, answered.result)) {
+      set_loaded_file(LoadedFileSlot::kFeedforward, "", "");
+    }
     out.push_back(reply);
   }
   std::unique_ptr<Loaded> loaded;
@@ -218,15 +204,13 @@ std::vector<CommandReply> ServoDaemon::take_replies() {
 
 void ServoDaemon::collect_garbage() {
   update_law_files();
-  std::erase_if(programs_, [&](const std::unique_ptr<control::MoveProgram>& program) {
-    return !cycle_->program_handover().in_use(program.get());
-  });
+  moves_->collect_garbage();
   std::erase_if(laws_, [&](const std::unique_ptr<OwnedLaw>& law) {
-    return !cycle_->law_handover(law->mode).in_use(law->law.get());
+    return !cycle_->mailbox().law(law->mode).in_use(law->law.get());
   });
 }
 
-void ServoDaemon::mirror_state() noexcept { state_seen_.store(cycle_->state(), std::memory_order_release); }
+void ServoDaemon::mirror_state() noexcept { state_seen_.store(cycle_->status().state, std::memory_order_release); }
 
 namespace {
 
@@ -256,15 +240,6 @@ std::uint64_t ServoDaemon::latch_request(std::uint8_t bit) noexcept {
   return safety_requested_.fetch_add(1, std::memory_order_acq_rel) + 1;
 }
 
-servo::CommandResult ServoDaemon::obey_safety(servo::CommandKind kind) noexcept {
-  switch (kind) {
-    case servo::CommandKind::kStop: return cycle_->stop();
-    case servo::CommandKind::kQuickStop: return cycle_->quick_stop();
-    case servo::CommandKind::kDisable: return cycle_->disable();
-    default: return servo::CommandResult::kRejectedInvalid;
-  }
-}
-
 void ServoDaemon::obey_safety_requests() noexcept {
   // The tickets before the flags: every ticket read here had its flag set
   // before, so this cycle obeys it (or an earlier one did).
@@ -272,13 +247,10 @@ void ServoDaemon::obey_safety_requests() noexcept {
   const std::uint8_t flags = safety_requests_.exchange(0, std::memory_order_acq_rel);
   // Weakest first: a disable latched with a stop leaves the axis disabled.
   for (const auto kind : {servo::CommandKind::kStop, servo::CommandKind::kQuickStop}) {
-    if ((flags & safety_bit(kind)) != 0) obey_safety(kind);
+    if ((flags & safety_bit(kind)) != 0) cycle_->execute({.kind = kind});
   }
-  if ((flags & kOwnerGoneBit) != 0) {
-    cycle_->quick_stop();
-    cycle_->end_experiment();
-  }
-  if ((flags & safety_bit(servo::CommandKind::kDisable)) != 0) obey_safety(servo::CommandKind::kDisable);
+  if ((flags & kOwnerGoneBit) != 0) cycle_->owner_gone();
+  if ((flags & safety_bit(servo::CommandKind::kDisable)) != 0) cycle_->execute({.kind = servo::CommandKind::kDisable});
   if (flags != 0) mirror_state();
   safety_obeyed_.store(requested, std::memory_order_release);
 }
@@ -288,29 +260,14 @@ void ServoDaemon::drain_commands() noexcept {
   obey_safety_requests();
   servo::Command command;
   while (commands_->try_pop(command)) {
-    servo::CommandResult status = servo::CommandResult::kAccepted;
-    const bool was_pending = cycle_->mode_change_pending();
-    switch (command.kind) {
-      case Kind::kEnable: status = cycle_->enable(); break;
-      case Kind::kDisable:
-      case Kind::kStop:
-      case Kind::kQuickStop: status = obey_safety(command.kind); break;
-      case Kind::kClearFault: status = cycle_->clear_fault(); break;
-      case Kind::kSetCommutation: status = cycle_->request_mode(command.commutation); break;
-      case Kind::kSetExperiment:
-        status = cycle_->request_mode(servo::CommutationMode::kExperiment, command.coil_set, command.delta_rad);
-        break;
-      case Kind::kLoadFeedforward: cycle_->set_feedforward(command.feedforward); break;
-      case Kind::kSetParameter: status = cycle_->apply_tuning(command.tuning); break;
-      case Kind::kMoveTo:
-      case Kind::kRunProgram:
-      case Kind::kJog:
-        // Answered once the cycle has taken its program or dropped it.
-        awaiting_offer_ = {command.sequence, command.client, servo::CommandResult::kQueued, command.offer};
-        answer_offer();
-        continue;
-      default: status = servo::CommandResult::kRejectedInvalid; break;  // not a kind the cycle answers
+    const bool was_pending = cycle_->status().mode_change_pending;
+    if (servo::is_move(command.kind)) {
+      // Answered once the cycle has taken its program or dropped it.
+      awaiting_offer_ = {command.sequence, command.client, servo::CommandResult::kQueued, command.offer};
+      answer_offer();
+      continue;
     }
+    const servo::CommandResult status = cycle_->execute(command);
     if (command.kind == Kind::kSetCommutation || command.kind == Kind::kSetExperiment) {
       const bool replaced = status == servo::CommandResult::kAccepted || status == servo::CommandResult::kDeferred;
       if (was_pending && replaced) {
@@ -328,8 +285,8 @@ void ServoDaemon::drain_commands() noexcept {
 }
 
 void ServoDaemon::answer_offer() noexcept {
-  if (awaiting_offer_.offer == 0 || cycle_->offers_decided() < awaiting_offer_.offer) return;
-  replies_->try_push({awaiting_offer_.sequence, awaiting_offer_.client, cycle_->last_offer_result()});
+  if (awaiting_offer_.offer == 0 || cycle_->mailbox().offers_decided() < awaiting_offer_.offer) return;
+  replies_->try_push({awaiting_offer_.sequence, awaiting_offer_.client, cycle_->status().last_offer_result});
   awaiting_offer_ = {};
 }
 

@@ -1,10 +1,12 @@
 #pragma once
 // clm-servod's core: the configuration made concrete (commutation laws, servo
 // cycle) on the bus it is given, the loop on a real-time or virtual clock,
-// and the command path. Commands arrive on any non-real-time thread through
-// submit(); planning happens there, files are read on the loader thread when
-// one is set (else there too), and the cycle only receives ready objects
-// (Handover) and small commands (SPSC queue).
+// the laws and their files, and the routing of each command to what answers
+// it. Commands arrive on any non-real-time thread through submit(); moves are
+// decided and offered there (MoveOffers), run-time parameters kept there
+// (ParameterStore), files read on the loader thread when one is set (else
+// there too); the cycle only receives ready objects (its CycleMailbox) and
+// small commands (SPSC queue).
 
 #include <atomic>
 #include <cstdint>
@@ -12,7 +14,6 @@
 #include <memory>
 #include <mutex>
 #include <array>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,8 @@
 #include "daemon/servo/timing.hpp"
 #include "daemon/servod/file_loader.hpp"
 #include "daemon/servod/file_policy.hpp"
+#include "daemon/servod/move_offers.hpp"
+#include "daemon/servod/parameter_store.hpp"
 #include "daemon/servod/parameters.hpp"
 #include "daemon/servod/program_file.hpp"
 #include "daemon/servod/servod_config.hpp"
@@ -159,7 +162,7 @@ class ServoDaemon {
   /// Commands the daemon refused (by submit, the cycle or the loader).
   std::int64_t commands_refused() const noexcept { return refused_.load(std::memory_order_relaxed); }
   /// Command thread: the run-time parameters the cycle uses now (parameters.hpp).
-  RuntimeValues runtime_values() const;
+  RuntimeValues runtime_values() const { return parameters_->values(); }
   /// Loop thread (observers): the last deferred law request superseded.
   const Superseded& superseded() const noexcept { return superseded_; }
   /// Frees programs and laws the cycle no longer uses. Non-real-time.
@@ -167,6 +170,10 @@ class ServoDaemon {
 
   /// Virtual clock: runs `cycles` cycles on this thread at full speed.
   void run_cycles(std::int64_t cycles);
+  /// Virtual clock: one cycle started as the real-time loop starts one after
+  /// a wake-up gap of `wakeup_gap_s` or an overrun (the virtual loop has
+  /// neither of its own).
+  void run_cycle_after(double wakeup_gap_s, bool previous_overran);
   /// Virtual clock: runs until the running program ends (and the axis is
   /// idle), at most `max_cycles`; returns the cycles run.
   std::int64_t run_until_idle(std::int64_t max_cycles);
@@ -204,7 +211,7 @@ class ServoDaemon {
   /// Command thread: the status's law files follow the laws the cycle uses.
   void update_law_files() noexcept;
   void mirror_state() noexcept;
-  void one_cycle(std::int64_t sync_time_ns, std::int64_t deadline_ns, double time_s, std::int64_t next_sync_ns,
+  void one_cycle(const servo::CycleStart& start, std::int64_t deadline_ns, double time_s, std::int64_t next_sync_ns,
                  bool realtime) noexcept;
   void drain_commands() noexcept;
   std::unique_ptr<OwnedLaw> build_law(servo::CommutationMode mode, const std::string& path, const std::string& text,
@@ -212,23 +219,12 @@ class ServoDaemon {
   /// submit without the client: the reply to `received`.
   CommandReply answer(const servo::Command& received);
   CommandReply queue(const servo::Command& command);
-  /// A move_to, run_program (`program`) or jog: decided (servo::decide_move)
-  /// against the state the cycle reports, posted, and answered by the cycle.
+  /// A move_to, run_program (`program`) or jog: decided and offered
+  /// (MoveOffers) against the state the cycle reports and the parameters in
+  /// use, and answered by the cycle.
   CommandReply post_move(const servo::Command& command, const servo::ProgramSteps& program = {});
-  /// What decide_move needs of the axis, as the cycle reports it now.
-  servo::AxisSnapshot snapshot() const;
   /// Loop thread: answers the move whose offer the cycle has decided.
   void answer_offer() noexcept;
-  /// kGetParameter: the value the cycle uses, "key = value unit".
-  CommandReply get_parameter(const servo::Command& command) const;
-  /// kSetParameter: validates (change_parameter), refuses while a program
-  /// runs or another change is pending, queues the whole tuning for the cycle.
-  CommandReply set_parameter(servo::Command& command);
-  /// Command thread: the cycle's answer to a pending set_parameter commits or drops it.
-  void settle_parameter_change(const RtReply& reply);
-  bool parameter_change_pending() const;
-  /// config().servo with the run-time values the cycle uses: what moves are planned and checked against.
-  servo::ServoSettings planning_settings() const;
 
   ServodConfig config_;
   drivers::CanBus* bus_;
@@ -236,11 +232,10 @@ class ServoDaemon {
   std::vector<ExtraLaw> extra_laws_;
   std::unique_ptr<servo::ServoCycle> cycle_;
   std::vector<std::unique_ptr<OwnedLaw>> laws_;
-  std::vector<std::unique_ptr<control::MoveProgram>> programs_;
-  double jog_velocity_m_per_s_ = 0.0;       ///< of the last jog started (command thread)
-  control::MotionLimits jog_limits_{};      ///< of the last jog started
   std::unique_ptr<telemetry::SpscQueue<servo::Command>> commands_;
   std::unique_ptr<telemetry::SpscQueue<RtReply>> replies_;
+  std::unique_ptr<ParameterStore> parameters_;
+  std::unique_ptr<MoveOffers> moves_;
   LoopTiming timing_;
   CycleObserver* observer_ = nullptr;
   std::atomic<std::int64_t> cycles_done_{0};
@@ -258,8 +253,6 @@ class ServoDaemon {
   void honour_disable_request() noexcept;
   /// Loop thread: obeys the latched stop, quick stop and disable (request_safety).
   void obey_safety_requests() noexcept;
-  /// Loop thread: the cycle's stop, quick stop or disable.
-  servo::CommandResult obey_safety(servo::CommandKind kind) noexcept;
   /// Sets `bit` of safety_requests_ and hands out a ticket.
   std::uint64_t latch_request(std::uint8_t bit) noexcept;
   std::atomic<std::uint8_t> safety_requests_{0};    // one bit per safety kind
@@ -268,10 +261,6 @@ class ServoDaemon {
   std::atomic<servo::ServoState> state_seen_{servo::ServoState::kDisabled};  // the cycle's, after each command and cycle
   std::atomic<std::int64_t> refused_{0};
   RtReply awaiting_offer_;  // loop thread: the move whose offer the cycle has yet to decide (offer 0: none)
-  mutable std::mutex runtime_mutex_;  // guards the three below
-  RuntimeValues runtime_;                       // what the cycle uses
-  std::optional<RuntimeValues> runtime_pending_;  // queued for the cycle, not yet answered
-  RtReply runtime_pending_command_;             // its sequence and client
   std::int64_t deferred_sequence_ = 0;  // loop thread: the deferred law request waiting for standstill
   Superseded superseded_;               // loop thread
 };

@@ -67,10 +67,10 @@ LawLimits law_limits(const ServodConfig& config) {
 std::string ServoDaemon::law_source(servo::CommutationMode mode) const {
   // The law the cycle uses now; one still waiting for standstill is not it.
   for (const auto& law : laws_) {
-    if (law->mode == mode && cycle_->law_handover(mode).is_current(law->law.get())) return law->source;
+    if (law->mode == mode && cycle_->mailbox().law(mode).is_current(law->law.get())) return law->source;
   }
   for (const ExtraLaw& extra : extra_laws_) {
-    if (extra.mode == mode && cycle_->law_handover(mode).is_current(extra.law)) return extra.source;
+    if (extra.mode == mode && cycle_->mailbox().law(mode).is_current(extra.law)) return extra.source;
   }
   return "";
 }
@@ -198,7 +198,7 @@ CommandReply ServoDaemon::finish_load(Loaded& loaded) {
     case Kind::kLoadCalibration:
     case Kind::kLoadModel: {
       const servo::CommutationMode mode = loaded.law->mode;
-      if (!cycle_->law_handover(mode).post(loaded.law->law.get())) {
+      if (!cycle_->mailbox().law(mode).post(loaded.law->law.get())) {
         return reply_to(command, Result::kRejectedLoadWaiting);
       }
       laws_.push_back(std::move(loaded.law));
@@ -268,7 +268,7 @@ void ServoDaemon::update_law_files() noexcept {
   };
   for (const auto& [mode, slot] : slots) {
     for (const auto& law : laws_) {
-      if (law->mode == mode && cycle_->law_handover(mode).is_current(law->law.get())) {
+      if (law->mode == mode && cycle_->mailbox().law(mode).is_current(law->law.get())) {
         set_loaded_file(slot, law->source, law->sha256);
       }
     }

@@ -19,16 +19,16 @@ TelemetryBridge::TelemetryBridge(telemetry::TelemetrySink& sink, const ServoDaem
 
 void TelemetryBridge::fill_status(const servo::ServoCycle& cycle, const LoopTiming& timing,
                                   telemetry::ServoStatusSample& out) const noexcept {
-  const auto& c = cycle.counters();
+  const auto& c = cycle.status().counters;
   out.utime = 0;
   out.axis.assign(daemon_->config().axis_name);
   out.session = publisher_ != nullptr ? publisher_->config().session : 0;
   if (authority_ != nullptr) authority_->fill(out.commands);
-  out.state = static_cast<std::int8_t>(cycle.state());
-  out.fault = static_cast<std::int16_t>(cycle.fault());
-  out.fault_reason.assign(servo::describe(cycle.fault()));
-  out.fault_cycle = cycle.fault_cycle();
-  out.commutation = static_cast<std::int8_t>(cycle.mode());
+  out.state = static_cast<std::int8_t>(cycle.status().state);
+  out.fault = static_cast<std::int16_t>(cycle.status().fault);
+  out.fault_reason.assign(servo::describe(cycle.status().fault));
+  out.fault_cycle = cycle.status().fault_cycle;
+  out.commutation = static_cast<std::int8_t>(cycle.status().mode);
   out.wakeup_latency_p50_s = timing.wakeup_latency.quantile_s(0.5);
   out.wakeup_latency_p99_s = timing.wakeup_latency.quantile_s(0.99);
   out.wakeup_latency_max_s = timing.wakeup_latency.max_s();
@@ -50,7 +50,7 @@ void TelemetryBridge::fill_status(const servo::ServoCycle& cycle, const LoopTimi
   out.program_running = cycle.record().program_running;
   out.program_time_s = cycle.record().program_time_s;
   out.restricted = cycle.record().restricted;
-  const servo::Fault force_warning = cycle.force_sensor_warning();
+  const servo::Fault force_warning = cycle.status().force_sensor_warning;
   out.force_sensor = !can::has_force_sensor(cycle.settings().protocol) ? telemetry::kForceSensorNone
                      : force_warning == servo::Fault::kNone          ? telemetry::kForceSensorOk
                                                                      : telemetry::kForceSensorLost;
@@ -94,16 +94,16 @@ void TelemetryBridge::events(const servo::ServoCycle& cycle, std::int64_t n) noe
   if (!primed_) {
     // The first cycle: what the daemon started with is no change.
     primed_ = true;
-    last_mode_ = cycle.mode();
+    last_mode_ = cycle.status().mode;
     for (int m = 0; m < servo::kCommutationModes; ++m) last_laws_[m] = cycle.law(static_cast<servo::CommutationMode>(m));
     for (std::size_t i = 0; i < kLoadedFileSlots; ++i) last_files_[i] = daemon_->loaded_file(slots[i], file);
     last_program_running_ = cycle.record().program_running;
     last_superseded_ = daemon_->superseded().count;
-    last_force_warning_ = cycle.force_sensor_warning();
+    last_force_warning_ = cycle.status().force_sensor_warning;
     return;
   }
-  if (cycle.force_sensor_warning() != last_force_warning_) {
-    last_force_warning_ = cycle.force_sensor_warning();
+  if (cycle.status().force_sensor_warning != last_force_warning_) {
+    last_force_warning_ = cycle.status().force_sensor_warning;
     if (last_force_warning_ == servo::Fault::kNone) {
       emit(n, EventCode::kForceSensorBack, 0, "force sensor back: its frames come again");
     } else {
@@ -112,9 +112,9 @@ void TelemetryBridge::events(const servo::ServoCycle& cycle, std::int64_t n) noe
       emit(n, EventCode::kForceSensorLost, 1, text);
     }
   }
-  if (cycle.mode() != last_mode_) {
-    std::snprintf(text, sizeof text, "commutation %s (was %s)", servo::name(cycle.mode()), servo::name(last_mode_));
-    last_mode_ = cycle.mode();
+  if (cycle.status().mode != last_mode_) {
+    std::snprintf(text, sizeof text, "commutation %s (was %s)", servo::name(cycle.status().mode), servo::name(last_mode_));
+    last_mode_ = cycle.status().mode;
     emit(n, EventCode::kCommutationChanged, 0, text);
   }
   for (int m = 0; m < servo::kCommutationModes; ++m) {
@@ -122,7 +122,7 @@ void TelemetryBridge::events(const servo::ServoCycle& cycle, std::int64_t n) noe
     const CommutationLaw* law = cycle.law(mode);
     if (law == last_laws_[m]) continue;
     last_laws_[m] = law;
-    std::snprintf(text, sizeof text, "%s law swapped in%s", servo::name(mode), mode == cycle.mode() ? ", in use" : "");
+    std::snprintf(text, sizeof text, "%s law swapped in%s", servo::name(mode), mode == cycle.status().mode ? ", in use" : "");
     emit(n, EventCode::kLawSwapped, 0, text);
   }
   for (std::size_t i = 0; i < kLoadedFileSlots; ++i) {
@@ -153,18 +153,18 @@ void TelemetryBridge::events(const servo::ServoCycle& cycle, std::int64_t n) noe
 
 void TelemetryBridge::on_cycle(const servo::ServoCycle& cycle, const LoopTiming& timing) noexcept {
   const std::int64_t n = cycle.record().cycle;
-  const bool changed = cycle.state() != last_state_ || cycle.fault() != last_fault_;
+  const bool changed = cycle.status().state != last_state_ || cycle.status().fault != last_fault_;
   if (changed) {
     event_.utime = 0;
     event_.cycle = n;
-    event_.code = static_cast<std::int16_t>(cycle.fault());
-    event_.severity = cycle.state() == servo::ServoState::kFault ? 2 : 0;
+    event_.code = static_cast<std::int16_t>(cycle.status().fault);
+    event_.severity = cycle.status().state == servo::ServoState::kFault ? 2 : 0;
     char text[128];
-    std::snprintf(text, sizeof(text), "state %s, fault %d: %s", servo::name(cycle.state()),
-                  static_cast<int>(cycle.fault()), servo::describe(cycle.fault()));
+    std::snprintf(text, sizeof(text), "state %s, fault %d: %s", servo::name(cycle.status().state),
+                  static_cast<int>(cycle.status().fault), servo::describe(cycle.status().fault));
     event_.text.assign(text);
-    last_state_ = cycle.state();
-    last_fault_ = cycle.fault();
+    last_state_ = cycle.status().state;
+    last_fault_ = cycle.status().fault;
   }
   const bool status_due = n % status_every_cycles_ == 0;
   if (publisher_ != nullptr) {

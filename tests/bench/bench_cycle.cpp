@@ -63,23 +63,24 @@ void run(benchmark::State& state, servo::CommutationMode mode, const Commutation
   servo::ServoCycle cycle(settings(coil_sets));
   cycle.install_law(servo::CommutationMode::kOriginal, &law);
   cycle.install_law(mode, &law);
-  cycle.request_mode(mode);
+  cycle.execute({.kind = servo::CommandKind::kSetCommutation, .commutation = mode});
   const Feedback feedback = make_feedback(cycle.settings().protocol);
   std::int64_t k = 0;
   const auto one = [&] {
-    cycle.begin_cycle(0);
+    cycle.begin_cycle({});
     cycle.on_frame(feedback.drive[static_cast<std::size_t>(k & 255)]);
     cycle.on_frame(feedback.force[static_cast<std::size_t>(k & 255)]);
-    const auto frames = cycle.end_cycle(0.0);
+    const auto frames = cycle.end_cycle(0.0, {});
     benchmark::DoNotOptimize(frames.data());
     ++k;
   };
   one();
-  cycle.enable();
+  cycle.execute({.kind = servo::CommandKind::kEnable});
   for (auto _ : state) one();
-  if (cycle.state() != servo::ServoState::kEnabled) {
-    std::fprintf(stderr, "fault at cycle %ld of %ld: F %g y %g\n", static_cast<long>(cycle.fault_cycle()), static_cast<long>(k), cycle.record().F_star_N, cycle.record().y_m);
-    state.SkipWithError(servo::describe(cycle.fault()));
+  if (cycle.status().state != servo::ServoState::kEnabled) {
+    std::fprintf(stderr, "fault at cycle %ld of %ld: F %g y %g\n", static_cast<long>(cycle.status().fault_cycle),
+                 static_cast<long>(k), cycle.record().F_star_N, cycle.record().y_m);
+    state.SkipWithError(servo::describe(cycle.status().fault));
   }
 }
 

@@ -148,7 +148,7 @@ inline void require_driving_output(servod::WiredAxis& axis) {
 inline std::int64_t run_until_fault(servod::ServoDaemon& daemon, std::int64_t max_cycles) {
   for (std::int64_t k = 1; k <= max_cycles; ++k) {
     daemon.run_cycles(1);
-    if (daemon.cycle().state() == servo::ServoState::kFault) return k;
+    if (daemon.cycle().status().state == servo::ServoState::kFault) return k;
   }
   return max_cycles + 1;
 }

@@ -65,7 +65,7 @@ TEST_CASE("the valid test configuration loads and runs", "[daemon][config]") {
   servod::WiredAxis axis(config);
   servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
-  CHECK(daemon.cycle().state() == servo::ServoState::kDisabled);
+  CHECK(daemon.cycle().status().state == servo::ServoState::kDisabled);
 }
 
 TEST_CASE("the real-axis template loads, needs real-time rights, and stops inside the end stops from its limits",

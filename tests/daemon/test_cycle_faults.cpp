@@ -42,7 +42,7 @@ class BareCycle {
   /// One cycle with timely feedback at `position_m`; the frames the cycle returned, decoded.
   test::SentSetpoints run(double position_m) {
     time_ns_ += 1'000'000;
-    (void)cycle.begin_cycle(time_ns_);
+    (void)cycle.begin_cycle({.sync_time_ns = time_ns_});
     drivers::ReceivedFrame drive{{}, time_ns_};
     drivers::ReceivedFrame force{{}, time_ns_};
     REQUIRE(can::encode_drive_feedback(protocol_, {position_m, can::kStatusEnabled, alive_}, drive.frame) ==
@@ -54,7 +54,7 @@ class BareCycle {
     REQUIRE(cycle.feedback_complete());
     test::SentSetpoints sent;
     unsigned mask = 0;
-    for (const can::Frame& frame : cycle.end_cycle(static_cast<double>(time_ns_) * 1e-9)) {
+    for (const can::Frame& frame : cycle.end_cycle(static_cast<double>(time_ns_) * 1e-9, {})) {
       ++sent.frames;
       for (std::size_t index = 0; index < can::setpoint_frame_count(protocol_.coil_sets); ++index) {
         if (frame.id != can::setpoint_id(protocol_, index)) continue;
@@ -75,8 +75,8 @@ class BareCycle {
 };
 
 void require_faulted_and_safe(BareCycle& bare, const test::SentSetpoints& sent, Fault expected) {
-  REQUIRE(bare.cycle.state() == ServoState::kFault);
-  CHECK(bare.cycle.fault() == expected);
+  REQUIRE(bare.cycle.status().state == ServoState::kFault);
+  CHECK(bare.cycle.status().fault == expected);
   REQUIRE(sent.complete);
   CHECK_FALSE(sent.command.enable);
   CHECK(sent.all_magnitudes_zero());
@@ -85,7 +85,7 @@ void require_faulted_and_safe(BareCycle& bare, const test::SentSetpoints& sent, 
     REQUIRE(next.complete);
     CHECK_FALSE(next.command.enable);
     CHECK(next.all_magnitudes_zero());
-    CHECK(bare.cycle.fault() == expected);
+    CHECK(bare.cycle.status().fault == expected);
   }
 }
 
@@ -98,11 +98,11 @@ TEST_CASE("a setpoint outside the CAN signal range latches kSetpointOutOfRange w
   const FixedLaw law(settings.protocol.coil_sets, {1000.0, 0.1});  // the signal ends at ±819.2 N
   bare.cycle.install_law(servo::CommutationMode::kOriginal, &law);
   bare.run(0.0);
-  REQUIRE(bare.cycle.enable() == servo::CommandResult::kAccepted);
+  REQUIRE(bare.cycle.execute({.kind = servo::CommandKind::kEnable}) == servo::CommandResult::kAccepted);
   const auto sent = bare.run(0.0);
   require_faulted_and_safe(bare, sent, Fault::kSetpointOutOfRange);
-  CHECK(bare.cycle.clear_fault() == servo::CommandResult::kAccepted);
-  CHECK(bare.cycle.state() == ServoState::kDisabled);
+  CHECK(bare.cycle.execute({.kind = servo::CommandKind::kClearFault}) == servo::CommandResult::kAccepted);
+  CHECK(bare.cycle.status().state == ServoState::kDisabled);
 }
 
 TEST_CASE("a law that produces a non-finite setpoint latches kCommutationNotFinite with zero in the same cycle",
@@ -112,7 +112,7 @@ TEST_CASE("a law that produces a non-finite setpoint latches kCommutationNotFini
   const FixedLaw law(settings.protocol.coil_sets, {std::numeric_limits<double>::quiet_NaN(), 0.0});
   bare.cycle.install_law(servo::CommutationMode::kOriginal, &law);
   bare.run(0.0);
-  REQUIRE(bare.cycle.enable() == servo::CommandResult::kAccepted);
+  REQUIRE(bare.cycle.execute({.kind = servo::CommandKind::kEnable}) == servo::CommandResult::kAccepted);
   const auto sent = bare.run(0.0);
   require_faulted_and_safe(bare, sent, Fault::kCommutationNotFinite);
 }
@@ -123,9 +123,9 @@ TEST_CASE("a law whose setpoints fit drives the axis through the bare cycle", "[
   const FixedLaw law(settings.protocol.coil_sets, {12.5, -0.25});
   bare.cycle.install_law(servo::CommutationMode::kOriginal, &law);
   bare.run(0.0);
-  REQUIRE(bare.cycle.enable() == servo::CommandResult::kAccepted);
+  REQUIRE(bare.cycle.execute({.kind = servo::CommandKind::kEnable}) == servo::CommandResult::kAccepted);
   const auto sent = bare.run(0.0);
-  REQUIRE(bare.cycle.state() == ServoState::kEnabled);
+  REQUIRE(bare.cycle.status().state == ServoState::kEnabled);
   REQUIRE(sent.complete);
   CHECK(sent.command.enable);
   for (int l = 0; l < sent.command.coil_sets; ++l) {

@@ -41,7 +41,7 @@ struct Walk {
   sim::SimulatedMotor& motor() { return *wired.simulated_motor(); }
 
   void enable() {
-    if (daemon.cycle().state() == ServoState::kFault) test::command(daemon, CommandKind::kClearFault, 2);
+    if (daemon.cycle().status().state == ServoState::kFault) test::command(daemon, CommandKind::kClearFault, 2);
     test::command(daemon, CommandKind::kEnable, 20);
   }
 
@@ -84,8 +84,8 @@ struct Walk {
 
   /// A move to a random target inside the soft limits at the limits now in force.
   void random_move() {
-    if (daemon.cycle().state() != ServoState::kEnabled) enable();
-    if (daemon.cycle().state() != ServoState::kEnabled) return;
+    if (daemon.cycle().status().state != ServoState::kEnabled) enable();
+    if (daemon.cycle().status().state != ServoState::kEnabled) return;
     const servo::ServoSettings& fixed = daemon.config().servo;  // the soft limits are fixed at start-up
     servo::Command move;
     move.kind = CommandKind::kMoveTo;
@@ -95,12 +95,12 @@ struct Walk {
     std::int64_t k = 0;
     for (; k < kMaxMoveCycles; ++k) {
       cycle();
-      if (daemon.cycle().idle() && !daemon.cycle().program_handover().pending() && k > 2) break;
+      if (daemon.cycle().mailbox().at_rest() && k > 2) break;
     }
     if (k == kMaxMoveCycles) {
       // A move at a crawl (a velocity limit set to micrometres a second): stopped.
       test::command(daemon, CommandKind::kStop, 1);
-      for (k = 0; k < kMaxMoveCycles && !daemon.cycle().idle(); ++k) cycle();
+      for (k = 0; k < kMaxMoveCycles && !daemon.cycle().mailbox().at_rest(); ++k) cycle();
     }
     for (int settle = 0; settle < 30; ++settle) cycle();  // settle, and a fault's reaction to its end
     (void)daemon.take_replies();

@@ -32,7 +32,7 @@ struct EnabledAxis {
   explicit EnabledAxis(const servod::ServodConfig& config = test::virtual_config()) : wired(config), daemon(wired.daemon) {
     daemon.run_cycles(10);
     test::command(daemon, Kind::kEnable, 20);
-    REQUIRE(daemon.cycle().state() == ServoState::kEnabled);
+    REQUIRE(daemon.cycle().status().state == ServoState::kEnabled);
     test::require_driving_output(wired);
   }
   /// Algorithms 1 and 2's mode at standstill: coil set 1 at Δ = 0.
@@ -42,11 +42,11 @@ struct EnabledAxis {
     experiment.coil_set = 1;
     REQUIRE(daemon.submit(experiment).accepted());
     daemon.run_cycles(2);
-    REQUIRE(daemon.cycle().mode() == servo::CommutationMode::kExperiment);
+    REQUIRE(daemon.cycle().status().mode == servo::CommutationMode::kExperiment);
   }
   sim::Injection& injection() { return wired.in_process_bus()->injection(); }
   sim::SimulatedMotor& motor() { return *wired.simulated_motor(); }
-  const servo::CycleCounters& counters() { return daemon.cycle().counters(); }
+  const servo::CycleCounters& counters() { return daemon.cycle().status().counters; }
   int limit() const { return daemon.config().servo.missing_frame_limit; }
 
   void move_to(double target_m, control::MotionLimits limits) {
@@ -60,14 +60,14 @@ struct EnabledAxis {
   /// The fault latched as `expected` and the last cycle's output is safe;
   /// `more` further cycles keep it latched and safe.
   void require_latched(Fault expected, bool frames_reached_drive = true, int more = 20) {
-    INFO("fault " << servo::describe(daemon.cycle().fault()));
-    REQUIRE(daemon.cycle().state() == ServoState::kFault);
-    REQUIRE(daemon.cycle().fault() == expected);
+    INFO("fault " << servo::describe(daemon.cycle().status().fault));
+    REQUIRE(daemon.cycle().status().state == ServoState::kFault);
+    REQUIRE(daemon.cycle().status().fault == expected);
     test::require_safe_output(wired, frames_reached_drive);
     for (int k = 0; k < more; ++k) {
       daemon.run_cycles(1);
-      REQUIRE(daemon.cycle().state() == ServoState::kFault);
-      REQUIRE(daemon.cycle().fault() == expected);
+      REQUIRE(daemon.cycle().status().state == ServoState::kFault);
+      REQUIRE(daemon.cycle().status().fault == expected);
       test::require_safe_output(wired);
     }
   }
@@ -79,9 +79,9 @@ struct EnabledAxis {
   /// output is safe (require_latched).
   void require_quick_stop_reaction(Fault expected) {
     REQUIRE(servo::reaction(expected) == servo::FaultReaction::kQuickStop);
-    REQUIRE(daemon.cycle().state() == ServoState::kFault);
-    REQUIRE(daemon.cycle().fault() == expected);
-    REQUIRE(daemon.cycle().fault_reaction_running());
+    REQUIRE(daemon.cycle().status().state == ServoState::kFault);
+    REQUIRE(daemon.cycle().status().fault == expected);
+    REQUIRE(daemon.cycle().status().fault_reaction_running);
     test::require_driving_output(wired);
     const auto& s = daemon.config().servo;
     const auto& r = daemon.cycle().record();
@@ -89,11 +89,11 @@ struct EnabledAxis {
                                                     s.quick_stop_limits);
     const auto max_cycles = static_cast<int>(std::ceil(planned.duration_s() / s.period_s)) + 2;
     int cycles = 0;
-    while (daemon.cycle().fault_reaction_running()) {
+    while (daemon.cycle().status().fault_reaction_running) {
       daemon.run_cycles(1);
       REQUIRE(++cycles <= max_cycles);
-      REQUIRE(daemon.cycle().state() == ServoState::kFault);
-      REQUIRE(daemon.cycle().fault() == expected);
+      REQUIRE(daemon.cycle().status().state == ServoState::kFault);
+      REQUIRE(daemon.cycle().status().fault == expected);
       CHECK(std::abs(daemon.cycle().record().r_ddot_m_per_s2) <= s.quick_stop_limits.deceleration_m_per_s2 + 1e-9);
     }
     CHECK(daemon.cycle().record().r_dot_m_per_s == 0.0);
@@ -104,31 +104,31 @@ struct EnabledAxis {
   void require_recovers() {
     (void)daemon.take_replies();
     REQUIRE(test::command(daemon, Kind::kEnable).accepted());  // queued
-    CHECK(daemon.cycle().state() == ServoState::kFault);
+    CHECK(daemon.cycle().status().state == ServoState::kFault);
     const auto replies = daemon.take_replies();  // executed: refused while latched
     REQUIRE(replies.size() == 1);
     CHECK_FALSE(replies[0].accepted());
     CHECK(replies[0].result == servo::CommandResult::kRejectedFault);
     CHECK(replies[0].text() == "rejected: a fault is latched, clear it first");
     test::command(daemon, Kind::kClearFault);
-    REQUIRE(daemon.cycle().state() == ServoState::kDisabled);
-    CHECK(daemon.cycle().fault() == Fault::kNone);
+    REQUIRE(daemon.cycle().status().state == ServoState::kDisabled);
+    CHECK(daemon.cycle().status().fault == Fault::kNone);
     const auto clearing = test::sent_setpoints(wired);
     REQUIRE(clearing.complete);
     CHECK(clearing.command.clear_fault);
     CHECK_FALSE(clearing.command.enable);
     CHECK(clearing.all_magnitudes_zero());
     daemon.run_cycles(5);
-    REQUIRE(daemon.cycle().state() == ServoState::kDisabled);
+    REQUIRE(daemon.cycle().status().state == ServoState::kDisabled);
     CHECK_FALSE(test::sent_setpoints(wired).command.clear_fault);
     CHECK_FALSE(wired.simulated_motor()->status().fault());
     test::command(daemon, Kind::kEnable);
-    REQUIRE(daemon.cycle().state() == ServoState::kEnabled);
+    REQUIRE(daemon.cycle().status().state == ServoState::kEnabled);
     test::require_driving_output(wired);
     for (int k = 0; k < 200; ++k) {
       daemon.run_cycles(1);
-      INFO("cycle " << k << " after enable: " << servo::describe(daemon.cycle().fault()));
-      REQUIRE(daemon.cycle().state() == ServoState::kEnabled);
+      INFO("cycle " << k << " after enable: " << servo::describe(daemon.cycle().status().fault));
+      REQUIRE(daemon.cycle().status().state == ServoState::kEnabled);
     }
     test::require_driving_output(wired);
     CHECK_FALSE(wired.simulated_motor()->status().fault());
@@ -153,7 +153,7 @@ TEST_CASE("encoder frames missing: one and limit-1 ride through, the limit latch
     axis.injection().drop_drive_frames = n;
     for (int k = 0; k < n + 50; ++k) {
       axis.daemon.run_cycles(1);
-      REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+      REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
       test::require_driving_output(axis.wired);
     }
     CHECK(axis.counters().frames_missing - missing == n);
@@ -174,7 +174,7 @@ TEST_CASE("force-sensor frames missing in an experiment: limit-1 ride through, t
     axis.injection().drop_force_frames = n;
     for (int k = 0; k < n + 50; ++k) {
       axis.daemon.run_cycles(1);
-      REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+      REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
     }
     CHECK(axis.counters().frames_missing - missing == n);
   }
@@ -192,12 +192,12 @@ TEST_CASE("force-sensor frames missing in service: a warning with its reason, ne
   axis.injection().drop_force_frames = 1000;
   for (int k = 0; k < limit + 5; ++k) {
     axis.daemon.run_cycles(1);
-    REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+    REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
     test::require_driving_output(axis.wired);
     // No measurement, no numbers: the record says so and carries zero.
     CHECK_FALSE(axis.daemon.cycle().record().force_measured);
     CHECK(axis.daemon.cycle().record().Fy_N == 0.0);
-    CHECK(axis.daemon.cycle().force_sensor_warning() == (k + 1 >= limit ? Fault::kForceFrameMissing : Fault::kNone));
+    CHECK(axis.daemon.cycle().status().force_sensor_warning == (k + 1 >= limit ? Fault::kForceFrameMissing : Fault::kNone));
   }
   CHECK(axis.counters().force_sensor_losses == 1);
   // An experiment measures with the sensor: refused while it is lost.
@@ -209,12 +209,12 @@ TEST_CASE("force-sensor frames missing in service: a warning with its reason, ne
     axis.daemon.run_cycles(1);
     if (!axis.daemon.cycle().record().force_measured) continue;
     ++good;
-    CHECK(axis.daemon.cycle().force_sensor_warning() == (good >= limit ? Fault::kNone : Fault::kForceFrameMissing));
+    CHECK(axis.daemon.cycle().status().force_sensor_warning == (good >= limit ? Fault::kNone : Fault::kForceFrameMissing));
   }
   CHECK(good == limit);
-  CHECK(axis.daemon.cycle().force_sensor_warning() == Fault::kNone);
+  CHECK(axis.daemon.cycle().status().force_sensor_warning == Fault::kNone);
   CHECK(axis.counters().force_sensor_losses == 1);
-  CHECK(axis.daemon.cycle().state() == ServoState::kEnabled);
+  CHECK(axis.daemon.cycle().status().state == ServoState::kEnabled);
 }
 
 TEST_CASE("late encoder frames are counted and ride through below the limit, late at the limit latches",
@@ -226,7 +226,7 @@ TEST_CASE("late encoder frames are counted and ride through below the limit, lat
     axis.injection().delay_drive_frames = n;
     for (int k = 0; k < n + 50; ++k) {
       axis.daemon.run_cycles(1);
-      REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+      REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
       test::require_driving_output(axis.wired);
     }
     CHECK(axis.counters().frames_late - late == n);  // each arrived, a cycle late, and was not used
@@ -247,13 +247,13 @@ TEST_CASE("duplicated encoder frames are counted and ride through", "[daemon][fa
   axis.injection().duplicate_drive_frames = 25;
   for (int k = 0; k < 100; ++k) {
     axis.daemon.run_cycles(1);
-    REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+    REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
   }
   CHECK(axis.counters().frames_duplicate == 25);
   CHECK(axis.counters().frames_missing == 0);
   axis.daemon.run_until_idle(5000);
   axis.daemon.run_cycles(500);  // settle
-  REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+  REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
   CHECK(std::abs(axis.motor().truth().position_m - 0.02) < 1e-5);
 }
 
@@ -280,10 +280,10 @@ TEST_CASE("a force-sensor alive-counter jump latches kForceAliveJump at once in 
     EnabledAxis axis;
     axis.injection().skip_force_alive = 3;
     axis.daemon.run_cycles(1);
-    CHECK(axis.daemon.cycle().force_sensor_warning() == Fault::kForceAliveJump);
+    CHECK(axis.daemon.cycle().status().force_sensor_warning == Fault::kForceAliveJump);
     axis.daemon.run_cycles(axis.limit());
-    CHECK(axis.daemon.cycle().force_sensor_warning() == Fault::kNone);
-    CHECK(axis.daemon.cycle().state() == ServoState::kEnabled);
+    CHECK(axis.daemon.cycle().status().force_sensor_warning == Fault::kNone);
+    CHECK(axis.daemon.cycle().status().state == ServoState::kEnabled);
     CHECK(axis.counters().force_sensor_losses == 1);
     test::require_driving_output(axis.wired);
   }
@@ -294,11 +294,11 @@ TEST_CASE("alive counters that skip exactly the frames missed are no jump", "[da
   axis.injection().drop_drive_frames = axis.limit() - 1;
   axis.injection().drop_force_frames = axis.limit() - 1;
   axis.daemon.run_cycles(100);
-  CHECK(axis.daemon.cycle().state() == ServoState::kEnabled);
+  CHECK(axis.daemon.cycle().status().state == ServoState::kEnabled);
   // A late frame followed by the timely one: both in sequence.
   axis.injection().delay_drive_frames = 1;
   axis.daemon.run_cycles(100);
-  CHECK(axis.daemon.cycle().state() == ServoState::kEnabled);
+  CHECK(axis.daemon.cycle().status().state == ServoState::kEnabled);
   CHECK(axis.counters().frames_late == 1);
 }
 
@@ -311,7 +311,7 @@ TEST_CASE("drive frames with a wrong DLC are rejected and ride through below the
     axis.injection().wrong_dlc_drive_frames = n;
     for (int k = 0; k < n + 50; ++k) {
       axis.daemon.run_cycles(1);
-      REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+      REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
       test::require_driving_output(axis.wired);
     }
     CHECK(axis.counters().frames_rejected - rejected == n);
@@ -342,7 +342,7 @@ TEST_CASE("a following error above the configured limit latches kFollowingError 
   axis.move_to(0.05, kBrisk);
   double previous_error_m = 0.0;
   std::int64_t cycles = 0;
-  while (axis.daemon.cycle().state() == ServoState::kEnabled) {
+  while (axis.daemon.cycle().status().state == ServoState::kEnabled) {
     const auto& record = axis.daemon.cycle().record();
     previous_error_m = record.r_m - axis.motor().truth().position_m;
     axis.daemon.run_cycles(1);
@@ -369,7 +369,7 @@ TEST_CASE("a position outside the soft limits latches kPositionOutOfRange, enabl
   axis.require_latched(Fault::kPositionOutOfRange);
   // Still outside: clearing re-latches at once.
   test::command(axis.daemon, Kind::kClearFault);
-  CHECK(axis.daemon.cycle().fault() == Fault::kPositionOutOfRange);
+  CHECK(axis.daemon.cycle().status().fault == Fault::kPositionOutOfRange);
   // Back inside, it recovers.
   axis.motor().reset(0.0);
   axis.daemon.run_cycles(2);
@@ -377,7 +377,7 @@ TEST_CASE("a position outside the soft limits latches kPositionOutOfRange, enabl
 
   // Disabled axis moved outside by hand: the fault latches all the same.
   test::command(axis.daemon, Kind::kDisable);
-  REQUIRE(axis.daemon.cycle().state() == ServoState::kDisabled);
+  REQUIRE(axis.daemon.cycle().status().state == ServoState::kDisabled);
   axis.motor().reset(axis.daemon.config().servo.soft_limit_min_m - 0.005);
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
   axis.require_latched(Fault::kPositionOutOfRange);
@@ -394,22 +394,22 @@ TEST_CASE("a force demand saturated longer than the limit latches kForceSaturate
   config.servo.soft_limit_min_m = config.servo.machine.stroke_min_m + 0.04;
   config.servo.soft_limit_max_m = config.servo.machine.stroke_max_m - 0.04;
   EnabledAxis axis(config);
-  REQUIRE(axis.daemon.cycle().mode() == servo::CommutationMode::kOriginal);
+  REQUIRE(axis.daemon.cycle().status().mode == servo::CommutationMode::kOriginal);
   const double force_limit_N = config.servo.force_limit_N;
   axis.move_to(0.05, {0.3, 1.0, 1000.0});
   axis.motor().set_disturbance_force_N(-(force_limit_N + 50.0));
   int saturated_cycles = 0;
   int max_saturated_run = 0;
-  while (axis.daemon.cycle().state() == ServoState::kEnabled) {
+  while (axis.daemon.cycle().status().state == ServoState::kEnabled) {
     axis.daemon.run_cycles(1);
-    if (axis.daemon.cycle().state() != ServoState::kEnabled) break;
+    if (axis.daemon.cycle().status().state != ServoState::kEnabled) break;
     // The drive's own law shares F* equally: the magnitudes on the bus sum to
     // F*, so |Σ| shows the limit holding without trusting the record.
     const double sum_N = test::sent_setpoints(axis.wired).magnitude_sum_N();
     CHECK(std::abs(sum_N) <= force_limit_N + 3 * can::kMagnitudeLsb_N);
     saturated_cycles = std::abs(sum_N) >= force_limit_N - 3 * can::kMagnitudeLsb_N ? saturated_cycles + 1 : 0;
     max_saturated_run = std::max(max_saturated_run, saturated_cycles);
-    REQUIRE(axis.daemon.cycle().counters().cycles < 5000);
+    REQUIRE(axis.daemon.cycle().status().counters.cycles < 5000);
   }
   // The fault cycle is the one whose saturation reaches the time limit (the
   // quick stop of its reaction starts there): the limit in cycles, give or
@@ -430,12 +430,10 @@ TEST_CASE("a wake-up gap up to stall_limit_s rides through, a longer one latches
   const double limit_s = axis.daemon.config().servo.stall_limit_s;
   axis.move_to(0.05, kBrisk);
   axis.daemon.run_cycles(100);  // moving
-  // The virtual loop never stalls: the loop's reports are made here, between cycles.
-  axis.daemon.cycle().report_wakeup_gap(limit_s);
-  axis.daemon.run_cycles(1);
-  REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
-  axis.daemon.cycle().report_wakeup_gap(limit_s * 1.01);
-  axis.daemon.run_cycles(1);
+  // The virtual loop never stalls: the cycles start as after a gap.
+  axis.daemon.run_cycle_after(limit_s, false);
+  REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
+  axis.daemon.run_cycle_after(limit_s * 1.01, false);
   axis.require_quick_stop_reaction(Fault::kLoopStalled);
   axis.require_latched(Fault::kLoopStalled);
   axis.require_recovers();
@@ -444,20 +442,17 @@ TEST_CASE("a wake-up gap up to stall_limit_s rides through, a longer one latches
 TEST_CASE("overruns: limit-1 in a row ride through, the limit latches kRepeatedOverruns", "[daemon][faults]") {
   EnabledAxis axis;
   const int limit = axis.daemon.config().servo.overrun_limit;
-  // The virtual loop never overruns: the loop's reports are made here, between cycles.
-  for (int k = 0; k < limit - 1; ++k) {
-    axis.daemon.cycle().report_overrun(true);
-    axis.daemon.run_cycles(1);
-  }
-  axis.daemon.cycle().report_overrun(false);
-  REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+  // The virtual loop never overruns: the cycles start as after an overrun.
+  for (int k = 0; k < limit - 1; ++k) axis.daemon.run_cycle_after(0.0, true);
+  axis.daemon.run_cycle_after(0.0, false);
+  REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
   for (int k = 0; k < limit; ++k) {
-    REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
-    axis.daemon.cycle().report_overrun(true);
+    REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
+    axis.daemon.run_cycle_after(0.0, true);
   }
-  CHECK(axis.daemon.cycle().fault() == Fault::kRepeatedOverruns);
+  CHECK(axis.daemon.cycle().status().fault == Fault::kRepeatedOverruns);
   CHECK(axis.counters().overruns == 2 * limit - 1);
-  axis.daemon.run_cycles(1);  // the next cycle's frames
+  axis.daemon.run_cycles(1);
   axis.require_latched(Fault::kRepeatedOverruns);
   axis.require_recovers();
 }
@@ -506,7 +501,7 @@ TEST_CASE("a failing send latches kSendFailed and zero setpoints go out as soon 
   const double drive_time_s = axis.motor().truth().time_s;
   axis.injection().fail_sends = true;
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
-  CHECK(axis.daemon.cycle().fault() == Fault::kSendFailed);
+  CHECK(axis.daemon.cycle().status().fault == Fault::kSendFailed);
   // Nothing reached the nodes (not even the SYNC): the drive did not step.
   CHECK(axis.motor().truth().time_s == drive_time_s);
   CHECK(test::sent_setpoints(axis.wired).frames == 0);
@@ -527,7 +522,7 @@ TEST_CASE("a lost setpoint frame never makes the drive apply a mix of two cycles
   const double pole_pitch_m = axis.daemon.config().motor.pole_pitch_m;
   for (int k = 0; k < 20; ++k) {
     axis.daemon.run_cycles(1);
-    REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+    REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
     if (k == 0) continue;  // the cycle whose set was incomplete: the drive keeps the last complete one
     // The currents the drive applies are those of this cycle's frames.
     const auto sent = test::sent_setpoints(axis.wired);
@@ -551,24 +546,24 @@ TEST_CASE("an experiment ends with a disable and with a fault: the next enable d
   axis.start_experiment();
   SECTION("disable") {
     test::command(axis.daemon, Kind::kDisable, 2);
-    INFO("commutation after disable: " << servo::name(axis.daemon.cycle().mode()));
-    CHECK(axis.daemon.cycle().state() == ServoState::kDisabled);
-    CHECK(axis.daemon.cycle().mode() == service);
+    INFO("commutation after disable: " << servo::name(axis.daemon.cycle().status().mode));
+    CHECK(axis.daemon.cycle().status().state == ServoState::kDisabled);
+    CHECK(axis.daemon.cycle().status().mode == service);
   }
   SECTION("fault") {
     axis.injection().drop_drive_frames = axis.limit();
     REQUIRE(test::run_until_fault(axis.daemon, 50) == axis.limit());
-    INFO("commutation after the fault: " << servo::name(axis.daemon.cycle().mode()));
-    CHECK(axis.daemon.cycle().mode() == service);
+    INFO("commutation after the fault: " << servo::name(axis.daemon.cycle().status().mode));
+    CHECK(axis.daemon.cycle().status().mode == service);
     test::command(axis.daemon, Kind::kClearFault, 2);
-    REQUIRE(axis.daemon.cycle().state() == ServoState::kDisabled);
+    REQUIRE(axis.daemon.cycle().status().state == ServoState::kDisabled);
   }
   test::command(axis.daemon, Kind::kEnable, 5);
-  REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
-  INFO("commutation after enable: " << servo::name(axis.daemon.cycle().mode()));
-  CHECK(axis.daemon.cycle().mode() == service);
+  REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
+  INFO("commutation after enable: " << servo::name(axis.daemon.cycle().status().mode));
+  CHECK(axis.daemon.cycle().status().mode == service);
   CHECK(axis.daemon.cycle().record().commutation == service);
   CHECK(axis.daemon.cycle().record().coil_set == 0);
-  CHECK_FALSE(axis.daemon.cycle().mode_change_pending());
+  CHECK_FALSE(axis.daemon.cycle().status().mode_change_pending);
   test::require_driving_output(axis.wired);
 }

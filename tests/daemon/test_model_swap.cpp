@@ -114,7 +114,7 @@ TEST_CASE("a model loaded mid-program is swapped in only at standstill after the
   LawPair laws(rig.config, rig.first_path, rig.second_path);
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 10);
-  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
   REQUIRE(daemon.submit(fig8()).accepted());
   daemon.run_cycles(1);
   REQUIRE(daemon.cycle().record().program_running);
@@ -139,7 +139,7 @@ TEST_CASE("a model loaded mid-program is swapped in only at standstill after the
     REQUIRE(k < 40000);
     const bool running_before = daemon.cycle().record().program_running;
     daemon.run_cycles(1);
-    REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+    REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
     const Used used = laws.used(axis);
     if (!running_before && program_end_cycle < 0) program_end_cycle = daemon.cycle().record().cycle;
     if (used == Used::kSecond) {
@@ -233,7 +233,7 @@ TEST_CASE("a model file that does not load leaves the running law untouched and 
     REQUIRE(laws.used(axis) == Used::kFirst);
   }
   CHECK(daemon.law_source(CommutationMode::kPgnn) == rig.first_path);
-  CHECK(daemon.cycle().state() == servo::ServoState::kEnabled);
+  CHECK(daemon.cycle().status().state == servo::ServoState::kEnabled);
 }
 
 TEST_CASE("a commutation change requested mid-move is deferred to standstill", "[daemon][swap]") {
@@ -260,10 +260,10 @@ TEST_CASE("a commutation change requested mid-move is deferred to standstill", "
   CHECK(replies.back().accepted());
   CHECK(replies.back().text() == servo::describe(servo::CommandResult::kDeferred));
   bool was_running = true;
-  while (daemon.cycle().mode() == CommutationMode::kPgnn) {
+  while (daemon.cycle().status().mode == CommutationMode::kPgnn) {
     was_running = daemon.cycle().record().program_running;
     daemon.run_cycles(1);
-    REQUIRE(daemon.cycle().counters().cycles < 10000);
+    REQUIRE(daemon.cycle().status().counters.cycles < 10000);
   }
   CHECK_FALSE(was_running);
   CHECK(std::abs(axis.simulated_motor()->truth().velocity_m_per_s) < rig.config.servo.standstill_velocity_m_per_s);

@@ -45,8 +45,8 @@ void check_cycles_allocate_nothing(CommutationMode mode, const std::string& serv
     REQUIRE(daemon.submit(set).accepted());
   }
   test::command(daemon, Kind::kEnable, 10);
-  REQUIRE(daemon.cycle().mode() == mode);
-  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  REQUIRE(daemon.cycle().status().mode == mode);
+  REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
 
   // Fig. 8 four times over (≈ 124 s): a program runs through all 10^5 cycles.
   servod::ProgramFile fig8 = servod::load_program_file(test::source_path("config/programs/fig8.yaml"));
@@ -61,7 +61,7 @@ void check_cycles_allocate_nothing(CommutationMode mode, const std::string& serv
   feedforward.feedforward = daemon.config().servo.feedforward;
   REQUIRE(daemon.submit(feedforward).accepted());
 
-  const auto before = daemon.cycle().counters();
+  const auto before = daemon.cycle().status().counters;
   std::size_t allocations = 0;
   const std::size_t malloc_before = test::malloc_calls();
   {
@@ -70,12 +70,12 @@ void check_cycles_allocate_nothing(CommutationMode mode, const std::string& serv
     allocations = scope.allocations();
   }
   const std::size_t malloc_calls = test::malloc_calls() - malloc_before;
-  const auto& after = daemon.cycle().counters();
+  const auto& after = daemon.cycle().status().counters;
   CHECK(allocations == 0);
   CHECK(malloc_calls == 0);
   CHECK(after.cycles - before.cycles == kCycles);
   // It really drove the axis, with feedback in every cycle, all the way.
-  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
   CHECK(daemon.cycle().record().program_running);
   CHECK(after.frames_missing == before.frames_missing);
   CHECK(test::sent_setpoints(axis).command.enable);
@@ -115,7 +115,7 @@ TEST_CASE("stops, quick stops, a jog, the approach guard and fault reactions all
   const auto& s = daemon.config().servo;
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 10);
-  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
   std::size_t allocations = 0;
   std::size_t malloc_calls = 0;
   const auto counted = [&](std::int64_t cycles) {
@@ -125,7 +125,7 @@ TEST_CASE("stops, quick stops, a jog, the approach guard and fault reactions all
     allocations += scope.allocations();
     malloc_calls += test::malloc_calls() - malloc_before;
   };
-  const auto before = daemon.cycle().counters();
+  const auto before = daemon.cycle().status().counters;
   for (int round = 0; round < 20; ++round) {
     servo::Command move;
     move.kind = Kind::kMoveTo;
@@ -137,15 +137,15 @@ TEST_CASE("stops, quick stops, a jog, the approach guard and fault reactions all
     stop.kind = round % 3 == 0 ? Kind::kStop : Kind::kQuickStop;
     REQUIRE(daemon.submit(stop).accepted());
     counted(400);
-    REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
-    REQUIRE(daemon.cycle().idle());
+    REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
+    REQUIRE(daemon.cycle().mailbox().at_rest());
     (void)daemon.take_replies();
   }
   // A jog: renewed three times (renew_jog itself is lock-free and runs on
   // the command thread), then stopped by its timeout in the cycle.
   servo::Command jog;
   jog.kind = Kind::kJog;
-  jog.jog_velocity_m_per_s = daemon.cycle().hold_position_m() > 0.0 ? -0.1 : 0.1;
+  jog.jog_velocity_m_per_s = daemon.cycle().mailbox().hold_position_m() > 0.0 ? -0.1 : 0.1;
   jog.limits = {0.1, 1.0, 1000.0};
   (void)daemon.take_replies();
   REQUIRE(daemon.submit(jog).answered_later());
@@ -158,26 +158,26 @@ TEST_CASE("stops, quick stops, a jog, the approach guard and fault reactions all
     REQUIRE(daemon.submit(jog).text() == "jogging");
   }
   counted(600);
-  REQUIRE(daemon.cycle().idle());
-  CHECK(daemon.cycle().counters().jog_timeouts == 1);
+  REQUIRE(daemon.cycle().mailbox().at_rest());
+  CHECK(daemon.cycle().status().counters.jog_timeouts == 1);
   // A fault reaction: overruns reported while moving.
   servo::Command move;
   move.kind = Kind::kMoveTo;
-  move.target_m = daemon.cycle().hold_position_m() > 0.0 ? -0.1 : 0.1;
+  move.target_m = daemon.cycle().mailbox().hold_position_m() > 0.0 ? -0.1 : 0.1;
   move.limits = s.motion_limits;
   REQUIRE(daemon.submit(move).accepted());
   counted(100);
   {
     test::AllocationScope scope;
-    for (int k = 0; k < s.overrun_limit; ++k) daemon.cycle().report_overrun(true);
+    for (int k = 0; k < s.overrun_limit; ++k) daemon.run_cycle_after(0.0, true);
     allocations += scope.allocations();
   }
-  REQUIRE(daemon.cycle().fault_reaction_running());
+  REQUIRE(daemon.cycle().status().fault_reaction_running);
   counted(500);
-  CHECK_FALSE(daemon.cycle().fault_reaction_running());
+  CHECK_FALSE(daemon.cycle().status().fault_reaction_running);
   CHECK(allocations == 0);
   CHECK(malloc_calls == 0);
-  const auto& after = daemon.cycle().counters();
+  const auto& after = daemon.cycle().status().counters;
   CHECK(after.stops - before.stops == 7 + 1);  // and the jog's
   CHECK(after.quick_stops - before.quick_stops == 13 + 1);
 }

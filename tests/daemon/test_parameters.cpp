@@ -105,7 +105,7 @@ TEST_CASE("set is applied by the cycle at standstill, and moves are checked agai
   CHECK(daemon.cycle().settings().pid.proportional_N_per_m == expected.proportional_N_per_m);
   CHECK(daemon.cycle().settings().pid.derivative_N_s_per_m == expected.derivative_N_s_per_m);
   daemon.run_cycles(200);
-  CHECK(daemon.cycle().state() == servo::ServoState::kEnabled);  // no bump at rest
+  CHECK(daemon.cycle().status().state == servo::ServoState::kEnabled);  // no bump at rest
   REQUIRE(daemon.submit(move_to(-0.02, 0.1)).accepted());
   daemon.run_until_idle(20000);
   daemon.run_cycles(500);

@@ -56,13 +56,13 @@ TEST_CASE("with phase_current every cycle sends the PGNN law's currents, which t
 
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 10);
-  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
   REQUIRE(daemon.submit(fig8()).accepted());
   int driving_cycles = 0;
   double largest_current_A = 0.0;
   for (int k = 0; k < 3000; ++k) {
     daemon.run_cycles(1);
-    REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+    REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
     const auto& record = daemon.cycle().record();
     const auto sent = test::sent_setpoints(axis);
     REQUIRE(sent.complete);
@@ -107,7 +107,7 @@ TEST_CASE("with phase_current the experiments send the drive's nominal law throu
   REQUIRE(daemon.submit(fig8()).accepted());
   for (int k = 0; k < 2000; ++k) {
     daemon.run_cycles(1);
-    REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+    REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
     const auto& record = daemon.cycle().record();
     const auto sent = test::sent_setpoints(axis);
     REQUIRE(sent.complete);
@@ -137,13 +137,13 @@ TEST_CASE("with phase_current the axis tracks Fig. 8 with the PGNN law as closel
     daemon.run_cycles(10);
     test::command(daemon, Kind::kEnable, 10);
     const control::MoveProgram expected = servod::program_from(
-        servod::load_program_file(test::source_path("config/programs/fig8.yaml")), daemon.cycle().hold_position_m());
+        servod::load_program_file(test::source_path("config/programs/fig8.yaml")), daemon.cycle().mailbox().hold_position_m());
     REQUIRE(daemon.submit(fig8()).accepted());
     double sum_sq = 0.0;
     std::int64_t cycles = 0;
     for (double t_s = 0.0; t_s <= expected.duration_s(); t_s = static_cast<double>(cycles) * config.servo.period_s) {
       daemon.run_cycles(1);
-      REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+      REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
       const double error_m = expected.sample(t_s).position_m - axis.simulated_motor()->truth().position_m;
       sum_sq += error_m * error_m;
       ++cycles;

@@ -16,7 +16,7 @@ TEST_CASE("the daemon runs the Fig. 8 program with the drive's own commutation a
   servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable);
-  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
   servo::Command run;
   run.kind = Kind::kRunProgram;
   run.program.assign(test::source_path("config/programs/fig8.yaml"));
@@ -27,7 +27,7 @@ TEST_CASE("the daemon runs the Fig. 8 program with the drive's own commutation a
   while (true) {
     daemon.run_cycles(1);
     const auto& record = daemon.cycle().record();
-    REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+    REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
     if (!record.program_running && n > 10) break;
     // Independent of the daemon's own record: the simulator's true position.
     const double error = record.r_m - axis.simulated_motor()->truth().position_m;

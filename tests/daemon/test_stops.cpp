@@ -31,7 +31,7 @@ struct Axis {
   explicit Axis(const servod::ServodConfig& config = test::virtual_config()) : wired(config), daemon(wired.daemon) {
     daemon.run_cycles(10);
     test::command(daemon, Kind::kEnable, 20);
-    REQUIRE(daemon.cycle().state() == ServoState::kEnabled);
+    REQUIRE(daemon.cycle().status().state == ServoState::kEnabled);
   }
   const servo::ServoSettings& settings() const { return daemon.config().servo; }
   sim::SimulatedMotor& motor() { return *wired.simulated_motor(); }
@@ -50,7 +50,7 @@ struct Axis {
     REQUIRE(move_to(target_m, {0.1, 1.0, 1000.0}).accepted());
     daemon.run_until_idle(20000);
     daemon.run_cycles(300);
-    REQUIRE(daemon.cycle().state() == ServoState::kEnabled);
+    REQUIRE(daemon.cycle().status().state == ServoState::kEnabled);
   }
   /// A move to `target_m` at the motion limits, run until it cruises at the largest velocity.
   void at_full_speed(double target_m) {
@@ -96,7 +96,7 @@ TEST_CASE("stop and quick stop during a move at speed: no fault, within the soft
   servo::Command stop;
   stop.kind = quick ? Kind::kQuickStop : Kind::kStop;
   REQUIRE(axis.daemon.submit(stop).accepted());
-  const auto stops_before = axis.daemon.cycle().counters();
+  const auto stops_before = axis.daemon.cycle().status().counters;
   double previous_a = from.acceleration_m_per_s2;
   const double jerk_limit = std::max(limits.jerk_m_per_s3, move.jerk_m_per_s3);
   const auto max_cycles = static_cast<int>(std::ceil(planned.duration_s() / s.period_s)) + 1;
@@ -107,7 +107,7 @@ TEST_CASE("stop and quick stop during a move at speed: no fault, within the soft
     const auto& r = axis.record();
     INFO("cycle " << cycles << " of the stop: r = " << r.r_m << " m, v = " << r.r_dot_m_per_s << " m/s, a = "
                   << r.r_ddot_m_per_s2 << " m/s^2, y = " << axis.motor().truth().position_m << " m");
-    REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+    REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
     REQUIRE_FALSE(r.program_running);
     CHECK(std::abs(r.r_ddot_m_per_s2) <= std::max(limits.deceleration_m_per_s2, std::abs(from.acceleration_m_per_s2)) + 1e-9);
     CHECK(std::abs(r.r_ddot_m_per_s2 - previous_a) <= jerk_limit * s.period_s * (1 + 1e-9) + 1e-9);
@@ -124,17 +124,17 @@ TEST_CASE("stop and quick stop during a move at speed: no fault, within the soft
   CHECK(r.r_m == Approx(planned.rest_position_m()).margin(1e-12));
   CHECK(cycles <= max_cycles);
   // One stop planned, when the command was drained (none when the move had ended).
-  CHECK(axis.daemon.cycle().counters().stops + axis.daemon.cycle().counters().quick_stops ==
+  CHECK(axis.daemon.cycle().status().counters.stops + axis.daemon.cycle().status().counters.quick_stops ==
         stops_before.stops + stops_before.quick_stops + (moving ? 1 : 0));
   // Settles where the reference rests, still enabled, no fault.
   axis.daemon.run_cycles(500);
-  REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+  REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
   CHECK(std::abs(axis.motor().truth().position_m - planned.rest_position_m()) < 1e-4);
-  CHECK(axis.daemon.cycle().counters().guard_stops == 0);
+  CHECK(axis.daemon.cycle().status().counters.guard_stops == 0);
   // The axis takes a new move from there.
   REQUIRE(axis.move_to(0.0, {0.1, 1.0, 1000.0}).accepted());
   axis.daemon.run_until_idle(20000);
-  CHECK(axis.daemon.cycle().state() == ServoState::kEnabled);
+  CHECK(axis.daemon.cycle().status().state == ServoState::kEnabled);
 }
 
 TEST_CASE("move-to beyond the motion limits, or whose stop from some cycle would leave the soft limits, is refused "
@@ -175,8 +175,8 @@ TEST_CASE("move-to beyond the motion limits, or whose stop from some cycle would
   CHECK(gentle.daemon.submit(move).accepted());
   gentle.daemon.run_until_idle(20000);
   gentle.daemon.run_cycles(300);
-  CHECK(gentle.daemon.cycle().state() == ServoState::kEnabled);
-  CHECK(gentle.daemon.cycle().counters().guard_stops == 0);
+  CHECK(gentle.daemon.cycle().status().state == ServoState::kEnabled);
+  CHECK(gentle.daemon.cycle().status().counters.guard_stops == 0);
 }
 
 TEST_CASE("a program beyond the motion limits is refused as a whole when it is posted", "[daemon][stops]") {
@@ -204,26 +204,27 @@ TEST_CASE("the approach guard quick-stops a move whose reference could not stop 
   Axis axis(config);
   const auto& s = axis.settings();
   axis.go_to(0.0);
-  control::MoveProgram program(axis.daemon.cycle().hold_position_m(),
+  control::MoveProgram program(axis.daemon.cycle().mailbox().hold_position_m(),
                                {{s.soft_limit_max_m + 0.015, {0.5, 10.0, 1000.0}, 0.0}});
-  REQUIRE(axis.daemon.cycle().program_handover().post(&program));
+  REQUIRE(axis.daemon.cycle().mailbox().post_program(&program));
   int cycles = 0;
   while (axis.record().program_running || axis.record().stopping || cycles < 2) {
     axis.daemon.run_cycles(1);
     REQUIRE(++cycles < 5000);
     INFO("cycle " << cycles << ": r = " << axis.record().r_m << " m, v = " << axis.record().r_dot_m_per_s
                   << " m/s, y = " << axis.motor().truth().position_m << " m, fault "
-                  << servo::describe(axis.daemon.cycle().fault()));
-    REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
+                  << servo::describe(axis.daemon.cycle().status().fault));
+    REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
     REQUIRE(axis.motor().truth().position_m <= s.soft_limit_max_m);
   }
-  CHECK(axis.daemon.cycle().counters().guard_stops == 1);
+  CHECK(axis.daemon.cycle().status().counters.guard_stops == 1);
   CHECK(axis.record().r_m <= s.soft_limit_max_m);
   axis.daemon.run_cycles(300);
-  CHECK(axis.daemon.cycle().state() == ServoState::kEnabled);
+  CHECK(axis.daemon.cycle().status().state == ServoState::kEnabled);
   CHECK(axis.motor().truth().position_m <= s.soft_limit_max_m);
   // Let the daemon forget the program before it goes out of scope.
-  axis.daemon.cycle().disable();
+  axis.daemon.request_disable();
+  axis.daemon.run_cycles(1);
 }
 
 TEST_CASE("every fault injected at full speed gets the reaction of the table and the translator stays inside the end "
@@ -282,7 +283,7 @@ TEST_CASE("every fault injected at full speed gets the reaction of the table and
       expected = Fault::kForceSaturated;
       break;
     case How::kOverruns:
-      for (int k = 0; k < s.overrun_limit; ++k) daemon.cycle().report_overrun(true);
+      for (int k = 0; k < s.overrun_limit; ++k) daemon.run_cycle_after(0.0, true);
       expected = Fault::kRepeatedOverruns;
       break;
     case How::kDriveFault: injection.drop_setpoint_frames = 1000; expected = Fault::kDriveFault; break;
@@ -295,9 +296,9 @@ TEST_CASE("every fault injected at full speed gets the reaction of the table and
   }
   const FaultReaction reaction = servo::reaction(expected);
   std::int64_t cycles = 0;
-  if (daemon.cycle().state() != ServoState::kFault) cycles = test::run_until_fault(daemon, 200);
+  if (daemon.cycle().status().state != ServoState::kFault) cycles = test::run_until_fault(daemon, 200);
   REQUIRE(cycles <= 200);
-  REQUIRE(daemon.cycle().fault() == expected);
+  REQUIRE(daemon.cycle().status().fault == expected);
   wired.simulated_motor()->set_disturbance_force_N(0.0);
   injection.fail_sends = false;
   injection.bus_state = drivers::BusState::kActive;
@@ -307,30 +308,30 @@ TEST_CASE("every fault injected at full speed gets the reaction of the table and
   REQUIRE(sent.complete);
   if (reaction == FaultReaction::kQuickStop) {
     CHECK(sent.command.enable);
-    CHECK(daemon.cycle().fault_reaction_running());
+    CHECK(daemon.cycle().status().fault_reaction_running);
     const control::StopProfile planned =
         control::StopProfile::plan(reference_of(daemon.cycle().record()), s.quick_stop_limits);
     const auto max_cycles = static_cast<int>(std::ceil(planned.duration_s() / s.period_s)) + 2;
     int k = 0;
-    while (daemon.cycle().fault_reaction_running()) {
+    while (daemon.cycle().status().fault_reaction_running) {
       daemon.run_cycles(1);
       REQUIRE(++k <= max_cycles);
-      REQUIRE(daemon.cycle().state() == ServoState::kFault);
-      REQUIRE(daemon.cycle().fault() == expected);
+      REQUIRE(daemon.cycle().status().state == ServoState::kFault);
+      REQUIRE(daemon.cycle().status().fault == expected);
       CHECK(std::abs(daemon.cycle().record().r_ddot_m_per_s2) <= s.quick_stop_limits.deceleration_m_per_s2 + 1e-9);
     }
     CHECK(std::abs(daemon.cycle().record().r_dot_m_per_s) == 0.0);
   } else {
     CHECK_FALSE(sent.command.enable);
     CHECK(sent.all_magnitudes_zero());
-    CHECK_FALSE(daemon.cycle().fault_reaction_running());
+    CHECK_FALSE(daemon.cycle().status().fault_reaction_running);
   }
   // From here on zero, disabled, until the translator has come to rest.
   injection = sim::Injection{};
   for (int k = 0; k < 1500; ++k) {
     daemon.run_cycles(1);
-    REQUIRE(daemon.cycle().state() == ServoState::kFault);
-    REQUIRE(daemon.cycle().fault() == expected);
+    REQUIRE(daemon.cycle().status().state == ServoState::kFault);
+    REQUIRE(daemon.cycle().status().fault == expected);
     test::require_safe_output(wired, how != How::kDriveFault);
     const auto& mechanics = wired.simulated_motor()->parameters().mechanics;
     const double y = wired.simulated_motor()->truth().position_m;
@@ -358,15 +359,15 @@ TEST_CASE("the force sensor lost at full speed in service is a warning: the move
   bool warned = false;
   while (axis.record().program_running || axis.record().stopping) {
     axis.daemon.run_cycles(1);
-    REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
-    warned = warned || axis.daemon.cycle().force_sensor_warning() == expected;
+    REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
+    warned = warned || axis.daemon.cycle().status().force_sensor_warning == expected;
     REQUIRE(std::abs(axis.record().e_m) <= s.following_error_limit_m);
   }
   CHECK(warned);
-  CHECK(axis.daemon.cycle().counters().force_sensor_losses == 1);
+  CHECK(axis.daemon.cycle().status().counters.force_sensor_losses == 1);
   axis.daemon.run_cycles(300);
   CHECK(std::abs(axis.motor().truth().position_m - 0.1) < 1e-5);
-  CHECK(axis.daemon.cycle().state() == ServoState::kEnabled);
+  CHECK(axis.daemon.cycle().status().state == ServoState::kEnabled);
 }
 
 TEST_CASE("a fault that distrusts the feedback, during a quick-stop reaction, zeroes the setpoints at once",
@@ -383,14 +384,14 @@ TEST_CASE("a fault that distrusts the feedback, during a quick-stop reaction, ze
   auto& motor = axis.motor();
   motor.reset(motor.truth().position_m - 0.003, motor.truth().velocity_m_per_s);
   REQUIRE(test::run_until_fault(daemon, 200) <= 200);
-  REQUIRE(daemon.cycle().fault() == Fault::kFollowingError);
-  REQUIRE(daemon.cycle().fault_reaction_running());
+  REQUIRE(daemon.cycle().status().fault == Fault::kFollowingError);
+  REQUIRE(daemon.cycle().status().fault_reaction_running);
   daemon.run_cycles(5);
-  REQUIRE(daemon.cycle().fault_reaction_running());  // still braking under position control
+  REQUIRE(daemon.cycle().status().fault_reaction_running);  // still braking under position control
   REQUIRE(test::sent_setpoints(wired).command.enable);
   injection.drop_drive_frames = s.missing_frame_limit;
   int k = 0;
-  while (daemon.cycle().fault_reaction_running()) {
+  while (daemon.cycle().status().fault_reaction_running) {
     daemon.run_cycles(1);
     REQUIRE(++k <= s.missing_frame_limit);
   }
@@ -398,7 +399,7 @@ TEST_CASE("a fault that distrusts the feedback, during a quick-stop reaction, ze
   REQUIRE(sent.complete);
   CHECK_FALSE(sent.command.enable);
   CHECK(sent.all_magnitudes_zero());
-  CHECK(daemon.cycle().fault() == Fault::kFollowingError);  // the first reason stays
+  CHECK(daemon.cycle().status().fault == Fault::kFollowingError);  // the first reason stays
   injection = sim::Injection{};
   for (int n = 0; n < 1500; ++n) {
     daemon.run_cycles(1);
@@ -425,17 +426,17 @@ TEST_CASE("a jog moves at its velocity while repeated and stops along the stop l
   CHECK(reply.answered_later());  // by the cycle, once it has taken the jog
   // A repeat before the cycle has taken the jog (a stalled loop) keeps it, and
   // the jog starts with its whole timeout.
-  CHECK(daemon.cycle().jog_pending());
+  CHECK(daemon.cycle().mailbox().jog_pending());
   reply = daemon.submit(jog);
   REQUIRE(reply.accepted());
   CHECK(reply.text() == "jogging");
   CHECK(test::cycle_answer(daemon).text() == "jog started");
-  CHECK_FALSE(daemon.cycle().jog_pending());
-  CHECK(daemon.cycle().jogging());
+  CHECK_FALSE(daemon.cycle().mailbox().jog_pending());
+  CHECK(daemon.cycle().mailbox().jogging());
   // Repeated every 0.1 s for 0.5 s: at the velocity, towards the lower limit.
   for (int k = 0; k < 5; ++k) {
     daemon.run_cycles(100);
-    CHECK(daemon.cycle().jogging());
+    CHECK(daemon.cycle().mailbox().jogging());
     reply = daemon.submit(jog);
     REQUIRE(reply.accepted());
     CHECK(reply.text() == "jogging");
@@ -450,7 +451,7 @@ TEST_CASE("a jog moves at its velocity while repeated and stops along the stop l
   // of that cycle, within the stop limits, then at rest; no fault.
   const auto timeout_cycles = static_cast<int>(std::ceil(s.jog_timeout_s / s.period_s));
   int k = 0;
-  while (daemon.cycle().jogging()) {
+  while (daemon.cycle().mailbox().jogging()) {
     daemon.run_cycles(1);
     REQUIRE(++k <= timeout_cycles + 2);
   }
@@ -462,9 +463,9 @@ TEST_CASE("a jog moves at its velocity while repeated and stops along the stop l
     CHECK(std::abs(axis.record().r_ddot_m_per_s2) <= s.stop_limits.deceleration_m_per_s2 + 1e-9);
   }
   CHECK(axis.record().r_dot_m_per_s == 0.0);
-  CHECK(daemon.cycle().idle());
-  CHECK(daemon.cycle().state() == ServoState::kEnabled);
-  CHECK(daemon.cycle().counters().jog_timeouts == 1);
+  CHECK(daemon.cycle().mailbox().at_rest());
+  CHECK(daemon.cycle().status().state == ServoState::kEnabled);
+  CHECK(daemon.cycle().status().counters.jog_timeouts == 1);
   // A repeat after the stop starts a new jog.
   (void)daemon.take_replies();
   CHECK(daemon.submit(jog).answered_later());
@@ -482,15 +483,15 @@ TEST_CASE("a repeated jog ends a following-error limit short of the soft limit; 
   jog.limits = s.motion_limits;
   REQUIRE(daemon.submit(jog).accepted());
   double highest_m = -1.0;
-  for (int k = 0; k < 100 && (daemon.cycle().jogging() || k == 0); ++k) {
+  for (int k = 0; k < 100 && (daemon.cycle().mailbox().jogging() || k == 0); ++k) {
     daemon.run_cycles(50);
     daemon.submit(jog);  // refused once the jog has ended at the limit
     highest_m = std::max(highest_m, axis.motor().truth().position_m);
   }
-  CHECK_FALSE(daemon.cycle().jogging());
+  CHECK_FALSE(daemon.cycle().mailbox().jogging());
   CHECK(axis.record().r_m == Approx(s.soft_limit_max_m - s.following_error_limit_m));
   CHECK(highest_m < s.soft_limit_max_m);
-  CHECK(daemon.cycle().state() == ServoState::kEnabled);
+  CHECK(daemon.cycle().status().state == ServoState::kEnabled);
   CHECK_THAT(daemon.submit(jog).text(), Catch::Contains("at the soft limit in that direction already"));
 
   servo::Command bad = jog;
@@ -516,18 +517,18 @@ TEST_CASE("after fault 202 the axis is enabled in restricted mode and only a slo
   // The translator pushed past the soft limit by hand.
   axis.motor().reset(s.soft_limit_max_m + 0.01);
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
-  REQUIRE(axis.daemon.cycle().fault() == Fault::kPositionOutOfRange);
+  REQUIRE(axis.daemon.cycle().status().fault == Fault::kPositionOutOfRange);
   axis.daemon.run_cycles(20);
   // clear-fault still re-latches at once while outside.
   test::command(axis.daemon, Kind::kClearFault);
-  REQUIRE(axis.daemon.cycle().fault() == Fault::kPositionOutOfRange);
+  REQUIRE(axis.daemon.cycle().status().fault == Fault::kPositionOutOfRange);
   (void)axis.daemon.take_replies();
   test::command(axis.daemon, Kind::kEnable, 5);
   const auto replies = axis.daemon.take_replies();
   REQUIRE(replies.size() == 1);
   CHECK(replies[0].accepted());
-  REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
-  CHECK(axis.daemon.cycle().restricted());
+  REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
+  CHECK(axis.daemon.cycle().mailbox().restricted());
   CHECK(axis.record().restricted);
   CHECK(telemetry::to_message(axis.record()).restricted);  // CLM_SERVO_STATE says so too
   test::require_driving_output(axis.wired);
@@ -551,14 +552,14 @@ TEST_CASE("after fault 202 the axis is enabled in restricted mode and only a slo
   REQUIRE(reply.accepted());
   axis.daemon.run_until_idle(20000);
   axis.daemon.run_cycles(300);
-  REQUIRE(axis.daemon.cycle().state() == ServoState::kEnabled);
-  CHECK_FALSE(axis.daemon.cycle().restricted());
+  REQUIRE(axis.daemon.cycle().status().state == ServoState::kEnabled);
+  CHECK_FALSE(axis.daemon.cycle().mailbox().restricted());
   CHECK_FALSE(axis.record().restricted);
   CHECK(std::abs(axis.motor().truth().position_m - 0.1) < 1e-4);
   // Normal again: a brisk move is accepted.
   CHECK(axis.move_to(0.0, {0.5, 10.0, 1000.0}).accepted());
   axis.daemon.run_until_idle(20000);
-  CHECK(axis.daemon.cycle().state() == ServoState::kEnabled);
+  CHECK(axis.daemon.cycle().status().state == ServoState::kEnabled);
 }
 
 TEST_CASE("restricted mode: moving farther out latches 202 again; far outside it is not offered", "[daemon][stops][faults]") {
@@ -570,12 +571,12 @@ TEST_CASE("restricted mode: moving farther out latches 202 again; far outside it
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
   (void)axis.daemon.take_replies();
   test::command(axis.daemon, Kind::kEnable, 5);
-  REQUIRE(axis.daemon.cycle().restricted());
+  REQUIRE(axis.daemon.cycle().mailbox().restricted());
   // Pushed 3 mm farther out (more than the following-error limit): 202 again.
   axis.motor().reset(s.soft_limit_min_m - 0.008);
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
-  CHECK(axis.daemon.cycle().fault() == Fault::kPositionOutOfRange);
-  CHECK_FALSE(axis.daemon.cycle().restricted());
+  CHECK(axis.daemon.cycle().status().fault == Fault::kPositionOutOfRange);
+  CHECK_FALSE(axis.daemon.cycle().mailbox().restricted());
   // Beyond recovery_margin_m: enable stays refused.
   axis.motor().reset(s.soft_limit_min_m - s.recovery_margin_m - 0.001);
   axis.daemon.run_cycles(5);
@@ -584,5 +585,5 @@ TEST_CASE("restricted mode: moving farther out latches 202 again; far outside it
   const auto replies = axis.daemon.take_replies();
   REQUIRE(replies.size() == 1);
   CHECK_FALSE(replies[0].accepted());
-  CHECK(axis.daemon.cycle().state() == ServoState::kFault);
+  CHECK(axis.daemon.cycle().status().state == ServoState::kFault);
 }

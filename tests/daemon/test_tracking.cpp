@@ -30,9 +30,9 @@ Tracking run_fig8(servod::WiredAxis& axis) {
   servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 10);
-  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
   const std::string path = test::source_path("config/programs/fig8.yaml");
-  const control::MoveProgram expected = servod::program_from(servod::load_program_file(path), daemon.cycle().hold_position_m());
+  const control::MoveProgram expected = servod::program_from(servod::load_program_file(path), daemon.cycle().mailbox().hold_position_m());
   servo::Command run;
   run.kind = Kind::kRunProgram;
   run.program.assign(path);
@@ -42,7 +42,7 @@ Tracking run_fig8(servod::WiredAxis& axis) {
   double sum_sq = 0.0;
   while (true) {
     daemon.run_cycles(1);
-    REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+    REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
     const double t_s = static_cast<double>(result.cycles) * period_s;
     if (t_s > expected.duration_s()) break;
     const double r_m = expected.sample(t_s).position_m;
@@ -80,14 +80,14 @@ TEST_CASE("the daemon runs the Fig. 8 program in every commutation mode and trac
   const double max_error_m = 1.5 * motion_force_N / config.servo.pid.proportional_N_per_m;  // ≈ 0.1 mm
   servod::WiredAxis axis(config);
   servod::ServoDaemon& daemon = axis.daemon;
-  REQUIRE(daemon.cycle().mode() == mode);
+  REQUIRE(daemon.cycle().status().mode == mode);
   const Tracking tracking = run_fig8(axis);
   INFO(servo::name(mode) << ": " << tracking.cycles << " cycles, max |r - y| " << tracking.max_error_m << " m, rms "
                          << tracking.rms_error_m << " m, end at " << tracking.final_position_m << " m; bound " << max_error_m << " m");
   CHECK(tracking.cycles > 25000);  // the whole program: six moves of 0.2 m and the approach
   CHECK(tracking.max_error_m < max_error_m);
   CHECK(std::abs(tracking.final_position_m - (-0.1)) < 10e-6);
-  CHECK(daemon.cycle().counters().frames_missing == 0);
+  CHECK(daemon.cycle().status().counters.frames_missing == 0);
 }
 
 TEST_CASE("without a force sensor the axis tracks Fig. 8 with the PGNN law exactly as with one, nothing waits for "
@@ -109,10 +109,10 @@ TEST_CASE("without a force sensor the axis tracks Fig. 8 with the PGNN law exact
   CHECK(tracking.cycles == reference.cycles);
   CHECK(tracking.rms_error_m == reference.rms_error_m);
   CHECK(tracking.max_error_m == reference.max_error_m);
-  const auto& counters = bare.daemon.cycle().counters();
+  const auto& counters = bare.daemon.cycle().status().counters;
   CHECK(counters.frames_missing == 0);
   CHECK(counters.force_sensor_losses == 0);
-  CHECK(bare.daemon.cycle().force_sensor_warning() == servo::Fault::kNone);
+  CHECK(bare.daemon.cycle().status().force_sensor_warning == servo::Fault::kNone);
   CHECK_FALSE(bare.daemon.cycle().record().force_measured);
   CHECK(sensed.daemon.cycle().record().force_measured);
   // Per cycle the bus carries SYNC, one feedback frame and the setpoints.
@@ -130,6 +130,6 @@ TEST_CASE("without a force sensor the axis tracks Fig. 8 with the PGNN law exact
   const auto replies = bare.daemon.take_replies();
   REQUIRE(replies.size() == 1);
   CHECK(replies[0].accepted());
-  CHECK(bare.daemon.cycle().mode() == CommutationMode::kExperiment);
+  CHECK(bare.daemon.cycle().status().mode == CommutationMode::kExperiment);
   CHECK_FALSE(bare.daemon.cycle().record().force_measured);
 }

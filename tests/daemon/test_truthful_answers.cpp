@@ -143,10 +143,10 @@ TEST_CASE("move_to while disabled or faulted is refused with the reason, and cou
   CHECK(daemon.commands_refused() == 1);
 
   test::command(daemon, Kind::kEnable, 20);
-  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
   axis.in_process_bus()->injection().drop_drive_frames = 1000;
   test::run_until_fault(daemon, 1000);
-  REQUIRE(daemon.cycle().state() == servo::ServoState::kFault);
+  REQUIRE(daemon.cycle().status().state == servo::ServoState::kFault);
   reply = daemon.submit(move_to(0.01, 2));
   CHECK_FALSE(reply.accepted());
   CHECK(reply.text() == "rejected: a fault is latched, clear it first");
@@ -159,9 +159,9 @@ TEST_CASE("a posted move the cycle does not start is answered with the cycle's r
   servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 20);
-  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
   (void)daemon.take_replies();
-  const auto dropped_before = daemon.cycle().counters().programs_rejected;
+  const auto dropped_before = daemon.cycle().status().counters.programs_rejected;
   const auto refused_before = daemon.commands_refused();
 
   // Decided while enabled; a disable latched before the next cycle: the
@@ -174,7 +174,7 @@ TEST_CASE("a posted move the cycle does not start is answered with the cycle's r
   CHECK_FALSE(answer.accepted());
   CHECK(answer.result == servo::CommandResult::kRejectedDisabled);
   CHECK(answer.text() == "rejected: the axis is disabled, enable first");
-  CHECK(daemon.cycle().counters().programs_rejected == dropped_before + 1);
+  CHECK(daemon.cycle().status().counters.programs_rejected == dropped_before + 1);
   CHECK(daemon.commands_refused() == refused_before + 1);
   CHECK_FALSE(daemon.cycle().record().program_running);
 
@@ -243,7 +243,7 @@ TEST_CASE("every change of state, commutation, law, file and program, and a supe
   daemon.run_cycles(500);
   CHECK(count(servod::EventCode::kProgramEnded) == 1);
   CHECK(count(servod::EventCode::kCommutationChanged) == 1);
-  CHECK(daemon.cycle().mode() == CommutationMode::kSpline);
+  CHECK(daemon.cycle().status().mode == CommutationMode::kSpline);
 
   // A model loaded: the law swapped in and the status's file change, each once.
   test::write_text(dir.file("spline-2.yaml"),

@@ -259,7 +259,7 @@ TEST_CASE("Each command gets exactly one ack: queued ones with the cycle's decis
   server.serve_once();
   REQUIRE(acks(sink).count(1) == 1);
   CHECK(acks(sink).find(1)->second.accepted);
-  CHECK(daemon.cycle().state() == servo::ServoState::kEnabled);
+  CHECK(daemon.cycle().status().state == servo::ServoState::kEnabled);
 
   // pgnn without a model: the cycle refuses it, and says why.
   auto pgnn = message(clm_lcm::servo_command_t::SET_COMMUTATION, 2);
@@ -421,7 +421,7 @@ TEST_CASE("With command authority, the server admits through the gate, answers t
   REQUIRE(acks(sink).count(1) == 1);
   CHECK_FALSE(acks(sink).find(1)->second.accepted);
   CHECK_THAT(acks(sink).find(1)->second.text, Catch::StartsWith("refused not_in_control: take control first"));
-  CHECK(daemon.cycle().state() == servo::ServoState::kDisabled);
+  CHECK(daemon.cycle().status().state == servo::ServoState::kDisabled);
 
   // Take control, enable: both accepted; the ack names the client, axis and session.
   REQUIRE(publisher.submit_command(authored(C::TAKE_CONTROL, 2, 5)));
@@ -433,7 +433,7 @@ TEST_CASE("With command authority, the server admits through the gate, answers t
   REQUIRE(acks(sink).count(3) == 1);
   CHECK(acks(sink).find(3)->second.accepted);
   CHECK(acks(sink).find(3)->second.client == 5);
-  CHECK(daemon.cycle().state() == servo::ServoState::kEnabled);
+  CHECK(daemon.cycle().status().state == servo::ServoState::kEnabled);
 
   // Another client: move refused, stop and disable obeyed; control stays with 5.
   auto move = authored(C::MOVE_TO, 4, 6);
@@ -448,7 +448,7 @@ TEST_CASE("With command authority, the server admits through the gate, answers t
   CHECK_THAT(acks(sink).find(4)->second.text, Catch::StartsWith("refused not_in_control: client 5 holds control"));
   CHECK(acks(sink).find(5)->second.accepted);
   CHECK(acks(sink).find(6)->second.accepted);
-  CHECK(daemon.cycle().state() == servo::ServoState::kDisabled);
+  CHECK(daemon.cycle().status().state == servo::ServoState::kDisabled);
 
   // Replayed, other session, other axis, client 0, stale; then a daemon refusal.
   REQUIRE(publisher.submit_command(authored(C::ENABLE, 3, 5)));
@@ -527,7 +527,7 @@ TEST_CASE("Disable through the safety latch: obeyed by the next cycle with the c
   server.serve_once();
   daemon.run_cycles(1);
   server.serve_once();
-  REQUIRE(daemon.cycle().state() == servo::ServoState::kEnabled);
+  REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
   // Fill the command queue (nobody serves it now), then disable from a client 0 of another session.
   REQUIRE(publisher.submit_command(authored(C::ENABLE, 3, 5)));
   REQUIRE(publisher.submit_command(authored(C::ENABLE, 4, 5)));
@@ -535,7 +535,7 @@ TEST_CASE("Disable through the safety latch: obeyed by the next cycle with the c
   REQUIRE(publisher.submit_command(authored(C::DISABLE, 6, 0, 78)));
   CHECK(acks(sink).count(6) == 0);  // not before a cycle obeyed it
   daemon.run_cycles(1);
-  CHECK(daemon.cycle().state() == servo::ServoState::kDisabled);
+  CHECK(daemon.cycle().status().state == servo::ServoState::kDisabled);
   publisher.flush_safety_acks();
   REQUIRE(acks(sink).count(6) == 1);
   CHECK(acks(sink).find(6)->second.accepted);
@@ -603,11 +603,11 @@ TEST_CASE("A deadman lease that lapses stops the axis, ends the experiment and r
     REQUIRE(all.count(3) == 1);
     CHECK(all.find(3)->second.accepted);
   }
-  REQUIRE(daemon.cycle().mode() == servo::CommutationMode::kExperiment);
+  REQUIRE(daemon.cycle().status().mode == servo::CommutationMode::kExperiment);
   REQUIRE(server.gate()->deadman());
   // A slow move that runs for seconds of virtual time.
   auto move = authored(C::MOVE_TO, 4, 5);
-  move.target_m = daemon.cycle().hold_position_m() + 0.02;
+  move.target_m = daemon.cycle().mailbox().hold_position_m() + 0.02;
   move.velocity_m_per_s = 0.01;
   move.acceleration_m_per_s2 = 0.1;
   move.jerk_m_per_s3 = 100.0;
@@ -636,12 +636,12 @@ TEST_CASE("A deadman lease that lapses stops the axis, ends the experiment and r
   CHECK_THAT(events.back().text, Catch::Contains("client 5") && Catch::Contains("deadman"));
   daemon.run_cycles(1);
   CHECK_FALSE(daemon.cycle().record().program_running);
-  CHECK(daemon.cycle().stopping());
+  CHECK(daemon.cycle().status().stopping);
   daemon.run_cycles(2000);  // the quick stop ends; the service law at standstill
-  CHECK(daemon.cycle().state() == servo::ServoState::kEnabled);
-  CHECK_FALSE(daemon.cycle().stopping());
-  INFO("commutation: " << servo::name(daemon.cycle().mode()));
-  CHECK(daemon.cycle().mode() == service);
+  CHECK(daemon.cycle().status().state == servo::ServoState::kEnabled);
+  CHECK_FALSE(daemon.cycle().status().stopping);
+  INFO("commutation: " << servo::name(daemon.cycle().status().mode));
+  CHECK(daemon.cycle().status().mode == service);
   // The client that lapsed must take control again.
   REQUIRE(publisher.submit_command(authored(C::ENABLE, 5, 5)));
   serve();

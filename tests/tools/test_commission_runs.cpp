@@ -68,7 +68,7 @@ struct Run {
 Run run_on_daemon(servod::WiredAxis& axis, const control::MoveProgram& program, servo::CommandKind mode_command,
                   servo::CommutationMode mode, int coil_set = 0, double delta_rad = 0.0) {
   servo::Command command;
-  if (axis.daemon.cycle().state() != servo::ServoState::kEnabled) {
+  if (axis.daemon.cycle().status().state != servo::ServoState::kEnabled) {
     command.kind = servo::CommandKind::kEnable;
     commission::execute(axis.daemon, command);
   }
