@@ -76,8 +76,8 @@ Recording run_program(servod::ServoDaemon& daemon, const sim::SimulatedMotor* tr
     throw;
   }
   daemon.set_observer(nullptr);
-  if (daemon.cycle().state() != servo::ServoState::kEnabled) {
-    throw std::runtime_error("run '" + name + "' ended in fault: " + servo::describe(daemon.cycle().fault()));
+  if (daemon.cycle().status().state != servo::ServoState::kEnabled) {
+    throw std::runtime_error("run '" + name + "' ended in fault: " + servo::describe(daemon.cycle().status().fault));
   }
   return std::move(recorder.recording());
 }
