@@ -34,6 +34,12 @@ const char* describe(CommandResult result) noexcept {
     case CommandResult::kRejectedLoaderBusy: return "busy loading another file";
     case CommandResult::kRejectedLoadWaiting: return "an earlier load is still waiting for standstill";
     case CommandResult::kRejectedFile: return "the file could not be loaded";
+    case CommandResult::kRejectedOtherAxis: return "the command names another axis";
+    case CommandResult::kRejectedOtherSession: return "the command is for another run of the daemon";
+    case CommandResult::kRejectedNoClient: return "client id 0 is not a client";
+    case CommandResult::kRejectedReplayed: return "the command's sequence is not above the client's last";
+    case CommandResult::kRejectedStale: return "the command is too old, or from the future";
+    case CommandResult::kRejectedNotInControl: return "this client does not hold control";
   }
   return "unknown";
 }

@@ -1,7 +1,7 @@
 #pragma once
-// The one result of a command inside clm-servod: what the cycle, the move
-// decision (move_decision.hpp) and the daemon answer, as one enum with one
-// describe(). The words of every answer are written here once; the ack on
+// The one result of a command inside clm-servod: what the command
+// authority, the cycle, the move decision (move_decision.hpp) and the daemon
+// answer, as one enum with one describe(). The words of every answer are written here once; the ack on
 // CLM_SERVO_COMMAND_ACK carries them (telemetry::to_message), and clm ctl
 // prints them.
 
@@ -40,6 +40,13 @@ enum class CommandResult : std::uint8_t {
   kRejectedLoaderBusy,      ///< another file is being loaded (the detail names it)
   kRejectedLoadWaiting,     ///< a law loaded earlier still waits for standstill
   kRejectedFile,            ///< the file named could not be loaded (the detail: rule or place, and path)
+  // Refused by the command authority (daemon/servod/command_gate.hpp).
+  kRejectedOtherAxis,       ///< the command names another axis
+  kRejectedOtherSession,    ///< the command is for another run of the daemon
+  kRejectedNoClient,        ///< client id 0
+  kRejectedReplayed,        ///< sequence not above the client's last admitted one
+  kRejectedStale,           ///< sent longer ago than commands.max_age_s, or in the future
+  kRejectedNotInControl,    ///< another client holds control, or nobody does
 };
 
 /// The answer's words, e.g. "a fault is latched, clear it first"; a refusal's

@@ -10,6 +10,13 @@ namespace {
 
 std::int64_t to_us(double seconds) { return static_cast<std::int64_t>(std::llround(seconds * 1e6)); }
 
+/// The index of `result` in kGateResults.
+std::size_t gate_index(servo::CommandResult result) noexcept {
+  std::size_t k = 0;
+  while (k + 1 < kGateResults.size() && kGateResults[k] != result) ++k;
+  return k;
+}
+
 std::string seconds_text(double seconds) {
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%.3g s", seconds);
@@ -18,17 +25,18 @@ std::string seconds_text(double seconds) {
 
 }  // namespace
 
-const char* name(GateRefusal refusal) noexcept {
-  switch (refusal) {
-    case GateRefusal::kAdmitted: return "admitted";
-    case GateRefusal::kOtherAxis: return "other_axis";
-    case GateRefusal::kOtherSession: return "other_session";
-    case GateRefusal::kNoClient: return "no_client";
-    case GateRefusal::kReplayed: return "replayed";
-    case GateRefusal::kStale: return "stale";
-    case GateRefusal::kNotInControl: return "not_in_control";
+const char* gate_counter_name(servo::CommandResult result) noexcept {
+  using Result = servo::CommandResult;
+  switch (result) {
+    case Result::kAccepted: return "admitted";
+    case Result::kRejectedOtherAxis: return "other_axis";
+    case Result::kRejectedOtherSession: return "other_session";
+    case Result::kRejectedNoClient: return "no_client";
+    case Result::kRejectedReplayed: return "replayed";
+    case Result::kRejectedStale: return "stale";
+    case Result::kRejectedNotInControl: return "not_in_control";
+    default: return "";
   }
-  return "unknown";
 }
 
 void CommandGateSettings::validate() const {
@@ -47,13 +55,14 @@ void CommandGateSettings::validate() const {
 
 CommandGate::CommandGate(CommandGateSettings settings) : settings_(std::move(settings)) { settings_.validate(); }
 
-GateDecision CommandGate::refuse(GateRefusal refusal, std::string reason) {
-  counts_[static_cast<std::size_t>(refusal)].fetch_add(1, std::memory_order_relaxed);
-  return {refusal, std::move(reason)};
+CommandReply CommandGate::refuse(const CommandOrigin& origin, servo::CommandResult result, const std::string& reason) {
+  counts_[gate_index(result)].fetch_add(1, std::memory_order_relaxed);
+  std::string detail = std::string(gate_counter_name(result)) + ": " + (reason.empty() ? servo::describe(result) : reason);
+  return {origin.sequence, origin.client, result, std::move(detail)};
 }
 
 void CommandGate::count_admitted() noexcept {
-  counts_[static_cast<std::size_t>(GateRefusal::kAdmitted)].fetch_add(1, std::memory_order_relaxed);
+  counts_[gate_index(servo::CommandResult::kAccepted)].fetch_add(1, std::memory_order_relaxed);
 }
 
 CommandGate::Client* CommandGate::find_client(std::int64_t id) noexcept {
@@ -83,57 +92,59 @@ bool CommandGate::admit_safety(std::string_view axis) noexcept {
   return true;
 }
 
-GateDecision CommandGate::admit(const CommandOrigin& origin, CommandClass command_class, std::int64_t now_us) {
-  if (command_class == CommandClass::kSafety && admit_safety(origin.axis)) return {};
+CommandReply CommandGate::admit(const CommandOrigin& origin, CommandClass command_class, std::int64_t now_us) {
+  using Result = servo::CommandResult;
+  const CommandReply admitted{origin.sequence, origin.client, Result::kAccepted};
+  if (command_class == CommandClass::kSafety && admit_safety(origin.axis)) return admitted;
   if (origin.axis != settings_.axis) {
-    return refuse(GateRefusal::kOtherAxis,
+    return refuse(origin, Result::kRejectedOtherAxis,
                   "for axis '" + std::string(origin.axis) + "', this daemon drives axis '" + settings_.axis + "'");
   }
   if (origin.session != settings_.session) {
-    return refuse(GateRefusal::kOtherSession, "for session " + std::to_string(origin.session) +
+    return refuse(origin, Result::kRejectedOtherSession, "for session " + std::to_string(origin.session) +
                                                   ", this daemon's session is " + std::to_string(settings_.session) +
                                                   " (read it from the status)");
   }
-  if (origin.client == 0) return refuse(GateRefusal::kNoClient, "client id 0 is not a client");
+  if (origin.client == 0) return refuse(origin, Result::kRejectedNoClient);
   const double age_s = static_cast<double>(now_us - origin.utime_us) * 1e-6;
   if (std::fabs(age_s) > settings_.max_age_s) {
-    return refuse(GateRefusal::kStale, (age_s > 0 ? "sent " + seconds_text(age_s) + " ago"
+    return refuse(origin, Result::kRejectedStale, (age_s > 0 ? "sent " + seconds_text(age_s) + " ago"
                                                   : "sent " + seconds_text(-age_s) + " in the future") +
                                            ", the limit is " + seconds_text(settings_.max_age_s));
   }
   if (command_class == CommandClass::kRead) {
     count_admitted();
-    return {};
+    return admitted;
   }
   const std::int64_t holder_now = holder(now_us);
   const bool holds = holder_now == origin.client;
   if (command_class == CommandClass::kRenewControl) {
-    if (!holds) return refuse(GateRefusal::kNotInControl, "this client does not hold control");
+    if (!holds) return refuse(origin, Result::kRejectedNotInControl);
     deadman_.store(true, std::memory_order_release);
     lease_end_us_.store(now_us + to_us(settings_.deadman_timeout_s), std::memory_order_release);
     count_admitted();
-    return {};
+    return admitted;
   }
   if (command_class == CommandClass::kTakeControl && holder_now != 0 && !holds) {
-    return refuse(GateRefusal::kNotInControl, "client " + std::to_string(holder_now) + " holds control for another " +
+    return refuse(origin, Result::kRejectedNotInControl, "client " + std::to_string(holder_now) + " holds control for another " +
                                                   seconds_text(lease_remaining_s(now_us)) + " unless it releases it");
   }
   if (command_class == CommandClass::kReleaseControl && !holds) {
-    return refuse(GateRefusal::kNotInControl, "this client does not hold control");
+    return refuse(origin, Result::kRejectedNotInControl);
   }
   if (command_class == CommandClass::kControlled && !holds) {
-    return refuse(GateRefusal::kNotInControl, holder_now == 0 ? std::string("take control first")
+    return refuse(origin, Result::kRejectedNotInControl, holder_now == 0 ? std::string("take control first")
                                                               : "client " + std::to_string(holder_now) + " holds control");
   }
   Client* client = find_client(origin.client);
   const std::int64_t last_sequence = client != nullptr ? client->last_sequence : 0;
   if (origin.sequence <= last_sequence) {
-    return refuse(GateRefusal::kReplayed, "sequence " + std::to_string(origin.sequence) + " is not above " +
+    return refuse(origin, Result::kRejectedReplayed, "sequence " + std::to_string(origin.sequence) + " is not above " +
                                               std::to_string(last_sequence) + ", the last one of client " +
                                               std::to_string(origin.client));
   }
   if (client == nullptr && origin.utime_us <= forgotten_utime_us_) {
-    return refuse(GateRefusal::kReplayed, "sent no later than the last command of a client no longer tracked; "
+    return refuse(origin, Result::kRejectedReplayed, "sent no later than the last command of a client no longer tracked; "
                                           "send it again");
   }
   // A new holder starts with an ordinary lease; the holder's renewals keep its kind.
@@ -156,7 +167,7 @@ GateDecision CommandGate::admit(const CommandOrigin& origin, CommandClass comman
   }
   record(client, origin, now_us);
   count_admitted();
-  return {};
+  return admitted;
 }
 
 std::int64_t CommandGate::take_lapsed_deadman(std::int64_t now_us) noexcept {
@@ -178,8 +189,8 @@ double CommandGate::lease_remaining_s(std::int64_t now_us) const noexcept {
   return static_cast<double>(lease_end_us_.load(std::memory_order_acquire) - now_us) * 1e-6;
 }
 
-std::int64_t CommandGate::count(GateRefusal refusal) const noexcept {
-  return counts_[static_cast<std::size_t>(refusal)].load(std::memory_order_relaxed);
+std::int64_t CommandGate::count(servo::CommandResult result) const noexcept {
+  return counts_[gate_index(result)].load(std::memory_order_relaxed);
 }
 
 }  // namespace clm::servod

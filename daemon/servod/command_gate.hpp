@@ -26,7 +26,9 @@
 // longest ago and remembers the newest utime of any client forgotten: a
 // client not in the table must send a utime above it, so a replay of a
 // forgotten client's datagrams is refused as replayed, as it was before.
-// Refusals are counted by kind.
+// Refusals are servo::CommandResult values (kRejectedOtherAxis …
+// kRejectedNotInControl), counted by kind; a refusal's detail starts with the
+// kind's counter name (gate_counter_name), as the status counts it.
 //
 // Pure logic on the command thread: no I/O, no clock of its own (the caller
 // passes the time). The counters and the holder are atomics, so the status can
@@ -39,6 +41,7 @@
 #include <string_view>
 
 #include "daemon/servo/command.hpp"
+#include "daemon/servod/command_reply.hpp"
 
 namespace clm::servod {
 
@@ -54,18 +57,16 @@ struct CommandOrigin {
   std::int64_t utime_us = 0;  ///< sender's wall-clock time [µs since the UNIX epoch]
 };
 
-/// Why the gate refused a command; kAdmitted when it did not.
-enum class GateRefusal : std::uint8_t {
-  kAdmitted,
-  kOtherAxis,
-  kOtherSession,
-  kNoClient,      ///< client 0
-  kReplayed,      ///< sequence not above the client's last admitted one (or, for a forgotten client, sent before its last)
-  kStale,         ///< older than max_age_s, or from the future
-  kNotInControl,  ///< another client holds control, or nobody does
+/// What the gate answers: kAccepted (admitted) or one of its refusals.
+inline constexpr std::array<servo::CommandResult, 7> kGateResults{
+    servo::CommandResult::kAccepted,         servo::CommandResult::kRejectedOtherAxis,
+    servo::CommandResult::kRejectedOtherSession, servo::CommandResult::kRejectedNoClient,
+    servo::CommandResult::kRejectedReplayed,  servo::CommandResult::kRejectedStale,
+    servo::CommandResult::kRejectedNotInControl,
 };
-inline constexpr std::size_t kGateRefusalKinds = 7;
-const char* name(GateRefusal refusal) noexcept;
+/// The status counter of a gate result ("admitted", "other_axis",
+/// "other_session", "no_client", "replayed", "stale", "not_in_control"); "" for another result.
+const char* gate_counter_name(servo::CommandResult result) noexcept;
 
 struct CommandGateSettings {
   std::string axis;              ///< this daemon's axis name
@@ -78,20 +79,16 @@ struct CommandGateSettings {
   void validate() const;
 };
 
-struct GateDecision {
-  GateRefusal refusal = GateRefusal::kAdmitted;
-  std::string reason;  ///< one line; empty when admitted
-  bool admitted() const noexcept { return refusal == GateRefusal::kAdmitted; }
-};
-
 class CommandGate {
  public:
   explicit CommandGate(CommandGateSettings settings);
 
-  /// Decides on one command at wall-clock time `now_us`. Admitting take_control
-  /// or release_control changes the holder; admitting a controlled command
-  /// records its sequence and, from the holder, renews the lease.
-  GateDecision admit(const CommandOrigin& origin, CommandClass command_class, std::int64_t now_us);
+  /// Decides on one command at wall-clock time `now_us`: the reply to it,
+  /// kAccepted when admitted (not yet an answer: the command goes on), else
+  /// the refusal with its detail. Admitting take_control or release_control
+  /// changes the holder; admitting a controlled command records its sequence
+  /// and, from the holder, renews the lease.
+  CommandReply admit(const CommandOrigin& origin, CommandClass command_class, std::int64_t now_us);
   /// The decision on a stop, quick stop or disable for `axis`, without a
   /// reason's text: true (and counted as admitted) when it names this axis.
   /// Any thread: no allocation, no lock, no table. admit() decides kSafety
@@ -108,8 +105,8 @@ class CommandGate {
   std::int64_t holder(std::int64_t now_us) const noexcept;
   /// Lease left to the holder at `now_us` [s], 0 when nobody holds control.
   double lease_remaining_s(std::int64_t now_us) const noexcept;
-  /// Refusals so far of one kind (kAdmitted: commands admitted).
-  std::int64_t count(GateRefusal refusal) const noexcept;
+  /// Answers so far of one of kGateResults (kAccepted: commands admitted).
+  std::int64_t count(servo::CommandResult result) const noexcept;
   const CommandGateSettings& settings() const noexcept { return settings_; }
 
  private:
@@ -119,7 +116,8 @@ class CommandGate {
     std::int64_t last_utime_us = 0;  ///< sender's utime of its last admitted command
     std::int64_t last_seen_us = 0;
   };
-  GateDecision refuse(GateRefusal refusal, std::string reason);
+  /// The refusal of `origin`'s command, counted; `reason`: what describe() does not say ("": nothing).
+  CommandReply refuse(const CommandOrigin& origin, servo::CommandResult result, const std::string& reason = "");
   /// Counts one admitted command (any thread).
   void count_admitted() noexcept;
   /// The client's slot, nullptr when it has none.
@@ -137,7 +135,7 @@ class CommandGate {
   std::atomic<std::int64_t> holder_{0};
   std::atomic<std::int64_t> lease_end_us_{0};
   std::atomic<bool> deadman_{false};
-  std::array<std::atomic<std::int64_t>, kGateRefusalKinds> counts_{};
+  std::array<std::atomic<std::int64_t>, kGateResults.size()> counts_{};
 };
 
 }  // namespace clm::servod

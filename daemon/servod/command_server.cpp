@@ -120,10 +120,9 @@ int CommandServer::serve_once() {
                                  received.utime};
       const std::int64_t now_us = telemetry::wall_clock_utime();
       const bool deadman_holder = gate_->deadman() && gate_->holder(now_us) == received.client;
-      const GateDecision decision = gate_->admit(origin, command_class(received.kind), now_us);
-      if (!decision.admitted()) {
-        ack(received.sequence, received.client, false,
-            std::string("refused ") + name(decision.refusal) + ": " + decision.reason, acks);
+      const CommandReply decision = gate_->admit(origin, command_class(received.kind), now_us);
+      if (!decision.accepted()) {
+        ack(decision, acks);
         continue;
       }
       // A tool that ran a sequence hands the axis back as its deadman would:
@@ -132,8 +131,9 @@ int CommandServer::serve_once() {
     }
     if (route.answered_by == servo::AnsweredBy::kAuthority) {
       if (!gate_) {
-        ack(received.sequence, received.client, false,
-            std::string("rejected: ") + route.name + ": no command authority in this process", acks);
+        ack({received.sequence, received.client, servo::CommandResult::kRejectedInvalid,
+             std::string(route.name) + ": no command authority in this process"},
+            acks);
       } else if (received.kind == servo::CommandKind::kTakeControl ||
                  received.kind == servo::CommandKind::kRenewControl) {
         char text[96];
@@ -177,13 +177,14 @@ void CommandServer::fill(telemetry::CommandAuthorityStatus& out) const noexcept 
   const std::int64_t now = telemetry::wall_clock_utime();
   out.control_client = gate_->holder(now);
   out.control_lease_remaining_s = gate_->lease_remaining_s(now);
-  out.admitted = gate_->count(GateRefusal::kAdmitted);
-  out.refused_other_axis = gate_->count(GateRefusal::kOtherAxis);
-  out.refused_other_session = gate_->count(GateRefusal::kOtherSession);
-  out.refused_no_client = gate_->count(GateRefusal::kNoClient);
-  out.refused_replayed = gate_->count(GateRefusal::kReplayed);
-  out.refused_stale = gate_->count(GateRefusal::kStale);
-  out.refused_not_in_control = gate_->count(GateRefusal::kNotInControl);
+  using Result = servo::CommandResult;
+  out.admitted = gate_->count(Result::kAccepted);
+  out.refused_other_axis = gate_->count(Result::kRejectedOtherAxis);
+  out.refused_other_session = gate_->count(Result::kRejectedOtherSession);
+  out.refused_no_client = gate_->count(Result::kRejectedNoClient);
+  out.refused_replayed = gate_->count(Result::kRejectedReplayed);
+  out.refused_stale = gate_->count(Result::kRejectedStale);
+  out.refused_not_in_control = gate_->count(Result::kRejectedNotInControl);
 }
 
 }  // namespace clm::servod

@@ -70,11 +70,6 @@ ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drive
 
 ServoDaemon::~ServoDaemon() = default;
 
-std::string CommandReply::text() const {
-  std::string words = detail.empty() ? std::string(servo::describe(result)) : detail;
-  return accepted() ? words : "rejected: " + words;
-}
-
 CommandReply ServoDaemon::queue(const servo::Command& command) {
   if (!commands_->try_push(command)) return reply_to(command, servo::CommandResult::kRejectedQueueFull);
   if (command.kind == servo::CommandKind::kLoadFeedforward) {

@@ -420,7 +420,7 @@ TEST_CASE("With command authority, the server admits through the gate, answers t
   serve();
   REQUIRE(acks(sink).count(1) == 1);
   CHECK_FALSE(acks(sink).find(1)->second.accepted);
-  CHECK_THAT(acks(sink).find(1)->second.text, Catch::StartsWith("refused not_in_control: take control first"));
+  CHECK_THAT(acks(sink).find(1)->second.text, Catch::StartsWith("rejected: not_in_control: take control first"));
   CHECK(daemon.cycle().status().state == servo::ServoState::kDisabled);
 
   // Take control, enable: both accepted; the ack names the client, axis and session.
@@ -445,7 +445,7 @@ TEST_CASE("With command authority, the server admits through the gate, answers t
   REQUIRE(publisher.submit_command(authored(C::STOP, 5, 6)));
   REQUIRE(publisher.submit_command(authored(C::DISABLE, 6, 6)));
   serve();
-  CHECK_THAT(acks(sink).find(4)->second.text, Catch::StartsWith("refused not_in_control: client 5 holds control"));
+  CHECK_THAT(acks(sink).find(4)->second.text, Catch::StartsWith("rejected: not_in_control: client 5 holds control"));
   CHECK(acks(sink).find(5)->second.accepted);
   CHECK(acks(sink).find(6)->second.accepted);
   CHECK(daemon.cycle().status().state == servo::ServoState::kDisabled);
@@ -474,14 +474,14 @@ TEST_CASE("With command authority, the server admits through the gate, answers t
   REQUIRE(publisher.submit_command(anyone));
   serve();
   const auto all = acks(sink);
-  CHECK_THAT(all.find(7)->second.text, Catch::StartsWith("refused other_session"));
-  CHECK_THAT(all.find(8)->second.text, Catch::StartsWith("refused other_axis"));
-  CHECK_THAT(all.find(9)->second.text, Catch::StartsWith("refused no_client"));
-  CHECK_THAT(all.find(10)->second.text, Catch::StartsWith("refused stale"));
+  CHECK_THAT(all.find(7)->second.text, Catch::StartsWith("rejected: other_session"));
+  CHECK_THAT(all.find(8)->second.text, Catch::StartsWith("rejected: other_axis"));
+  CHECK_THAT(all.find(9)->second.text, Catch::StartsWith("rejected: no_client"));
+  CHECK_THAT(all.find(10)->second.text, Catch::StartsWith("rejected: stale"));
   // Admitted by the authority, refused by the daemon: the axis was disabled by
   // the other client's DISABLE above, which the daemon checks first.
   CHECK(all.find(11)->second.text == "rejected: the axis is disabled, enable first");
-  CHECK_THAT(all.find(12)->second.text, Catch::StartsWith("refused not_in_control"));
+  CHECK_THAT(all.find(12)->second.text, Catch::StartsWith("rejected: not_in_control"));
   CHECK(all.find(13)->second.text == "control released");
   REQUIRE(all.count(6) == 2);  // the disable and its repeat: both obeyed
   for (auto [it, end] = all.equal_range(6); it != end; ++it) CHECK(it->second.accepted);
@@ -490,7 +490,7 @@ TEST_CASE("With command authority, the server admits through the gate, answers t
   REQUIRE(all.count(3) == 2);  // the enable, and its replay's refusal
   int replay_refusals = 0;
   for (auto [it, end] = all.equal_range(3); it != end; ++it) {
-    if (it->second.text.rfind("refused replayed", 0) == 0) ++replay_refusals;
+    if (it->second.text.rfind("rejected: replayed", 0) == 0) ++replay_refusals;
   }
   CHECK(replay_refusals == 1);
 
@@ -645,5 +645,5 @@ TEST_CASE("A deadman lease that lapses stops the axis, ends the experiment and r
   // The client that lapsed must take control again.
   REQUIRE(publisher.submit_command(authored(C::ENABLE, 5, 5)));
   serve();
-  CHECK_THAT(acks(sink).find(5)->second.text, Catch::StartsWith("refused not_in_control"));
+  CHECK_THAT(acks(sink).find(5)->second.text, Catch::StartsWith("rejected: not_in_control"));
 }
