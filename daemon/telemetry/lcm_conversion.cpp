@@ -337,4 +337,44 @@ std::string to_command(const clm_lcm::servo_command_t& message, servo::Command& 
   return reason;
 }
 
+clm_lcm::servo_command_t to_message(const servo::Command& command) {
+  clm_lcm::servo_command_t message{};
+  message.utime = command.utime;
+  message.sequence = command.sequence;
+  message.axis = std::string(command.axis.view());
+  message.session = command.session;
+  message.client = command.client;
+  message.command = static_cast<std::int8_t>(command.kind);
+  switch (servo::route(command.kind).file) {
+    case servo::FileUse::kNone: break;
+    case servo::FileUse::kProgram: message.program = std::string(command.program.view()); break;
+    case servo::FileUse::kPath:
+    case servo::FileUse::kPathOrValues: message.path = std::string(command.path.view()); break;
+  }
+  switch (command.kind) {
+    case CommandKind::kMoveTo:
+      message.target_m = command.target_m;
+      message.velocity_m_per_s = command.limits.velocity_m_per_s;
+      message.acceleration_m_per_s2 = command.limits.acceleration_m_per_s2;
+      message.jerk_m_per_s3 = command.limits.jerk_m_per_s3;
+      break;
+    case CommandKind::kJog:
+      message.velocity_m_per_s = command.jog_velocity_m_per_s;
+      message.acceleration_m_per_s2 = command.limits.acceleration_m_per_s2;
+      message.jerk_m_per_s3 = command.limits.jerk_m_per_s3;
+      break;
+    case CommandKind::kSetCommutation: message.commutation = static_cast<std::int8_t>(command.commutation); break;
+    case CommandKind::kSetExperiment:
+      message.coil_set = static_cast<std::int8_t>(command.coil_set);
+      message.delta_rad = command.delta_rad;
+      break;
+    case CommandKind::kSetParameter:
+      message.value = command.value;
+      [[fallthrough]];
+    case CommandKind::kGetParameter: message.parameter = std::string(command.parameter.view()); break;
+    default: break;  // no fields beyond the kind (a file: above)
+  }
+  return message;
+}
+
 }  // namespace clm::telemetry

@@ -38,5 +38,9 @@ clm_lcm::servo_command_ack_t to_message(const ServoCommandAck& ack, std::string_
 /// Limits that depend on the motor or on files (stroke, L, positive move
 /// limits, model kinds) are ServoDaemon::submit's to check.
 std::string to_command(const clm_lcm::servo_command_t& message, servo::Command& out);
+/// The one mapping of a command to the wire, to_command's inverse: the
+/// fields its kind uses, every other field zero or empty (a client builds the
+/// servo::Command the daemon executes and sends this).
+clm_lcm::servo_command_t to_message(const servo::Command& command);
 
 }  // namespace clm::telemetry

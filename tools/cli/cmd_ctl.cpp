@@ -153,16 +153,16 @@ void add_ctl(CLI::App& app) {
     run_status(*options);
   });
 
-  const auto simple = [&](const char* name, std::int8_t kind, const char* help) {
+  const auto simple = [&](const char* name, Kind kind, const char* help) {
     ctl->add_subcommand(name, help)->callback([options, kind] { send_command(*options, make_command(kind)); });
   };
-  simple("enable", Command::ENABLE, "close the loop at the present position");
-  simple("disable", Command::DISABLE, "open the loop, drives off");
-  simple("clear-fault", Command::CLEAR_FAULT, "leave the fault state (to disabled)");
-  simple("stop", Command::STOP, "stop the running motion (jerk-limited), stay enabled");
-  simple("take-control", Command::TAKE_CONTROL, "become the client that commands the axis (other commands do it themselves)");
-  simple("release", Command::RELEASE_CONTROL, "give up control of the axis");
-  simple("quick-stop", Command::QUICK_STOP, "stop the running motion within the quick-stop limits, stay enabled");
+  simple("enable", Kind::kEnable, "close the loop at the present position");
+  simple("disable", Kind::kDisable, "open the loop, drives off");
+  simple("clear-fault", Kind::kClearFault, "leave the fault state (to disabled)");
+  simple("stop", Kind::kStop, "stop the running motion (jerk-limited), stay enabled");
+  simple("take-control", Kind::kTakeControl, "become the client that commands the axis (other commands do it themselves)");
+  simple("release", Kind::kReleaseControl, "give up control of the axis");
+  simple("quick-stop", Kind::kQuickStop, "stop the running motion within the quick-stop limits, stay enabled");
 
   struct MoveOptions {
     double target_m = 0.0, velocity_m_per_s = 0.1, acceleration_m_per_s2 = 1.0, jerk_m_per_s3 = 1000.0;
@@ -178,11 +178,9 @@ void add_ctl(CLI::App& app) {
       ->check(clm::positive_number())->capture_default_str();
   move_to->callback([options, move] {
     if (!std::isfinite(move->target_m)) throw std::runtime_error("--target-m must be finite");
-    Command command = make_command(Command::MOVE_TO);
+    Command command = make_command(Kind::kMoveTo);
     command.target_m = move->target_m;
-    command.velocity_m_per_s = move->velocity_m_per_s;
-    command.acceleration_m_per_s2 = move->acceleration_m_per_s2;
-    command.jerk_m_per_s3 = move->jerk_m_per_s3;
+    command.limits = {move->velocity_m_per_s, move->acceleration_m_per_s2, move->jerk_m_per_s3};
     send_command(*options, command);
   });
 
@@ -220,10 +218,9 @@ void add_ctl(CLI::App& app) {
         client.stop_and_release(options->timeout_s);
         servod_client::throw_if_interrupted();
       }
-      Command command = make_command(Command::JOG);
-      command.velocity_m_per_s = jog->velocity_m_per_s;
-      command.acceleration_m_per_s2 = jog->acceleration_m_per_s2;
-      command.jerk_m_per_s3 = jog->jerk_m_per_s3;
+      Command command = make_command(Kind::kJog);
+      command.jog_velocity_m_per_s = jog->velocity_m_per_s;
+      command.limits = {std::abs(jog->velocity_m_per_s), jog->acceleration_m_per_s2, jog->jerk_m_per_s3};
       const servod_client::Ack ack = send(client, *options, command);
       require_accepted(ack);
       if (repeats++ == 0) std::printf("%s\n", ack.text.c_str());
@@ -233,23 +230,24 @@ void add_ctl(CLI::App& app) {
                 repeats, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   });
 
-  const auto with_file = [&](const char* name, std::int8_t kind, const char* help, const char* what) {
+  const auto with_file = [&](const char* name, Kind kind, const char* help, const char* what) {
     auto file = std::make_shared<std::string>();
     auto* sub = ctl->add_subcommand(name, help);
     sub->add_option("FILE", *file, what)->required()->check(CLI::ExistingFile);
     sub->callback([options, file, kind] {
       Command command = make_command(kind);
-      (kind == Command::RUN_PROGRAM ? command.program : command.path) = absolute_path(*file);
+      servod_client::assign_text(kind == Kind::kRunProgram ? command.program : command.path, absolute_path(*file),
+                                 "FILE");
       send_command(*options, command);
     });
   };
-  with_file("run-program", Command::RUN_PROGRAM, "run a motion program file (config/programs/*.yaml)",
+  with_file("run-program", Kind::kRunProgram, "run a motion program file (config/programs/*.yaml)",
             "program file (format clm-servo-program)");
-  with_file("load-calibration", Command::LOAD_CALIBRATION, "load a calibration file into the classical law",
+  with_file("load-calibration", Kind::kLoadCalibration, "load a calibration file into the classical law",
             "calibration file (clm calibrate)");
-  with_file("load-model", Command::LOAD_MODEL, "load a model file into the pgnn or spline law (the file's kind:)",
+  with_file("load-model", Kind::kLoadModel, "load a model file into the pgnn or spline law (the file's kind:)",
             "model file (clm identify)");
-  with_file("load-feedforward", Command::LOAD_FEEDFORWARD, "load a feedforward file: eq. (40)'s parameters, at once",
+  with_file("load-feedforward", Kind::kLoadFeedforward, "load a feedforward file: eq. (40)'s parameters, at once",
             "feedforward file (clm ff-identify)");
 
   auto mode = std::make_shared<std::string>();
@@ -258,10 +256,10 @@ void add_ctl(CLI::App& app) {
       ->required()
       ->check(CLI::IsMember({"original", "classical", "pgnn", "spline", "oracle"}));
   commutation->callback([options, mode] {
-    static const char* const names[] = {"original", "classical", "pgnn", "spline", "oracle"};
-    Command command = make_command(Command::SET_COMMUTATION);
-    for (std::int8_t code = 0; code < 5; ++code) {
-      if (*mode == names[code]) command.commutation = code;  // servo_state_t::COMMUTATION_* codes
+    Command command = make_command(Kind::kSetCommutation);
+    for (int code = 0; code < servo::kCommutationModes; ++code) {
+      const auto law = static_cast<servo::CommutationMode>(code);
+      if (*mode == servo::name(law)) command.commutation = law;
     }
     send_command(*options, command);
   });
@@ -277,8 +275,8 @@ void add_ctl(CLI::App& app) {
       ->required();
   sub->callback([options, experiment] {
     if (!std::isfinite(experiment->delta_rad)) throw std::runtime_error("--delta-rad must be finite");
-    Command command = make_command(Command::SET_EXPERIMENT);
-    command.coil_set = static_cast<std::int8_t>(experiment->coil_set);
+    Command command = make_command(Kind::kSetExperiment);
+    command.coil_set = experiment->coil_set;
     command.delta_rad = experiment->delta_rad;
     send_command(*options, command);
   });

@@ -43,8 +43,8 @@ std::vector<std::pair<const servod::RuntimeParameter*, double>> get_all(servod_c
                                                                        const CtlOptions& options) {
   std::vector<std::pair<const servod::RuntimeParameter*, double>> out;
   for (const auto& parameter : servod::runtime_parameters()) {
-    Command command = make_command(Command::GET_PARAMETER);
-    command.parameter = parameter.key;
+    Command command = make_command(Kind::kGetParameter);
+    servod_client::assign_text(command.parameter, parameter.key, "KEY");
     const servod_client::Ack ack = send(client, options, command);
     if (!ack.accepted) throw RunTimeFailure("get_parameter " + std::string(parameter.key) + ": " + ack.text);
     out.emplace_back(&parameter, value_of(parameter.key, ack.text));
@@ -131,8 +131,8 @@ void add_ctl_parameters(CLI::App& ctl, const std::shared_ptr<CtlOptions>& option
   get->callback([options, key] {
     servod_client::Client client(command_client_options(*options));
     if (!key->empty()) {
-      Command command = make_command(Command::GET_PARAMETER);
-      command.parameter = *key;
+      Command command = make_command(Kind::kGetParameter);
+      servod_client::assign_text(command.parameter, *key, "KEY");
       const servod_client::Ack ack = send(client, *options, command);
       require_accepted(ack);
       std::printf("%s\n", ack.text.c_str());
@@ -153,8 +153,8 @@ void add_ctl_parameters(CLI::App& ctl, const std::shared_ptr<CtlOptions>& option
   set_sub->add_option("VALUE", set->value, "the new value, in the parameter's SI unit")->required();
   set_sub->callback([options, set] {
     if (!std::isfinite(set->value)) throw std::runtime_error("VALUE must be finite");
-    Command command = make_command(Command::SET_PARAMETER);
-    command.parameter = set->key;
+    Command command = make_command(Kind::kSetParameter);
+    servod_client::assign_text(command.parameter, set->key, "KEY");
     command.value = set->value;
     send_command(*options, command);
   });

@@ -10,12 +10,13 @@
 #include <memory>
 #include <string>
 
-#include "clm_lcm/servo_command_t.hpp"
+#include "daemon/servo/command.hpp"
 #include "tools/servod_client/client.hpp"
 
 namespace clm::cli {
 
-using Command = clm_lcm::servo_command_t;
+using Command = servo::Command;
+using Kind = servo::CommandKind;
 
 struct CtlOptions {
   std::string lcm_url;

@@ -13,7 +13,8 @@
 namespace clm::commission {
 namespace {
 
-using Command = clm_lcm::servo_command_t;
+using Command = servo::Command;
+using Kind = servo::CommandKind;
 using clm_lcm::servo_state_t;
 using clm_lcm::servo_status_t;
 using servod_client::decode;
@@ -110,7 +111,7 @@ void LcmRunner::enable() {
                                std::to_string(status->force_sensor_warning) + "); commissioning measures forces");
     }
   }
-  command("ENABLE", make_command(Command::ENABLE));
+  command("ENABLE", make_command(Kind::kEnable));
   client_.wait_for_state("CLM_SERVO_STATE of the enabled axis", 2.0,
                  [](const servo_state_t& s) { return s.state == kStateEnabled; });
   // The daemon must be the one this configuration describes, publishing every cycle.
@@ -151,8 +152,8 @@ void LcmRunner::enable() {
 }
 
 void LcmRunner::set_experiment(int coil_set, double delta_rad) {
-  Command message = make_command(Command::SET_EXPERIMENT);
-  message.coil_set = static_cast<std::int8_t>(coil_set);
+  Command message = make_command(Kind::kSetExperiment);
+  message.coil_set = coil_set;
   message.delta_rad = delta_rad;
   char what[96];
   std::snprintf(what, sizeof(what), "SET_EXPERIMENT (coil set %d, delta_rad %.6f)", coil_set, delta_rad);
@@ -163,8 +164,8 @@ void LcmRunner::set_experiment(int coil_set, double delta_rad) {
 }
 
 void LcmRunner::set_commutation(servo::CommutationMode mode) {
-  Command message = make_command(Command::SET_COMMUTATION);
-  message.commutation = static_cast<std::int8_t>(mode);
+  Command message = make_command(Kind::kSetCommutation);
+  message.commutation = mode;
   const std::string what = std::string("SET_COMMUTATION ") + servo::name(mode);
   command(what, message);
   client_.wait_for_state(std::string("commutation ") + servo::name(mode) + " in use", 5.0,
@@ -172,8 +173,8 @@ void LcmRunner::set_commutation(servo::CommutationMode mode) {
 }
 
 void LcmRunner::load_calibration(const std::string& path) {
-  Command message = make_command(Command::LOAD_CALIBRATION);
-  message.path = path;
+  Command message = make_command(Kind::kLoadCalibration);
+  servod_client::assign_text(message.path, path, "calibration file");
   command("LOAD_CALIBRATION " + path, message);
   // Swapped in at the next standstill: the axis stands still, so within a cycle.
   wait_cycles(20, "LOAD_CALIBRATION " + path);
@@ -181,15 +182,15 @@ void LcmRunner::load_calibration(const std::string& path) {
 
 void LcmRunner::load_model(servo::CommutationMode, const std::string& path) {
   // The daemon takes the law from the file's own kind:.
-  Command message = make_command(Command::LOAD_MODEL);
-  message.path = path;
+  Command message = make_command(Kind::kLoadModel);
+  servod_client::assign_text(message.path, path, "model file");
   command("LOAD_MODEL " + path, message);
   wait_cycles(20, "LOAD_MODEL " + path);
 }
 
 void LcmRunner::load_feedforward(const control::FeedforwardParameters&, const std::string& path) {
-  Command message = make_command(Command::LOAD_FEEDFORWARD);
-  message.path = path;
+  Command message = make_command(Kind::kLoadFeedforward);
+  servod_client::assign_text(message.path, path, "feedforward file");
   command("LOAD_FEEDFORWARD " + path, message);  // acked once the cycle has taken the parameters
 }
 
@@ -210,11 +211,9 @@ Recording LcmRunner::attempt(const servod::ProgramFile& program, const std::stri
   double hold_m = 0.0;
   if (const auto state = client_.latest_state()) hold_m = state->r_m;
   const auto& limits = program.steps.front().limits;
-  Command move = make_command(Command::MOVE_TO);
+  Command move = make_command(Kind::kMoveTo);
   move.target_m = program.start_m;
-  move.velocity_m_per_s = limits.velocity_m_per_s;
-  move.acceleration_m_per_s2 = limits.acceleration_m_per_s2;
-  move.jerk_m_per_s3 = limits.jerk_m_per_s3;
+  move.limits = limits;
   const double move_s = control::MoveProgram(hold_m, {{program.start_m, limits, 0.0}}).duration_s();
   command("MOVE_TO " + std::to_string(program.start_m) + " m (start of '" + name + "')", move);
   client_.wait_for_state("the move to the start of '" + name + "'", move_s + 10.0, [&](const servo_state_t& s) {
@@ -225,8 +224,8 @@ Recording LcmRunner::attempt(const servod::ProgramFile& program, const std::stri
 
   client_.start_capture();
   const double program_s = control::MoveProgram(program.start_m, program.steps).duration_s();
-  Command run = make_command(Command::RUN_PROGRAM);
-  run.program = program_path;
+  Command run = make_command(Kind::kRunProgram);
+  servod_client::assign_text(run.program, program_path, "program file");
   command("RUN_PROGRAM " + program_path + " ('" + name + "')", run);
   client_.wait_for_state("the start of '" + name + "'", 5.0, [](const servo_state_t& s) { return s.program_running; });
   client_.wait_for_state("the end of '" + name + "'", program_s + 10.0, [](const servo_state_t& s) { return !s.program_running; });

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "clm_lcm/servo_command_t.hpp"
+#include "daemon/servo/command.hpp"
 #include "daemon/servod/servod_config.hpp"
 #include "tools/commission/runner.hpp"
 #include "tools/commission/runs.hpp"
@@ -71,7 +71,7 @@ class LcmRunner final : public ExperimentRunner {
  private:
   /// Publishes a command and waits for its ack; throws on a timeout or a
   /// refusal, naming `what`.
-  std::string command(const std::string& what, clm_lcm::servo_command_t message);
+  std::string command(const std::string& what, servo::Command message);
   /// Waits for `cycles` more states.
   void wait_cycles(std::int64_t cycles, const std::string& what);
   /// One attempt of a run; the recording, the messages and the gaps.

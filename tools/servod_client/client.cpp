@@ -33,17 +33,11 @@ std::string seconds(double value_s) {
   return text;
 }
 
-clm_lcm::servo_command_t make_command(std::int8_t kind) {
-  clm_lcm::servo_command_t command{};
-  command.command = kind;
-  return command;
-}
+servo::Command make_command(servo::CommandKind kind) { return {.kind = kind}; }
 
-bool needs_control(std::int8_t kind) {
-  // The daemon's command table: its class for the command authority. A kind
-  // the table does not know is refused by the daemon anyway.
-  return !servo::is_command_kind(kind) ||
-         servo::route(static_cast<servo::CommandKind>(kind)).command_class == servo::CommandClass::kControlled;
+bool needs_control(servo::CommandKind kind) {
+  // The daemon's command table: its class for the command authority.
+  return servo::route(kind).command_class == servo::CommandClass::kControlled;
 }
 
 namespace {
@@ -129,7 +123,7 @@ void Client::renew_loop() {
       to = target_;
     }
     if (to) {
-      clm_lcm::servo_command_t renew = make_command(clm_lcm::servo_command_t::RENEW_CONTROL);
+      servo::Command renew = make_command(servo::CommandKind::kRenewControl);
       try {
         publish(renew, *to, false, "RENEW_CONTROL");
       } catch (const Error&) {
@@ -273,21 +267,21 @@ Target Client::target_for(double timeout_s, const std::string& what) {
 
 void Client::take_control(double timeout_s, const std::string& what) {
   const Target to = target_for(timeout_s, what);
-  Ack ack = send_once(make_command(clm_lcm::servo_command_t::TAKE_CONTROL), to, timeout_s,
+  Ack ack = send_once(make_command(servo::CommandKind::kTakeControl), to, timeout_s,
                       what == "TAKE_CONTROL" ? what : "TAKE_CONTROL (for " + what + ")");
   if (!ack.accepted) throw Refused("clm-servod refused TAKE_CONTROL: " + ack.text, std::move(ack));
 }
 
 void Client::release_control(double timeout_s) {
-  command("RELEASE_CONTROL", make_command(clm_lcm::servo_command_t::RELEASE_CONTROL), timeout_s);
+  command("RELEASE_CONTROL", make_command(servo::CommandKind::kReleaseControl), timeout_s);
 }
 
 void Client::stop_and_release(double timeout_s) {
-  command("STOP", make_command(clm_lcm::servo_command_t::STOP), timeout_s);
+  command("STOP", make_command(servo::CommandKind::kStop), timeout_s);
   release_control(timeout_s);
 }
 
-Ack Client::send(clm_lcm::servo_command_t command, double timeout_s, const std::string& what) {
+Ack Client::send(servo::Command command, double timeout_s, const std::string& what) {
   const Target to = target_for(timeout_s, what);
   bool renewing = false;
   {
@@ -296,9 +290,9 @@ Ack Client::send(clm_lcm::servo_command_t command, double timeout_s, const std::
   }
   // A deadman lease is kept by the renewals; one that ran out is not taken
   // again behind the daemon's back: the command is refused not_in_control.
-  if (needs_control(command.command) && !renewing && !holds_control()) {
+  if (needs_control(command.kind) && !renewing && !holds_control()) {
     const std::string name = what.empty() ? "the command" : what;
-    Ack taken = send_once(make_command(clm_lcm::servo_command_t::TAKE_CONTROL), to, timeout_s,
+    Ack taken = send_once(make_command(servo::CommandKind::kTakeControl), to, timeout_s,
                           "TAKE_CONTROL (for " + name + ")");
     if (!taken.accepted) {
       taken.text = "TAKE_CONTROL for " + name + ": " + taken.text;
@@ -308,9 +302,8 @@ Ack Client::send(clm_lcm::servo_command_t command, double timeout_s, const std::
   return send_once(std::move(command), to, timeout_s, what);
 }
 
-std::int64_t Client::publish(clm_lcm::servo_command_t& command, const Target& to, bool awaited,
-                             const std::string& what) {
-  command.axis = to.axis;
+std::int64_t Client::publish(servo::Command& command, const Target& to, bool awaited, const std::string& what) {
+  if (!command.axis.assign(to.axis)) throw Error("axis name longer than 32 characters: '" + to.axis + "'");
   command.session = to.session;
   command.client = client_id_;
   command.utime = telemetry::wall_clock_utime();
@@ -319,8 +312,9 @@ std::int64_t Client::publish(clm_lcm::servo_command_t& command, const Target& to
     command.sequence = fresh_sequence();
     if (awaited) pending_.insert(command.sequence);  // before publishing, so a fast ack is not missed
   }
-  std::vector<std::uint8_t> encoded(static_cast<std::size_t>(command.getEncodedSize()));
-  command.encode(encoded.data(), 0, static_cast<int>(encoded.size()));
+  clm_lcm::servo_command_t message = telemetry::to_message(command);
+  std::vector<std::uint8_t> encoded(static_cast<std::size_t>(message.getEncodedSize()));
+  message.encode(encoded.data(), 0, static_cast<int>(encoded.size()));
   telemetry::sign_encoded(key_, telemetry::kCommandChannel, encoded);
   if (lcm_->publish(telemetry::kCommandChannel, encoded.data(), static_cast<unsigned int>(encoded.size())) != 0) {
     std::lock_guard lock(mutex_);
@@ -331,7 +325,7 @@ std::int64_t Client::publish(clm_lcm::servo_command_t& command, const Target& to
   return command.sequence;
 }
 
-Ack Client::send_once(clm_lcm::servo_command_t command, const Target& to, double timeout_s, const std::string& what) {
+Ack Client::send_once(servo::Command command, const Target& to, double timeout_s, const std::string& what) {
   const std::int64_t sequence = publish(command, to, true, what);
   const auto forget = [&] {
     std::lock_guard lock(mutex_);
@@ -363,7 +357,7 @@ Ack Client::send_once(clm_lcm::servo_command_t command, const Target& to, double
   return ack;
 }
 
-std::string Client::command(const std::string& what, clm_lcm::servo_command_t command, double timeout_s) {
+std::string Client::command(const std::string& what, servo::Command command, double timeout_s) {
   Ack ack = send(std::move(command), timeout_s, what);
   if (!ack.accepted) {
     const std::string message = "clm-servod refused " + what + ": " + ack.text;

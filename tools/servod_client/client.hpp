@@ -3,8 +3,9 @@
 // "Command authority", docs/telemetry.md): receives CLM_SERVO_STATUS,
 // CLM_SERVO_STATE, CLM_SERVO_EVENT and CLM_SERVO_COMMAND_ACK on a thread of
 // its own, each message checked by telemetry::decode_checked before it is
-// decoded (a datagram that fails is counted and dropped); publishes
-// servo_command_t on CLM_SERVO_COMMAND for the axis and session a status
+// decoded (a datagram that fails is counted and dropped); publishes a
+// servo::Command, the type the daemon executes, as telemetry::to_message
+// maps it to servo_command_t, on CLM_SERVO_COMMAND for the axis and session a status
 // names, as its client id, with a fresh sequence number, and waits for the
 // ack with that axis, session, client and sequence; takes control before a
 // command that needs it; waits for a status or for states; keeps the messages
@@ -39,6 +40,7 @@
 #include "clm_lcm/servo_status_t.hpp"
 #include "config/exit_status.hpp"
 #include "config/sha256.hpp"
+#include "daemon/servo/command.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 #include "daemon/telemetry/wire_check.hpp"
 
@@ -67,13 +69,23 @@ bool decode(const std::vector<std::uint8_t>& data, Message& out) {
   return telemetry::decode_checked(std::span<const std::uint8_t>(data.data(), data.size()), out).empty();
 }
 
-/// A servo_command_t of kind `kind` (servo_command_t::ENABLE, ...), every
-/// other field zero or empty; send() sets utime, sequence, axis, session and client.
-clm_lcm::servo_command_t make_command(std::int8_t kind);
+/// A command of kind `kind`: the servo::Command the daemon executes, the
+/// fields of its kind to be set by the caller; send() sets utime, sequence,
+/// axis, session and client and sends it as telemetry::to_message maps it.
+servo::Command make_command(servo::CommandKind kind);
+/// Copies `text` into a command's text field (a path, a parameter's name);
+/// throws std::invalid_argument naming `what` (bad input) when it is longer
+/// than the field holds.
+template <std::size_t N>
+void assign_text(servo::FixedText<N>& field, const std::string& text, const std::string& what) {
+  if (!field.assign(text)) {
+    throw std::invalid_argument(what + " is longer than " + std::to_string(N - 1) + " characters: '" + text + "'");
+  }
+}
 
 /// True for the commands that need control: class kControlled in the
-/// daemon's command table (servo::kCommandRoutes), and unknown kinds.
-bool needs_control(std::int8_t kind);
+/// daemon's command table (servo::kCommandRoutes).
+bool needs_control(servo::CommandKind kind);
 
 /// This user's client id: FNV-1a-64 of "UID@HOSTNAME", as a positive int64,
 /// never 0. The same in every process of the user on the host.
@@ -204,7 +216,7 @@ class Client {
   /// Throws Error when LCM refuses to publish, NoAck when no ack comes (or
   /// no status names the daemon to send to), SeveralAxes as target(). `what`
   /// names the command in those messages ("": named by its sequence alone).
-  Ack send(clm_lcm::servo_command_t command, double timeout_s, const std::string& what = "");
+  Ack send(servo::Command command, double timeout_s, const std::string& what = "");
   /// TAKE_CONTROL (always sent); Refused when the daemon refuses. `what`
   /// names the command control is taken for in a NoAck's message.
   void take_control(double timeout_s, const std::string& what = "TAKE_CONTROL");
@@ -230,7 +242,7 @@ class Client {
   bool holds_control(double margin_s = 1.0) const;
   /// send(), and Refused ("clm-servod refused WHAT: TEXT") when the daemon
   /// refuses; returns the ack's text.
-  std::string command(const std::string& what, clm_lcm::servo_command_t command, double timeout_s);
+  std::string command(const std::string& what, servo::Command command, double timeout_s);
 
   /// Waits up to `timeout_s` [s] for a CLM_SERVO_STATUS newer than the last
   /// one this returned (on the first call: any received since connecting)
@@ -271,12 +283,12 @@ class Client {
   /// Signs and publishes `command` for `to` as this client with a fresh
   /// sequence; returns the sequence. With `awaited`, its ack is kept for
   /// send_once. Throws Error when LCM refuses.
-  std::int64_t publish(clm_lcm::servo_command_t& command, const Target& to, bool awaited, const std::string& what);
+  std::int64_t publish(servo::Command& command, const Target& to, bool awaited, const std::string& what);
   void renew_loop();
   std::string fault_text() const;  ///< with mutex_ held
   /// Publishes `command` for `target` and waits for its ack (send() without
   /// taking control).
-  Ack send_once(clm_lcm::servo_command_t command, const Target& target, double timeout_s, const std::string& what);
+  Ack send_once(servo::Command command, const Target& target, double timeout_s, const std::string& what);
   /// True when `status` is of the axis this client reports (Options::axis,
   /// else the target once chosen, else any). With mutex_ held.
   bool reported(const clm_lcm::servo_status_t& status) const;
