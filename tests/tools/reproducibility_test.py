@@ -11,6 +11,9 @@ docs/commutation.md ("Reproducibility") promises:
     the spline;
   * every figure of report.json (results, ratios, calibration,
     identification, selection) within 10 % of the other run's;
+  * with --readme, the README's commissioning table (the main job's
+    summary) within 10 % of the native run, the same law recommended
+    (tools/commission/readme_figures.py check);
   * the commutation of every law (the PGNN, its paper-size sibling, the
     spline, the spline from positions, calibrated classical), evaluated by
     `clm commutate` on a grid of requests over the stroke, within 1 % of the
@@ -154,6 +157,8 @@ def main():
     parser.add_argument("--config", required=True)
     parser.add_argument("--motor", required=True)
     parser.add_argument("--work", required=True)
+    parser.add_argument("--readme", help="also check the README's commissioning table against the native run "
+                                         "(tools/commission/readme_figures.py check)")
     args = parser.parse_args()
     shutil.rmtree(args.work, ignore_errors=True)
     os.makedirs(args.work)
@@ -164,6 +169,14 @@ def main():
         os.path.join(args.work, "native.log"))
     run([args.clm, "commission", "--config", args.config, "--out", restricted, "--no-plots"],
         dict(env, GLIBC_TUNABLES=RESTRICTED), os.path.join(args.work, "restricted.log"))
+    if args.readme:
+        figures = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools", "commission",
+                               "readme_figures.py")
+        result = subprocess.run([sys.executable, figures, "check", "--readme", args.readme, "--report",
+                                 os.path.join(native, "report.json")], capture_output=True, text=True)
+        print(result.stdout, end="")
+        check(result.returncode == 0, "the README's commissioning table within 10 % of this run: " +
+              (result.stderr.strip().replace("\n", "; ") or "every figure"))
     requests = os.path.join(args.work, "requests.csv")
     write_requests(requests)
     compare_reports(os.path.join(native, "report.json"), os.path.join(restricted, "report.json"),
