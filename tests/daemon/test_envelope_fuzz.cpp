@@ -32,6 +32,7 @@
 #include <tuple>
 #include <utility>
 
+#include "daemon/control/trajectory.hpp"
 #include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/parameters.hpp"
 #include "drivers/sim/motor.hpp"
@@ -149,7 +150,15 @@ struct Walk {
     // No farther than a move of kMoveTime_s at these limits goes (see above).
     const double y = motor().truth().position_m;
     const double longest_m = longest_move_m(limits);
-    if (bounded) target_m = std::clamp(target_m, y - longest_m, y + longest_m);
+    if (bounded) {
+      target_m = std::clamp(target_m, y - longest_m, y + longest_m);
+      // The planned move itself (control::ThirdOrderMove, as the daemon plans
+      // it) within kMoveTime_s: ramps at a small acceleration or jerk add to
+      // the cruise; halve the distance until it fits.
+      for (int k = 0; k < 60 && control::ThirdOrderMove::plan(y, target_m, limits).duration_s() > kMoveTime_s; ++k) {
+        target_m = y + 0.5 * (target_m - y);
+      }
+    }
     servo::Command move;
     move.kind = CommandKind::kMoveTo;
     move.target_m = target_m;
