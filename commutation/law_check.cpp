@@ -101,37 +101,69 @@ std::string describe(const LawCheck& check) {
   return "";
 }
 
-LawCheck check_model_law(const ElectromagneticModel& model, const LawLimits& limits) {
-  if (LawCheck cost = too_costly(model_law_cost(model), limits.loop_rate_hz); !cost.accepted()) return cost;
-  // Where the model was identified: a PGNN's data map to inputs [−1, 1]
-  // (normalisation_for), a spline's knots span its data. Beyond, a model
-  // extrapolates (docs/servod.md, "What a law may cost and mean").
-  const bool pgnn = model.kind == ModelKind::kPgnn;
-  double low_m = std::max(limits.stroke_min_m, pgnn ? model.normalisation.offset_m - model.normalisation.scale_m
-                                                     : model.spline_basis.start_m);
-  double high_m = std::min(limits.stroke_max_m, pgnn ? model.normalisation.offset_m + model.normalisation.scale_m
-                                                      : model.spline_basis.end_m);
-  if (!(high_m >= low_m)) {  // identified off the stroke: the whole stroke
-    low_m = limits.stroke_min_m;
-    high_m = limits.stroke_max_m;
-  }
-  const double range_m = high_m - low_m;
-  const double wanted = std::ceil(range_m / model.pole_pitch_m * kGainSamplesPerPolePitch);
+namespace {
+
+/// The grid of kGainSamplesPerPolePitch over the stroke, both ends: calls
+/// `judge(position_m)` at each point from the lower end; the first refusal.
+template <class Judge>
+LawCheck over_stroke(double pole_pitch_m, const LawLimits& limits, Judge judge) {
+  const double low_m = limits.stroke_min_m;
+  const double range_m = limits.stroke_max_m - limits.stroke_min_m;
+  const double wanted = std::ceil(range_m / pole_pitch_m * kGainSamplesPerPolePitch);
   const int intervals = std::clamp(std::isfinite(wanted) ? static_cast<int>(std::min(wanted, 1e9)) : kMaxGainSamples, 1,
                                    kMaxGainSamples - 1);
   for (int k = 0; k <= intervals; ++k) {
-    const double position_m = low_m + range_m * k / intervals;
-    for (int l = 0; l < model.coil_set_count(); ++l) {
-      CoilGain gain;
-      Wrench cogging;
-      model.evaluate_coil_set(l, position_m, gain, cogging);
-      if (LawCheck check = judge_gain(driving_force_gain_N_per_A(gain), l + 1, position_m, limits);
-          !check.accepted()) {
-        return check;
-      }
+    if (LawCheck check = judge(low_m + range_m * k / intervals); !check.accepted()) return check;
+  }
+  return {};
+}
+
+/// Every coil set's motor constant of `model` at `position_m`.
+LawCheck judge_model_gains(const ElectromagneticModel& model, double position_m, const LawLimits& limits) {
+  for (int l = 0; l < model.coil_set_count(); ++l) {
+    CoilGain gain;
+    Wrench cogging;
+    model.evaluate_coil_set(l, position_m, gain, cogging);
+    if (LawCheck check = judge_gain(driving_force_gain_N_per_A(gain), l + 1, position_m, limits); !check.accepted()) {
+      return check;
     }
   }
   return {};
+}
+
+}  // namespace
+
+std::int64_t blended_law_cost(const ElectromagneticModel& model) {
+  return model_law_cost(model) + classical_law_cost(model.coil_set_count()) + kBlendMultiplyAdds +
+         kBlendMultiplyAddsPerCoilSet * model.coil_set_count();
+}
+
+LawCheck check_model_law(const ElectromagneticModel& model, const LawLimits& limits) {
+  if (LawCheck cost = too_costly(model_law_cost(model), limits.loop_rate_hz); !cost.accepted()) return cost;
+  return over_stroke(model.pole_pitch_m, limits,
+                     [&](double position_m) { return judge_model_gains(model, position_m, limits); });
+}
+
+LawCheck check_blended_law(const ElectromagneticModel& model, std::span<const ClassicalEstimate> outside,
+                           const LawLimits& limits) {
+  if (LawCheck cost = too_costly(blended_law_cost(model), limits.loop_rate_hz); !cost.accepted()) return cost;
+  const IdentifiedRange range = identified_range(model);
+  const double margin_m = kBlendMarginPolePitches * model.pole_pitch_m;
+  return over_stroke(model.pole_pitch_m, limits, [&](double position_m) {
+    const double weight = model_law_weight(range, margin_m, position_m);
+    if (weight > 0.0) {
+      if (LawCheck check = judge_model_gains(model, position_m, limits); !check.accepted()) return check;
+    }
+    if (weight < 1.0) {
+      for (std::size_t l = 0; l < outside.size(); ++l) {
+        if (LawCheck check = judge_gain(outside[l].motor_constant_N_per_A, static_cast<int>(l) + 1, position_m, limits);
+            !check.accepted()) {
+          return check;
+        }
+      }
+    }
+    return LawCheck{};
+  });
 }
 
 LawCheck check_classical_law(std::span<const ClassicalEstimate> estimates, const LawLimits& limits) {

@@ -10,6 +10,7 @@
 
 #include "commutation/classical.hpp"
 #include "commutation/model.hpp"
+#include "commutation/range_blend.hpp"
 
 namespace clm {
 
@@ -70,6 +71,16 @@ std::int64_t model_law_cost(const ElectromagneticModel& model);
 
 /// Multiply-add equivalents of one cycle of ClassicalCommutator.
 std::int64_t classical_law_cost(int coil_sets);
+
+/// RangeBlendedCommutator's own work in the margin, where it runs both laws:
+/// Γ⁻¹ (a sin_cos) once, and per coil set the blend of two currents and the
+/// setpoint's polar form (an atan2 and a square root, counted as a sin_cos).
+inline constexpr std::int64_t kBlendMultiplyAdds = kSinCosMultiplyAdds + 10;
+inline constexpr std::int64_t kBlendMultiplyAddsPerCoilSet = kSinCosMultiplyAdds + 10;
+
+/// Multiply-add equivalents of one cycle of RangeBlendedCommutator on `model`
+/// where it costs most (in the margin): both laws and the blend.
+std::int64_t blended_law_cost(const ElectromagneticModel& model);
 
 /// What one cycle's law may cost at `loop_rate_hz`:
 /// kConservativeMultiplyAddsPerSecond · kLawShareOfPeriod / loop_rate_hz.
@@ -132,11 +143,21 @@ struct LawCheck {
 /// constant 0 N/A outside [6.7, 670] N/A". Empty when accepted.
 std::string describe(const LawCheck& check);
 
-/// Cost, then every coil set's driving_force_gain_N_per_A on a grid over the
-/// part of the stroke where the model was identified (a PGNN's normalised
-/// input in [−1, 1], a spline's knot span; the whole stroke when that misses
-/// it), from its lower end, coil set by coil set at each point.
+/// The model's law as if it were used unblended on the whole stroke: its
+/// cost, then every coil set's driving_force_gain_N_per_A on a grid over the
+/// stroke (kGainSamplesPerPolePitch), from its lower end, coil set by coil
+/// set at each point. A model extrapolates beyond its data, so this refuses
+/// most commissioned PGNNs; the daemon uses check_blended_law.
 LawCheck check_model_law(const ElectromagneticModel& model, const LawLimits& limits);
+
+/// The law the daemon uses for `model` (RangeBlendedCommutator with the
+/// classical constants `outside`), on the whole stroke: its cost
+/// (blended_law_cost), then at each grid point of the stroke the gains of
+/// every law that drives the axis there: the model's where its weight is
+/// above 0 (its identified range and the margin), each coil set's k̂ of
+/// `outside` where it is below 1. `outside` must have one entry per coil set.
+LawCheck check_blended_law(const ElectromagneticModel& model, std::span<const ClassicalEstimate> outside,
+                           const LawLimits& limits);
 
 /// Cost, then each coil set's calibrated motor constant.
 LawCheck check_classical_law(std::span<const ClassicalEstimate> estimates, const LawLimits& limits);

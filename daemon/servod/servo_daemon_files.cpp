@@ -3,14 +3,18 @@
 // when there is one; refusals name the path and the place, never the
 // content), and the status's loaded-file slots (a seqlock read byte by byte
 // through atomics). The command path is in servo_daemon.cpp.
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <stdexcept>
+#include <span>
 #include <type_traits>
+#include <vector>
 
 #include "commutation/law_check.hpp"
+#include "commutation/range_blend.hpp"
 #include "config/regular_file.hpp"
 #include "config/sha256.hpp"
 #include "daemon/servod/feedforward_file.hpp"
@@ -62,6 +66,45 @@ LawLimits law_limits(const ServodConfig& config) {
           config.motor.stroke_max_m};
 }
 
+/// What a model law blends to outside its identified range
+/// (commutation/range_blend.hpp; docs/servod.md, "What a law may cost and
+/// mean"): the calibration loaded last (the classical law's, in use or
+/// waiting for standstill), else the drive's own constants (the original
+/// law's). `laws` is ServoDaemon::laws_, read on the thread that owns it.
+template <class Laws>
+std::vector<ClassicalEstimate> blend_target(const Laws& laws) {
+  for (const auto mode : {servo::CommutationMode::kClassical, servo::CommutationMode::kOriginal}) {
+    for (auto law = laws.rbegin(); law != laws.rend(); ++law) {
+      if ((*law)->mode == mode) return (*law)->estimates;
+    }
+  }
+  return {};
+}
+
+/// The drive's own constants for every coil set: the original law's, and the
+/// blend target when no calibration is loaded.
+std::vector<ClassicalEstimate> drive_estimates(const ServodConfig& config) {
+  return std::vector<ClassicalEstimate>(static_cast<std::size_t>(config.motor.coil_sets),
+                                        {config.motor.drive.motor_constant_N_per_A, config.motor.drive.phase_offset_rad});
+}
+
+/// The law of `model` as the daemon uses it (RangeBlendedCommutator to
+/// `outside`), checked on the whole stroke; throws LawRefused naming `path`.
+std::unique_ptr<CommutationLaw> blended_model_law(const ElectromagneticModel& model,
+                                                  std::span<const ClassicalEstimate> outside,
+                                                  const ServodConfig& config, const std::string& path,
+                                                  const std::string& what) {
+  auto law = std::make_unique<RangeBlendedCommutator>(model, outside, config.motor.drive, config.commutation.options);
+  require_accepted(check_blended_law(model, outside, law_limits(config)), path, what);
+  return law;
+}
+
+bool same_estimates(std::span<const ClassicalEstimate> a, std::span<const ClassicalEstimate> b) {
+  return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](const ClassicalEstimate& x, const ClassicalEstimate& y) {
+    return x.motor_constant_N_per_A == y.motor_constant_N_per_A && x.phase_offset_rad == y.phase_offset_rad;
+  });
+}
+
 }  // namespace
 
 std::string ServoDaemon::law_source(servo::CommutationMode mode) const {
@@ -100,9 +143,12 @@ std::unique_ptr<ServoDaemon::OwnedLaw> ServoDaemon::build_law(servo::Commutation
                                " model, the " + servo::name(mode) + " commutation needs a " +
                                (expected == ModelKind::kPgnn ? "pgnn" : "spline") + " model");
     }
-    owned->law = std::make_unique<ModelCommutator>(owned->model.model, config_.motor.drive, config_.commutation.options);
-    require_accepted(check_model_law(owned->model.model, law_limits(config_)), path,
-                     std::string(servo::name(mode)) + " model");
+    // The blend target: on the thread that owns laws_ (start-up, or a load
+    // without a loader thread) the one blend_target decides; on the loader
+    // thread the drive's own for now, and finish_load sets it.
+    owned->estimates = loader_ == nullptr ? blend_target(laws_) : drive_estimates(config_);
+    owned->law = blended_model_law(owned->model.model, owned->estimates, config_, path,
+                                   std::string(servo::name(mode)) + " model");
   }
   return owned;
 }
@@ -198,6 +244,22 @@ CommandReply ServoDaemon::finish_load(Loaded& loaded) {
     case Kind::kLoadCalibration:
     case Kind::kLoadModel: {
       const servo::CommutationMode mode = loaded.law->mode;
+      if (command.kind == Kind::kLoadModel) {
+        // Built on the loader thread without the calibration in use: blend to it now.
+        OwnedLaw& owned = *loaded.law;
+        const std::vector<ClassicalEstimate> target = blend_target(laws_);
+        if (!same_estimates(owned.estimates, target)) {
+          try {
+            owned.law = blended_model_law(owned.model.model, target, config_, loaded.canonical,
+                                          std::string(servo::name(mode)) + " model");
+          } catch (const LawRefused& refused) {
+            return reply_to(command, Result::kRejectedFile,
+                            std::string(servo::route(command.kind).name) + ": " + refused.reason + ": '" +
+                                std::string(servo::file_named(command)) + "'");
+          }
+          owned.estimates = target;
+        }
+      }
       if (!cycle_->mailbox().law(mode).post(loaded.law->law.get())) {
         return reply_to(command, Result::kRejectedLoadWaiting);
       }

@@ -88,6 +88,13 @@ TEST_CASE("A 70 x 64 PGNN is refused at 1 kHz; the commissioning capacities and 
   CHECK(model_law_cost(paper) == 2056);     // the figures docs/servod.md gives
   CHECK(model_law_cost(largest) == 7120);
   CHECK(model_law_cost(spline) == 877);
+  // As the daemon uses them, blended to the classical law outside their
+  // range (commutation/range_blend.hpp): both laws and the blend.
+  CHECK(blended_law_cost(paper) == 2596);
+  CHECK(blended_law_cost(largest) == 7810);
+  CHECK(blended_law_cost(spline) == 1567);
+  CHECK(blended_law_cost(found) == 3353476);
+  CHECK(3 * blended_law_cost(largest) < law_cost_budget(1000.0));
   CHECK(10 * model_law_cost(paper) < law_cost_budget(1000.0));
   CHECK(3 * model_law_cost(largest) < law_cost_budget(1000.0));
   CHECK(25 * model_law_cost(spline) < law_cost_budget(1000.0));
@@ -164,7 +171,8 @@ TEST_CASE("A coil set's motor constant below a tenth of the nominal is refused, 
   CHECK(check_model_law(make_classical_model(kPolePitch, coil_sets), kLimits).accepted());
 }
 
-TEST_CASE("A model is judged where it was identified, not where it extrapolates", "[law_check]") {
+TEST_CASE("A model is judged where the law as used drives the axis: its range and the blend margin",
+          "[law_check]") {
   // Coil set 2: physics part zero, column a the step 30 − 30·tanh(w·u + b)
   // of the input u = (y − offset)/scale, switching off at y = 0.05 m.
   const auto step_at = [](const PositionNormalisation& normalisation) {
@@ -179,18 +187,28 @@ TEST_CASE("A model is judged where it was identified, not where it extrapolates"
   ElectromagneticModel model = make_classical_model(kPolePitch, sim_coil_sets(), {1}, {16});
   model.coil_sets[1].a_N_per_A.setZero();
   model.coil_sets[1].b_N_per_A.setZero();
+  const std::vector<ClassicalEstimate> calibration{{61.3, -0.54}, {61.6, -0.55}, {60.1, -0.55}};
 
-  // Data on ±0.1 m: the step lies inside, refused above 0.05 m.
+  // Data on ±0.1 m: the step lies inside, refused above 0.05 m, blended or not.
   model.normalisation = {0.0, 0.1};
   model.coil_sets[1].column_a = step_at(model.normalisation);
-  const LawCheck refused = check_model_law(model, kLimits);
-  REQUIRE(refused.verdict == LawVerdict::kGainOutOfRange);
-  CHECK(refused.coil_set == 2);
-  CHECK(refused.position_m > 0.05);
-  CHECK(refused.position_m < 0.05 + 0.2 / 200);
+  for (const LawCheck& refused : {check_model_law(model, kLimits), check_blended_law(model, calibration, kLimits)}) {
+    REQUIRE(refused.verdict == LawVerdict::kGainOutOfRange);
+    CHECK(refused.coil_set == 2);
+    CHECK(refused.position_m > 0.05);
+    CHECK(refused.position_m < 0.05 + 0.24 / 256);
+  }
 
-  // Data on −0.12..0.04 m: the step lies beyond them, accepted.
+  // Data on −0.12..0.04 m: the step lies beyond them and beyond the blend's
+  // margin (0.0075 m): the law as used is accepted, unblended it is not.
   model.normalisation = {-0.04, 0.08};
   model.coil_sets[1].column_a = step_at(model.normalisation);
-  CHECK(check_model_law(model, kLimits).accepted());
+  CHECK(check_blended_law(model, calibration, kLimits).accepted());
+  CHECK(check_model_law(model, kLimits).verdict == LawVerdict::kGainOutOfRange);
+
+  // Data on −0.12..0.045 m: the step lies 5 mm beyond them, inside the
+  // margin where the model still drives the axis: refused.
+  model.normalisation = {-0.0375, 0.0825};
+  model.coil_sets[1].column_a = step_at(model.normalisation);
+  CHECK(check_blended_law(model, calibration, kLimits).coil_set == 2);
 }
