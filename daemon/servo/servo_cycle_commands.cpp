@@ -50,7 +50,7 @@ void ServoSettings::validate() const {
   require(jog_timeout_s > 0.0 && std::isfinite(jog_timeout_s), "jog_timeout_s must be positive");
   const std::string outside = control::check_envelope(
       machine, {period_s, soft_limit_min_m, soft_limit_max_m, following_error_limit_m, force_limit_N,
-                saturation_time_limit_s, motion_limits, stop_limits, quick_stop_limits, feedforward});
+                saturation_time_limit_s, motion_limits, stop_limits, quick_stop_limits, feedforward, pid});
   require(outside.empty(), outside);
 }
 
