@@ -496,9 +496,10 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   const std::string no_feedforward_path = written("feedforward-none.yaml");
   write_file_atomically(no_feedforward_path, servod::format_feedforward_file(no_feedforward));
 
-  // 4. Per commutation: feedforward identification, then evaluation.
-  // The daemon has one PGNN slot: the paper's model is evaluated in it
-  // first, then the chosen one, which stays loaded.
+  // 4. Per commutation: feedforward identification, then evaluation. Each
+  // law loads its own model or calibration first (the daemon has one slot
+  // per law: the paper's PGNN and the chosen one share the PGNN slot), so
+  // the model it runs does not depend on which laws ran before it.
   struct Commutation {
     const char* name;
     servo::CommutationMode mode;
