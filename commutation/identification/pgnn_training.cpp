@@ -110,6 +110,15 @@ class PhysicsPrior final : public ceres::CostFunction {
 constexpr double kFunctionTolerance = 1e-10;   // relative decrease of the cost
 constexpr double kGradientTolerance = 1e-12;   // largest entry of the gradient
 constexpr double kParameterTolerance = 1e-10;  // step relative to the parameters
+// The variable-projection solve also stops when the last kStallIterations
+// iterations lowered the cost (26) by less than kStallTolerance of it. The
+// cost is a mean square over N ≥ 1000 samples of noisy force; its sampling
+// error is about sqrt(2/N) ≥ 1e-3 of it at best, so a change 10× below that
+// is one no held-out comparison can see, and the iterations that chase it
+// (the slow tail of Levenberg–Marquardt) cost most of the time
+// (docs/design-decisions.md, "PGNN solver").
+constexpr int kStallIterations = 10;
+constexpr double kStallTolerance = 1e-4;
 
 // Levenberg–Marquardt in Ceres with those tolerances (the joint Schur
 // solve); the caller chooses the linear solver.
@@ -214,31 +223,41 @@ Eigen::MatrixXd gram_product(const Eigen::MatrixBase<Matrix>& a) {
 // Levenberg–Marquardt solver. The residuals are those of eq. (26) at
 // θ_L(θ_NL), direction-major, then the 4 prior residuals of each direction:
 //   r = [sqrt(2/N)·(F_q − M θ_L,q) ; sqrt(2)·λ·(θ_phy,q − θ*_phy,q)],
-// so Ceres' cost ½‖r‖² is eq. (26) exactly. With A = ∂r/∂θ_L (the same
-// M for all three directions) and V_q = ∂r_q/∂θ_NL at fixed θ_L, Kaufman's
+// so the cost ½‖r‖² is eq. (26) exactly. With A = ∂r/∂θ_L (the same M for
+// all three directions) and V_q = ∂r_q/∂θ_NL at fixed θ_L, Kaufman's
 // Jacobian is J_q = (I − A (AᵀA)⁻¹ Aᵀ) V_q: the change of θ_L with θ_NL
 // projected out, without the second-order term in the residual.
-class ProjectedCost final : public ceres::CostFunction {
+//
+// The solver needs only JᵀJ and Jᵀr, and the Jacobian has a structure that
+// gives them without forming it: V_q = −scale·P·diag(w_q), P the derivatives
+// of the hidden outputs (times their multiplier) and w_q the output weight of
+// each neuron in direction q, so with Z = (MᵀM/N + Λ)⁻¹·MᵀP/N (Λ the ridge
+// of eq. 31; the same for all directions) J_q = scale·R·diag(w_q) on the data rows, R = M Z − P, and
+// −sqrt(2)·λ·Z[0:4]·diag(w_q) on the prior rows. Hence
+//   JᵀJ = (scale²·RᵀR + 2λ²·Z[0:4]ᵀZ[0:4]) ∘ Σ_q w_q w_qᵀ,
+//   Jᵀr = Σ_q w_q ∘ (scale·Rᵀ r_q − sqrt(2)·λ·Z[0:4]ᵀ r_prior,q):
+// one n×q² sum for the three directions instead of three, and no 3n×q
+// Jacobian (docs/design-decisions.md, "PGNN solver").
+class ProjectedCost final {
  public:
   ProjectedCost(const CoilSetDataset& data, const PgnnFeatures& features, const PgnnLayout& layout,
                 const CoilGain& physics_a, const CoilGain& physics_b, double regularisation)
       : data_(data), features_(features), layout_(layout), physics_a_(physics_a), physics_b_(physics_b),
-        regularisation_(regularisation) {
-    set_num_residuals(static_cast<int>(3 * data.size() + 12));
-    mutable_parameter_block_sizes()->push_back(layout.nonlinear_size());
-  }
+        regularisation_(regularisation) {}
 
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    const double* nonlinear = parameters[0];
+  int num_residuals() const { return static_cast<int>(3 * data_.size() + 12); }
+  int num_parameters() const { return layout_.nonlinear_size(); }
+
+  // Residuals r at θ_NL = `nonlinear` into `residuals` (num_residuals());
+  // returns the cost ½‖r‖². Keeps what normal_equations needs at that θ_NL.
+  double evaluate(const double* nonlinear, Eigen::VectorXd& residuals) const {
     const Eigen::Index n = data_.size();
     const int p = layout_.linear_size();
     const int q = layout_.nonlinear_size();
     const int na = layout_.column_hidden;
     const int nc = layout_.cogging_hidden;
-    const bool want_jacobian = jacobians != nullptr && jacobians[0] != nullptr;
-    Eigen::MatrixXd regressors(n, p);
-    Eigen::MatrixXd derivatives;  // ∂(hidden output)/∂θ_NL times the multiplier, per column of θ_NL
-    if (want_jacobian) derivatives.resize(n, q);
+    regressors_.resize(n, p);
+    derivatives_.resize(n, q);
     double m[kMaxRegressor];
     double ha[Network::kMaxWidth], hb[Network::kMaxWidth], hc[Network::kMaxWidth];
     for (Eigen::Index t = 0; t < n; ++t) {
@@ -247,13 +266,12 @@ class ProjectedCost final : public ceres::CostFunction {
       const double ib = data_.currents_A(1, t);
       regressor(layout_, nonlinear, features_.cos_theta[t], features_.sin_theta[t], x, features_.direction[t], ia, ib, m,
                 ha, hb, hc);
-      for (int k = 0; k < p; ++k) regressors(t, k) = m[k];
-      if (!want_jacobian) continue;
+      for (int k = 0; k < p; ++k) regressors_(t, k) = m[k];
       const auto fill = [&](int first, const double* h, int width, double multiplier) {
         for (int j = 0; j < width; ++j) {
           const double g = (1.0 - h[j] * h[j]) * multiplier;
-          derivatives(t, first + j) = g * x;
-          derivatives(t, first + width + j) = g;
+          derivatives_(t, first + j) = g * x;
+          derivatives_(t, first + width + j) = g;
         }
       };
       fill(0, ha, na, ia);
@@ -262,49 +280,81 @@ class ProjectedCost final : public ceres::CostFunction {
     }
     // θ_L by eq. (31) (the normal equations of r over θ_L, halved).
     const double inv_n = 1.0 / static_cast<double>(n);
-    Eigen::MatrixXd gram = gram_product(regressors) * inv_n;
-    Eigen::MatrixXd rhs = transposed_product(regressors, data_.wrench.transpose()) * inv_n;
+    Eigen::MatrixXd gram = gram_product(regressors_) * inv_n;
+    Eigen::MatrixXd rhs = transposed_product(regressors_, data_.wrench.transpose()) * inv_n;
     const double lambda2 = regularisation_ * regularisation_;
     Eigen::Matrix<double, 4, 3> target;
     for (int d = 0; d < 3; ++d) target.col(d) = physics_target(physics_a_, physics_b_, d);
     for (int k = 0; k < 4; ++k) gram(k, k) += lambda2;
     rhs.topRows<4>() += lambda2 * target;
-    for (int k = 4; k < p; ++k) gram(k, k) += 1e-10 * (1.0 + gram(k, k));
-    const Eigen::LDLT<Eigen::MatrixXd> solver(gram);
-    const Eigen::MatrixXd linear = solver.solve(rhs);  // p × 3
+    ridge_.resize(p);
+    for (int k = 0; k < 4; ++k) ridge_[k] = lambda2;
+    for (int k = 4; k < p; ++k) {
+      ridge_[k] = 1e-10 * (1.0 + gram(k, k));
+      gram(k, k) += ridge_[k];
+    }
+    solver_.compute(gram);
+    linear_ = solver_.solve(rhs);  // p × 3
+    const Eigen::MatrixXd& linear = linear_;
 
     const double scale = std::sqrt(2.0 * inv_n);
     const double prior_weight = std::sqrt(2.0) * regularisation_;
-    Eigen::Map<Eigen::MatrixXd> data_residuals(residuals, n, 3);
-    data_residuals = scale * (data_.wrench.transpose() - regressors * linear);
+    residuals.resize(num_residuals());
+    Eigen::Map<Eigen::MatrixXd> data_residuals(residuals.data(), n, 3);
+    data_residuals = scale * (data_.wrench.transpose() - regressors_ * linear);
     for (int d = 0; d < 3; ++d) {
-      residuals[3 * n + 4 * d + 0] = prior_weight * (linear(0, d) - target(0, d));
-      residuals[3 * n + 4 * d + 1] = prior_weight * (linear(1, d) - target(1, d));
-      residuals[3 * n + 4 * d + 2] = prior_weight * (linear(2, d) - target(2, d));
-      residuals[3 * n + 4 * d + 3] = prior_weight * (linear(3, d) - target(3, d));
+      for (int k = 0; k < 4; ++k) residuals[3 * n + 4 * d + k] = prior_weight * (linear(k, d) - target(k, d));
     }
-    if (!want_jacobian) return true;
+    return 0.5 * residuals.squaredNorm();
+  }
 
-    // V_q = −scale·P·diag(w_q), w_q the output weight of each hidden neuron in
-    // direction q; AᵀA = 2·gram; Aᵀ V_q = scale²·(MᵀP)·diag(w_q).
-    // K_q = (AᵀA)⁻¹ Aᵀ V_q; J_q = scale·(M K_q − P diag(w_q)) on the data rows,
-    // −sqrt(2)·λ·K_q[0:4] on the prior rows.
-    const Eigen::MatrixXd cross = transposed_product(regressors, derivatives);  // p × q
-    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-    Eigen::Map<RowMajor> jacobian(jacobians[0], 3 * n + 12, q);
-    Eigen::VectorXd weights(q);
+  // JᵀJ into `normal` and Jᵀr into `gradient` at the θ_NL of the last
+  // evaluate(), whose residuals `residuals` are.
+  void normal_equations(const Eigen::VectorXd& residuals, Eigen::MatrixXd& normal, Eigen::VectorXd& gradient) const {
+    const Eigen::Index n = data_.size();
+    const int q = layout_.nonlinear_size();
+    const int na = layout_.column_hidden;
+    const int nc = layout_.cogging_hidden;
+    const double inv_n = 1.0 / static_cast<double>(n);
+    const double scale = std::sqrt(2.0 * inv_n);
+    const double prior_weight = std::sqrt(2.0) * regularisation_;
+    const Eigen::MatrixXd& linear = linear_;
+    const Eigen::Map<const Eigen::MatrixXd> data_residuals(residuals.data(), n, 3);
+    // C = MᵀP/n and Z = gram⁻¹·C (gram = MᵀM/n + Λ, Λ the ridge of eq. 31).
+    // Since gram·Z = C, RᵀR/n = PᵀP/n − CᵀZ − ZᵀΛZ: the Schur complement of
+    // [MᵀM MᵀP; PᵀM PᵀP]/n, from sums over samples in blocks, without
+    // forming R (n×p×q operations fewer per Jacobian).
+    const Eigen::MatrixXd cross = transposed_product(regressors_, derivatives_) * inv_n;  // p × q
+    const Eigen::MatrixXd z = solver_.solve(cross);                                     // p × q
+    Eigen::MatrixXd projected_gram = gram_product(derivatives_) * inv_n;
+    projected_gram.noalias() -= cross.transpose() * z;
+    const Eigen::MatrixXd ridge_rows = ridge_.cwiseSqrt().asDiagonal() * z;
+    projected_gram.noalias() -= ridge_rows.transpose() * ridge_rows;
+    projected_gram = 0.5 * (projected_gram + projected_gram.transpose()).eval();
+    // Rᵀr = Zᵀ(Mᵀr) − Pᵀr on the (scaled) data residuals.
+    Eigen::MatrixXd projected_rhs = z.transpose() * transposed_product(regressors_, data_residuals);
+    projected_rhs -= transposed_product(derivatives_, data_residuals);
+    const Eigen::MatrixXd prior_rows = z.topRows<4>();
+    Eigen::MatrixXd prior_gram = Eigen::MatrixXd::Zero(q, q);
+    prior_gram.selfadjointView<Eigen::Lower>().rankUpdate(prior_rows.transpose());
+    prior_gram = prior_gram.selfadjointView<Eigen::Lower>();
+    // The output weight of each hidden neuron's two parameters, per direction.
+    Eigen::MatrixXd weights(q, 3);
     for (int d = 0; d < 3; ++d) {
       for (int j = 0; j < na; ++j) {
-        weights[j] = weights[na + j] = linear(layout_.column_a_offset() + j, d);
-        weights[2 * na + j] = weights[3 * na + j] = linear(layout_.column_b_offset() + j, d);
+        weights(j, d) = weights(na + j, d) = linear(layout_.column_a_offset() + j, d);
+        weights(2 * na + j, d) = weights(3 * na + j, d) = linear(layout_.column_b_offset() + j, d);
       }
-      for (int j = 0; j < nc; ++j) weights[4 * na + j] = weights[4 * na + nc + j] = linear(layout_.cogging_offset() + j, d);
-      // (AᵀA)⁻¹ Aᵀ V_q = (2·gram)⁻¹ · scale² · cross·diag(w) = gram⁻¹ · cross·diag(w) / n.
-      const Eigen::MatrixXd k = solver.solve(cross * weights.asDiagonal()) * inv_n;
-      jacobian.middleRows(d * n, n) = scale * (regressors * k - derivatives * weights.asDiagonal());
-      jacobian.middleRows(3 * n + 4 * d, 4) = -prior_weight * k.topRows<4>();
+      for (int j = 0; j < nc; ++j) weights(4 * na + j, d) = weights(4 * na + nc + j, d) = linear(layout_.cogging_offset() + j, d);
     }
-    return true;
+    const Eigen::MatrixXd outer = weights * weights.transpose();  // Σ_q w_q w_qᵀ
+    normal = (2.0 * projected_gram + prior_weight * prior_weight * prior_gram).cwiseProduct(outer);
+    gradient.setZero(q);
+    for (int d = 0; d < 3; ++d) {
+      const Eigen::Vector4d prior_residuals = residuals.segment<4>(3 * n + 4 * d);
+      gradient += weights.col(d).cwiseProduct(scale * projected_rhs.col(d) -
+                                               prior_weight * (prior_rows.transpose() * prior_residuals));
+    }
   }
 
  private:
@@ -313,6 +363,10 @@ class ProjectedCost final : public ceres::CostFunction {
   PgnnLayout layout_;
   CoilGain physics_a_, physics_b_;
   double regularisation_;
+  // Work space, sized at the first evaluation (one solve, one thread).
+  mutable Eigen::MatrixXd regressors_, derivatives_, linear_;
+  mutable Eigen::VectorXd ridge_;  // what eq. (31) adds to the diagonal of MᵀM/n
+  mutable Eigen::LDLT<Eigen::MatrixXd> solver_;
 };
 
 // Levenberg–Marquardt on θ_NL of the variable-projection problem, with the
@@ -324,25 +378,24 @@ class ProjectedCost final : public ceres::CostFunction {
 double minimise_projected(const ProjectedCost& cost_function, int max_iterations, std::vector<double>& x,
                           int& iterations) {
   const int q = static_cast<int>(x.size());
-  const int m = cost_function.num_residuals();
-  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  Eigen::VectorXd residuals(m), trial_residuals(m);
-  RowMajor jacobian(m, q);
-  const auto evaluate = [&](const std::vector<double>& at, Eigen::VectorXd& r, RowMajor* j) {
-    const double* parameters[] = {at.data()};
-    double* jacobians[] = {j != nullptr ? j->data() : nullptr};
-    cost_function.Evaluate(parameters, r.data(), j != nullptr ? jacobians : nullptr);
-    return 0.5 * r.squaredNorm();
-  };
-  double cost = evaluate(x, residuals, &jacobian);
+  Eigen::VectorXd residuals, trial_residuals;
+  Eigen::MatrixXd normal;
+  Eigen::VectorXd gradient;  // Jᵀr
+  double cost = cost_function.evaluate(x.data(), residuals);
+  cost_function.normal_equations(residuals, normal, gradient);
   ++iterations;
-  Eigen::MatrixXd normal = gram_product(jacobian);
-  Eigen::VectorXd gradient = transposed_product(jacobian, residuals);  // Jᵀr
   double radius = 1e4;  // Ceres' initial_trust_region_radius
   double decrease_factor = 2.0;
   std::vector<double> trial(x.size());
+  std::vector<double> history;  // the cost at the start of each iteration
+  history.reserve(static_cast<std::size_t>(std::max(0, max_iterations)));
   for (int iteration = 0; iteration < max_iterations; ++iteration) {
     if (gradient.lpNorm<Eigen::Infinity>() <= kGradientTolerance) break;
+    history.push_back(cost);
+    if (iteration >= kStallIterations &&
+        history[static_cast<std::size_t>(iteration - kStallIterations)] - cost <= kStallTolerance * cost) {
+      break;
+    }
     // (JᵀJ + D/radius)·δ = −Jᵀr with D = diag(JᵀJ) clamped to [1e-6, 1e32].
     Eigen::MatrixXd damped = normal;
     for (int k = 0; k < q; ++k) damped(k, k) += std::clamp(normal(k, k), 1e-6, 1e32) / radius;
@@ -361,7 +414,7 @@ double minimise_projected(const ProjectedCost& cost_function, int max_iterations
       const double step_norm = step.norm();
       if (step_norm <= kParameterTolerance * (current.norm() + kParameterTolerance)) break;
       for (int k = 0; k < q; ++k) trial[static_cast<std::size_t>(k)] = x[static_cast<std::size_t>(k)] + step[k];
-      trial_cost = evaluate(trial, trial_residuals, nullptr);
+      trial_cost = cost_function.evaluate(trial.data(), trial_residuals);
       // Decrease the linear model predicts: −(Jᵀr·δ + ½ δᵀJᵀJδ).
       predicted = -(gradient.dot(step) + 0.5 * step.dot(normal * step));
     }
@@ -373,10 +426,11 @@ double minimise_projected(const ProjectedCost& cost_function, int max_iterations
       continue;
     }
     const double change = cost - trial_cost;
+    // The last evaluation was at the trial point: its regressors serve.
     x = trial;
-    cost = evaluate(x, residuals, &jacobian);
-    normal = gram_product(jacobian);
-    gradient = transposed_product(jacobian, residuals);
+    cost = trial_cost;
+    residuals.swap(trial_residuals);
+    cost_function.normal_equations(residuals, normal, gradient);
     const double excess = 2.0 * ratio - 1.0;
     radius = std::min(1e16, radius / std::max(1.0 / 3.0, 1.0 - excess * excess * excess));
     decrease_factor = 2.0;

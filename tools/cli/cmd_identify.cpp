@@ -1,5 +1,6 @@
 // clm identify: Algorithm 2 (PGNN) or the spline model for every coil set.
 #include <cstdio>
+#include <map>
 #include <optional>
 #include <iostream>
 
@@ -116,6 +117,15 @@ void add_identify(CLI::App& app) {
   sub->add_option("--final-decimation", o.pgnn.final_decimation, "the polish uses every n-th training sample")
       ->check(clm::in_range(1, 1000))->capture_default_str();
   sub->add_option("--threads", o.pgnn.threads, "solver threads")->check(clm::in_range(1, 64))->capture_default_str();
+  sub->add_option("--solver", o.pgnn.solver,
+                  "PGNN training: variable-projection (Levenberg-Marquardt on the hidden layers, eq. (31) at every "
+                  "step) or joint (the paper's: Levenberg-Marquardt on all parameters, Ceres; not reproducible "
+                  "across CPUs)")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, identification::PgnnSolver>{
+              {"variable-projection", identification::PgnnSolver::kVariableProjection},
+              {"joint", identification::PgnnSolver::kJointSchur}}))
+      ->default_str("variable-projection");
   sub->add_option("--knot-spacing-m", o.spline.knot_spacing_m, "spline knot spacing (0: pole pitch / 8)")
       ->check(clm::non_negative_number())->capture_default_str();
   sub->add_option("--smoothing", o.spline.smoothing, "spline roughness penalty")->check(clm::non_negative_number())->capture_default_str();

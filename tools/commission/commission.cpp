@@ -9,6 +9,10 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <mutex>
+#include <thread>
+#include <exception>
+#include <memory>
 
 #include "config/atomic_file.hpp"
 #include "config/sha256.hpp"
@@ -492,9 +496,10 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   const std::string no_feedforward_path = written("feedforward-none.yaml");
   write_file_atomically(no_feedforward_path, servod::format_feedforward_file(no_feedforward));
 
-  // 4. Per commutation: feedforward identification, then evaluation.
-  // The daemon has one PGNN slot: the paper's model is evaluated in it
-  // first, then the chosen one, which stays loaded.
+  // 4. Per commutation: feedforward identification, then evaluation. Each
+  // law loads its own model or calibration first (the daemon has one slot
+  // per law: the paper's PGNN and the chosen one share the PGNN slot), so
+  // the model it runs does not depend on which laws ran before it.
   struct Commutation {
     const char* name;
     servo::CommutationMode mode;
@@ -505,10 +510,10 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   if (sensor) {
     commutations.insert(
         commutations.end(),
-        {{"classical", servo::CommutationMode::kClassical, "", ""},
+        {{"classical", servo::CommutationMode::kClassical, "", dir + "/calibration.yaml"},
          {"pgnn-paper", servo::CommutationMode::kPgnn, paper_is_chosen ? "" : dir + "/model-pgnn-paper.yaml", ""},
          {"pgnn", servo::CommutationMode::kPgnn, dir + "/model-pgnn.yaml", ""},
-         {"spline", servo::CommutationMode::kSpline, "", ""}});
+         {"spline", servo::CommutationMode::kSpline, dir + "/model-spline.yaml", ""}});
   }
   if (options.no_force_sensor) {
     commutations.push_back({"classical-position", servo::CommutationMode::kClassical, "",
@@ -519,55 +524,115 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
                             dir + "/model-spline-position.yaml", ""});
   }
   commutations.push_back({"oracle", servo::CommutationMode::kOracle, "", ""});
-  const auto count = static_cast<double>(commutations.size());
-  int index = 0;
-  for (const auto& [name, mode, model, calibration] : commutations) {
-    step_start = Clock::now();
-    tell("evaluation", index / count, name);
-    ++index;
-    if (mode == servo::CommutationMode::kOracle && !runner.oracle_unavailable_reason().empty()) {
-      const std::string reason = runner.oracle_unavailable_reason();
-      report.results.push_back({name, false, reason});
-      if (validation_program) report.validation.push_back({name, false, reason});
-      continue;
+  // Each law's runs depend only on the files loaded for it, so the laws are
+  // evaluated side by side on two daemons when the runner offers a second
+  // one (in process: a second daemon core with its own simulated motor, on
+  // another thread), law k on daemon k mod 2; what each law's runs give, and
+  // the files, steps and results, are merged in the order of `commutations`
+  // whatever finishes first. Live there is one daemon and the laws run in turn.
+  struct LawOutcome {
+    std::vector<std::string> files;
+    std::optional<CommutationResult> result, validation;
+    std::optional<StepTime> step;
+  };
+  std::vector<LawOutcome> outcomes(commutations.size());
+  std::unique_ptr<ExperimentRunner> side = runner.side_runner();
+  if (side) side->enable();
+  std::mutex progress_mutex;
+  std::size_t finished = 0;
+  const auto evaluate_law = [&](ExperimentRunner& on, std::size_t k) {
+    const auto& [name, mode, model, calibration] = commutations[k];
+    LawOutcome& outcome = outcomes[k];
+    const auto law_file = [&](const std::string& file) {
+      outcome.files.push_back(file);
+      return dir + "/" + file;
+    };
+    const auto law_start = Clock::now();
+    if (mode == servo::CommutationMode::kOracle && !on.oracle_unavailable_reason().empty()) {
+      const std::string reason = on.oracle_unavailable_reason();
+      outcome.result = CommutationResult{name, false, reason};
+      if (validation_program) outcome.validation = CommutationResult{name, false, reason};
+      return;
     }
-    if (std::string(name) == "pgnn-paper" && paper_is_chosen) continue;  // the same model as "pgnn": copied below
-    if (!model.empty()) runner.load_model(mode, model);
-    if (!calibration.empty()) runner.load_calibration(calibration);
-    runner.set_commutation(mode);
-    runner.load_feedforward(no_feedforward.parameters, no_feedforward_path);
-    open_log(std::string("feedforward-data-") + name + ".lcm");
-    const Recording identification_run = runner.run_program(program, program_path, std::string(name) + " feedforward data");
-    runner.close_log();
-    write_feedforward_csv(written(std::string("feedforward-data-") + name + ".csv"), identification_run);
+    if (std::string(name) == "pgnn-paper" && paper_is_chosen) return;  // the same model as "pgnn": copied below
+    if (!model.empty()) on.load_model(mode, model);
+    if (!calibration.empty()) on.load_calibration(calibration);
+    on.set_commutation(mode);
+    on.load_feedforward(no_feedforward.parameters, no_feedforward_path);
+    const auto open_law_log = [&](const std::string& log) {
+      outcome.files.push_back("logs/" + log);
+      on.open_log(dir + "/logs/" + log);
+    };
+    open_law_log(std::string("feedforward-data-") + name + ".lcm");
+    const Recording identification_run = on.run_program(program, program_path, std::string(name) + " feedforward data");
+    on.close_log();
+    write_feedforward_csv(law_file(std::string("feedforward-data-") + name + ".csv"), identification_run);
     servod::FeedforwardFile ff_file;
     ff_file.parameters = identify_ff(identification_run);
     ff_file.generator = "clm commission";
-    const std::string ff_path = written(std::string("feedforward-") + name + ".yaml");
+    const std::string ff_path = law_file(std::string("feedforward-") + name + ".yaml");
     write_file_atomically(ff_path, servod::format_feedforward_file(ff_file));
-    runner.load_feedforward(ff_file.parameters, ff_path);
-    open_log(std::string("evaluation-") + name + ".lcm");
-    const Recording evaluation = runner.run_program(program, program_path, std::string(name) + " evaluation");
-    runner.close_log();
-    write_evaluation_csv(written(std::string("evaluation-") + name + ".csv"), evaluation, timeline);
+    on.load_feedforward(ff_file.parameters, ff_path);
+    open_law_log(std::string("evaluation-") + name + ".lcm");
+    const Recording evaluation = on.run_program(program, program_path, std::string(name) + " evaluation");
+    on.close_log();
+    write_evaluation_csv(law_file(std::string("evaluation-") + name + ".csv"), evaluation, timeline);
     CommutationResult result = evaluate(evaluation, config.servo.period_s);
     result.name = name;
     result.feedforward = ff_file.parameters;
-    report.results.push_back(result);
+    outcome.result = result;
     if (validation_program) {
       // Held out: neither the models nor the feedforward saw this trajectory.
-      open_log(std::string("validation-") + name + ".lcm");
+      open_law_log(std::string("validation-") + name + ".lcm");
       const Recording held_out =
-          runner.run_program(*validation_program, validation_path, std::string(name) + " validation");
-      runner.close_log();
+          on.run_program(*validation_program, validation_path, std::string(name) + " validation");
+      on.close_log();
       const control::MoveProgram validation_timeline(validation_program->start_m, validation_program->steps);
-      write_evaluation_csv(written(std::string("validation-") + name + ".csv"), held_out, validation_timeline);
+      write_evaluation_csv(law_file(std::string("validation-") + name + ".csv"), held_out, validation_timeline);
       CommutationResult validation = evaluate(held_out, config.servo.period_s);
       validation.name = name;
       validation.feedforward = ff_file.parameters;
-      report.validation.push_back(validation);
+      outcome.validation = validation;
     }
-    report.steps.push_back({std::string("evaluation ") + name, seconds_since(step_start)});
+    outcome.step = StepTime{std::string("evaluation ") + name, seconds_since(law_start)};
+  };
+  const auto evaluate_laws = [&](ExperimentRunner& on, std::size_t first, std::size_t stride) {
+    for (std::size_t k = first; k < commutations.size(); k += stride) {
+      {
+        const std::lock_guard lock(progress_mutex);
+        tell("evaluation", static_cast<double>(finished) / static_cast<double>(commutations.size()),
+             commutations[k].name);
+      }
+      evaluate_law(on, k);
+      const std::lock_guard lock(progress_mutex);
+      ++finished;
+    }
+  };
+  if (side) {
+    std::exception_ptr side_failure;
+    std::thread beside([&] {
+      try {
+        evaluate_laws(*side, 1, 2);
+      } catch (...) {
+        side_failure = std::current_exception();
+      }
+    });
+    try {
+      evaluate_laws(runner, 0, 2);
+    } catch (...) {
+      beside.join();
+      throw;
+    }
+    beside.join();
+    if (side_failure) std::rethrow_exception(side_failure);
+  } else {
+    evaluate_laws(runner, 0, 1);
+  }
+  for (auto& outcome : outcomes) {
+    report.files.insert(report.files.end(), outcome.files.begin(), outcome.files.end());
+    if (outcome.result) report.results.push_back(*outcome.result);
+    if (outcome.validation) report.validation.push_back(*outcome.validation);
+    if (outcome.step) report.steps.push_back(*outcome.step);
   }
   tell("evaluation", 1.0, "done");
   // With the paper's size chosen, "pgnn-paper" is that same model and run.

@@ -8,6 +8,7 @@
 // Every method throws std::runtime_error with one line saying what failed.
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -80,6 +81,11 @@ class ExperimentRunner {
   virtual LiveSummary live_summary() const { return {}; }
   /// Remarks for the report (e.g. a run repeated after missing states).
   virtual std::vector<std::string> notes() const { return {}; }
+  /// A second runner of the same kind whose runs may go on beside this one's,
+  /// on another thread (the evaluations of the laws side by side), started
+  /// as this one was; nullptr when there is none (the default: live, there is
+  /// one daemon).
+  virtual std::unique_ptr<ExperimentRunner> side_runner() const { return nullptr; }
 };
 
 }  // namespace clm::commission

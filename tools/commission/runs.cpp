@@ -123,7 +123,9 @@ servo::PathText path_text(const std::string& path) {
 
 }  // namespace
 
-InProcessRunner::InProcessRunner(const servod::ServodConfig& config) : InProcessRunner(config, servod::wire_axis(config)) {}
+InProcessRunner::InProcessRunner(const servod::ServodConfig& config) : InProcessRunner(config, servod::wire_axis(config)) {
+  config_ = config;
+}
 
 InProcessRunner::InProcessRunner(const servod::ServodConfig& config, servod::AxisWiring wiring)
     : axis_(std::make_unique<servod::WiredAxis>(offline(config), std::move(wiring))), daemon_(&axis_->daemon) {
@@ -184,6 +186,11 @@ Recording InProcessRunner::run_program(const servod::ProgramFile& program, const
 }
 
 const sim::SimulatedMotor* InProcessRunner::simulated_motor() const { return axis_->wiring.motor.get(); }
+
+std::unique_ptr<ExperimentRunner> InProcessRunner::side_runner() const {
+  if (!config_) return nullptr;
+  return std::make_unique<InProcessRunner>(*config_);
+}
 
 std::string InProcessRunner::oracle_unavailable_reason() const {
   return axis_->wiring.oracle != nullptr ? "" : "no simulator";

@@ -5,6 +5,7 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -91,9 +92,13 @@ class InProcessRunner final : public ExperimentRunner {
                         const std::string& name) override;
   const sim::SimulatedMotor* simulated_motor() const override;
   std::string oracle_unavailable_reason() const override;
+  /// Another daemon core on the same configuration, built as this one was;
+  /// nullptr when this one runs on a wiring the caller built.
+  std::unique_ptr<ExperimentRunner> side_runner() const override;
 
  private:
   struct RunLog;
+  std::optional<servod::ServodConfig> config_;  ///< as given, when the wiring is the configuration's
   std::unique_ptr<servod::WiredAxis> axis_;
   servod::ServoDaemon* daemon_;  ///< axis_->daemon
   std::unique_ptr<RunLog> log_;

@@ -183,79 +183,105 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
                               : options.kind == ModelKind::kPgnn ? static_cast<int>(kPgnnCapacityGrid.size())
                                                                  : static_cast<int>(kSplineKnotsPerPolePitch.size());
   const int trials = smoothing_trials + capacity_trials;
-  int trial = 0;
-  const auto fit_all = [&](ModelKind kind, const identification::PgnnOptions& pgnn,
-                           const identification::SplineOptions& spline, const std::string& what) {
-    ++trial;
-    CapacityTrial result;
-    result.capacity = what;
-    ModelFile& file = result.model;
-    auto& model = file.model;
-    model.kind = kind;
-    model.pole_pitch_m = motor.pole_pitch_m;
-    model.normalisation = normalisation;
-    if (kind == ModelKind::kPgnn) model.harmonics = pgnn.harmonics;
-    model.spline_basis = identification::spline_basis_for(all_positions, motor.pole_pitch_m, spline);
-    auto& nuisance = file.provenance.nuisance;
-    nuisance.identified = summary.nuisance;
-    nuisance.sensor_offset_y_N = summary.sensor_offset.offset_N;
-    nuisance.direction_smoothing_m_per_s = kind == ModelKind::kPgnn ? pgnn.direction_smoothing_m_per_s
-                                                                    : spline.direction_smoothing_m_per_s;
-    // The coil sets are independent problems (each its own data, seed and
-    // solver), identified side by side; the results do not depend on the
-    // order in which they finish.
-    std::vector<CoilSetIdentification> entries(splits.size());
-    std::vector<CoilSetModel> parts(splits.size());
-    std::vector<double> done(splits.size(), 0.0);
+  int trials_before = 0;  // trials of the batches already fitted
+  // What one trial fits: the class and its options.
+  struct TrialSpec {
+    ModelKind kind;
+    identification::PgnnOptions pgnn;
+    identification::SplineOptions spline;
+    std::string what;
+  };
+  // Fits every trial of `specs` on every coil set. The (trial, coil set)
+  // pairs are independent problems (each its own data, seed and solver) and
+  // run side by side on the machine's cores, each worker taking the next
+  // pair; every result goes to its own slot, so nothing depends on which
+  // worker ran it or when it finished. The trials come back in `specs`' order.
+  const auto fit_trials = [&](const std::vector<TrialSpec>& specs) {
+    std::vector<CapacityTrial> results(specs.size());
+    std::vector<std::vector<CoilSetIdentification>> entries(specs.size(),
+                                                            std::vector<CoilSetIdentification>(splits.size()));
+    std::vector<std::vector<CoilSetModel>> parts(specs.size(), std::vector<CoilSetModel>(splits.size()));
+    std::vector<double> done(specs.size() * splits.size(), 0.0);
+    std::vector<UniformCubicBasis> bases;  // the knot grid of each trial (every model file carries one)
+    for (const TrialSpec& spec : specs) {
+      bases.push_back(identification::spline_basis_for(all_positions, motor.pole_pitch_m, spec.spline));
+    }
     std::mutex progress_mutex;
-    const auto report = [&](std::size_t l, double fraction) {
+    const auto report = [&](std::size_t task, double fraction) {
       if (!progress) return;
       const std::lock_guard lock(progress_mutex);
-      done[l] = fraction;
-      progress({count, std::accumulate(done.begin(), done.end(), 0.0), trial, trials, what});
+      done[task] = fraction;
+      const double trials_done = std::accumulate(done.begin(), done.end(), 0.0) / static_cast<double>(splits.size());
+      const int whole = std::min(static_cast<int>(trials_done), static_cast<int>(specs.size()) - 1);
+      progress({count, (trials_done - whole) * count, trials_before + whole + 1, trials,
+                specs[task / splits.size()].what});
     };
-    for_each_coil_set(splits.size(), [&](std::size_t l) {
+    // The grids grow in cost towards their end: the last trial is started
+    // first, so that no core waits on it at the end.
+    for_each_task(specs.size() * splits.size(), [&](std::size_t order) {
+      const std::size_t task = specs.size() * splits.size() - 1 - order;
+      const std::size_t k = task / splits.size();
+      const std::size_t l = task % splits.size();
+      const TrialSpec& spec = specs[k];
       const auto& part = splits[l];
-      CoilSetIdentification& entry = entries[l];
+      CoilSetIdentification& entry = entries[k][l];
       entry.training_samples = static_cast<std::size_t>(part.training.size());
       entry.validation_samples = static_cast<std::size_t>(part.validation.size());
-      if (kind == ModelKind::kPgnn) {
-        identification::PgnnOptions seeded = pgnn;
-        seeded.seed = pgnn.seed + static_cast<std::uint64_t>(part.coil_set) * 1000;
+      if (spec.kind == ModelKind::kPgnn) {
+        identification::PgnnOptions seeded = spec.pgnn;
+        seeded.seed = spec.pgnn.seed + static_cast<std::uint64_t>(part.coil_set) * 1000;
         // Trials are scored on the training fit; the one kept is refit on all data below.
         seeded.refit_on_all_data = !select;
         const auto on_step = [&](const identification::PgnnProgress& p) {
-          report(l, static_cast<double>(p.restart + 1) / (p.restarts + 1));
+          report(task, static_cast<double>(p.restart + 1) / (p.restarts + 1));
         };
-        parts[l] = identification::identify_pgnn_coil_set(part.training, part.validation, motor.pole_pitch_m,
-                                                          normalisation, seeded, entry.report, on_step);
+        parts[k][l] = identification::identify_pgnn_coil_set(part.training, part.validation, motor.pole_pitch_m,
+                                                             normalisation, seeded, entry.report, on_step);
       } else {
-        parts[l] = identification::identify_spline_coil_set(part.training, part.validation, motor.pole_pitch_m,
-                                                            model.spline_basis, spline, entry.report);
-        report(l, 1.0);
+        parts[k][l] = identification::identify_spline_coil_set(part.training, part.validation, motor.pole_pitch_m,
+                                                               bases[k], spec.spline, entry.report);
+        report(task, 1.0);
       }
     });
-    for (std::size_t l = 0; l < splits.size(); ++l) {
-      const CoilSetIdentification& entry = entries[l];
-      model.coil_sets.push_back(std::move(parts[l]));
-      CoilSetCosts costs;
-      for (std::size_t q = 0; q < 3; ++q) {
-        const auto i = static_cast<Eigen::Index>(q);
-        costs.physics_training[q] = entry.report.physics_training[i];
-        costs.model_training[q] = entry.report.model_training[i];
-        costs.physics_validation[q] = entry.report.physics_validation[i];
-        costs.model_validation[q] = entry.report.model_validation[i];
+    for (std::size_t k = 0; k < specs.size(); ++k) {
+      const TrialSpec& spec = specs[k];
+      CapacityTrial& result = results[k];
+      result.capacity = spec.what;
+      ModelFile& file = result.model;
+      auto& model = file.model;
+      model.kind = spec.kind;
+      model.pole_pitch_m = motor.pole_pitch_m;
+      model.normalisation = normalisation;
+      if (spec.kind == ModelKind::kPgnn) model.harmonics = spec.pgnn.harmonics;
+      model.spline_basis = bases[k];
+      auto& nuisance = file.provenance.nuisance;
+      nuisance.identified = summary.nuisance;
+      nuisance.sensor_offset_y_N = summary.sensor_offset.offset_N;
+      nuisance.direction_smoothing_m_per_s = spec.kind == ModelKind::kPgnn ? spec.pgnn.direction_smoothing_m_per_s
+                                                                          : spec.spline.direction_smoothing_m_per_s;
+      for (std::size_t l = 0; l < splits.size(); ++l) {
+        const CoilSetIdentification& entry = entries[k][l];
+        model.coil_sets.push_back(std::move(parts[k][l]));
+        CoilSetCosts costs;
+        for (std::size_t q = 0; q < 3; ++q) {
+          const auto i = static_cast<Eigen::Index>(q);
+          costs.physics_training[q] = entry.report.physics_training[i];
+          costs.model_training[q] = entry.report.model_training[i];
+          costs.physics_validation[q] = entry.report.physics_validation[i];
+          costs.model_validation[q] = entry.report.model_validation[i];
+        }
+        record_fit_quality(entry.report, costs);
+        file.provenance.costs.push_back(costs);
+        const auto& c = entry.report.direction_force.amplitude;
+        nuisance.direction_force_N_N_Nm.push_back({c[0], c[1], c[2]});
+        result.coil_sets.push_back(entry);
       }
-      record_fit_quality(entry.report, costs);
-      file.provenance.costs.push_back(costs);
-      const auto& c = entry.report.direction_force.amplitude;
-      nuisance.direction_force_N_N_Nm.push_back({c[0], c[1], c[2]});
-      result.coil_sets.push_back(entry);
+      model.validate();
+      file.provenance.created_utc = utc_timestamp();
+      result.validation_score = selection_score(result.coil_sets);
     }
-    model.validate();
-    file.provenance.created_utc = utc_timestamp();
-    result.validation_score = selection_score(result.coil_sets);
-    return result;
+    trials_before += static_cast<int>(specs.size());
+    return results;
   };
 
   // v_c of the direction-dependent force: a property of the motor, chosen
@@ -263,12 +289,17 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
   identification::PgnnOptions pgnn = options.pgnn;
   identification::SplineOptions spline = options.spline;
   if (summary.direction_force) {
-    double best = std::numeric_limits<double>::infinity();
+    std::vector<TrialSpec> specs;
     for (const double smoothing : identification::kDirectionSmoothingGrid_m_per_s) {
       identification::SplineOptions trial_spline = options.spline;
       trial_spline.direction_smoothing_m_per_s = smoothing;
-      const double score = fit_all(ModelKind::kSpline, pgnn, trial_spline, "v_c " + shortest_double(smoothing) + " m/s")
-                               .validation_score;
+      specs.push_back({ModelKind::kSpline, pgnn, trial_spline, "v_c " + shortest_double(smoothing) + " m/s"});
+    }
+    const std::vector<CapacityTrial> fitted = fit_trials(specs);
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < specs.size(); ++k) {
+      const double smoothing = specs[k].spline.direction_smoothing_m_per_s;
+      const double score = fitted[k].validation_score;
       summary.direction_smoothing_scores.emplace_back(smoothing, score);
       if (score < best) {
         best = score;
@@ -283,20 +314,24 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
         select ? std::vector<PgnnCapacity>(kPgnnCapacityGrid.begin(), kPgnnCapacityGrid.end())
                : std::vector<PgnnCapacity>{{options.pgnn.column_hidden, options.pgnn.cogging_hidden,
                                             options.pgnn.regularisation, !options.pgnn.harmonics.empty()}};
+    std::vector<TrialSpec> specs;
     for (const auto& [column, cogging, regularisation, harmonics] : sizes) {
-      pgnn.column_hidden = column;
-      pgnn.cogging_hidden = cogging;
-      pgnn.regularisation = regularisation;
-      pgnn.harmonics = !harmonics ? HarmonicOrders{} : select ? identification::field_harmonic_orders()
-                                                                : options.pgnn.harmonics;
-      summary.trials.push_back(fit_all(ModelKind::kPgnn, pgnn, spline,
-                                       "pgnn " + std::to_string(column) + "/" + std::to_string(cogging) +
-                                           " Lambda " + shortest_double(regularisation) +
-                                           (harmonics ? " harmonics" : "")));
-      summary.trials.back().column_hidden = column;
-      summary.trials.back().cogging_hidden = cogging;
-      summary.trials.back().regularisation = regularisation;
-      summary.trials.back().harmonics = harmonics;
+      identification::PgnnOptions sized = pgnn;
+      sized.column_hidden = column;
+      sized.cogging_hidden = cogging;
+      sized.regularisation = regularisation;
+      sized.harmonics = !harmonics ? HarmonicOrders{} : select ? identification::field_harmonic_orders()
+                                                                 : options.pgnn.harmonics;
+      specs.push_back({ModelKind::kPgnn, sized, spline,
+                       "pgnn " + std::to_string(column) + "/" + std::to_string(cogging) + " Lambda " +
+                           shortest_double(regularisation) + (harmonics ? " harmonics" : "")});
+    }
+    summary.trials = fit_trials(specs);
+    for (std::size_t k = 0; k < sizes.size(); ++k) {
+      summary.trials[k].column_hidden = sizes[k].column_hidden;
+      summary.trials[k].cogging_hidden = sizes[k].cogging_hidden;
+      summary.trials[k].regularisation = sizes[k].regularisation;
+      summary.trials[k].harmonics = sizes[k].harmonics;
     }
   } else {
     std::vector<double> spacings;
@@ -305,12 +340,14 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
     } else {
       spacings.push_back(options.spline.knot_spacing_m > 0.0 ? options.spline.knot_spacing_m : motor.pole_pitch_m / 8.0);
     }
+    std::vector<TrialSpec> specs;
     for (const double spacing : spacings) {
-      spline.knot_spacing_m = spacing;
-      summary.trials.push_back(fit_all(ModelKind::kSpline, pgnn, spline,
-                                       "spline knots " + millimetres(spacing) + " mm"));
-      summary.trials.back().knot_spacing_m = spacing;
+      identification::SplineOptions spaced = spline;
+      spaced.knot_spacing_m = spacing;
+      specs.push_back({ModelKind::kSpline, pgnn, spaced, "spline knots " + millimetres(spacing) + " mm"});
     }
+    summary.trials = fit_trials(specs);
+    for (std::size_t k = 0; k < spacings.size(); ++k) summary.trials[k].knot_spacing_m = spacings[k];
   }
   for (std::size_t k = 1; k < summary.trials.size(); ++k) {
     if (summary.trials[k].validation_score < summary.trials[summary.chosen].validation_score) summary.chosen = k;
@@ -318,25 +355,32 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
   // The PGNN kept, and the paper's 2/16 (always reported), are polished on
   // every sample, as a model put to use is (docs/commutation.md, "Identification").
   if (options.kind == ModelKind::kPgnn && select) {
+    std::vector<std::size_t> kept;
     for (std::size_t k = 0; k < summary.trials.size(); ++k) {
-      CapacityTrial& kept = summary.trials[k];
-      if (k != summary.chosen && !kept.is_paper_pgnn()) continue;
-      pgnn.regularisation = kept.regularisation;
-      pgnn.harmonics = kept.model.model.harmonics;
-      for_each_coil_set(splits.size(), [&](std::size_t l) {
-        auto& entry = kept.coil_sets[l];
-        auto& coil_set = kept.model.model.coil_sets[l];
-        coil_set = identification::refit_pgnn_coil_set(coil_set, entry.report.direction_force, splits[l].training,
-                                                       splits[l].validation, motor.pole_pitch_m, normalisation, pgnn,
-                                                       entry.report);
-      });
+      if (k == summary.chosen || summary.trials[k].is_paper_pgnn()) kept.push_back(k);
+    }
+    // Every (kept trial, coil set) is its own problem: side by side.
+    for_each_task(kept.size() * splits.size(), [&](std::size_t task) {
+      CapacityTrial& trial = summary.trials[kept[task / splits.size()]];
+      const std::size_t l = task % splits.size();
+      identification::PgnnOptions polish = pgnn;
+      polish.regularisation = trial.regularisation;
+      polish.harmonics = trial.model.model.harmonics;
+      auto& entry = trial.coil_sets[l];
+      auto& coil_set = trial.model.model.coil_sets[l];
+      coil_set = identification::refit_pgnn_coil_set(coil_set, entry.report.direction_force, splits[l].training,
+                                                     splits[l].validation, motor.pole_pitch_m, normalisation, polish,
+                                                     entry.report);
+    });
+    for (const std::size_t k : kept) {
+      CapacityTrial& trial = summary.trials[k];
       for (std::size_t l = 0; l < splits.size(); ++l) {
-        const auto& entry = kept.coil_sets[l];
+        const auto& entry = trial.coil_sets[l];
         const auto& c = entry.report.direction_force.amplitude;
-        kept.model.provenance.nuisance.direction_force_N_N_Nm[l] = {c[0], c[1], c[2]};
-        record_fit_quality(entry.report, kept.model.provenance.costs[l]);
+        trial.model.provenance.nuisance.direction_force_N_N_Nm[l] = {c[0], c[1], c[2]};
+        record_fit_quality(entry.report, trial.model.provenance.costs[l]);
       }
-      kept.model.model.validate();
+      trial.model.model.validate();
     }
   }
   const CapacityTrial& chosen = summary.trials[summary.chosen];
