@@ -229,10 +229,24 @@ void ServoCycle::commutate(double position_m, double force_N) noexcept {
 }
 
 std::span<const can::Frame> ServoCycle::end_cycle(double time_s, const BusReport& bus) noexcept {
-  // 1. Feedback bookkeeping (servo_cycle_feedback.cpp); a bus fault known
-  // before the setpoints are built already zeroes them.
+  // A bus fault known before the setpoints are built already zeroes them.
   report_bus(bus);
-  account_feedback();
+  account_feedback();  // servo_cycle_feedback.cpp
+  check_soft_limits();
+  record_.force_limited = false;
+  if (status_.state == ServoState::kEnabled || status_.fault_reaction_running) {
+    drive();
+  } else {
+    follow_axis();
+  }
+  const bool driving = status_.state == ServoState::kEnabled || status_.fault_reaction_running;
+  if (!driving) zero_setpoints();
+  const std::size_t count = encode_setpoints(driving);
+  fill_record(time_s);
+  return {frames_.data(), count};
+}
+
+void ServoCycle::check_soft_limits() noexcept {
   if (have_position_ && mailbox_.restricted_.load(std::memory_order_relaxed)) {
     // Restricted mode: back inside ends it; farther out than where it was
     // enabled (by more than the following-error limit) latches.
@@ -244,118 +258,122 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s, const BusReport
   } else if (have_position_ && outside_soft_limits(position_m_)) {
     latch(Fault::kPositionOutOfRange);
   }
+}
 
-  // 2. Reference and position loop.
-  record_.force_limited = false;
-  if (status_.state == ServoState::kEnabled || status_.fault_reaction_running) {
-    control::ReferenceSample now{hold_m_, 0.0, 0.0, 0.0};
-    control::ReferenceSample next = now;
-    if (running_ != nullptr && mailbox_.jogging_.load(std::memory_order_relaxed)) {
-      // A jog without renewal for jog_timeout_s stops; a renewal that comes
-      // while the cycle decides wins (the exchange fails) and is seen next cycle.
-      std::int64_t token = mailbox_.jog_token_.load(std::memory_order_acquire);
-      if (token != jog_token_seen_) {
-        jog_token_seen_ = token;
-        jog_renewed_cycle_ = cycle_;
-      } else if (static_cast<double>(cycle_ - jog_renewed_cycle_) * settings_.period_s > settings_.jog_timeout_s &&
-                 mailbox_.jog_token_.compare_exchange_strong(token, CycleMailbox::kJogStopped, std::memory_order_acq_rel)) {
-        ++status_.counters.jog_timeouts;
-        begin_stop(settings_.stop_limits, false);
-      }
+void ServoCycle::drive() noexcept {
+  control::ReferenceSample now{hold_m_, 0.0, 0.0, 0.0};
+  control::ReferenceSample next = now;
+  if (running_ != nullptr && mailbox_.jogging_.load(std::memory_order_relaxed)) {
+    // A jog without renewal for jog_timeout_s stops; a renewal that comes
+    // while the cycle decides wins (the exchange fails) and is seen next cycle.
+    std::int64_t token = mailbox_.jog_token_.load(std::memory_order_acquire);
+    if (token != jog_token_seen_) {
+      jog_token_seen_ = token;
+      jog_renewed_cycle_ = cycle_;
+    } else if (static_cast<double>(cycle_ - jog_renewed_cycle_) * settings_.period_s > settings_.jog_timeout_s &&
+               mailbox_.jog_token_.compare_exchange_strong(token, CycleMailbox::kJogStopped, std::memory_order_acq_rel)) {
+      ++status_.counters.jog_timeouts;
+      begin_stop(settings_.stop_limits, false);
     }
-    if (running_ != nullptr) {
-      const double t = static_cast<double>(cycle_ - program_start_cycle_) * settings_.period_s;
-      now = running_->sample(t);
-      next = running_->sample(t + settings_.period_s);  // one-sample preview for eq. (40)
-      record_.program_time_s = t;
-      if (t >= running_->duration_s()) {
-        hold_m_ = running_->end_m();
-        mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
-        end_program();
-        mailbox_.idle_.store(true, std::memory_order_release);
-      }
-    } else if (status_.stopping) {
-      const double t = static_cast<double>(cycle_ - stop_start_cycle_) * settings_.period_s;
-      now = stop_profile_.sample(t);
-      next = stop_profile_.sample(t + settings_.period_s);
-      if (t >= stop_profile_.duration_s()) {
-        // At rest: hold there; a fault reaction ends with zero setpoints.
-        hold_m_ = stop_profile_.rest_position_m();
-        mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
-        status_.stopping = false;
-        status_.fault_reaction_running = false;
-        mailbox_.idle_.store(true, std::memory_order_release);
-      }
-    }
-    reference_ = now;
-    reference_cycle_ = cycle_;
-    // Approach guard: a move whose reference could not quick-stop inside the
-    // soft limits from its next sample, or an axis running ahead of it, is
-    // quick-stopped from this one. A last resort, so the harder quick stop:
-    // admission (decide_move, move_decision.hpp) already guarantees that the
-    // ordinary stop, never harder than this one, rests inside.
-    if (running_ != nullptr && !mailbox_.restricted_.load(std::memory_order_relaxed)) {
-      const double reference_stop_m = control::stopping_position_m(next, settings_.quick_stop_limits);
-      // A step whose target lies outside the soft limits (a program no check
-      // let in) is stopped a following-error limit before the soft limit, so
-      // that the axis, within that of its reference, stays inside too.
-      const double t = static_cast<double>(cycle_ - program_start_cycle_) * settings_.period_s;
-      const double target_m = step_target_m(*running_, t);
-      const double band_m = settings_.following_error_limit_m;
-      const bool target_outside = outside_soft_limits(target_m);
-      const bool near_limit = reference_stop_m > settings_.soft_limit_max_m - band_m ||
-                              reference_stop_m < settings_.soft_limit_min_m + band_m;
-      // The filtered velocity lags by the filter's time constant: corrected
-      // with the reference's acceleration. Within the following-error limit
-      // the deviation is the loop's to correct (and kFollowingError's to catch).
-      const control::ReferenceSample measured{
-          position_m_, velocity_estimate_m_per_s_ + now.acceleration_m_per_s2 * kVelocityFilter_s,
-          now.acceleration_m_per_s2, 0.0};
-      const double axis_stop_m = control::stopping_position_m(measured, settings_.quick_stop_limits);
-      const double axis_margin_m = settings_.following_error_limit_m;
-      if (reference_stop_m < settings_.soft_limit_min_m - kStopTolerance_m ||
-          reference_stop_m > settings_.soft_limit_max_m + kStopTolerance_m || (target_outside && near_limit) ||
-          axis_stop_m < settings_.soft_limit_min_m - axis_margin_m ||
-          axis_stop_m > settings_.soft_limit_max_m + axis_margin_m) {
-        ++status_.counters.guard_stops;
-        begin_stop(settings_.quick_stop_limits, true);
-      }
-    }
-    double force = controller_.update(now, next, position_m_);
-    record_.r_m = now.position_m;
-    record_.r_dot_m_per_s = now.velocity_m_per_s;
-    record_.r_ddot_m_per_s2 = now.acceleration_m_per_s2;
-    record_.e_m = now.position_m - position_m_;
-    record_.u_fb_N = controller_.last_feedback_N();
-    record_.u_ff_N = controller_.last_feedforward_N();
-    if (!std::isfinite(force)) latch(Fault::kFeedbackNotFinite);
-    if (std::abs(record_.e_m) > settings_.following_error_limit_m) latch(Fault::kFollowingError);
-    if (std::abs(force) > settings_.force_limit_N) {
-      force = std::copysign(settings_.force_limit_N, force);
-      record_.force_limited = true;
-      ++status_.counters.force_limited_cycles;
-      saturated_time_s_ += settings_.period_s;
-      if (saturated_time_s_ > settings_.saturation_time_limit_s) latch(Fault::kForceSaturated);
-    } else {
-      saturated_time_s_ = 0.0;
-    }
-    record_.F_star_N = force;
-    if (status_.state == ServoState::kEnabled || status_.fault_reaction_running) commutate(position_m_, force);
-  } else {
-    // Not driving: the reference follows the axis so that enabling is bumpless.
-    hold_m_ = position_m_;
-    mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
-    record_.r_m = position_m_;
-    record_.r_dot_m_per_s = record_.r_ddot_m_per_s2 = 0.0;
-    record_.e_m = record_.u_fb_N = record_.u_ff_N = record_.F_star_N = 0.0;
-    record_.Fy_star_N = record_.Fx_star_N = record_.Tz_star_Nm = 0.0;
-    reference_ = {position_m_, 0.0, 0.0, 0.0};
-    reference_cycle_ = cycle_;
   }
-  const bool driving = status_.state == ServoState::kEnabled || status_.fault_reaction_running;
-  if (!driving) zero_setpoints();
+  if (running_ != nullptr) {
+    const double t = static_cast<double>(cycle_ - program_start_cycle_) * settings_.period_s;
+    now = running_->sample(t);
+    next = running_->sample(t + settings_.period_s);  // one-sample preview for eq. (40)
+    record_.program_time_s = t;
+    if (t >= running_->duration_s()) {
+      hold_m_ = running_->end_m();
+      mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
+      end_program();
+      mailbox_.idle_.store(true, std::memory_order_release);
+    }
+  } else if (status_.stopping) {
+    const double t = static_cast<double>(cycle_ - stop_start_cycle_) * settings_.period_s;
+    now = stop_profile_.sample(t);
+    next = stop_profile_.sample(t + settings_.period_s);
+    if (t >= stop_profile_.duration_s()) {
+      // At rest: hold there; a fault reaction ends with zero setpoints.
+      hold_m_ = stop_profile_.rest_position_m();
+      mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
+      status_.stopping = false;
+      status_.fault_reaction_running = false;
+      mailbox_.idle_.store(true, std::memory_order_release);
+    }
+  }
+  reference_ = now;
+  reference_cycle_ = cycle_;
+  approach_guard(now, next);
+  double force = controller_.update(now, next, position_m_);
+  record_.r_m = now.position_m;
+  record_.r_dot_m_per_s = now.velocity_m_per_s;
+  record_.r_ddot_m_per_s2 = now.acceleration_m_per_s2;
+  record_.e_m = now.position_m - position_m_;
+  record_.u_fb_N = controller_.last_feedback_N();
+  record_.u_ff_N = controller_.last_feedforward_N();
+  if (!std::isfinite(force)) latch(Fault::kFeedbackNotFinite);
+  if (std::abs(record_.e_m) > settings_.following_error_limit_m) latch(Fault::kFollowingError);
+  if (std::abs(force) > settings_.force_limit_N) {
+    force = std::copysign(settings_.force_limit_N, force);
+    record_.force_limited = true;
+    ++status_.counters.force_limited_cycles;
+    saturated_time_s_ += settings_.period_s;
+    if (saturated_time_s_ > settings_.saturation_time_limit_s) latch(Fault::kForceSaturated);
+  } else {
+    saturated_time_s_ = 0.0;
+  }
+  record_.F_star_N = force;
+  if (status_.state == ServoState::kEnabled || status_.fault_reaction_running) commutate(position_m_, force);
+}
 
-  // 3. Setpoint frames. Profile magnitude_phase: the (39) setpoints;
+void ServoCycle::approach_guard(const control::ReferenceSample& now, const control::ReferenceSample& next) noexcept {
+  // A move whose reference could not quick-stop inside the soft limits from
+  // its next sample, or an axis running ahead of it, is quick-stopped from
+  // this one. A last resort, so the harder quick stop: admission
+  // (decide_move, move_decision.hpp) already guarantees that the ordinary
+  // stop, never harder than this one, rests inside.
+  if (running_ != nullptr && !mailbox_.restricted_.load(std::memory_order_relaxed)) {
+    const double reference_stop_m = control::stopping_position_m(next, settings_.quick_stop_limits);
+    // A step whose target lies outside the soft limits (a program no check
+    // let in) is stopped a following-error limit before the soft limit, so
+    // that the axis, within that of its reference, stays inside too.
+    const double t = static_cast<double>(cycle_ - program_start_cycle_) * settings_.period_s;
+    const double target_m = step_target_m(*running_, t);
+    const double band_m = settings_.following_error_limit_m;
+    const bool target_outside = outside_soft_limits(target_m);
+    const bool near_limit = reference_stop_m > settings_.soft_limit_max_m - band_m ||
+                            reference_stop_m < settings_.soft_limit_min_m + band_m;
+    // The filtered velocity lags by the filter's time constant: corrected
+    // with the reference's acceleration. Within the following-error limit
+    // the deviation is the loop's to correct (and kFollowingError's to catch).
+    const control::ReferenceSample measured{
+        position_m_, velocity_estimate_m_per_s_ + now.acceleration_m_per_s2 * kVelocityFilter_s,
+        now.acceleration_m_per_s2, 0.0};
+    const double axis_stop_m = control::stopping_position_m(measured, settings_.quick_stop_limits);
+    const double axis_margin_m = settings_.following_error_limit_m;
+    if (reference_stop_m < settings_.soft_limit_min_m - kStopTolerance_m ||
+        reference_stop_m > settings_.soft_limit_max_m + kStopTolerance_m || (target_outside && near_limit) ||
+        axis_stop_m < settings_.soft_limit_min_m - axis_margin_m ||
+        axis_stop_m > settings_.soft_limit_max_m + axis_margin_m) {
+      ++status_.counters.guard_stops;
+      begin_stop(settings_.quick_stop_limits, true);
+    }
+  }
+}
+
+void ServoCycle::follow_axis() noexcept {
+  // Not driving: the reference follows the axis so that enabling is bumpless.
+  hold_m_ = position_m_;
+  mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
+  record_.r_m = position_m_;
+  record_.r_dot_m_per_s = record_.r_ddot_m_per_s2 = 0.0;
+  record_.e_m = record_.u_fb_N = record_.u_ff_N = record_.F_star_N = 0.0;
+  record_.Fy_star_N = record_.Fx_star_N = record_.Tz_star_Nm = 0.0;
+  reference_ = {position_m_, 0.0, 0.0, 0.0};
+  reference_cycle_ = cycle_;
+}
+
+std::size_t ServoCycle::encode_setpoints(bool driving) noexcept {
+  // Profile magnitude_phase: the (39) setpoints;
   // phase_current: the law's currents as they are (the drive does no
   // commutation of its own). A fault found while encoding sends zero at once.
   setpoints_.coil_sets = settings_.protocol.coil_sets;
@@ -373,8 +391,11 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s, const BusReport
   }
   clear_drive_fault_ = false;
   status_.counters.frames_sent += static_cast<std::int64_t>(count);
+  return count;
+}
 
-  // 4. Record: the setpoints as sent.
+void ServoCycle::fill_record(double time_s) noexcept {
+  // The setpoints as sent.
   for (std::size_t l = 0; l < static_cast<std::size_t>(setpoints_.coil_sets); ++l) {
     record_.magnitude_N[l] = setpoints_.setpoints[l].magnitude_N;
     record_.setpoint_delta_rad[l] = setpoints_.setpoints[l].delta_rad;
@@ -395,7 +416,6 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s, const BusReport
   record_.stopping = status_.stopping;
   record_.restricted = mailbox_.restricted_.load(std::memory_order_relaxed);
   record_.drive_profile = settings_.protocol.drive_profile;
-  return {frames_.data(), count};
 }
 
 }  // namespace clm::servo

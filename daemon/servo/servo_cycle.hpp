@@ -219,6 +219,18 @@ class ServoCycle {
   /// A fault in an experiment, else the force sensor's warning.
   void force_sensor_trouble(Fault reason) noexcept;
   void adopt_offers() noexcept;
+  // The steps of end_cycle, in order.
+  /// Fault 202 outside the soft limits; restricted mode ends inside them.
+  void check_soft_limits() noexcept;
+  /// Enabled or reacting to a fault: the reference (program, jog, stop or
+  /// hold), the approach guard, the position loop and the commutation.
+  void drive() noexcept;
+  void approach_guard(const control::ReferenceSample& now, const control::ReferenceSample& next) noexcept;
+  /// Not driven: the reference follows the axis so that enabling is bumpless.
+  void follow_axis() noexcept;
+  /// The setpoint frames (zero at once on a fault found while encoding); their count.
+  std::size_t encode_setpoints(bool driving) noexcept;
+  void fill_record(double time_s) noexcept;
   void commutate(double position_m, double force_N) noexcept;
   void zero_setpoints() noexcept;
   /// Plans a stop from the present reference and follows it from the next sample.
