@@ -86,17 +86,14 @@ std::string check_envelope(const Machine& machine, const EnvelopeSettings& s) {
            format_number(s.period_s) + " s) and " + format_number(kMaxSaturationTime_s) + " s";
   }
   // 7. loop
-  const double acceleration = std::max({s.motion_limits.acceleration_m_per_s2, s.stop_limits.deceleration_m_per_s2,
-                                        s.quick_stop_limits.deceleration_m_per_s2});
-  const double mismatch_N = std::fabs(ff.mass_kg - m) * acceleration + friction_N;
-  const double lag_m = mismatch_N / s.pid.proportional_N_per_m;
+  const double lag_m = friction_N / s.pid.proportional_N_per_m;
   if (!(lag_m <= kLoopErrorShare * s.following_error_limit_m)) {
     return "control.bandwidth_hz: the position loop's k_p " + format_number(s.pid.proportional_N_per_m) +
-           " N/m lets what the feedforward may get wrong (" + format_number(mismatch_N) + " N: mass " +
-           format_number(ff.mass_kg) + " kg against the translator's " + format_number(m) + " kg at " +
-           format_number(acceleration) + " m/s^2, friction terms " + format_number(friction_N) + " N) push the axis " +
-           format_number(lag_m) + " m off its reference, more than control.following_error_limit_m (" +
-           format_number(s.following_error_limit_m) + " m); raise the bandwidth or lower the feedforward or the limits";
+           " N/m lets the feedforward's friction terms (" + format_number(friction_N) + " N: viscous " +
+           format_number(ff.viscous_N_s_per_m) + " N*s/m at " + format_number(s.motion_limits.velocity_m_per_s) +
+           " m/s plus Coulomb " + format_number(ff.coulomb_N) + " N) push the axis " + format_number(lag_m) +
+           " m off its reference, more than control.following_error_limit_m (" +
+           format_number(s.following_error_limit_m) + " m); raise the bandwidth or lower the feedforward";
   }
   return "";
 }

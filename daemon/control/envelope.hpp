@@ -28,14 +28,16 @@
 //     a soft limit (move admission, the cycle's approach guard).
 //  6. saturation: the force may stay at its limit for at most
 //     kMaxSaturationTime_s before fault 204, and at least one period.
-//  7. loop: what the feedforward may get wrong along any reference the
-//     limits allow (the mass it lacks or adds, |m_ff − m|, at the largest
-//     acceleration or stop deceleration, and its friction terms in full at
-//     the largest velocity), held by the position loop's stiffness k_p, lags
-//     the reference by at most kLoopErrorShare of the following-error
-//     limit. A loop too soft for its feedforward is pushed away by it: a
-//     feedforward Coulomb force of 112 N against a 1 Hz loop (k_p 330 N/m)
-//     ran the translator 12 cm, through a quick stop, into its end stop.
+//  7. loop: the feedforward's friction terms in full (viscous at the largest
+//     velocity plus Coulomb), a force that pushes along the reference's
+//     velocity for as long as a move or a stop lasts, held by the position
+//     loop's stiffness k_p, lag the reference by at most kLoopErrorShare of
+//     the following-error limit. A loop too soft for its feedforward is
+//     pushed away by it: a Coulomb feedforward of 112 N against a 1 Hz loop
+//     (k_p 330 N/m) ran the translator 12 cm, through a seconds-long quick
+//     stop, into its end stop. (The mass term acts only while the reference
+//     accelerates; relation 4 bounds it, and a lag it causes latches fault
+//     203 like any other.)
 
 #include <string>
 

@@ -94,14 +94,14 @@ TEST_CASE("set is applied by the cycle at standstill, and moves are checked agai
 
   // While the move runs, no change; the refusal says why.
   daemon.run_cycles(20);
-  const auto busy = daemon.submit(set("control.bandwidth_hz", 30.0, 7));
+  const auto busy = daemon.submit(set("control.bandwidth_hz", 20.0, 7));
   CHECK_FALSE(busy.accepted());
   CHECK(busy.text() == "rejected: a program is running");
   daemon.run_until_idle(20000);
 
   // The loop's gains are those tune_pid gives for the configured mass.
-  REQUIRE(set_and_apply(daemon, "control.bandwidth_hz", 30.0).accepted());
-  const control::PidGains expected = control::tune_pid(15.0, 30.0);
+  REQUIRE(set_and_apply(daemon, "control.bandwidth_hz", 20.0).accepted());
+  const control::PidGains expected = control::tune_pid(15.0, 20.0);
   CHECK(daemon.cycle().settings().pid.proportional_N_per_m == expected.proportional_N_per_m);
   CHECK(daemon.cycle().settings().pid.derivative_N_s_per_m == expected.derivative_N_s_per_m);
   daemon.run_cycles(200);
