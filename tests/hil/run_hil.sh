@@ -196,7 +196,10 @@ run_program_logged() {  # TAG PROGRAM
   sleep 0.5
   run_start=$(date +%s)
   read -r idle_before total_before < <(cpu_jiffies)
-  [ -z "$problem" ] && { reply=$(ctl run-program "$2") || problem="run-program: $reply"; }
+  if [ -z "$problem" ] && ! reply=$(ctl run-program "$2" 2>&1); then
+    status=$(ctl status) || status=""
+    problem="run-program: $reply; the daemon: state $(field state "$status"), fault $(field fault "$status") ($(field fault_reason "$status")), fault cycle $(field fault_cycle "$status")"
+  fi
   [ -z "$problem" ] && { kill -0 $logger_pid 2>/dev/null || problem="lcm-logger exited: $(head -1 "$run/logger-$1.err")"; }
   saw_running=0 ended=0
   while [ -z "$problem" ] && [ $(( $(date +%s) - run_start )) -lt 300 ]; do

@@ -239,7 +239,10 @@ CHECK
     echo "$step: fault $code ($reason), $verdict"
     ctl clear-fault > /dev/null || fail "$step: clear-fault refused"
     wait_state "$step: cleared" fault 0
-    ctl enable > /dev/null || fail "$step: enable refused after clear-fault"
+    if ! reply=$(ctl enable 2>&1); then
+      after=$(ctl status) || after=""
+      fail "$step: enable refused after clear-fault ($reply); the daemon now: state $(field state "$after"), fault $(field fault "$after") ($(field fault_reason "$after"))"
+    fi
     to_start "$step"
     k=$((k + 1))
   done
