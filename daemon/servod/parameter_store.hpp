@@ -44,6 +44,7 @@ class ParameterStore {
   /// change is pending or when the change is invalid; else `queue` hands the
   /// whole tuning to the cycle (under the store's lock, so that no second
   /// change overtakes it) and, when it did, the change waits for `settle`.
+  /// `queue` runs under the store's lock: it must not call the store.
   Answer set(std::string_view key, double value, std::int64_t sequence, std::int64_t client,
              const std::function<servo::CommandResult(const servo::Tuning&)>& queue);
   /// The cycle's answer to command `sequence` of `client`: commits or drops
