@@ -105,6 +105,23 @@ ReferenceSample ThirdOrderMove::first_half(double t_s) const noexcept {
   return {d3 + v3 * tau, v3, 0.0, 0.0};
 }
 
+std::array<JerkSegment, 7> ThirdOrderMove::segments() const noexcept {
+  const double j = direction_ * limits_.jerk_m_per_s3;
+  const double a = direction_ * peak_acceleration_m_per_s2_;
+  const double t1 = jerk_time_s_;
+  const double t2 = jerk_time_s_ + constant_acceleration_time_s_;
+  const double t3 = 2.0 * jerk_time_s_ + constant_acceleration_time_s_;
+  const double t = duration_s_;
+  if (direction_ == 0.0) return {};
+  return {{{0.0, t1, j, 0.0},
+           {t1, t2, 0.0, a},
+           {t2, t3, -j, a},
+           {t3, t - t3, 0.0, 0.0},
+           {t - t3, t - t2, -j, 0.0},
+           {t - t2, t - t1, 0.0, -a},
+           {t - t1, t, j, -a}}};
+}
+
 ReferenceSample ThirdOrderMove::sample(double t_s) const noexcept {
   if (t_s < 0.0) return {start_m_, 0.0, 0.0, 0.0};
   if (t_s >= duration_s_) return {end_m_, 0.0, 0.0, 0.0};

@@ -7,6 +7,7 @@
 // Planning may throw std::invalid_argument (offline, at start-up); sampling is
 // noexcept and does not allocate, so the cycle can call it.
 
+#include <array>
 #include <cstddef>
 #include <vector>
 
@@ -26,6 +27,16 @@ struct ReferenceSample {
   double velocity_m_per_s = 0;       ///< ṙ [m/s]
   double acceleration_m_per_s2 = 0;  ///< r̈ [m/s²]
   double jerk_m_per_s3 = 0;          ///< r⃛ [m/s³]
+};
+
+/// One constant-jerk segment of a ThirdOrderMove, in time since the move's
+/// start. Over it the acceleration is linear in time: from
+/// `start_acceleration_m_per_s2` at `start_s` by `jerk_m_per_s3` per second.
+struct JerkSegment {
+  double start_s = 0;                     ///< [s]
+  double end_s = 0;                       ///< [s], ≥ start_s (equal for a segment the move drops)
+  double jerk_m_per_s3 = 0;               ///< signed: (+j, 0, −j, 0, −j, 0, +j)·direction [m/s³]
+  double start_acceleration_m_per_s2 = 0;  ///< signed, from the plan (not sampled) [m/s²]
 };
 
 /// Time-optimal, jerk-limited move from rest to rest: seven segments of
@@ -53,6 +64,16 @@ class ThirdOrderMove {
   double peak_velocity_m_per_s() const { return peak_velocity_m_per_s_; }
   /// Largest |acceleration| the move reaches [m/s²] (≤ a_max).
   double peak_acceleration_m_per_s2() const { return peak_acceleration_m_per_s2_; }
+
+  /// +1 for a move towards larger positions, −1 towards smaller, 0 for a
+  /// zero-length move.
+  double direction() const { return direction_; }
+  /// The seven constant-jerk segments in order, (+j, 0, −j, 0, −j, 0, +j)·
+  /// direction, the second half the mirror image of the first. A segment the
+  /// move drops (no constant acceleration, no cruise; all for a zero-length
+  /// move) has zero length. The boundaries are the times sample() switches
+  /// formula at: 0, t_j, t_j + t_a, 2 t_j + t_a, then mirrored from the end.
+  std::array<JerkSegment, 7> segments() const noexcept;
 
   /// The reference at time t [s] since the start of the move, in closed form
   /// (cubic in t per segment). Before 0: start at rest; from duration_s() on:
@@ -101,6 +122,8 @@ class MoveProgram {
   /// Position at the end of the program [m].
   double end_m() const { return moves_.empty() ? start_m_ : moves_.back().end_m(); }
   const std::vector<ProgramStep>& steps() const { return steps_; }
+  /// The planned move of each step, in step order.
+  const std::vector<ThirdOrderMove>& moves() const { return moves_; }
   /// Time [s] at which step `index` (0-based) begins its move.
   double step_start_s(std::size_t index) const { return step_start_s_.at(index); }
 

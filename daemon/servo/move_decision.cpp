@@ -112,22 +112,137 @@ std::string check_motion_limits(const std::string& what, const control::MotionLi
   return "";
 }
 
-std::string check_stopping(const std::string& what, const control::MoveProgram& program,
-                           const ServoSettings& settings) {
-  const double duration_s = program.duration_s();
-  const auto samples = static_cast<std::int64_t>(std::ceil(duration_s / settings.period_s));
-  for (std::int64_t k = 0; k <= samples; ++k) {
-    const double t = std::min(static_cast<double>(k) * settings.period_s, duration_s);
-    const control::ReferenceSample s = program.sample(t);
+// Which references check_stopping plans a stop from, and why that is enough.
+//
+// rest(t) = stopping_position_m(program.sample(t), stop_limits), with J the
+// stop's jerk and D its deceleration. The program is a sequence of
+// rest-to-rest ThirdOrderMoves, each seven segments of constant jerk, and
+// dwells at rest. Take a forward move (direction +1, so velocity ≥ 0) and a
+// stretch of it on which throughout
+//   (1) the program's jerk magnitude is ≤ J,
+//   (2) its acceleration is ≥ −D, and
+//   (3) the stop need not reverse: velocity ≥ a²/(2J) wherever a < 0.
+// Then rest(t) does not decrease over the stretch:
+//  - Following the program from t for dt and then stopping is itself a stop
+//    from the state at t that keeps jerk within ±J, acceleration ≥ −D and
+//    velocity ≥ 0 (by (3) the stop from t + dt does not reverse), and it
+//    rests at rest(t + dt).
+//  - Of all such stops the stop profile (jerk −J until the acceleration
+//    reaches −a_p, hold, +J to rest) rests nearest: until it meets the curve
+//    v = a²/(2J) its acceleration max(a₀ − J·s, −a_p) is the lowest any of
+//    them can have, and from there it follows that curve down to rest, below
+//    which none can go without reversing. Its velocity is the lowest at every
+//    instant, so its distance is the shortest. By (3) it is one of them.
+//  - Hence rest(t) ≤ rest(t + dt).
+// A backward move is the mirror image: rest(t) does not increase. Either way
+// the extremes of rest(t) on the stretch lie at its two ends, and checking
+// both ends against both soft limits checks every instant in between.
+//
+// (3) holds wherever a ≥ 0, and on the braking half of a move whose jerk is
+// ≤ J (its last segment, at jerk ≤ J, still has to take the acceleration to
+// zero). It fails late in the constant-deceleration segment of a move whose
+// jerk exceeds J: there the stop overshoots backwards, and rest(t) peaks where
+// velocity = a²/(2J), inside the segment (found by the randomized test in
+// test_move_decision.cpp against a dense search).
+//
+// So each segment of each move is split where, inside it, the acceleration
+// along the direction crosses −D (the −j segment of the braking half and the
+// final +j one, when the move brakes harder than the stop) and, on the
+// constant-deceleration segment, where the velocity falls to a²/(2J) (when
+// the move's jerk exceeds J). Each condition is monotonic in time within a
+// segment, so each piece meets (1)-(3) throughout or nowhere but at its ends;
+// it is judged at its middle. A piece that meets them is checked at its end
+// (its start is the previous piece's end, or the move's start at rest); any
+// other at every cycle k · period_s inside it and at its end, as before this
+// argument was used. Accelerating segments meet them whenever the move's
+// jerk is ≤ J, the constant-acceleration and cruise segments always; the
+// pieces that do not last at most a_max/j or v/a_max each, so a move at a
+// crawl over a long distance costs a handful of stops instead of one per
+// cycle. Dwells are at rest at the move's end, checked as the last piece's
+// end; a program with no move is checked at t = 0. Every cycle's reference
+// is either evaluated or lies in a piece whose ends bound its rest, so this
+// refuses whatever the check at every cycle refused (and may refuse a move
+// whose stop from a piece's end between two cycles rests outside).
+StopSearch find_stop_outside(const control::MoveProgram& program, const ServoSettings& settings) {
+  StopSearch search;
+  // True (and `search` filled in) when the stop from the reference at t rests outside.
+  const auto rests_outside = [&](double t_s) {
+    const control::ReferenceSample s = program.sample(t_s);
     const double rest_m = control::stopping_position_m(s, settings.stop_limits);
-    if (rest_m < settings.soft_limit_min_m - kStopTolerance_m || rest_m > settings.soft_limit_max_m + kStopTolerance_m) {
-      return what + ": a stop at t = " + number(t) + " s (r = " + number(s.position_m) + " m, v = " +
-             number(s.velocity_m_per_s) + " m/s, a = " + number(s.acceleration_m_per_s2) +
-             " m/s^2) would come to rest at " + number(rest_m) + " m, outside the soft limits [" +
-             number(settings.soft_limit_min_m) + ", " + number(settings.soft_limit_max_m) + "] m";
+    ++search.stops_planned;
+    if (rest_m >= settings.soft_limit_min_m - kStopTolerance_m &&
+        rest_m <= settings.soft_limit_max_m + kStopTolerance_m) {
+      return false;
+    }
+    search = {true, t_s, s, rest_m, search.stops_planned};
+    return true;
+  };
+  // Program times t_begin < t ≤ t_end [s] to evaluate: every cycle strictly inside when
+  // the rest position there need not be monotonic, then the end.
+  const auto piece_rests_outside = [&](double t_begin_s, double t_end_s, bool monotonic) {
+    if (!monotonic) {
+      for (auto k = static_cast<std::int64_t>(std::floor(t_begin_s / settings.period_s)) + 1;; ++k) {
+        const double t = static_cast<double>(k) * settings.period_s;
+        if (t >= t_end_s) break;
+        if (t > t_begin_s && rests_outside(t)) return true;
+      }
+    }
+    return rests_outside(t_end_s);
+  };
+
+  if (rests_outside(0.0)) return search;
+  const double stop_jerk = settings.stop_limits.jerk_m_per_s3;
+  const double stop_deceleration = settings.stop_limits.deceleration_m_per_s2;
+  const std::vector<control::ThirdOrderMove>& moves = program.moves();
+  for (std::size_t i = 0; i < moves.size(); ++i) {
+    const control::ThirdOrderMove& move = moves[i];
+    const double step_start_s = program.step_start_s(i);
+    const double direction = move.direction();
+    for (const control::JerkSegment& segment : move.segments()) {
+      if (!(segment.end_s > segment.start_s)) continue;
+      // Along the direction of motion the acceleration is a0 + j·τ over the segment.
+      const double a0 = direction * segment.start_acceleration_m_per_s2;
+      const double j = direction * segment.jerk_m_per_s3;
+      // Where, inside the segment, a condition of the argument starts or stops holding
+      // (at most one per segment): the acceleration crosses −D on a segment with jerk; on
+      // the constant-deceleration segment, the velocity falls below a²/(2J) (only when the
+      // move's jerk exceeds J).
+      double split_s = segment.end_s;
+      if (j != 0.0) {
+        split_s = segment.start_s + (-stop_deceleration - a0) / j;
+      } else if (a0 < 0.0) {
+        const double v0 = direction * move.sample(segment.start_s).velocity_m_per_s;
+        split_s = segment.start_s + (v0 - a0 * a0 / (2.0 * stop_jerk)) / -a0;
+      }
+      const bool split = split_s > segment.start_s && split_s < segment.end_s;
+      // Each piece: monotonic when the conditions hold at its middle.
+      double piece_start_s = segment.start_s;
+      for (const double piece_end_s : {split ? split_s : segment.end_s, segment.end_s}) {
+        if (!(piece_end_s > piece_start_s)) continue;
+        const double middle_s = 0.5 * (piece_start_s + piece_end_s);
+        const double a = a0 + j * (middle_s - segment.start_s);
+        const double v = direction * move.sample(middle_s).velocity_m_per_s;
+        const bool no_reversal =
+            a >= 0.0 || move.limits().jerk_m_per_s3 <= stop_jerk || v >= a * a / (2.0 * stop_jerk);
+        const bool monotonic =
+            std::abs(segment.jerk_m_per_s3) <= stop_jerk && a >= -stop_deceleration && no_reversal;
+        if (piece_rests_outside(step_start_s + piece_start_s, step_start_s + piece_end_s, monotonic)) return search;
+        piece_start_s = piece_end_s;
+      }
     }
   }
-  return "";
+  return search;
+}
+
+std::string check_stopping(const std::string& what, const control::MoveProgram& program,
+                           const ServoSettings& settings) {
+  const StopSearch search = find_stop_outside(program, settings);
+  if (!search.outside) return "";
+  const control::ReferenceSample& s = search.reference;
+  return what + ": a stop at t = " + number(search.t_s) + " s (r = " + number(s.position_m) + " m, v = " +
+         number(s.velocity_m_per_s) + " m/s, a = " + number(s.acceleration_m_per_s2) +
+         " m/s^2) would come to rest at " + number(search.rest_m) + " m, outside the soft limits [" +
+         number(settings.soft_limit_min_m) + ", " + number(settings.soft_limit_max_m) + "] m";
 }
 
 control::MoveProgram program_from_hold(const ProgramSteps& program, double hold_m) {

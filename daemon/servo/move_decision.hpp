@@ -16,6 +16,7 @@
 // an admitted move, since the quick stop from a sample rests no farther than
 // the stop admission checked from it.
 
+#include <cstddef>
 #include <optional>
 #include <span>
 #include <string>
@@ -67,7 +68,7 @@ struct MoveDecision {
 /// - every target inside the soft limits; every velocity, acceleration and
 ///   jerk at most settings.motion_limits;
 /// - a stop within settings.stop_limits begun from the reference of any cycle
-///   (sampled every settings.period_s) rests inside the soft limits.
+///   rests inside the soft limits (check_stopping).
 /// The program starts at axis.hold_position_m; run_program first moves to
 /// the file's start when the axis is elsewhere (with the first step's limits);
 /// a jog ends following_error_limit_m short of the soft limit it heads for.
@@ -83,10 +84,29 @@ control::MoveProgram program_from_hold(const ProgramSteps& program, double hold_
 std::string check_motion_limits(const std::string& what, const control::MotionLimits& limits,
                                 const control::MotionLimits& max);
 
+/// Where find_stop_outside looked and what it found.
+struct StopSearch {
+  bool outside = false;                ///< a stop from `reference` rests outside the soft limits
+  double t_s = 0.0;                    ///< program time of that reference [s] (when `outside`)
+  control::ReferenceSample reference;  ///< program.sample(t_s) (when `outside`)
+  double rest_m = 0.0;                 ///< where that stop rests [m] (when `outside`)
+  std::size_t stops_planned = 0;       ///< stops planned (stopping_position_m calls) in the search
+};
+
+/// The earliest time, of those it evaluates, at which a stop within
+/// settings.stop_limits begun from the reference of `program` comes to rest
+/// outside the soft limits (beyond kStopTolerance_m), or `outside` false when
+/// none does. Covers every instant of the program, at least every cycle
+/// (k · settings.period_s), while planning few stops: where the program's
+/// jerk and deceleration lie within the stop's (and the stop need not
+/// reverse), the rest position moves one way only and is checked at the ends
+/// of that stretch; elsewhere at every cycle and the stretch's end (the
+/// argument: above find_stop_outside in move_decision.cpp).
+StopSearch find_stop_outside(const control::MoveProgram& program, const ServoSettings& settings);
+
 /// "" when a stop within settings.stop_limits, begun from the reference of any
-/// cycle of `program` (sampled every settings.period_s), comes to rest within
-/// the soft limits (kStopTolerance_m); else the reason with the time, state
-/// and rest position.
+/// cycle of `program`, comes to rest within the soft limits (kStopTolerance_m;
+/// find_stop_outside); else the reason with the time, state and rest position.
 std::string check_stopping(const std::string& what, const control::MoveProgram& program,
                            const ServoSettings& settings);
 

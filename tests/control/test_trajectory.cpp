@@ -208,6 +208,62 @@ TEST_CASE("a move in the negative direction mirrors the positive one", "[traject
   }
 }
 
+TEST_CASE("a move's segments tile its duration, with the jerk and acceleration sample() gives in each",
+          "[trajectory]") {
+  std::mt19937_64 rng(20250301);
+  std::uniform_real_distribution<double> log_distance(-7.0, 0.0);
+  std::uniform_real_distribution<double> log_velocity(-6.0, 0.5);
+  std::uniform_real_distribution<double> log_acceleration(-1.0, 2.0);
+  std::uniform_real_distribution<double> log_jerk(1.0, 5.0);
+  std::bernoulli_distribution negative(0.5);
+  for (int trial = 0; trial < 300; ++trial) {
+    const double distance_m = std::pow(10.0, log_distance(rng));
+    const double end_m = negative(rng) ? -distance_m : distance_m;
+    const MotionLimits limits{std::pow(10.0, log_velocity(rng)), std::pow(10.0, log_acceleration(rng)),
+                              std::pow(10.0, log_jerk(rng))};
+    INFO("trial " << trial << ": 0 -> " << end_m << " limits " << limits.velocity_m_per_s << ", "
+                  << limits.acceleration_m_per_s2 << ", " << limits.jerk_m_per_s3);
+    const ThirdOrderMove move = ThirdOrderMove::plan(0.0, end_m, limits);
+    const double direction = end_m > 0.0 ? 1.0 : -1.0;
+    REQUIRE(move.direction() == direction);
+    const auto segments = move.segments();
+    REQUIRE(segments.front().start_s == 0.0);
+    REQUIRE(segments.back().end_s == move.duration_s());
+    const double j = direction * limits.jerk_m_per_s3;
+    const double expected_jerk[7] = {j, 0.0, -j, 0.0, -j, 0.0, j};
+    for (std::size_t k = 0; k < segments.size(); ++k) {
+      const JerkSegment& segment = segments[k];
+      INFO("segment " << k + 1);
+      REQUIRE(segment.end_s >= segment.start_s);
+      if (k > 0) REQUIRE(segment.start_s == segments[k - 1].end_s);
+      REQUIRE(segment.jerk_m_per_s3 == expected_jerk[k]);
+      const double length_s = segment.end_s - segment.start_s;
+      // The start acceleration is continuous with the sampled one; inside a
+      // segment the sample has its jerk and the linear acceleration (up to
+      // the rounding of times as large as the duration, times the jerk).
+      const double tolerance = 1e-9 * limits.acceleration_m_per_s2 +
+                               8.0 * std::numeric_limits<double>::epsilon() * move.duration_s() * limits.jerk_m_per_s3;
+      REQUIRE_THAT(move.sample(segment.start_s).acceleration_m_per_s2,
+                   WithinAbs(segment.start_acceleration_m_per_s2, tolerance));
+      if (length_s > 1e-9 * move.duration_s()) {
+        const double middle_s = segment.start_s + 0.5 * length_s;
+        const ReferenceSample s = move.sample(middle_s);
+        REQUIRE(s.jerk_m_per_s3 == segment.jerk_m_per_s3);
+        REQUIRE_THAT(s.acceleration_m_per_s2,
+                     WithinAbs(segment.start_acceleration_m_per_s2 + segment.jerk_m_per_s3 * 0.5 * length_s, tolerance));
+      }
+    }
+    // The constant-acceleration and cruise segments have no jerk; the move's
+    // acceleration never leaves ±peak.
+    REQUIRE(std::abs(segments[1].start_acceleration_m_per_s2) == move.peak_acceleration_m_per_s2());
+  }
+  // A zero-length move: seven empty segments at 0.
+  for (const JerkSegment& segment : ThirdOrderMove::plan(0.02, 0.02, {0.1, 1.0, 100.0}).segments()) {
+    CHECK(segment.start_s == 0.0);
+    CHECK(segment.end_s == 0.0);
+  }
+}
+
 TEST_CASE("a zero-length move has duration 0 and stays at rest", "[trajectory]") {
   const ThirdOrderMove move = ThirdOrderMove::plan(0.02, 0.02, {0.1, 1.0, 100.0});
   REQUIRE(move.duration_s() == 0.0);

@@ -225,8 +225,7 @@ struct Walk {
       // Run-up: accelerate to v and brake from it, jerk-limited; but no
       // longer than a move of kMoveTime_s at the limits can go (a tiny
       // acceleration or jerk never gets far: its moves are slow anyway), so
-      // that a move and the daemon's check of its stops (one sample per
-      // cycle of the move, servo::check_stopping) stay short.
+      // that a move stays short in simulated time.
       const double longest_m = longest_move_m(limits);
       const double run_up_m = std::min(std::max(v * v / a + v * a / j, v * kMinTravelTime_s) *
                                            std::uniform_real_distribution<double>(1.0, 1.5)(random),
