@@ -59,6 +59,13 @@ std::string fixed(double value, const char* format = "%.3g") {
   return buffer;
 }
 
+const data::LawScore* scored(const Report& report, const std::string& law) {
+  for (const auto& entry : report.law_scores) {
+    if (entry.law == law) return &entry;
+  }
+  return nullptr;
+}
+
 // The calibrated classical law the improvements are measured against: the
 // force sensor's calibration, else the one from positions.
 const CommutationResult* calibrated_classical(const Report& report) {
@@ -299,7 +306,13 @@ std::string report_json(const Report& report) {
     std::size_t blocks = 0;
     for (const auto& coil_set : entry.blocks) blocks += coil_set.size();
     out << (k ? ", " : "") << quoted(entry.law) << ": {\"score\": " << number(entry.score.value)
-        << ", \"standard_error\": " << number(entry.score.standard_error) << ", \"held_out_blocks\": " << blocks << "}";
+        << ", \"standard_error\": " << number(entry.score.standard_error) << ", \"held_out_blocks\": " << blocks;
+    if (const auto* recommended = scored(report, report.recommended)) {
+      const data::ScoreEstimate d = data::score_difference(entry, *recommended);
+      out << ", \"minus_recommended\": {\"score\": " << number(d.value)
+          << ", \"standard_error\": " << number(d.standard_error) << "}";
+    }
+    out << "}";
   }
   out << "},\n";
   const data::Verdict& verdict = report.verdict;
@@ -423,12 +436,21 @@ void verdict_markdown(std::ostringstream& out, const Report& report) {
     out << "\nValidation scores (Σ over coil sets of the held-out F_y MSE over the physics-only fit's; classical is "
            "the physics-only fit), with the standard error from the held-out blocks (docs/commutation.md, \"The "
            "recommendation\"), in the order of preference on a tie:\n\n"
-           "| law | score | standard error | held-out blocks |\n|---|---|---|---|\n";
+           "| law | score | standard error | held-out blocks | − recommended (paired) | in standard errors |\n"
+           "|---|---|---|---|---|---|\n";
+    const auto* recommended_score = scored(report, report.recommended);
     for (const auto& entry : report.law_scores) {
       std::size_t blocks = 0;
       for (const auto& coil_set : entry.blocks) blocks += coil_set.size();
       out << "| " << entry.law << " | " << fixed(entry.score.value, "%.4g") << " | "
-          << fixed(entry.score.standard_error, "%.2g") << " | " << blocks << " |\n";
+          << fixed(entry.score.standard_error, "%.2g") << " | " << blocks << " | ";
+      if (recommended_score && recommended_score != &entry) {
+        const data::ScoreEstimate d = data::score_difference(entry, *recommended_score);
+        out << fixed(d.value, "%.3g") << " ± " << fixed(d.standard_error, "%.2g") << " | "
+            << fixed(d.value / d.standard_error, "%.2g") << " |\n";
+      } else {
+        out << "– | – |\n";
+      }
     }
   }
   out << "\n";

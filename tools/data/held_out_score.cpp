@@ -136,16 +136,10 @@ LawScore law_score(std::string law, HeldOutBlocks blocks) {
   return score;
 }
 
-namespace {
-
-// a − b, paired on their blocks when both have the same ones, else the
-// difference of two independent estimates.
-ScoreEstimate difference(const LawScore& a, const LawScore& b) {
+ScoreEstimate score_difference(const LawScore& a, const LawScore& b) {
   if (!a.blocks.empty() && same_shape(a.blocks, b.blocks)) return paired_difference(a.blocks, b.blocks);
   return {a.score.value - b.score.value, std::hypot(a.score.standard_error, b.score.standard_error)};
 }
-
-}  // namespace
 
 Verdict choose_law(const std::vector<LawScore>& laws, double k) {
   if (laws.empty()) throw std::invalid_argument("choose_law: no laws to choose from");
@@ -159,7 +153,7 @@ Verdict choose_law(const std::vector<LawScore>& laws, double k) {
   Verdict verdict;
   std::vector<std::size_t> tied;
   for (std::size_t j = 0; j < laws.size(); ++j) {
-    const ScoreEstimate d = j == lowest ? ScoreEstimate{0.0, 0.0} : difference(laws[j], laws[lowest]);
+    const ScoreEstimate d = j == lowest ? ScoreEstimate{0.0, 0.0} : score_difference(laws[j], laws[lowest]);
     // Without a standard error only an equal score ties.
     if (d.value <= 0.0 || d.value < k * d.standard_error) tied.push_back(j);
   }
@@ -179,7 +173,7 @@ Verdict choose_law(const std::vector<LawScore>& laws, double k) {
   }
   if (runner_up < laws.size()) {
     verdict.runner_up = laws[runner_up].law;
-    const ScoreEstimate margin = difference(laws[runner_up], laws[chosen]);
+    const ScoreEstimate margin = score_difference(laws[runner_up], laws[chosen]);
     verdict.margin_score = margin.value;
     verdict.margin_standard_errors =
         margin.standard_error > 0.0 ? margin.value / margin.standard_error

@@ -84,6 +84,11 @@ struct LawScore {
 /// A LawScore with its score from `blocks`.
 LawScore law_score(std::string law, HeldOutBlocks blocks);
 
+/// score(a) − score(b): paired on their blocks when both have the same
+/// ones, else the difference of two independent estimates (standard errors
+/// added in quadrature; NaN when either is unknown).
+ScoreEstimate score_difference(const LawScore& a, const LawScore& b);
+
 /// The choice among laws. `recommended` has the lowest score unless the tie
 /// rule chose another; `runner_up` is the best-scoring other law (lowest
 /// score when the recommended one is not the lowest; "" when there is none).
