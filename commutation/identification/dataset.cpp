@@ -73,9 +73,17 @@ DataSplit split_contiguous_blocks(const CoilSetDataset& data, double validation_
       if (data.group[static_cast<std::size_t>(i)] == g) members.push_back(i);
     }
     const auto count = static_cast<double>(members.size());
+    std::size_t previous_block = is_validation_block.size();  // none yet in this group
     for (std::size_t k = 0; k < members.size(); ++k) {
       const auto block = static_cast<std::size_t>(std::min<double>(blocks_per_group - 1, std::floor(k * blocks_per_group / count)));
-      (is_validation_block[block] ? split.validation : split.training).push_back(members[k]);
+      if (!is_validation_block[block]) {
+        split.training.push_back(members[k]);
+        continue;
+      }
+      split.validation.push_back(members[k]);
+      if (block != previous_block) split.validation_blocks.push_back(0);
+      ++split.validation_blocks.back();
+      previous_block = block;
     }
   }
   return split;

@@ -4,6 +4,7 @@
 // reconstructed through the drive's fixed commutation (Fig. 6).
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <vector>
 
 namespace clm::identification {
@@ -37,6 +38,10 @@ void check_dataset(const CoilSetDataset& data, const char* what);
 struct DataSplit {
   std::vector<Eigen::Index> training;
   std::vector<Eigen::Index> validation;
+  /// How many consecutive entries of `validation` each held-out block holds,
+  /// in order (group 0's blocks, then group 1's); empty blocks are left out.
+  /// The held-out error's uncertainty is estimated from these blocks.
+  std::vector<std::size_t> validation_blocks;
 };
 DataSplit split_contiguous_blocks(const CoilSetDataset& data, double validation_fraction, int blocks_per_group = 10);
 

@@ -18,6 +18,22 @@ DirectionCost coil_set_cost(const ElectromagneticModel& model, int coil_set, con
   return cost / static_cast<double>(data.size());
 }
 
+Eigen::VectorXd coil_set_squared_errors(const ElectromagneticModel& model, int coil_set, const CoilSetDataset& data,
+                                        int direction, const DirectionForce& direction_force) {
+  Eigen::VectorXd squares(data.size());
+  const bool nuisance = direction_force.identified() && data.velocity_m_per_s.size() == data.size();
+  for (Eigen::Index t = 0; t < data.size(); ++t) {
+    CoilGain gain;
+    Wrench cogging;
+    model.evaluate_coil_set(coil_set, data.position_m[t], gain, cogging);
+    // The same terms, in the same order, as coil_set_cost.
+    Wrench error = data.wrench.col(t) - gain * data.currents_A.col(t) - cogging;
+    if (nuisance) error -= direction_force.amplitude * direction_force.feature(data.velocity_m_per_s[t]);
+    squares[t] = error[direction] * error[direction];
+  }
+  return squares;
+}
+
 ElectromagneticModel single_coil_set_model(ModelKind kind, double pole_pitch_m, const PositionNormalisation& normalisation,
                                            const UniformCubicBasis& basis, const CoilSetModel& coil_set,
                                            const HarmonicOrders& harmonics) {
@@ -38,6 +54,8 @@ void fill_report_costs(const ModelWithNuisance& model, const ModelWithNuisance& 
   if (validation.size() > 0) {
     report.model_validation = coil_set_cost(model.model, 0, validation, model.direction);
     report.physics_validation = coil_set_cost(physics.model, 0, validation, physics.direction);
+    report.model_validation_y_N2 = coil_set_squared_errors(model.model, 0, validation, 0, model.direction);
+    report.physics_validation_y_N2 = coil_set_squared_errors(physics.model, 0, validation, 0, physics.direction);
   }
 }
 

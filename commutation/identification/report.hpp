@@ -20,6 +20,13 @@ struct IdentificationReport {
   DirectionCost model_training = DirectionCost::Zero();
   DirectionCost physics_validation = DirectionCost::Zero();
   DirectionCost model_validation = DirectionCost::Zero();
+  /// The squared F_y errors [N²] of the model and of the physics-only fit on
+  /// every held-out sample, in the order of the validation data (their means
+  /// are model_validation[0] and physics_validation[0]): summed per held-out
+  /// block, they give the validation score's uncertainty
+  /// (tools/data/held_out_score.hpp). Empty without validation data.
+  Eigen::VectorXd model_validation_y_N2;
+  Eigen::VectorXd physics_validation_y_N2;
   /// The model put to use: with validation data it is fit once more on
   /// training and validation data together (refit_on_all_data), else it is
   /// the training-only model. Its data terms, and the physics-only fit's, on
@@ -51,6 +58,11 @@ struct IdentificationReport {
 /// independently of the training code.
 DirectionCost coil_set_cost(const ElectromagneticModel& model, int coil_set, const CoilSetDataset& data,
                             const DirectionForce& direction = {});
+
+/// The squared error in direction `direction` (0 y, 1 x, 2 z) of every
+/// sample of `data`, in its order: the terms whose mean is coil_set_cost.
+Eigen::VectorXd coil_set_squared_errors(const ElectromagneticModel& model, int coil_set, const CoilSetDataset& data,
+                                        int direction, const DirectionForce& direction_force = {});
 
 /// A model with the direction-dependent force identified beside it.
 struct ModelWithNuisance {

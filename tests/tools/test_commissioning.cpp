@@ -85,6 +85,20 @@ void check_against_truth(const commission::Report& report, const std::string& mo
       for (bool holds : entry.report.proposition_holds) CHECK(holds);
     }
   }
+  // The recommendation follows its rule (docs/commutation.md, "The
+  // recommendation"): a clear win by at least k standard errors of the
+  // paired difference, or a tie given to the first tied law in kTieOrder.
+  const data::Verdict& verdict = report.verdict;
+  if (report.decided_by != "no force sensor") {
+    CHECK(report.recommended == data::choose_law(report.law_scores).recommended);
+    CHECK(report.decided_by == (verdict.tie ? "tie rule" : "validation score"));
+    if (!verdict.tie && !verdict.runner_up.empty()) CHECK(verdict.margin_standard_errors >= data::kTieStandardErrors);
+  }
+  // Every score comes with a standard error from the held-out blocks.
+  for (const auto& law : report.law_scores) {
+    INFO(law.law << " " << law.score.value << " ± " << law.score.standard_error);
+    CHECK(std::isfinite(law.score.standard_error));
+  }
   // The law recommended commands the electromagnetic force it is asked for.
   REQUIRE((report.recommended == "pgnn" || report.recommended == "spline" || report.recommended == "spline-position"));
   const auto& recommended = find(report.results, report.recommended);

@@ -294,49 +294,106 @@ CommutationResult evaluate(const Recording& run, double period_s) {
   return result;
 }
 
-void recommend(Report& report) {
-  const double inf = std::numeric_limits<double>::infinity();
-  const auto score_of = [&](const data::IdentifySummary& s) {
-    return s.trials.empty() ? inf : s.trials[s.chosen].validation_score;
+namespace {
+
+// "0.119 ± 0.0021" with the precision of the figures it is compared with.
+std::string with_error(const data::ScoreEstimate& score) {
+  char text[64];
+  if (std::isfinite(score.standard_error)) {
+    std::snprintf(text, sizeof(text), "%.4g ± %.2g", score.value, score.standard_error);
+  } else {
+    std::snprintf(text, sizeof(text), "%.4g (no standard error: nothing held out)", score.value);
+  }
+  return text;
+}
+
+// The laws' scores in kTieOrder: the physics-only fit as "classical", then
+// those of `candidates` ("spline", "spline-position", "pgnn") that exist.
+std::vector<data::LawScore> laws_in_tie_order(const Report& report, bool with_position) {
+  std::vector<data::LawScore> laws;
+  const auto from_trial = [](const char* law, const data::IdentifySummary& s) {
+    const data::CapacityTrial& trial = s.trials[s.chosen];
+    if (!trial.held_out.empty()) return data::law_score(law, trial.held_out);
+    return data::LawScore{law, {}, {trial.validation_score, std::numeric_limits<double>::quiet_NaN()}};
   };
-  const double pgnn = score_of(report.pgnn_selection);
-  const double spline = score_of(report.spline_selection);
-  const double position = std::isfinite(report.position_validation_score) ? report.position_validation_score : inf;
-  // The physics-only fit scores 1 per coil set.
-  const double physics = 1.0 * report.coil_sets;
+  for (const char* law : kTieOrder) {
+    const std::string name = law;
+    if (name == "spline" && !report.spline_selection.trials.empty()) {
+      laws.push_back(from_trial(law, report.spline_selection));
+    } else if (name == "pgnn" && !report.pgnn_selection.trials.empty()) {
+      laws.push_back(from_trial(law, report.pgnn_selection));
+    } else if (name == "spline-position" && with_position && std::isfinite(report.position_validation_score)) {
+      if (!report.position_held_out.empty()) {
+        laws.push_back(data::law_score(law, report.position_held_out));
+      } else {
+        laws.push_back({law, {}, {report.position_validation_score, std::numeric_limits<double>::quiet_NaN()}});
+      }
+    }
+  }
+  // The physics-only fit scores 1 per coil set; its blocks are any law's
+  // physics errors (z = 0 in them, so that its paired difference with a law
+  // has that law's own standard error).
+  data::LawScore physics{"classical", {}, {1.0 * report.coil_sets, 0.0}};
+  for (const auto& law : laws) {
+    if (!law.blocks.empty()) {
+      physics = data::law_score("classical", data::physics_only(law.blocks));
+      break;
+    }
+  }
+  laws.insert(laws.begin(), physics);
+  return laws;
+}
+
+}  // namespace
+
+void recommend(Report& report) {
+  report.law_scores = laws_in_tie_order(report, true);
+  const data::Verdict forces = data::choose_law(laws_in_tie_order(report, false));
+  report.force_recommended = forces.recommended;
+  report.verdict = data::choose_law(report.law_scores);
+  const data::Verdict& verdict = report.verdict;
+  report.recommended = verdict.recommended;
+  report.decided_by = verdict.tie ? "tie rule" : "validation score";
+
   const auto name_of = [](const data::IdentifySummary& s) { return s.trials[s.chosen].capacity; };
-  char scores[400];
-  std::snprintf(scores, sizeof(scores),
-                "validation score (sum over coil sets of the model's held-out F_y MSE over the physics-only fit's) "
-                "spline (%s) %.3g, PGNN (%s) %.3g, spline from positions %.3g, physics-only %.3g",
-                name_of(report.spline_selection).c_str(), spline, name_of(report.pgnn_selection).c_str(), pgnn,
-                position, physics);
-  const bool spline_better = spline < 1.05 * pgnn;
-  report.force_recommended = !(std::min(pgnn, spline) < physics) ? "classical" : spline_better ? "spline" : "pgnn";
-  if (!(std::min({pgnn, spline, position}) < physics)) {
-    report.recommended = "classical";
-    report.recommendation = std::string(scores) + ": no model predicts the held-out blocks better than the "
-                                                  "physics-only fit; keep the calibrated classical law";
-    return;
+  std::string text =
+      "validation score (sum over coil sets of the model's held-out F_y MSE over the physics-only fit's, ± its "
+      "standard error from the held-out blocks):";
+  for (const auto& entry : report.law_scores) {
+    text += " " + entry.law;
+    if (entry.law == "spline") text += " (" + name_of(report.spline_selection) + ")";
+    if (entry.law == "pgnn") text += " (" + name_of(report.pgnn_selection) + ")";
+    if (entry.law == "spline-position") text += " (mass from " + report.position_mass_source + ")";
+    if (entry.law == "classical") text += " (physics-only fit)";
+    text += " " + with_error(entry.score) + ";";
   }
-  // Near-ties go to the spline (spline_better above): its linear least
-  // squares has one optimum, the PGNN's restarts find one of many, and within
-  // a few per cent the held-out error cannot tell which model commands the
-  // better force.
-  const double force_best = spline_better ? spline : pgnn;
-  if (position < force_best) {
-    // The model from positions predicts the sensor's held-out forces better
-    // than the models fitted to the sensor (docs/commutation.md, "Without a
-    // force sensor": the encoder's noise has little power where the model varies).
-    report.recommended = "spline-position";
-    report.recommendation = std::string(scores) + "; the spline from positions (mass from " +
-                            report.position_mass_source + ") predicts the held-out forces best";
-    return;
+  text.pop_back();
+  char k[16];
+  std::snprintf(k, sizeof(k), "%g", data::kTieStandardErrors);
+  char margin[200] = "";
+  if (!verdict.runner_up.empty()) {
+    // Negative when the tie rule chose a law that scores higher than the runner-up.
+    std::snprintf(margin, sizeof(margin), "%s, the runner-up, scores %.3g %s (%.2g standard errors of the paired "
+                  "difference)", verdict.runner_up.c_str(), std::abs(verdict.margin_score),
+                  verdict.margin_score < 0.0 ? "lower" : "higher", std::abs(verdict.margin_standard_errors));
   }
-  report.recommended = spline_better ? "spline" : "pgnn";
-  report.recommendation = std::string(scores) +
-                          "; the PGNN must be 5 % lower than the spline to be preferred, since the spline's least "
-                          "squares has one optimum and the PGNN's restarts find one of many";
+  if (verdict.recommended == "classical") {
+    text += std::string("; no model beats the physics-only fit by more than ") + k +
+            " standard errors of their paired difference: keep the calibrated classical law";
+    if (!verdict.runner_up.empty()) text += std::string("; ") + margin;
+  } else if (verdict.tie) {
+    std::string tied;
+    for (const auto& law : verdict.tied) tied += (tied.empty() ? "" : ", ") + law;
+    std::string order;
+    for (const char* law : kTieOrder) order += (order.empty() ? "" : ", ") + std::string(law);
+    text += std::string("; ") + tied + " score within " + k +
+            " standard errors of the paired difference of the lowest: a tie, broken by the order of preference (" +
+            order + ") for " + verdict.recommended + "; " + margin;
+  } else {
+    text += "; " + verdict.recommended + " has the lowest, a clear win (by more than " + k +
+            " standard errors of the paired difference): " + margin;
+  }
+  report.recommendation = text;
 }
 
 Report run(const Options& options, const std::function<void(const Progress&)>& progress) {
@@ -466,14 +523,18 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     identify_from_positions(options, config, experiments, written, tell, beside_forces ? &models[1] : nullptr, report);
   }
   if (force_data && report.from_position && !options.no_force_sensor) {
-    report.position_validation_score = data::position_validation_score(
-        *force_data, options.identify, report.spline_selection, report.spline, report.position.model.model);
+    report.position_validation_score =
+        data::position_validation_score(*force_data, options.identify, report.spline_selection, report.spline,
+                                        report.position.model.model, &report.position_held_out);
   }
   if (sensor) recommend(report);
   if (options.no_force_sensor) {
     // Commissioned as an axis without a force sensor: the laws from positions
     // are the result, the force-sensor ones (when there is a sensor) a comparison.
     report.recommended = "spline-position";
+    report.decided_by = "no force sensor";
+    report.verdict = data::Verdict{};
+    report.verdict.recommended = report.recommended;
     report.recommendation =
         sensor ? "commissioned from positions (--no-force-sensor); the force-sensor laws beside it are a comparison, "
                  "and alone they would give " + report.force_recommended

@@ -111,7 +111,18 @@ struct Report {
   /// The model from positions scored as the force models' capacity trials
   /// (data::position_validation_score); NaN without force data.
   double position_validation_score = std::numeric_limits<double>::quiet_NaN();
+  data::HeldOutBlocks position_held_out;  ///< its per-block errors (empty where the score is NaN)
   CalibrationFile calibration_position;
+  /// The laws that competed for the recommendation with their validation
+  /// scores and standard errors, in the order of preference on a tie
+  /// (kTieOrder; "classical" is the physics-only fit, score 1 per coil set).
+  std::vector<data::LawScore> law_scores;
+  /// How `recommended` was chosen from law_scores; `decided_by` says
+  /// "validation score" (a clear win), "tie rule", or "no force sensor"
+  /// (commissioned from positions: the verdict of the scores is
+  /// force_recommended's, and `verdict` has no runner-up).
+  data::Verdict verdict;
+  std::string decided_by;
 };
 
 /// The file a run keeps in its output directory from the directory's
@@ -160,10 +171,20 @@ control::FeedforwardParameters identify_ff(const Recording& run);
 /// (tracking, true y error, identification wall time); "" without them.
 std::string position_summary(const Report& report);
 
-/// Sets report.recommended, report.recommendation and
-/// report.force_recommended from the validation scores of the chosen PGNN
-/// and spline and of the spline from positions (docs/commutation.md,
-/// "Capacity chosen by validation").
+/// The laws in their order of preference when their validation scores tie
+/// (docs/commutation.md, "The recommendation"): the calibrated classical law
+/// (no model beats the physics-only fit by more than the noise), then the
+/// spline (linear least squares, one optimum, F_y fit to the measured force),
+/// the spline from positions (the same law in the cycle, its F_y through a
+/// mechanics model), the PGNN (a network per cycle, one of many optima).
+inline constexpr const char* kTieOrder[] = {"classical", "spline", "spline-position", "pgnn"};
+
+/// Sets report.recommended, report.recommendation, report.law_scores,
+/// report.verdict, report.decided_by and report.force_recommended from the
+/// held-out blocks of the chosen PGNN and spline and of the spline from
+/// positions: data::choose_law with data::kTieStandardErrors and kTieOrder
+/// (docs/commutation.md, "The recommendation"). force_recommended is the same
+/// choice without the spline from positions.
 void recommend(Report& report);
 
 /// Commutation MSE (filtered and unfiltered, y/x/z), tracking MSE and mean

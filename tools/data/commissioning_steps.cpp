@@ -75,6 +75,7 @@ void record_fit_quality(const identification::IdentificationReport& report, Coil
 struct SplitData {
   int coil_set = 0;  // 1-based
   identification::CoilSetDataset training, validation;
+  std::vector<std::size_t> validation_blocks;  // samples per held-out block, in the validation data's order
 };
 
 // Σ over coil sets of the model's held-out F_y MSE over the physics-only
@@ -146,7 +147,8 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
       dataset.velocity_m_per_s.resize(0);
     }
     const auto split = identification::split_contiguous_blocks(dataset, options.validation_fraction);
-    splits.push_back({experiment.coil_set, dataset.subset(split.training), dataset.subset(split.validation)});
+    splits.push_back({experiment.coil_set, dataset.subset(split.training), dataset.subset(split.validation),
+                      split.validation_blocks});
   }
 
   // The direction-dependent force only where the experiments tell it from a
@@ -279,6 +281,13 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
       model.validate();
       file.provenance.created_utc = utc_timestamp();
       result.validation_score = selection_score(result.coil_sets);
+      if (std::all_of(splits.begin(), splits.end(), [](const SplitData& p) { return p.validation.size() > 0; })) {
+        for (std::size_t l = 0; l < splits.size(); ++l) {
+          const auto& r = result.coil_sets[l].report;
+          result.held_out.push_back(
+              held_out_blocks(r.model_validation_y_N2, r.physics_validation_y_N2, splits[l].validation_blocks));
+        }
+      }
     }
     trials_before += static_cast<int>(specs.size());
     return results;

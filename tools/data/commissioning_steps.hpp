@@ -14,6 +14,7 @@
 #include "commutation/identification/spline_fit.hpp"
 #include "commutation/model_file.hpp"
 #include "tools/data/experiment_data.hpp"
+#include "tools/data/held_out_score.hpp"
 
 namespace clm::data {
 
@@ -90,6 +91,11 @@ struct CapacityTrial {
   /// Σ over coil sets of the model's held-out F_y MSE over the physics-only
   /// fit's (unit-free; lower is better).
   double validation_score = 0.0;
+  /// Per coil set, the held-out blocks' F_y squared errors of this trial and
+  /// of the physics-only fit, from which the score's standard error and the
+  /// paired differences of the recommendation come (held_out_score.hpp);
+  /// empty when nothing is held out.
+  HeldOutBlocks held_out;
   ModelFile model;
   std::vector<CoilSetIdentification> coil_sets;
 };

@@ -210,13 +210,15 @@ void reconstruct_driving_force(ExperimentData& data, const MotorDescription& mot
 
 double position_validation_score(const ExperimentData& data, const IdentifyOptions& options,
                                  const IdentifySummary& summary, const std::vector<CoilSetIdentification>& reports,
-                                 const ElectromagneticModel& model) {
+                                 const ElectromagneticModel& model, HeldOutBlocks* blocks) {
+  if (blocks != nullptr) blocks->clear();
   if (!data.measured_forces || reports.size() != data.coil_sets.size() || summary.trials.empty()) {
     return std::nan("");
   }
   const double smoothing_m_per_s =
       summary.trials[summary.chosen].model.provenance.nuisance.direction_smoothing_m_per_s;
   double score = 0.0;
+  HeldOutBlocks per_block;
   for (std::size_t l = 0; l < data.coil_sets.size(); ++l) {
     identification::CoilSetDataset dataset = data.coil_sets[l].dataset;
     if (summary.nuisance) dataset.wrench.row(0).array() -= summary.sensor_offset.offset_N;
@@ -239,15 +241,24 @@ double position_validation_score(const ExperimentData& data, const IdentifyOptio
     }
     const double direction_N = square > 0.0 ? cross / square : 0.0;
     double held_out = 0.0;
-    for (const Eigen::Index k : split.validation) {
-      const double r = residual(k, shape) - direction_N * shape;
+    Eigen::VectorXd squares(static_cast<Eigen::Index>(split.validation.size()));
+    for (std::size_t v = 0; v < split.validation.size(); ++v) {
+      const double r = residual(split.validation[v], shape) - direction_N * shape;
+      squares[static_cast<Eigen::Index>(v)] = r * r;
       held_out += r * r;
     }
     held_out /= static_cast<double>(split.validation.size());
     const double physics = reports[l].report.physics_validation[0];
     if (!(physics > 0.0)) return std::nan("");
     score += held_out / physics;
+    // The physics-only fit's per-sample errors on the same blocks, when the
+    // reports carry them (an identification with held-out data).
+    const auto& physics_N2 = reports[l].report.physics_validation_y_N2;
+    if (physics_N2.size() == squares.size()) {
+      per_block.push_back(held_out_blocks(squares, physics_N2, split.validation_blocks));
+    }
   }
+  if (blocks != nullptr && per_block.size() == data.coil_sets.size()) *blocks = std::move(per_block);
   return score;
 }
 

@@ -71,9 +71,12 @@ void reconstruct_driving_force(ExperimentData& data, const MotorDescription& mot
 /// blocks, with the sensor offset of `summary` removed and, where the force
 /// models carry one, a direction-dependent force C·tanh(ẏ/v_c) fitted to its
 /// residual on the training blocks. `reports` are the chosen force model's
-/// (their physics-only figures). NaN without held-out blocks.
+/// (their physics-only figures). NaN without held-out blocks. `blocks`
+/// (optional) receives the per-block errors of the same score (its physics
+/// errors the reports' own), for its standard error and paired differences
+/// (held_out_score.hpp); it is left empty where the score is NaN.
 double position_validation_score(const ExperimentData& data, const IdentifyOptions& options,
                                  const IdentifySummary& summary, const std::vector<CoilSetIdentification>& reports,
-                                 const ElectromagneticModel& model);
+                                 const ElectromagneticModel& model, HeldOutBlocks* blocks = nullptr);
 
 }  // namespace clm::data
