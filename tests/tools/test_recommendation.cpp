@@ -106,3 +106,30 @@ TEST_CASE("models within the noise of the physics-only fit leave the calibrated 
   INFO(report.recommendation);
   CHECK(contains(report.recommendation, "keep the calibrated classical law"));
 }
+
+TEST_CASE("report.json's ratios are well formed whichever laws were evaluated", "[commission]") {
+  // Each member of "ratios" is written only when its laws were evaluated; the
+  // separators between them follow what was written, not what might have been.
+  const auto result = [](const std::string& name, double mse, double tracking_m2) {
+    commission::CommutationResult r;
+    r.name = name;
+    r.evaluated = true;
+    r.mse.filtered = {mse, mse, mse};
+    r.tracking_mse_m2 = tracking_m2;
+    return r;
+  };
+  for (const std::vector<std::string>& laws : std::vector<std::vector<std::string>>{
+           {"classical", "spline"}, {"classical", "oracle"}, {"spline", "oracle"}, {"classical"}, {}}) {
+    commission::Report report;
+    report.coil_sets = 2;
+    for (const auto& law : laws) report.results.push_back(result(law, 4.0, 1e-10));
+    const std::string json = commission::report_json(report);
+    const auto begin = json.find("\"ratios\": {");
+    REQUIRE(begin != std::string::npos);
+    const std::string ratios = json.substr(begin, json.find('\n', begin) - begin);
+    INFO("laws evaluated: " << laws.size() << ", ratios line: " << ratios);
+    CHECK_FALSE(contains(ratios, "{, "));
+    CHECK_FALSE(contains(ratios, ", ,"));
+    CHECK_FALSE(contains(ratios, ", }"));
+  }
+}

@@ -264,20 +264,24 @@ std::string report_json(const Report& report) {
   const auto* pgnn = find(report, "pgnn");
   const auto* spline = find(report, "spline");
   out << "  \"ratios\": {";
+  const char* separator = "";  // between the members written so far and the next
   if (classical && pgnn) {
+    separator = ", ";
     out << "\"classical_over_pgnn_commutation_mse_filtered\": " << triple(std::array<double, 3>{
         classical->mse.filtered[0] / pgnn->mse.filtered[0], classical->mse.filtered[1] / pgnn->mse.filtered[1],
         classical->mse.filtered[2] / pgnn->mse.filtered[2]})
         << ", \"classical_over_pgnn_tracking_mse\": " << number(classical->tracking_mse_m2 / pgnn->tracking_mse_m2);
   }
   if (classical && spline) {
-    out << ", \"classical_over_spline_commutation_mse_filtered\": " << triple(std::array<double, 3>{
+    out << separator << "\"classical_over_spline_commutation_mse_filtered\": " << triple(std::array<double, 3>{
         classical->mse.filtered[0] / spline->mse.filtered[0], classical->mse.filtered[1] / spline->mse.filtered[1],
         classical->mse.filtered[2] / spline->mse.filtered[2]})
         << ", \"classical_over_spline_tracking_mse\": " << number(classical->tracking_mse_m2 / spline->tracking_mse_m2);
+    separator = ", ";
   }
   if (const auto* oracle = find(report, "oracle")) {
-    out << (classical || spline ? ", " : "") << "\"tracking_mse_over_oracle\": {";
+    out << separator << "\"tracking_mse_over_oracle\": {";
+    separator = ", ";
     bool first_ratio = true;
     for (const auto& r : report.results) {
       if (!r.evaluated) continue;
@@ -287,7 +291,7 @@ std::string report_json(const Report& report) {
     out << "}";
   }
   if (const auto* reference = calibrated_classical(report)) {
-    out << (classical || spline || find(report, "oracle") ? ", " : "") << "\"improvement_over_classical\": {\"classical\": "
+    out << separator << "\"improvement_over_classical\": {\"classical\": "
         << quoted(reference->name);
     for (const auto& r : report.results) {
       if (!r.evaluated || &r == reference) continue;
