@@ -166,8 +166,9 @@ class ServoCycle {
   ///  - load_feedforward takes effect at once; set_parameter (a validated
   ///    Tuning) only when no program or stop runs (kRejectedBusy otherwise).
   CommandResult execute(const Command& command) noexcept;
-  /// Loop thread: the holder of a deadman lease is gone: quick-stops a
-  /// running program and ends an experiment (the service law at standstill).
+  /// Loop thread: the holder of a deadman lease is gone: ends an experiment
+  /// at once (the service law drives from this cycle on) and quick-stops a
+  /// running program.
   void owner_gone() noexcept;
 
   /// Starts a cycle: adopts the offers, returns the SYNC frame.
@@ -201,9 +202,6 @@ class ServoCycle {
   CommandResult quick_stop() noexcept;
   /// For kExperiment, `coil_set` (1-based) and `delta_rad` select the experiment.
   CommandResult request_mode(CommutationMode mode, int coil_set = 0, double delta_rad = 0.0) noexcept;
-  /// Ends an experiment in use or pending: back to the service law at the
-  /// next standstill (at once when the axis is not driven), as request_mode.
-  CommandResult end_experiment() noexcept;
   void set_feedforward(const control::FeedforwardParameters& parameters) noexcept;
   CommandResult apply_tuning(const Tuning& tuning) noexcept;
   /// Bus faults latch; a failed send too.
@@ -241,7 +239,7 @@ class ServoCycle {
     return status_.mode == CommutationMode::kExperiment ||
            (status_.mode_change_pending && requested_mode_ == CommutationMode::kExperiment);
   }
-  /// Back to the service law at once, a pending experiment dropped (disable, fault).
+  /// Back to the service law at once, a pending experiment dropped (disable, fault, owner gone).
   void leave_experiment() noexcept;
   bool outside_soft_limits(double position_m) const noexcept;
 

@@ -87,8 +87,11 @@ CommandResult ServoCycle::execute(const Command& command) noexcept {
 }
 
 void ServoCycle::owner_gone() noexcept {
+  // As after a fault (latch): the experiment ends at once, so that the quick
+  // stop is driven by the service law, not by one coil set at an offset angle
+  // that may not deliver the stop's force.
+  leave_experiment();
   quick_stop();
-  end_experiment();
 }
 
 CommandResult ServoCycle::enable() noexcept {
@@ -193,10 +196,6 @@ CommandResult ServoCycle::request_mode(CommutationMode mode, int coil_set, doubl
     return CommandResult::kAccepted;
   }
   return CommandResult::kDeferred;
-}
-
-CommandResult ServoCycle::end_experiment() noexcept {
-  return in_experiment() ? request_mode(service_mode_) : CommandResult::kAccepted;
 }
 
 void ServoCycle::set_feedforward(const control::FeedforwardParameters& parameters) noexcept {

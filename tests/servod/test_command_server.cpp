@@ -144,7 +144,7 @@ TEST_CASE("The route table names every kind once, in the order of its LCM value"
   }
 }
 
-TEST_CASE("The command table decides class, file and legal states; the gate, the daemon and the client read it",
+TEST_CASE("The command table decides class, file and legal states, the gate, the daemon and the client read it",
           "[servod][commands]") {
   using servo::CommandClass;
   using servo::CommandResult;
@@ -569,7 +569,7 @@ TEST_CASE("Without command authority, take and release control are refused and o
   CHECK(servo::route(CommandKind::kReleaseControl).answered_by == servo::AnsweredBy::kAuthority);
 }
 
-TEST_CASE("A deadman lease that lapses stops the axis, ends the experiment and releases control; renewals keep it",
+TEST_CASE("A deadman lease that lapses stops the axis, ends the experiment and releases control, renewals keep it",
           "[servod][commands][authority][deadman]") {
   using C = clm_lcm::servo_command_t;
   WiredAxis axis(virtual_config());
@@ -636,6 +636,14 @@ TEST_CASE("A deadman lease that lapses stops the axis, ends the experiment and r
   daemon.run_cycles(1);
   CHECK_FALSE(daemon.cycle().record().program_running);
   CHECK(daemon.cycle().status().stopping);
+  {
+    // The quick stop is driven by the service law from its first cycle, not
+    // by the experiment's one coil set at its offset angle.
+    INFO("commutation while stopping: " << servo::name(daemon.cycle().status().mode));
+    CHECK(daemon.cycle().status().mode == service);
+    CHECK(daemon.cycle().record().commutation == service);
+    CHECK(daemon.cycle().record().coil_set == 0);
+  }
   daemon.run_cycles(2000);  // the quick stop ends; the service law at standstill
   CHECK(daemon.cycle().status().state == servo::ServoState::kEnabled);
   CHECK_FALSE(daemon.cycle().status().stopping);

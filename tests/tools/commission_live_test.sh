@@ -176,7 +176,8 @@ if [ "$mode" = killed ]; then
       [ "$(echo "$elapsed < 3" | bc)" = 1 ] ||
           fail "$name: $elapsed s after SIG$signal: control_client $(field control_client "$status"), state" \
                "$(field state "$status"), commutation $(field commutation "$status") (service law $service)," \
-               "program_running $(field program_running "$status")"
+               "program_running $(field program_running "$status"), fault $(field fault "$status")" \
+               "($(field fault_reason "$status"))"
     done
     grep -qx "fault: 0" <<< "$status" || fail "$name: a fault after the kill: $status"
     echo "$name: SIG$signal ($at); after $elapsed s: state $(field state "$status"), commutation" \
