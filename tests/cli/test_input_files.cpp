@@ -240,7 +240,7 @@ TEST_CASE("a CSV naming a column twice is refused by every reader with the file,
   check_refused(readers[3], data + ":1: column 'y_m' appears twice (columns 1 and 5)");
 }
 
-TEST_CASE("a CSV beyond --max-bytes or --max-rows is refused naming the file, the limit and the option; at the "
+TEST_CASE("a CSV beyond --max-bytes or --max-rows is refused naming the file, the limit and the option, at the "
           "limit it is read",
           "[cli][input_files]") {
   TemporaryDirectory dir;

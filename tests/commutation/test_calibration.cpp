@@ -102,7 +102,7 @@ TEST_CASE("equal offsets are refused with a reason", "[calibration]") {
   CHECK_THROWS_AS(calibrate_classical(kDriveK, kDriveZeta, first.view(), shifted.view()), CalibrationError);
 }
 
-TEST_CASE("cogging rejected by the loop biases Algorithm 1; the offset-robust fit is not biased", "[calibration]") {
+TEST_CASE("cogging rejected by the loop biases Algorithm 1, the offset-robust fit is not biased", "[calibration]") {
   std::mt19937_64 rng(4);
   const double k = 61.34, zeta = -0.54, delta = kPi / 4;
   const auto first = make_group(k, zeta, -delta, 0.5, true, true, rng);
@@ -153,7 +153,7 @@ TEST_CASE("the gain ratios' standard errors match their spread over noise draws"
   CHECK(spread(robust_c) == Approx(robust_se).epsilon(0.25));
 }
 
-TEST_CASE("offsets pi/2 apart separate k and zeta with condition 1; close offsets warn", "[calibration]") {
+TEST_CASE("offsets pi/2 apart separate k and zeta with condition 1, close offsets warn", "[calibration]") {
   CHECK(separation_condition(-kPi / 4, kPi / 4) == Approx(1.0).epsilon(1e-12));
   CHECK(separation_condition(0.1, 0.1 + kPi / 2) == Approx(1.0).epsilon(1e-12));
   // [[1, 0], [cos D, sin D]]: σ_max/σ_min = (1 + |cos D|)/|sin D| (its

@@ -62,7 +62,7 @@ TEST_CASE("The budget is the stated rate times the law's share of the period", "
   CHECK(law_cost_budget(10.0) == 2500000);
 }
 
-TEST_CASE("A 70 x 64 PGNN is refused at 1 kHz; the commissioning capacities and splines pass far inside",
+TEST_CASE("A 70 x 64 PGNN is refused at 1 kHz, the commissioning capacities and splines pass far inside",
           "[law_check]") {
   std::mt19937_64 rng(3);
   const std::vector<int> deep(70, 64);

@@ -110,7 +110,7 @@ TEST_CASE("random states come to rest within the limits, from any acceleration, 
   }
 }
 
-TEST_CASE("invalid limits hold the start position; planning and sampling do not allocate", "[stop]") {
+TEST_CASE("invalid limits hold the start position, planning and sampling do not allocate", "[stop]") {
   const auto held = StopProfile::plan(state(0.02, 0.5, 0.0), {0.0, 100.0});
   CHECK_FALSE(held.valid());
   CHECK(held.sample(1.0).position_m == 0.02);

@@ -325,7 +325,7 @@ TEST_CASE("a move program chains moves and dwells and matches the individual mov
   CHECK(after.velocity_m_per_s == 0.0);
 }
 
-TEST_CASE("an empty program stays at its start; bad steps are named", "[trajectory][program]") {
+TEST_CASE("an empty program stays at its start, bad steps are named", "[trajectory][program]") {
   const MoveProgram empty(0.3, {});
   CHECK(empty.duration_s() == 0.0);
   CHECK(empty.sample(1.0).position_m == 0.3);

@@ -97,7 +97,7 @@ TEST_CASE("limits above the motion limits are refused naming the value and the l
         CommandResult::kProgramPosted);
 }
 
-TEST_CASE("a move whose planned stop would rest past a soft limit is refused; admission plans the ordinary stop",
+TEST_CASE("a move whose planned stop would rest past a soft limit is refused, admission plans the ordinary stop",
           "[servo][move_decision]") {
   // A move to the soft limit at 10 m/s²: with a stop as hard as the move's
   // braking, every stop rests at or before the target: accepted.
@@ -174,7 +174,7 @@ TEST_CASE("restricted mode admits only a slow move_to back inside", "[servo][mov
   CHECK(servo::decide_move(settings(), axis, run, {0.105, steps}).result == CommandResult::kRejectedRestricted);
 }
 
-TEST_CASE("a jog heads for a following-error limit short of the soft limit; a repeat renews it", "[servo][move_decision]") {
+TEST_CASE("a jog heads for a following-error limit short of the soft limit, a repeat renews it", "[servo][move_decision]") {
   auto decision = servo::decide_move(settings(), enabled_at(0.0), jog(0.1));
   REQUIRE(decision.result == CommandResult::kJogStarted);
   CHECK(decision.program->start_m() == 0.0);

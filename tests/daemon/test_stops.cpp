@@ -472,7 +472,7 @@ TEST_CASE("a jog moves at its velocity while repeated and stops along the stop l
   CHECK(test::cycle_answer(daemon).text() == "jog started");
 }
 
-TEST_CASE("a repeated jog ends a following-error limit short of the soft limit; jogs beyond the limits are refused",
+TEST_CASE("a repeated jog ends a following-error limit short of the soft limit, jogs beyond the limits are refused",
           "[daemon][stops][jog]") {
   Axis axis;
   auto& daemon = axis.daemon;
@@ -562,7 +562,7 @@ TEST_CASE("after fault 202 the axis is enabled in restricted mode and only a slo
   CHECK(axis.daemon.cycle().status().state == ServoState::kEnabled);
 }
 
-TEST_CASE("restricted mode: moving farther out latches 202 again; far outside it is not offered", "[daemon][stops][faults]") {
+TEST_CASE("restricted mode: moving farther out latches 202 again, far outside it is not offered", "[daemon][stops][faults]") {
   auto config = test::virtual_config();
   config.servo.recovery_margin_m = 0.01;  // the end stop is 20 mm beyond the soft limit
   Axis axis(config);

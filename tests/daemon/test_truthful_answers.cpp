@@ -101,7 +101,7 @@ TEST_CASE("the loader reads one file at a time off the caller's thread and is an
   daemon.set_file_loader(nullptr);
 }
 
-TEST_CASE("a refused file is named with its line and key, never quoted; the whole message goes to the log",
+TEST_CASE("a refused file is named with its line and key, never quoted, the whole message goes to the log",
           "[daemon][files]") {
   test::TemporaryDirectory dir("clm-daemon-secret");
   const std::string secret = dir.file("secret.yaml");

@@ -53,7 +53,7 @@ TEST_CASE("stop, quick stop and disable naming the axis are admitted from anyone
   CHECK(gate.count(Result::kAccepted) == 5);
 }
 
-TEST_CASE("a repeated or older sequence from the same client is refused; other clients count their own", "[gate]") {
+TEST_CASE("a repeated or older sequence from the same client is refused, other clients count their own", "[gate]") {
   auto gate = make_gate();
   REQUIRE(gate.admit(from(7, 100), CommandClass::kTakeControl, kNow).accepted());
   CHECK(gate.admit(from(7, 100), CommandClass::kControlled, kNow).result == Result::kRejectedReplayed);
@@ -107,7 +107,7 @@ TEST_CASE("a full client table forgets the client seen longest ago, and a replay
   CHECK(gate.count(Result::kRejectedNoClient) == 0);
 }
 
-TEST_CASE("one client holds control; others may stop and disable but not command", "[gate]") {
+TEST_CASE("one client holds control, others may stop and disable but not command", "[gate]") {
   auto gate = make_gate();
   CHECK(gate.holder(kNow) == 0);
   CHECK(gate.admit(from(1, 1), CommandClass::kControlled, kNow).result == Result::kRejectedNotInControl);
@@ -129,7 +129,7 @@ TEST_CASE("one client holds control; others may stop and disable but not command
   CHECK(gate.holder(kNow) == 2);
 }
 
-TEST_CASE("the holder's commands renew the lease; a lapsed lease frees control", "[gate]") {
+TEST_CASE("the holder's commands renew the lease, a lapsed lease frees control", "[gate]") {
   auto gate = make_gate();
   REQUIRE(gate.admit(from(1, 1), CommandClass::kTakeControl, kNow).accepted());
   const std::int64_t later = kNow + 20 * kSecond;

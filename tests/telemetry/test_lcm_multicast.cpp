@@ -210,7 +210,7 @@ TEST_CASE("Commands sent over udpm multicast reach poll_command, an empty path i
   while (publisher->poll_command(command)) CHECK(command.sequence == 1001);  // resent duplicates only
 }
 
-TEST_CASE("A fragment claiming 2^28 bytes is dropped unread and counted; the next command still arrives",
+TEST_CASE("A fragment claiming 2^28 bytes is dropped unread and counted, the next command still arrives",
           "[telemetry][lcm][datagram]") {
   const std::string url = test_url();
   const TelemetryConfig config = keyed_config(url);
@@ -267,7 +267,7 @@ TEST_CASE("A fragment claiming 2^28 bytes is dropped unread and counted; the nex
   CHECK(command.sequence == 7);
 }
 
-TEST_CASE("Over udpm every message published carries the mac of the key; a command without it is refused as "
+TEST_CASE("Over udpm every message published carries the mac of the key, a command without it is refused as "
           "unauthenticated, a stop without it is taken",
           "[telemetry][lcm][mac]") {
   const std::string url = test_url();

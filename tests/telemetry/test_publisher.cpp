@@ -494,7 +494,7 @@ TEST_CASE("Every message the daemon accepts fits one LCM datagram, so no fragmen
   CHECK(largest > 20000);  // the status's six 4095-byte texts
 }
 
-TEST_CASE("udpm URLs are parsed for the receiver; other providers and bad parts are refused naming the URL",
+TEST_CASE("udpm URLs are parsed for the receiver, other providers and bad parts are refused naming the URL",
           "[telemetry][datagram]") {
   const UdpmAddress address = parse_udpm_url("udpm://239.255.76.67:10401?ttl=0&recv_buf_size=1048576");
   CHECK(address.group == "239.255.76.67");

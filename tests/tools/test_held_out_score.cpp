@@ -162,7 +162,7 @@ TEST_CASE("a model that beats the physics-only fit by less than the noise leaves
   CHECK(choose_law(laws({0.2, 0.3, 0.25, 0.25}, {1.1, 1.3, 1.2, 1.1}, {1.4, 1.2, 1.3, 1.5})).recommended == "spline");
 }
 
-TEST_CASE("without held-out blocks only equal scores tie; no laws or a NaN score is refused", "[held_out]") {
+TEST_CASE("without held-out blocks only equal scores tie, no laws or a NaN score is refused", "[held_out]") {
   const double nan = std::nan("");
   const Verdict verdict = choose_law({{"classical", {}, {3.0, 0.0}}, {"spline", {}, {0.36, nan}},
                                       {"pgnn", {}, {0.35, nan}}});
