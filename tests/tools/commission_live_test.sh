@@ -68,8 +68,8 @@ rm -rf "$work"
 mkdir -p "$work"
 
 if [ "$mode" = no-daemon ]; then
-  # A port no test uses, so no daemon can answer.
-  url="udpm://239.255.76.67:$((9960 + $$ % 30))?ttl=0"
+  # A port no test uses, so no daemon can answer (10590..10619).
+  url="udpm://239.255.76.67:$((10590 + $$ % 30))?ttl=0"
   mkdir "$work/out"
   start=$(date +%s.%N)
   set +e
@@ -97,12 +97,15 @@ if [ "$mode" = no-daemon ]; then
 fi
 
 [ "$mode" = run ] || [ "$mode" = no-sensor ] || [ "$mode" = killed ] || fail "unknown mode $mode"
-# A port range of each mode's own: ctest runs the modes side by side
-# (no-sensor: 10300..10339, killed: 10400..10439, no other test's).
+# A port range of each mode's own, 10480..10619, above every other test's:
+# ctest runs the modes side by side and beside the other process tests (the
+# earlier ranges overlapped those of servod_process_test.sh, the authority,
+# stall and flood tests, and a killed-commissioning run once reached the
+# flood test's daemon).
 case "$mode" in
-  run) url="udpm://239.255.76.67:$((9920 + $$ % 30))?ttl=0" ;;
-  no-sensor) url="udpm://239.255.76.67:$((10300 + $$ % 40))?ttl=0" ;;
-  killed) url="udpm://239.255.76.67:$((10400 + $$ % 40))?ttl=0" ;;
+  run) url="udpm://239.255.76.67:$((10480 + $$ % 30))?ttl=0" ;;
+  no-sensor) url="udpm://239.255.76.67:$((10510 + $$ % 40))?ttl=0" ;;
+  killed) url="udpm://239.255.76.67:$((10550 + $$ % 40))?ttl=0" ;;
 esac
 
 # config/servod.yaml as it is (SCHED_FIFO 80 and mlockall where allowed, else
