@@ -2,18 +2,33 @@
 
 namespace clm::identification {
 
+namespace {
+
+/// Measured wrench − the model's at sample t: the one residual both the cost
+/// and the per-sample errors are made of.
+Wrench residual(const ElectromagneticModel& model, int coil_set, const CoilSetDataset& data,
+                const DirectionForce& direction, bool nuisance, Eigen::Index t) {
+  CoilGain gain;
+  Wrench cogging;
+  model.evaluate_coil_set(coil_set, data.position_m[t], gain, cogging);
+  Wrench error = data.wrench.col(t) - gain * data.currents_A.col(t) - cogging;
+  if (nuisance) error -= direction.amplitude * direction.feature(data.velocity_m_per_s[t]);
+  return error;
+}
+
+bool has_nuisance(const CoilSetDataset& data, const DirectionForce& direction) {
+  return direction.identified() && data.velocity_m_per_s.size() == data.size();
+}
+
+}  // namespace
+
 DirectionCost coil_set_cost(const ElectromagneticModel& model, int coil_set, const CoilSetDataset& data,
                             const DirectionForce& direction) {
   DirectionCost cost = DirectionCost::Zero();
   if (data.size() == 0) return cost;
-  const bool nuisance = direction.identified() && data.velocity_m_per_s.size() == data.size();
+  const bool nuisance = has_nuisance(data, direction);
   for (Eigen::Index t = 0; t < data.size(); ++t) {
-    CoilGain gain;
-    Wrench cogging;
-    model.evaluate_coil_set(coil_set, data.position_m[t], gain, cogging);
-    Wrench error = data.wrench.col(t) - gain * data.currents_A.col(t) - cogging;
-    if (nuisance) error -= direction.amplitude * direction.feature(data.velocity_m_per_s[t]);
-    cost += error.cwiseAbs2();
+    cost += residual(model, coil_set, data, direction, nuisance, t).cwiseAbs2();
   }
   return cost / static_cast<double>(data.size());
 }
@@ -21,14 +36,9 @@ DirectionCost coil_set_cost(const ElectromagneticModel& model, int coil_set, con
 Eigen::VectorXd coil_set_squared_errors(const ElectromagneticModel& model, int coil_set, const CoilSetDataset& data,
                                         int direction, const DirectionForce& direction_force) {
   Eigen::VectorXd squares(data.size());
-  const bool nuisance = direction_force.identified() && data.velocity_m_per_s.size() == data.size();
+  const bool nuisance = has_nuisance(data, direction_force);
   for (Eigen::Index t = 0; t < data.size(); ++t) {
-    CoilGain gain;
-    Wrench cogging;
-    model.evaluate_coil_set(coil_set, data.position_m[t], gain, cogging);
-    // The same terms, in the same order, as coil_set_cost.
-    Wrench error = data.wrench.col(t) - gain * data.currents_A.col(t) - cogging;
-    if (nuisance) error -= direction_force.amplitude * direction_force.feature(data.velocity_m_per_s[t]);
+    const Wrench error = residual(model, coil_set, data, direction_force, nuisance, t);
     squares[t] = error[direction] * error[direction];
   }
   return squares;
