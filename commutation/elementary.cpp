@@ -5,8 +5,8 @@
 #include <cstring>
 #include <limits>
 
-// No fused multiply-add anywhere in this file (GCC: -std=c++20 implies
-// -ffp-contract=off; Clang contracts by default): every result must stay
+// No fused multiply-add anywhere in this file (-ffp-contract=off in
+// CMakeLists.txt, and for Clang the pragma below): every result must stay
 // bit-identical whatever the compiler or the CPU may use.
 #if defined(__clang__)
 #pragma STDC FP_CONTRACT OFF
@@ -45,8 +45,8 @@ constexpr double kC2 = 1.0 / 2, kC3 = 1.0 / 6, kC4 = 1.0 / 24, kC5 = 1.0 / 120, 
 // division, and a short dependency chain (Estrin's scheme) so that
 // consecutive vectors overlap in the pipeline. The same operations in the
 // same order for every lane width and no fused multiply-add (the project
-// compiles with -std=c++20, i.e. -ffp-contract=off, and the AVX2 variant
-// does not enable FMA): every path gives bit-identical results.
+// compiles with -ffp-contract=off, and the AVX2 variant does not enable
+// FMA): every path gives bit-identical results.
 template <typename Lanes, typename LaneBits>
 [[gnu::always_inline]] inline void tanh_lanes(const double* in, double* out) noexcept {
   const Lanes saturation = Lanes{} + kSaturation;

@@ -1,8 +1,10 @@
 #include "commutation/identification/linear_parameters.hpp"
 
 #include <Eigen/Dense>
+#include <algorithm>
 
 #include "commutation/identification/physics_fit.hpp"
+#include "commutation/identification/sample_sums.hpp"
 
 namespace clm::identification {
 
@@ -26,20 +28,28 @@ PgnnFeatures features_of(const CoilSetDataset& data, double pole_pitch_m, const 
 
 void linear_normal_equations(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnLayout& layout,
                              const double* nonlinear, Eigen::MatrixXd& gram, Eigen::MatrixXd& rhs) {
+  // Rows [M F] of a chunk of samples at a time; their Gram matrix holds MᵀM
+  // and FᵀM.
+  constexpr Eigen::Index kChunk = 256;
   const int p = layout.linear_size();
-  gram = Eigen::MatrixXd::Zero(p, p);
-  rhs = Eigen::MatrixXd::Zero(p, 3);
-  double m[kMaxRegressor];
+  SampleRows chunk(std::min(kChunk, data.size()), p + 3);
+  SampleRows sums = SampleRows::Zero(p + 3, p + 3);
   double ha[Network::kMaxWidth], hb[Network::kMaxWidth], hc[Network::kMaxWidth];
-  const double inv_n = 1.0 / static_cast<double>(data.size());
-  for (Eigen::Index t = 0; t < data.size(); ++t) {
-    regressor(layout, nonlinear, f.cos_theta[t], f.sin_theta[t], f.input[t], f.direction[t], data.currents_A(0, t),
-              data.currents_A(1, t), m, ha, hb, hc);
-    const Eigen::Map<const Eigen::VectorXd> mv(m, p);
-    gram.selfadjointView<Eigen::Lower>().rankUpdate(mv, inv_n);
-    rhs.noalias() += mv * (data.wrench.col(t).transpose() * inv_n);
+  for (Eigen::Index begin = 0; begin < data.size(); begin += kChunk) {
+    const Eigen::Index rows = std::min(kChunk, data.size() - begin);
+    for (Eigen::Index k = 0; k < rows; ++k) {
+      const Eigen::Index t = begin + k;
+      double* row = chunk.row(k).data();
+      regressor(layout, nonlinear, f.cos_theta[t], f.sin_theta[t], f.input[t], f.direction[t], data.currents_A(0, t),
+                data.currents_A(1, t), row, ha, hb, hc);
+      for (int d = 0; d < 3; ++d) row[p + d] = data.wrench(d, t);
+    }
+    add_lower_gram(chunk.topRows(rows), 0, p + 3, sums);
   }
-  gram = gram.selfadjointView<Eigen::Lower>();
+  const double inv_n = 1.0 / static_cast<double>(data.size());
+  gram = sums.topLeftCorner(p, p).selfadjointView<Eigen::Lower>();
+  gram *= inv_n;
+  rhs = sums.block(p, 0, 3, p).transpose() * inv_n;
 }
 
 RegressorQuality linear_regressor_quality(const CoilSetDataset& data, const PgnnFeatures& f, const PgnnLayout& layout,

@@ -15,6 +15,7 @@
 
 #include "commutation/identification/linear_parameters.hpp"
 #include "commutation/identification/physics_fit.hpp"
+#include "commutation/identification/sample_sums.hpp"
 
 namespace clm::identification {
 namespace {
@@ -184,39 +185,6 @@ double levenberg_marquardt(const CoilSetDataset& data, const PgnnFeatures& f, co
   return summary.final_cost;
 }
 
-// Sums over samples run in blocks of kSampleBlock rows, added in row
-// order. Eigen splits a product's inner dimension into blocks sized from the
-// CPU's cache (a few hundred rows on x86-64), so a product over thousands of
-// samples adds its terms in an order that changes from one CPU to another,
-// and the PGNN's training turns on such last bits (docs/commutation.md,
-// "Reproducibility"). Blocks of 128 rows stay below every blocking Eigen
-// chooses (≥ 200 rows for a 16 KiB L1), so each block's product, and the
-// sum of the blocks, is the same on every CPU.
-constexpr Eigen::Index kSampleBlock = 128;
-
-// Aᵀ·B summed over the rows of A and B in sample blocks.
-template <typename Left, typename Right>
-Eigen::MatrixXd transposed_product(const Eigen::MatrixBase<Left>& a, const Eigen::MatrixBase<Right>& b) {
-  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(a.cols(), b.cols());
-  for (Eigen::Index begin = 0; begin < a.rows(); begin += kSampleBlock) {
-    const Eigen::Index rows = std::min(kSampleBlock, a.rows() - begin);
-    sum.noalias() += a.middleRows(begin, rows).transpose() * b.middleRows(begin, rows);
-  }
-  return sum;
-}
-
-// AᵀA summed over the rows of A in sample blocks, by symmetric rank updates
-// (half the products of transposed_product(a, a)).
-template <typename Matrix>
-Eigen::MatrixXd gram_product(const Eigen::MatrixBase<Matrix>& a) {
-  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(a.cols(), a.cols());
-  for (Eigen::Index begin = 0; begin < a.rows(); begin += kSampleBlock) {
-    const Eigen::Index rows = std::min(kSampleBlock, a.rows() - begin);
-    sum.selfadjointView<Eigen::Lower>().rankUpdate(a.middleRows(begin, rows).transpose());
-  }
-  return sum.selfadjointView<Eigen::Lower>();
-}
-
 // Variable projection (Golub–Pereyra, Kaufman's Jacobian): the PGNN is
 // linear in θ_L (eq. 29), so for given hidden layers θ_NL the best θ_L of
 // eq. (26) is the ridge solution of eq. (31), and only θ_NL is left to the
@@ -256,32 +224,39 @@ class ProjectedCost final {
     const int q = layout_.nonlinear_size();
     const int na = layout_.column_hidden;
     const int nc = layout_.cogging_hidden;
-    regressors_.resize(n, p);
-    derivatives_.resize(n, q);
-    double m[kMaxRegressor];
+    const int width = p + 3 + q;
+    // One row per sample: the regressor M (p), the wrench (3), then the
+    // derivatives P of the hidden outputs (q).
+    samples_.resize(n, width);
     double ha[Network::kMaxWidth], hb[Network::kMaxWidth], hc[Network::kMaxWidth];
     for (Eigen::Index t = 0; t < n; ++t) {
+      double* row = samples_.row(t).data();
       const double x = features_.input[t];
       const double ia = data_.currents_A(0, t);
       const double ib = data_.currents_A(1, t);
-      regressor(layout_, nonlinear, features_.cos_theta[t], features_.sin_theta[t], x, features_.direction[t], ia, ib, m,
-                ha, hb, hc);
-      for (int k = 0; k < p; ++k) regressors_(t, k) = m[k];
-      const auto fill = [&](int first, const double* h, int width, double multiplier) {
-        for (int j = 0; j < width; ++j) {
+      regressor(layout_, nonlinear, features_.cos_theta[t], features_.sin_theta[t], x, features_.direction[t], ia, ib,
+                row, ha, hb, hc);
+      for (int d = 0; d < 3; ++d) row[p + d] = data_.wrench(d, t);
+      double* derivatives = row + p + 3;
+      const auto fill = [&](int first, const double* h, int width_h, double multiplier) {
+        for (int j = 0; j < width_h; ++j) {
           const double g = (1.0 - h[j] * h[j]) * multiplier;
-          derivatives_(t, first + j) = g * x;
-          derivatives_(t, first + width + j) = g;
+          derivatives[first + j] = g * x;
+          derivatives[first + width_h + j] = g;
         }
       };
       fill(0, ha, na, ia);
       fill(2 * na, hb, na, ib);
       fill(4 * na, hc, nc, 1.0);
     }
-    // θ_L by eq. (31) (the normal equations of r over θ_L, halved).
+    // θ_L by eq. (31) (the normal equations of r over θ_L, halved), from
+    // the rows of [M F] in the samples' Gram matrix.
+    sums_.setZero(width, width);
+    add_lower_gram(samples_, 0, p + 3, sums_);
     const double inv_n = 1.0 / static_cast<double>(n);
-    Eigen::MatrixXd gram = gram_product(regressors_) * inv_n;
-    Eigen::MatrixXd rhs = transposed_product(regressors_, data_.wrench.transpose()) * inv_n;
+    Eigen::MatrixXd gram = sums_.topLeftCorner(p, p).selfadjointView<Eigen::Lower>();
+    gram *= inv_n;
+    Eigen::MatrixXd rhs = sums_.block(p, 0, 3, p).transpose() * inv_n;
     const double lambda2 = regularisation_ * regularisation_;
     Eigen::Matrix<double, 4, 3> target;
     for (int d = 0; d < 3; ++d) target.col(d) = physics_target(physics_a_, physics_b_, d);
@@ -300,8 +275,15 @@ class ProjectedCost final {
     const double scale = std::sqrt(2.0 * inv_n);
     const double prior_weight = std::sqrt(2.0) * regularisation_;
     residuals.resize(num_residuals());
-    Eigen::Map<Eigen::MatrixXd> data_residuals(residuals.data(), n, 3);
-    data_residuals = scale * (data_.wrench.transpose() - regressors_ * linear);
+    // F − M θ_L sample by sample, each a sum in parameter order.
+    for (Eigen::Index t = 0; t < n; ++t) {
+      const double* row = samples_.row(t).data();
+      for (int d = 0; d < 3; ++d) {
+        double prediction = 0.0;
+        for (int k = 0; k < p; ++k) prediction += row[k] * linear(k, d);
+        residuals[d * n + t] = scale * (row[p + d] - prediction);
+      }
+    }
     for (int d = 0; d < 3; ++d) {
       for (int k = 0; k < 4; ++k) residuals[3 * n + 4 * d + k] = prior_weight * (linear(k, d) - target(k, d));
     }
@@ -324,16 +306,23 @@ class ProjectedCost final {
     // Since gram·Z = C, RᵀR/n = PᵀP/n − CᵀZ − ZᵀΛZ: the Schur complement of
     // [MᵀM MᵀP; PᵀM PᵀP]/n, from sums over samples in blocks, without
     // forming R (n×p×q operations fewer per Jacobian).
-    const Eigen::MatrixXd cross = transposed_product(regressors_, derivatives_) * inv_n;  // p × q
-    const Eigen::MatrixXd z = solver_.solve(cross);                                     // p × q
-    Eigen::MatrixXd projected_gram = gram_product(derivatives_) * inv_n;
+    const int p = layout_.linear_size();
+    const int first = p + 3;  // the derivatives' rows of the samples' Gram matrix
+    sums_.bottomRows(q).setZero();
+    add_lower_gram(samples_, first, first + q, sums_);
+    const Eigen::MatrixXd cross = sums_.block(first, 0, q, p).transpose() * inv_n;  // p × q
+    const Eigen::MatrixXd z = solver_.solve(cross);                               // p × q
+    Eigen::MatrixXd projected_gram = sums_.bottomRightCorner(q, q).selfadjointView<Eigen::Lower>();
+    projected_gram *= inv_n;
     projected_gram.noalias() -= cross.transpose() * z;
     const Eigen::MatrixXd ridge_rows = ridge_.cwiseSqrt().asDiagonal() * z;
     projected_gram.noalias() -= ridge_rows.transpose() * ridge_rows;
     projected_gram = 0.5 * (projected_gram + projected_gram.transpose()).eval();
     // Rᵀr = Zᵀ(Mᵀr) − Pᵀr on the (scaled) data residuals.
-    Eigen::MatrixXd projected_rhs = z.transpose() * transposed_product(regressors_, data_residuals);
-    projected_rhs -= transposed_product(derivatives_, data_residuals);
+    Eigen::MatrixXd products = Eigen::MatrixXd::Zero(samples_.cols(), 3);  // [M F P]ᵀ r
+    add_transposed_product(samples_, data_residuals, products);
+    Eigen::MatrixXd projected_rhs = z.transpose() * products.topRows(p);
+    projected_rhs -= products.bottomRows(q);
     const Eigen::MatrixXd prior_rows = z.topRows<4>();
     Eigen::MatrixXd prior_gram = Eigen::MatrixXd::Zero(q, q);
     prior_gram.selfadjointView<Eigen::Lower>().rankUpdate(prior_rows.transpose());
@@ -364,7 +353,9 @@ class ProjectedCost final {
   CoilGain physics_a_, physics_b_;
   double regularisation_;
   // Work space, sized at the first evaluation (one solve, one thread).
-  mutable Eigen::MatrixXd regressors_, derivatives_, linear_;
+  mutable SampleRows samples_;  // per sample: M, the wrench, P
+  mutable SampleRows sums_;     // their Gram matrix, lower triangle
+  mutable Eigen::MatrixXd linear_;
   mutable Eigen::VectorXd ridge_;  // what eq. (31) adds to the diagonal of MᵀM/n
   mutable Eigen::LDLT<Eigen::MatrixXd> solver_;
 };
@@ -372,8 +363,8 @@ class ProjectedCost final {
 // Levenberg–Marquardt on θ_NL of the variable-projection problem, with the
 // rules of Ceres' LEVENBERG_MARQUARDT trust region (Marquardt's diagonal,
 // the radius update of Nielsen, and the tolerances above), written here so that JᵀJ and Jᵀr are sums
-// in sample blocks (transposed_product): Ceres forms them with products
-// whose order follows the CPU. Returns the final cost (eq. 26) and adds the
+// over samples in one order on every CPU (sample_sums.hpp): Ceres forms them
+// with products whose order follows the CPU. Returns the final cost (eq. 26) and adds the
 // iterations (the first evaluation counts as one, as in Ceres' summary).
 double minimise_projected(const ProjectedCost& cost_function, int max_iterations, std::vector<double>& x,
                           int& iterations) {
