@@ -282,10 +282,11 @@ TEST_CASE("spline identification recovers a spline-structured coil set", "[ident
 TEST_CASE("PGNN identification gives the same bits whatever cache sizes Eigen blocks its products for",
           "[identification][reproducibility]") {
   // Eigen sizes the blocks of a product's inner dimension from the CPU's
-  // caches; the PGNN's sums over samples run in fixed sample blocks and its
-  // Levenberg–Marquardt is the project's own, so a CPU with another L1 or L2
-  // must give the same model to the last bit (docs/commutation.md,
-  // "Reproducibility"). 8000 samples: the sums are far longer than any block.
+  // caches; the PGNN's sums over samples are the project's own, in sample
+  // order (sample_sums.hpp), and so is its Levenberg–Marquardt, so a CPU
+  // with another L1 or L2 must give the same model to the last bit
+  // (docs/commutation.md, "Reproducibility"). 8000 samples: the sums are far
+  // longer than any block.
   std::mt19937_64 rng(46);
   const auto truth = test::random_pgnn_model(1, kPolePitch, rng, {4}, {16}, identification::field_harmonic_orders());
   const auto all = synthetic_data(truth, 0, 0.5, 4000, rng);
