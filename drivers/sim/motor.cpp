@@ -1,6 +1,7 @@
 #include "drivers/sim/motor.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <string>
 
@@ -173,7 +174,7 @@ StepResult SimulatedMotor::step(double period_s) noexcept {
       limited_in_last_step_ = true;
       ++current_limited_substeps_;
     }
-    const double driving_force_N = truth_.driving_force_N(position_m_, velocity_m_per_s_, currents_A_);
+    const double driving_force_N = truth_.driving_force_N(position_terms(position_m_), velocity_m_per_s_, currents_A_);
     // Semi-implicit (symplectic) Euler: velocity first, then the position
     // with the new velocity.
     velocity_m_per_s_ += h * inverse_mass * (driving_force_N + disturbance_force_N_ - friction_N(velocity_m_per_s_));
@@ -210,7 +211,16 @@ void SimulatedMotor::update_outputs() noexcept {
     latch_fault(kStatusWatchdog);
   }
   drive_currents(position_m_, currents_A_);
-  wrench_ = truth_.wrench(position_m_, velocity_m_per_s_, currents_A_);
+  wrench_ = truth_.wrench(position_terms(position_m_), velocity_m_per_s_, currents_A_);
+}
+
+const ElectromagneticTruth::PositionTerms& SimulatedMotor::position_terms(double position_m) noexcept {
+  // Bits, not ==: the terms of −0 and +0 need not be the same bits.
+  if (!terms_valid_ || std::bit_cast<std::uint64_t>(position_m) != std::bit_cast<std::uint64_t>(terms_.position_m)) {
+    truth_.position_terms(position_m, terms_);
+    terms_valid_ = true;
+  }
+  return terms_;
 }
 
 SensorFrame SimulatedMotor::sense() noexcept {
