@@ -265,8 +265,7 @@ Wrench ElectromagneticTruth::cogging(double position_m) const noexcept {
 }
 
 Wrench ElectromagneticTruth::direction_dependent(double velocity_m_per_s) const noexcept {
-  return parameters_.direction_dependent_N_N_Nm *
-         elementary::tanh(velocity_m_per_s / parameters_.direction_smoothing_velocity_m_per_s);
+  return parameters_.direction_dependent_N_N_Nm * elementary::tanh(direction_ratio(velocity_m_per_s));
 }
 
 Wrench ElectromagneticTruth::wrench(double position_m, double velocity_m_per_s,
@@ -290,13 +289,13 @@ double ElectromagneticTruth::driving_force_N(double position_m, double velocity_
                                              const CurrentVector& currents_A) const noexcept {
   PositionTerms terms;
   position_terms(position_m, terms);
-  return driving_force_N(terms, velocity_m_per_s, currents_A);
+  return driving_force_N(terms, elementary::tanh(direction_ratio(velocity_m_per_s)), currents_A);
 }
 
-double ElectromagneticTruth::driving_force_N(const PositionTerms& terms, double velocity_m_per_s,
+double ElectromagneticTruth::driving_force_N(const PositionTerms& terms, double direction_tanh,
                                              const CurrentVector& currents_A) const noexcept {
   // Row y of wrench(); the same arithmetic, the other rows left out.
-  double force = terms.cogging_N_N_Nm.x() + direction_dependent(velocity_m_per_s).x();
+  double force = terms.cogging_N_N_Nm.x() + parameters_.direction_dependent_N_N_Nm.x() * direction_tanh;
   for (int l = 0; l < count_; ++l) {
     const auto& s = terms.s[static_cast<std::size_t>(l)];
     force += (s[0] - s[2]) * currents_A[2 * l] + (s[1] - s[2]) * currents_A[2 * l + 1];

@@ -100,12 +100,18 @@ class ElectromagneticTruth {
   Wrench cogging(double position_m) const noexcept;
   /// Direction-dependent force C·tanh(v/v_c) [N, N, N·m].
   Wrench direction_dependent(double velocity_m_per_s) const noexcept;
+  /// Its tanh's argument v/v_c, for a caller that evaluates the tanh itself
+  /// (with others, in one elementary::tanh_array call).
+  double direction_ratio(double velocity_m_per_s) const noexcept {
+    return velocity_m_per_s / parameters_.direction_smoothing_velocity_m_per_s;
+  }
   /// The whole wrench for currents [i_a^1, i_b^1, ...] (2L entries) [N, N, N·m].
   Wrench wrench(double position_m, double velocity_m_per_s, const CurrentVector& currents_A) const noexcept;
   Wrench wrench(const PositionTerms& terms, double velocity_m_per_s, const CurrentVector& currents_A) const noexcept;
   /// Its first component F_y alone [N] (what the mechanics needs, cheaper).
   double driving_force_N(double position_m, double velocity_m_per_s, const CurrentVector& currents_A) const noexcept;
-  double driving_force_N(const PositionTerms& terms, double velocity_m_per_s,
+  /// The same from the position terms and direction_tanh = tanh(direction_ratio(v)).
+  double driving_force_N(const PositionTerms& terms, double direction_tanh,
                          const CurrentVector& currents_A) const noexcept;
 
   /// Drawn parasitics, for reports and tests.

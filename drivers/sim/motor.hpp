@@ -168,6 +168,8 @@ class SimulatedMotor {
   /// Phase currents the drive applies at `position_m`; true if limited.
   bool drive_currents(double position_m, CurrentVector& currents_A) const noexcept;
   double friction_N(double velocity_m_per_s) const noexcept;
+  /// The same with friction_tanh = tanh(v/v_s) given.
+  double friction_N(double velocity_m_per_s, double friction_tanh) const noexcept;
   /// Updates currents_, wrench_ for the present state.
   void update_outputs() noexcept;
   /// The truth's position terms at `position_m`, computed again only when the
