@@ -296,13 +296,17 @@ double tanh(double x) noexcept {
   return y;
 }
 
-SinCos sin_cos(double x) noexcept {
-  if (!(std::fabs(x) < kReductionLimit)) {
-    if (std::fabs(x) < std::numeric_limits<double>::infinity()) return {std::sin(x), std::cos(x)};
-    return {x - x, x - x};  // NaN for ±∞ and NaN
-  }
-  if (std::fabs(x) <= kPiOver4) return {sin_reduced(x, 0.0), cos_reduced(x, 0.0)};
-  // x = k·π/2 + (high + low), the remainder as a double-double.
+namespace {
+
+// x = k·π/2 + (high + low) for π/4 < |x| < kReductionLimit: the remainder as
+// a double-double and the quadrant k mod 4.
+struct Reduced {
+  double high;
+  double low;
+  std::int64_t quadrant;
+};
+
+Reduced reduce(double x) noexcept {
   const double k = (x * kTwoOverPi + kRoundingShifter) - kRoundingShifter;
   const double t = x - k * kPiOver2Part1;  // exact
   const double w = k * kPiOver2Part2;      // exact
@@ -313,9 +317,23 @@ SinCos sin_cos(double x) noexcept {
   low -= k * kPiOver2Part4;
   const double high = r + low;
   low -= high - r;
-  const double s = sin_reduced(high, low);
-  const double c = cos_reduced(high, low);
-  switch (static_cast<std::int64_t>(k) & 3) {
+  return {high, low, static_cast<std::int64_t>(k) & 3};
+}
+
+}  // namespace
+
+// sin, cos and sin_cos share the reduction and the two kernels: sin and cos
+// alone give the bits of sin_cos's parts and evaluate one kernel, not both.
+SinCos sin_cos(double x) noexcept {
+  if (!(std::fabs(x) < kReductionLimit)) {
+    if (std::fabs(x) < std::numeric_limits<double>::infinity()) return {std::sin(x), std::cos(x)};
+    return {x - x, x - x};  // NaN for ±∞ and NaN
+  }
+  if (std::fabs(x) <= kPiOver4) return {sin_reduced(x, 0.0), cos_reduced(x, 0.0)};
+  const Reduced r = reduce(x);
+  const double s = sin_reduced(r.high, r.low);
+  const double c = cos_reduced(r.high, r.low);
+  switch (r.quadrant) {
     case 0:
       return {s, c};
     case 1:
@@ -324,6 +342,44 @@ SinCos sin_cos(double x) noexcept {
       return {-s, -c};
     default:
       return {-c, s};
+  }
+}
+
+double sin(double x) noexcept {
+  if (!(std::fabs(x) < kReductionLimit)) {
+    if (std::fabs(x) < std::numeric_limits<double>::infinity()) return std::sin(x);
+    return x - x;
+  }
+  if (std::fabs(x) <= kPiOver4) return sin_reduced(x, 0.0);
+  const Reduced r = reduce(x);
+  switch (r.quadrant) {
+    case 0:
+      return sin_reduced(r.high, r.low);
+    case 1:
+      return cos_reduced(r.high, r.low);
+    case 2:
+      return -sin_reduced(r.high, r.low);
+    default:
+      return -cos_reduced(r.high, r.low);
+  }
+}
+
+double cos(double x) noexcept {
+  if (!(std::fabs(x) < kReductionLimit)) {
+    if (std::fabs(x) < std::numeric_limits<double>::infinity()) return std::cos(x);
+    return x - x;
+  }
+  if (std::fabs(x) <= kPiOver4) return cos_reduced(x, 0.0);
+  const Reduced r = reduce(x);
+  switch (r.quadrant) {
+    case 0:
+      return cos_reduced(r.high, r.low);
+    case 1:
+      return -sin_reduced(r.high, r.low);
+    case 2:
+      return -cos_reduced(r.high, r.low);
+    default:
+      return sin_reduced(r.high, r.low);
   }
 }
 

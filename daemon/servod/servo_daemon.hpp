@@ -133,11 +133,16 @@ class ServoDaemon {
   /// -1 and 0 until then.
   std::int64_t disabled_after_cycles() const noexcept { return disabled_after_cycles_.load(std::memory_order_acquire); }
   std::int64_t disabled_at_ns() const noexcept { return disabled_at_ns_.load(std::memory_order_acquire); }
-  /// Any thread, lock-free (a seqlock read byte by byte through atomics):
+  /// Any thread, lock-free (a seqlock read word by word through atomics):
   /// copies the file now in use for `slot` (empty when none) and returns its
   /// generation, which changes with every new file; when the slot was being
   /// rewritten on each of 8 looks, the path "(changing)" and 0.
   std::uint64_t loaded_file(LoadedFileSlot slot, telemetry::LoadedFileText& out) const noexcept;
+  /// Any thread: the generation of `slot` alone (odd while it is rewritten),
+  /// for a reader that copies the text only when it changed.
+  std::uint64_t loaded_file_generation(LoadedFileSlot slot) const noexcept {
+    return files_[static_cast<std::size_t>(slot)].generation.load(std::memory_order_acquire);
+  }
   /// Commands the daemon refused (by submit, the cycle or the loader).
   std::int64_t commands_refused() const noexcept { return refused_.load(std::memory_order_relaxed); }
   /// Command thread: the run-time parameters the cycle uses now (parameters.hpp).
@@ -178,9 +183,14 @@ class ServoDaemon {
   };
   struct OwnedLaw;
   struct Loaded;
+  /// A LoadedFileText as the seqlock's payload: atomic 8-byte words, so that
+  /// a read racing a write is a race on atomics (relaxed), not UB; the
+  /// generation says whether a copy is whole.
+  static constexpr std::size_t kLoadedFileWords =
+      (sizeof(telemetry::LoadedFileText) + sizeof(std::uint64_t) - 1) / sizeof(std::uint64_t);
   struct FileSlot {
     std::atomic<std::uint64_t> generation{0};  // odd while written
-    telemetry::LoadedFileText text;
+    std::array<std::atomic<std::uint64_t>, kLoadedFileWords> words{};  // all zero: the empty text
   };
   /// Any thread: reads the file `command` names and builds what it holds.
   std::unique_ptr<Loaded> load(const servo::Command& command) const;

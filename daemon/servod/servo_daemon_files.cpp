@@ -4,9 +4,11 @@
 // content), and the status's loaded-file slots (a seqlock read byte by byte
 // through atomics). The command path is in servo_daemon.cpp.
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <stdexcept>
 #include <span>
@@ -273,19 +275,8 @@ CommandReply ServoDaemon::finish_load(Loaded& loaded) {
 
 namespace {
 
-// A seqlock's payload is read while it may be written: every byte goes
-// through std::atomic_ref (relaxed), so the race is on atomics, not UB; the
-// generation counter says whether the copy is whole.
 static_assert(std::is_trivially_copyable_v<telemetry::LoadedFileText>);
-void atomic_copy(unsigned char* to, const unsigned char* from, std::size_t bytes, bool to_shared) noexcept {
-  for (std::size_t i = 0; i < bytes; ++i) {
-    if (to_shared) {
-      std::atomic_ref<unsigned char>(to[i]).store(from[i], std::memory_order_relaxed);
-    } else {
-      to[i] = std::atomic_ref<unsigned char>(const_cast<unsigned char&>(from[i])).load(std::memory_order_relaxed);
-    }
-  }
-}
+static_assert(std::atomic<std::uint64_t>::is_always_lock_free);
 
 }  // namespace
 
@@ -294,27 +285,30 @@ void ServoDaemon::set_loaded_file(LoadedFileSlot slot, const std::string& path, 
   telemetry::LoadedFileText text;  // this thread is the only writer: its own reads need no care
   text.path.assign(path);
   text.sha256.assign(sha256);
-  telemetry::LoadedFileText current;
-  atomic_copy(reinterpret_cast<unsigned char*>(&current), reinterpret_cast<const unsigned char*>(&file.text),
-              sizeof current, false);
-  if (current.path.view() == text.path.view() && current.sha256.view() == text.sha256.view()) return;
+  std::array<std::uint64_t, kLoadedFileWords> words{};  // the bytes beyond the text stay zero
+  std::memcpy(words.data(), &text, sizeof text);
+  bool same = true;
+  for (std::size_t i = 0; i < words.size(); ++i) same = same && file.words[i].load(std::memory_order_relaxed) == words[i];
+  if (same) return;
   const std::uint64_t generation = file.generation.load(std::memory_order_relaxed);
   file.generation.store(generation + 1, std::memory_order_relaxed);  // odd: being written
   std::atomic_thread_fence(std::memory_order_release);
-  atomic_copy(reinterpret_cast<unsigned char*>(&file.text), reinterpret_cast<const unsigned char*>(&text), sizeof text,
-              true);
+  for (std::size_t i = 0; i < words.size(); ++i) file.words[i].store(words[i], std::memory_order_relaxed);
   file.generation.store(generation + 2, std::memory_order_release);
 }
 
 std::uint64_t ServoDaemon::loaded_file(LoadedFileSlot slot, telemetry::LoadedFileText& out) const noexcept {
   const FileSlot& file = files_[static_cast<std::size_t>(slot)];
+  std::array<std::uint64_t, kLoadedFileWords> words;
   for (int attempt = 0; attempt < 8; ++attempt) {
     const std::uint64_t before = file.generation.load(std::memory_order_acquire);
     if (before % 2 != 0) continue;
-    atomic_copy(reinterpret_cast<unsigned char*>(&out), reinterpret_cast<const unsigned char*>(&file.text), sizeof out,
-                false);
+    for (std::size_t i = 0; i < words.size(); ++i) words[i] = file.words[i].load(std::memory_order_relaxed);
     std::atomic_thread_fence(std::memory_order_acquire);
-    if (file.generation.load(std::memory_order_relaxed) == before) return before;
+    if (file.generation.load(std::memory_order_relaxed) == before) {
+      std::memcpy(static_cast<void*>(&out), words.data(), sizeof out);  // trivially copyable (asserted above)
+      return before;
+    }
   }
   // Being rewritten on every look: say so rather than report a torn name.
   out.path.assign("(changing)");

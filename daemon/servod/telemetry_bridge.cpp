@@ -126,6 +126,8 @@ void TelemetryBridge::events(const servo::ServoCycle& cycle, std::int64_t n) noe
     emit(n, EventCode::kLawSwapped, 0, text);
   }
   for (std::size_t i = 0; i < kLoadedFileSlots; ++i) {
+    // Every cycle looks; the text is copied only when a new file came.
+    if (daemon_->loaded_file_generation(slots[i]) == last_files_[i]) continue;
     const std::uint64_t generation = daemon_->loaded_file(slots[i], file);
     if (generation == last_files_[i] || generation % 2 != 0) continue;
     last_files_[i] = generation;

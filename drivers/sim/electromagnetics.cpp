@@ -202,11 +202,24 @@ void ElectromagneticTruth::phase_functions(int coil_set, double position_m, doub
   }
 }
 
+void ElectromagneticTruth::position_terms(double position_m, PositionTerms& terms) const noexcept {
+  terms.position_m = position_m;
+  for (int l = 0; l < count_; ++l) {
+    const auto index = static_cast<std::size_t>(l);
+    phase_functions(l, position_m, terms.s[index].data(), terms.c[index].data());
+  }
+  terms.cogging_N_N_Nm = cogging(position_m);
+}
+
 CoilGain ElectromagneticTruth::gain(int coil_set, double position_m) const noexcept {
-  const CoilSetParameters& set = parameters_.coil_sets[static_cast<std::size_t>(coil_set)];
   double s[3];
   double c[3];
   phase_functions(coil_set, position_m, s, c);
+  return gain(coil_set, s, c);
+}
+
+CoilGain ElectromagneticTruth::gain(int coil_set, const double s[3], const double c[3]) const noexcept {
+  const CoilSetParameters& set = parameters_.coil_sets[static_cast<std::size_t>(coil_set)];
   const double mu = parameters_.orthogonal_ratio;
   const double lever_x = set.lever_arm_m * mu;
   const double lever_y = set.driving_force_lever_arm_m;
@@ -252,25 +265,39 @@ Wrench ElectromagneticTruth::cogging(double position_m) const noexcept {
 }
 
 Wrench ElectromagneticTruth::direction_dependent(double velocity_m_per_s) const noexcept {
-  return parameters_.direction_dependent_N_N_Nm *
-         elementary::tanh(velocity_m_per_s / parameters_.direction_smoothing_velocity_m_per_s);
+  return parameters_.direction_dependent_N_N_Nm * elementary::tanh(direction_ratio(velocity_m_per_s));
 }
 
 Wrench ElectromagneticTruth::wrench(double position_m, double velocity_m_per_s,
                                     const CurrentVector& currents_A) const noexcept {
-  Wrench force = cogging(position_m) + direction_dependent(velocity_m_per_s);
-  for (int l = 0; l < count_; ++l) force.noalias() += gain(l, position_m) * currents_A.segment<2>(2 * l);
+  PositionTerms terms;
+  position_terms(position_m, terms);
+  return wrench(terms, velocity_m_per_s, currents_A);
+}
+
+Wrench ElectromagneticTruth::wrench(const PositionTerms& terms, double velocity_m_per_s,
+                                    const CurrentVector& currents_A) const noexcept {
+  Wrench force = terms.cogging_N_N_Nm + direction_dependent(velocity_m_per_s);
+  for (int l = 0; l < count_; ++l) {
+    const auto index = static_cast<std::size_t>(l);
+    force.noalias() += gain(l, terms.s[index].data(), terms.c[index].data()) * currents_A.segment<2>(2 * l);
+  }
   return force;
 }
 
 double ElectromagneticTruth::driving_force_N(double position_m, double velocity_m_per_s,
                                              const CurrentVector& currents_A) const noexcept {
+  PositionTerms terms;
+  position_terms(position_m, terms);
+  return driving_force_N(terms, elementary::tanh(direction_ratio(velocity_m_per_s)), currents_A);
+}
+
+double ElectromagneticTruth::driving_force_N(const PositionTerms& terms, double direction_tanh,
+                                             const CurrentVector& currents_A) const noexcept {
   // Row y of wrench(); the same arithmetic, the other rows left out.
-  double force = cogging(position_m).x() + direction_dependent(velocity_m_per_s).x();
+  double force = terms.cogging_N_N_Nm.x() + parameters_.direction_dependent_N_N_Nm.x() * direction_tanh;
   for (int l = 0; l < count_; ++l) {
-    double s[3];
-    double c[3];
-    phase_functions(l, position_m, s, c);
+    const auto& s = terms.s[static_cast<std::size_t>(l)];
     force += (s[0] - s[2]) * currents_A[2 * l] + (s[1] - s[2]) * currents_A[2 * l + 1];
   }
   return force;

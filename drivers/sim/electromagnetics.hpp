@@ -78,6 +78,20 @@ class ElectromagneticTruth {
   double pole_pitch_m() const noexcept { return parameters_.pole_pitch_m; }
   const ElectromagneticParameters& parameters() const noexcept { return parameters_; }
 
+  /// Everything of the truth that depends on the position alone, at one
+  /// position: the phase functions of every coil set and F_cog. The force
+  /// functions below that take one give the bits of those that take the
+  /// position (the same operations); a caller that evaluates the force
+  /// several times at one position computes it once.
+  struct PositionTerms {
+    double position_m = 0.0;
+    /// s_p and c_p times (2/3)·k^l·(1 + a)·g_p, per coil set and phase (phase_functions).
+    std::array<std::array<double, 3>, kMaxCoilSets> s{};
+    std::array<std::array<double, 3>, kMaxCoilSets> c{};
+    Wrench cogging_N_N_Nm = Wrench::Zero();
+  };
+  void position_terms(double position_m, PositionTerms& terms) const noexcept;
+
   /// K^l(y) on [i_a, i_b] [N/A, N/A, N·m/A], coil_set in 0..L−1.
   CoilGain gain(int coil_set, double position_m) const noexcept;
   /// [K^1(y), ..., K^L(y)], 3 × 2L.
@@ -86,10 +100,19 @@ class ElectromagneticTruth {
   Wrench cogging(double position_m) const noexcept;
   /// Direction-dependent force C·tanh(v/v_c) [N, N, N·m].
   Wrench direction_dependent(double velocity_m_per_s) const noexcept;
+  /// Its tanh's argument v/v_c, for a caller that evaluates the tanh itself
+  /// (with others, in one elementary::tanh_array call).
+  double direction_ratio(double velocity_m_per_s) const noexcept {
+    return velocity_m_per_s / parameters_.direction_smoothing_velocity_m_per_s;
+  }
   /// The whole wrench for currents [i_a^1, i_b^1, ...] (2L entries) [N, N, N·m].
   Wrench wrench(double position_m, double velocity_m_per_s, const CurrentVector& currents_A) const noexcept;
+  Wrench wrench(const PositionTerms& terms, double velocity_m_per_s, const CurrentVector& currents_A) const noexcept;
   /// Its first component F_y alone [N] (what the mechanics needs, cheaper).
   double driving_force_N(double position_m, double velocity_m_per_s, const CurrentVector& currents_A) const noexcept;
+  /// The same from the position terms and direction_tanh = tanh(direction_ratio(v)).
+  double driving_force_N(const PositionTerms& terms, double direction_tanh,
+                         const CurrentVector& currents_A) const noexcept;
 
   /// Drawn parasitics, for reports and tests.
   double magnet_intensity(double track_position_m) const noexcept { return intensity_(track_position_m); }
@@ -107,6 +130,8 @@ class ElectromagneticTruth {
   /// Per-phase force functions s_p (row y) and c_p (rows x, z) of coil set l
   /// times (2/3)·k^l·(1 + a)·g_p.
   void phase_functions(int coil_set, double position_m, double s[3], double c[3]) const noexcept;
+  /// K^l from its phase functions.
+  CoilGain gain(int coil_set, const double s[3], const double c[3]) const noexcept;
 
   ElectromagneticParameters parameters_;
   int count_ = 0;

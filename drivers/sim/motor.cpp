@@ -1,6 +1,7 @@
 #include "drivers/sim/motor.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <string>
 
@@ -143,9 +144,13 @@ bool SimulatedMotor::drive_currents(double position_m, CurrentVector& currents_A
 }
 
 double SimulatedMotor::friction_N(double velocity_m_per_s) const noexcept {
+  return friction_N(velocity_m_per_s,
+                    elementary::tanh(velocity_m_per_s / parameters_.mechanics.friction_smoothing_velocity_m_per_s));
+}
+
+double SimulatedMotor::friction_N(double velocity_m_per_s, double friction_tanh) const noexcept {
   const auto& mechanics = parameters_.mechanics;
-  return mechanics.viscous_friction_N_s_per_m * velocity_m_per_s +
-         mechanics.coulomb_friction_N * elementary::tanh(velocity_m_per_s / mechanics.friction_smoothing_velocity_m_per_s);
+  return mechanics.viscous_friction_N_s_per_m * velocity_m_per_s + mechanics.coulomb_friction_N * friction_tanh;
 }
 
 int SimulatedMotor::substeps(double period_s) const noexcept {
@@ -173,10 +178,17 @@ StepResult SimulatedMotor::step(double period_s) noexcept {
       limited_in_last_step_ = true;
       ++current_limited_substeps_;
     }
-    const double driving_force_N = truth_.driving_force_N(position_m_, velocity_m_per_s_, currents_A_);
+    // The direction-dependent force's tanh and the friction's in one call:
+    // two lanes of one vector cost what one does, with the bits of two calls.
+    const double ratio[2] = {truth_.direction_ratio(velocity_m_per_s_),
+                             velocity_m_per_s_ / mechanics.friction_smoothing_velocity_m_per_s};
+    double shape[2];
+    elementary::tanh_array(ratio, shape, 2);
+    const double driving_force_N = truth_.driving_force_N(position_terms(position_m_), shape[0], currents_A_);
     // Semi-implicit (symplectic) Euler: velocity first, then the position
     // with the new velocity.
-    velocity_m_per_s_ += h * inverse_mass * (driving_force_N + disturbance_force_N_ - friction_N(velocity_m_per_s_));
+    velocity_m_per_s_ +=
+        h * inverse_mass * (driving_force_N + disturbance_force_N_ - friction_N(velocity_m_per_s_, shape[1]));
     position_m_ += h * velocity_m_per_s_;
 
     // Hard end stops: the translator stops dead (inelastic); the first impact
@@ -210,7 +222,16 @@ void SimulatedMotor::update_outputs() noexcept {
     latch_fault(kStatusWatchdog);
   }
   drive_currents(position_m_, currents_A_);
-  wrench_ = truth_.wrench(position_m_, velocity_m_per_s_, currents_A_);
+  wrench_ = truth_.wrench(position_terms(position_m_), velocity_m_per_s_, currents_A_);
+}
+
+const ElectromagneticTruth::PositionTerms& SimulatedMotor::position_terms(double position_m) noexcept {
+  // Bits, not ==: the terms of −0 and +0 need not be the same bits.
+  if (!terms_valid_ || std::bit_cast<std::uint64_t>(position_m) != std::bit_cast<std::uint64_t>(terms_.position_m)) {
+    truth_.position_terms(position_m, terms_);
+    terms_valid_ = true;
+  }
+  return terms_;
 }
 
 SensorFrame SimulatedMotor::sense() noexcept {

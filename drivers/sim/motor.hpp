@@ -168,8 +168,14 @@ class SimulatedMotor {
   /// Phase currents the drive applies at `position_m`; true if limited.
   bool drive_currents(double position_m, CurrentVector& currents_A) const noexcept;
   double friction_N(double velocity_m_per_s) const noexcept;
+  /// The same with friction_tanh = tanh(v/v_s) given.
+  double friction_N(double velocity_m_per_s, double friction_tanh) const noexcept;
   /// Updates currents_, wrench_ for the present state.
   void update_outputs() noexcept;
+  /// The truth's position terms at `position_m`, computed again only when the
+  /// position's bits changed: a period evaluates the force at the position it
+  /// ended on three times (end of step, command, first substep).
+  const ElectromagneticTruth::PositionTerms& position_terms(double position_m) noexcept;
 
   MotorParameters parameters_;
   ElectromagneticTruth truth_;
@@ -193,6 +199,10 @@ class SimulatedMotor {
   // Outputs of the present state.
   CurrentVector currents_A_;
   Wrench wrench_ = Wrench::Zero();
+
+  // The last position_terms(); valid once computed (the truth is fixed).
+  ElectromagneticTruth::PositionTerms terms_;
+  bool terms_valid_ = false;
 
   int end_stop_collisions_ = 0;
   double last_impact_speed_m_per_s_ = 0.0;

@@ -154,6 +154,27 @@ TEST_CASE("sin_cos is within 1 ulp of long double over ±2000 rad and tiny angle
   CHECK(elementary::sin(1e7) == std::sin(1e7));
 }
 
+TEST_CASE("sin and cos alone give the bits of sin_cos", "[elementary]") {
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> angle(-2000.0, 2000.0), unit(-1.0, 1.0);
+  const auto same_bits = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  std::vector<double> arguments = {0.0, -0.0, 1e7, -3e9, std::numeric_limits<double>::infinity(),
+                                   -std::numeric_limits<double>::infinity()};
+  for (int k = 0; k < 200'000; ++k) arguments.push_back(k % 4 == 0 ? std::ldexp(unit(rng), -(k % 61)) : angle(rng));
+  for (int n = -1000; n <= 1000; ++n) {
+    const double x = n * 1.5707963267948966;
+    arguments.insert(arguments.end(), {x, std::nextafter(x, 1e9), std::nextafter(x, -1e9)});
+  }
+  int differing = 0;
+  for (const double x : arguments) {
+    const auto [s, c] = elementary::sin_cos(x);
+    if (!same_bits(elementary::sin(x), s) || !same_bits(elementary::cos(x), c)) ++differing;
+  }
+  CHECK(differing == 0);
+  CHECK(std::isnan(elementary::sin(std::numeric_limits<double>::quiet_NaN())));
+  CHECK(std::isnan(elementary::cos(std::numeric_limits<double>::infinity())));
+}
+
 TEST_CASE("exp is within 1 ulp of long double, overflow, underflow and subnormals included", "[elementary]") {
   std::mt19937_64 rng(13);
   std::uniform_real_distribution<double> wide(-745.0, 709.7), narrow(-5.0, 5.0);
