@@ -42,7 +42,11 @@ for config in "$@"; do
   # The experiments (and the commissioning's own models, not used here).
   "$build/bin/clm" commission --config "$config" --out "$dir/commission" --no-plots > "$dir/commission.log" 2>&1
   csv="$dir/commission/experiments.csv"
-  read -r ours_wall ours_cpu < <(timed "$dir/ours.log" "$build/bin/clm" identify --motor "$config" --data "$csv" \
+  # clm identify reads the motor description the configuration names.
+  motor_file=$(sed -n 's/^motor_file: *\([^ #]*\).*/\1/p' "$config")
+  motor=$config
+  [ -n "$motor_file" ] && motor=$(dirname "$config")/$motor_file
+  read -r ours_wall ours_cpu < <(timed "$dir/ours.log" "$build/bin/clm" identify --motor "$motor" --data "$csv" \
                                         --output "$dir/model-ours.yaml")
   read -r torch_wall torch_cpu < <(timed "$dir/torch.log" /usr/bin/python3 "$here/pgnn_torch.py" --data "$csv" \
                                           --motor "$config" --out "$dir/model-torch.yaml" --report "$dir/torch.json")
