@@ -11,8 +11,9 @@ packages=(
   can-utils systemd rt-tests
   python3 python3-numpy python3-matplotlib
   # the PyTorch reference of the PGNN identification and its CTest test
-  # torch_reference_agrees_with_ours_on_cost_and_data_terms (docs/benchmarks.md)
-  python3-torch python3-yaml
+  # torch_reference_agrees_with_ours_on_cost_and_data_terms; SciPy for the
+  # reference's second L-BFGS, --optimiser scipy (docs/benchmarks.md)
+  python3-torch python3-scipy python3-yaml
   # HIL suite in a QEMU guest where this kernel has no SocketCAN (docs/hil.md)
   linux-image-amd64 qemu-system-x86 busybox-static iproute2 kmod
   # the systemd tier: the guest's Debian 12 root file system (docs/hil.md)
