@@ -7,16 +7,25 @@
 # `--optimiser scipy`), on the same experiments, one motor after the other;
 # ours first, then the two references, in the same run. Wall and CPU time (user + system, every thread) of each
 # process from GNU time; the ratio reference/ours of each. Prints a Markdown
-# table and writes OUT/speed.md.
+# table and writes OUT/speed.md. REFERENCES (default "torch scipy") chooses
+# the references run.
 #
 #   tools/reference/speed_vs_torch.sh BUILD OUT CONFIG...
 #   tools/reference/speed_vs_torch.sh build /tmp/speed config/servod.yaml config/servod-2coil.yaml \
 #       config/servod-4coil.yaml config/servod-phase-current.yaml
+#   REFERENCES=scipy tools/reference/speed_vs_torch.sh build /tmp/speed-scipy config/servod.yaml
 set -euo pipefail
 if [ "$#" -lt 3 ]; then
-  echo "usage: $0 BUILD OUT CONFIG..." >&2
+  echo "usage: [REFERENCES=\"torch scipy\"] $0 BUILD OUT CONFIG..." >&2
   exit 2
 fi
+read -r -a references <<< "${REFERENCES:-torch scipy}"
+for reference in "${references[@]}"; do
+  case $reference in
+    torch | scipy) ;;
+    *) echo "$0: REFERENCES: '$reference' is neither torch nor scipy" >&2; exit 2 ;;
+  esac
+done
 build=$1
 out=$2
 shift 2
@@ -32,9 +41,16 @@ timed() {  # timed LOG COMMAND...: runs it, appends "wall_s cpu_s" to LOG.time
   awk '{printf "%.2f %.2f\n", $1, $2 + $3}' "$log.time"
 }
 {
-  echo "| configuration | coil sets | ours wall [s] | ours CPU [s] | torch wall [s] | torch CPU [s] | ratio wall | ratio CPU | scipy wall [s] | scipy CPU [s] | ratio wall | ratio CPU | ours validation score | load before / after |"
-  echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+  header="| configuration | coil sets | ours wall [s] | ours CPU [s] |"
+  rule="|---|---|---|---|"
+  for reference in "${references[@]}"; do
+    header+=" $reference wall [s] | $reference CPU [s] | ratio wall | ratio CPU |"
+    rule+="---|---|---|---|"
+  done
+  echo "$header ours' validation score | load before / after |"
+  echo "$rule---|---|"
 } > "$out/speed.md"
+ratio() { awk -v t="$1" -v o="$2" 'BEGIN{printf "%.1fx", t / o}'; }
 for config in "$@"; do
   name=$(basename "$config" .yaml)
   dir="$out/$name"
@@ -49,16 +65,19 @@ for config in "$@"; do
   [ -n "$motor_file" ] && motor=$(dirname "$config")/$motor_file
   read -r ours_wall ours_cpu < <(timed "$dir/ours.log" "$build/bin/clm" identify --motor "$motor" --data "$csv" \
                                         --output "$dir/model-ours.yaml")
-  read -r torch_wall torch_cpu < <(timed "$dir/torch.log" /usr/bin/python3 "$here/pgnn_torch.py" --data "$csv" \
-                                          --motor "$config" --out "$dir/model-torch.yaml" --report "$dir/torch.json")
-  read -r scipy_wall scipy_cpu < <(timed "$dir/scipy.log" /usr/bin/python3 "$here/pgnn_torch.py" --data "$csv" \
-                                          --motor "$config" --out "$dir/model-scipy.yaml" --report "$dir/scipy.json" \
-                                          --optimiser scipy)
+  [ -n "$ours_cpu" ] || exit 1
+  row="| $name | COIL_SETS | $ours_wall | $ours_cpu |"
+  for reference in "${references[@]}"; do
+    read -r wall cpu < <(timed "$dir/$reference.log" /usr/bin/python3 "$here/pgnn_torch.py" --data "$csv" \
+                                --motor "$config" --out "$dir/model-$reference.yaml" --report "$dir/$reference.json" \
+                                --optimiser "$reference")
+    [ -n "$cpu" ] || exit 1
+    row+=" $wall | $cpu | $(ratio "$wall" "$ours_wall") | $(ratio "$cpu" "$ours_cpu") |"
+    coil_sets=$(grep -c '^coil set [0-9]*:' "$dir/$reference.log")
+  done
   load_after=$(cut -d' ' -f1 /proc/loadavg)
-  coil_sets=$(grep -c '^coil set [0-9]*:' "$dir/torch.log")
   score=$(sed -n 's/^capacity: .*validation score \([0-9.e+-]*\) *chosen$/\1/p' "$dir/ours.log")
-  ratio() { awk -v t="$1" -v o="$2" 'BEGIN{printf "%.1fx", t / o}'; }
-  echo "| $name | $coil_sets | $ours_wall | $ours_cpu | $torch_wall | $torch_cpu | $(ratio "$torch_wall" "$ours_wall") | $(ratio "$torch_cpu" "$ours_cpu") | $scipy_wall | $scipy_cpu | $(ratio "$scipy_wall" "$ours_wall") | $(ratio "$scipy_cpu" "$ours_cpu") | $score | $load_before / $load_after |" >> "$out/speed.md"
+  echo "${row/COIL_SETS/$coil_sets} $score | $load_before / $load_after |" >> "$out/speed.md"
   tail -n 1 "$out/speed.md"
 done
 echo "machine: $(nproc) CPUs, $(sed -n 's/^model name\s*: //p' /proc/cpuinfo | head -1); $(date -u +%Y-%m-%dT%H:%MZ); commit $(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)" >> "$out/speed.md"
