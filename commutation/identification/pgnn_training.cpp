@@ -304,8 +304,8 @@ class ProjectedCost final {
     const Eigen::Map<const Eigen::MatrixXd> data_residuals(residuals.data(), n, 3);
     // C = MᵀP/n and Z = gram⁻¹·C (gram = MᵀM/n + Λ, Λ the ridge of eq. 31).
     // Since gram·Z = C, RᵀR/n = PᵀP/n − CᵀZ − ZᵀΛZ: the Schur complement of
-    // [MᵀM MᵀP; PᵀM PᵀP]/n, from sums over samples in blocks, without
-    // forming R (n×p×q operations fewer per Jacobian).
+    // [MᵀM MᵀP; PᵀM PᵀP]/n, from the samples' Gram matrix, without forming
+    // R (n×p×q operations fewer per Jacobian).
     const int p = layout_.linear_size();
     const int first = p + 3;  // the derivatives' rows of the samples' Gram matrix
     sums_.bottomRows(q).setZero();
