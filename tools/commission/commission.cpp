@@ -368,32 +368,41 @@ void recommend(Report& report) {
     text += " " + with_error(entry.score) + ";";
   }
   text.pop_back();
+  text += "; " + verdict.recommended + ", " + verdict_reason(verdict);
+  const std::string margin = runner_up_margin(verdict);
+  if (!margin.empty()) text += "; " + margin;
+  report.recommendation = text;
+}
+
+std::string verdict_reason(const data::Verdict& verdict) {
   char k[16];
   std::snprintf(k, sizeof(k), "%g", data::kTieStandardErrors);
-  char margin[200] = "";
-  if (!verdict.runner_up.empty()) {
-    // Negative when the tie rule chose a law that scores higher than the runner-up.
-    std::snprintf(margin, sizeof(margin), "%s, the runner-up, scores %.3g %s (%.2g standard errors of the paired "
-                  "difference)", verdict.runner_up.c_str(), std::abs(verdict.margin_score),
-                  verdict.margin_score < 0.0 ? "lower" : "higher", std::abs(verdict.margin_standard_errors));
-  }
   if (verdict.recommended == "classical") {
-    text += std::string("; no model beats the physics-only fit by more than ") + k +
-            " standard errors of their paired difference: keep the calibrated classical law";
-    if (!verdict.runner_up.empty()) text += std::string("; ") + margin;
-  } else if (verdict.tie) {
+    return std::string("as no model beats the physics-only fit by more than ") + k +
+           " standard errors of their paired difference: keep the calibrated classical law";
+  }
+  if (verdict.tie) {
     std::string tied;
     for (const auto& law : verdict.tied) tied += (tied.empty() ? "" : ", ") + law;
     std::string order;
     for (const char* law : kTieOrder) order += (order.empty() ? "" : ", ") + std::string(law);
-    text += std::string("; ") + tied + " score within " + k +
-            " standard errors of the paired difference of the lowest: a tie, broken by the order of preference (" +
-            order + ") for " + verdict.recommended + "; " + margin;
-  } else {
-    text += "; " + verdict.recommended + " has the lowest, a clear win (by more than " + k +
-            " standard errors of the paired difference): " + margin;
+    return "by the tie rule: " + tied + " score within " + k +
+           " standard errors of the paired difference of the lowest: a tie, broken by the order of preference (" +
+           order + ")";
   }
-  report.recommendation = text;
+  return std::string("a clear win: its validation score is the lowest by more than ") + k +
+         " standard errors of the paired difference";
+}
+
+std::string runner_up_margin(const data::Verdict& verdict) {
+  if (verdict.runner_up.empty()) return "";
+  // Negative when the tie rule chose a law that scores higher than the runner-up.
+  char margin[200];
+  std::snprintf(margin, sizeof(margin),
+                "%s, the runner-up, scores %.3g %s (%.2g standard errors of the paired difference)",
+                verdict.runner_up.c_str(), std::abs(verdict.margin_score), verdict.margin_score < 0.0 ? "lower" : "higher",
+                std::abs(verdict.margin_standard_errors));
+  return margin;
 }
 
 Report run(const Options& options, const std::function<void(const Progress&)>& progress) {

@@ -187,6 +187,16 @@ inline constexpr const char* kTieOrder[] = {"classical", "spline", "spline-posit
 /// choice without the spline from positions.
 void recommend(Report& report);
 
+/// How `verdict` was reached, in words: why the calibrated classical law is
+/// kept (whether or not a model tied with it), the tie rule with the laws it
+/// saw tied, or a clear win. The
+/// console's recommendation line and report.md's verdict both say it so.
+std::string verdict_reason(const data::Verdict& verdict);
+
+/// The runner-up and its margin in score and in standard errors of the
+/// paired difference, in words; "" without a runner-up.
+std::string runner_up_margin(const data::Verdict& verdict);
+
 /// Commutation MSE (filtered and unfiltered, y/x/z), tracking MSE and mean
 /// current square of an evaluation run.
 CommutationResult evaluate(const Recording& run, double period_s);

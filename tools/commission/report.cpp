@@ -413,22 +413,11 @@ void verdict_markdown(std::ostringstream& out, const Report& report) {
     out << ", commissioned from positions (`--no-force-sensor`)";
     if (!report.force_recommended.empty()) out << "; the force-sensor laws alone would give " << report.force_recommended;
     out << "\n";
-  } else if (verdict.tie) {
-    out << ", by the tie rule: ";
-    for (std::size_t k = 0; k < verdict.tied.size(); ++k) out << (k ? ", " : "") << verdict.tied[k];
-    out << " score within " << fixed(data::kTieStandardErrors, "%g")
-        << " standard errors of the paired difference of the lowest; the first of them in the order of preference (";
-    for (std::size_t k = 0; k < std::size(kTieOrder); ++k) out << (k ? ", " : "") << kTieOrder[k];
-    out << ") is recommended\n";
   } else {
-    out << ", a clear win: its validation score is the lowest by more than " << fixed(data::kTieStandardErrors, "%g")
-        << " standard errors of the paired difference\n";
+    out << ", " << verdict_reason(verdict) << "\n";
   }
-  if (!verdict.runner_up.empty()) {
-    out << "- runner-up: " << verdict.runner_up << ", score " << (verdict.margin_score < 0.0 ? "lower" : "higher")
-        << " by " << fixed(std::abs(verdict.margin_score), "%.3g") << " ("
-        << fixed(std::abs(verdict.margin_standard_errors), "%.2g") << " standard errors)\n";
-  }
+  const std::string margin = runner_up_margin(verdict);
+  if (!margin.empty()) out << "- " << margin << "\n";
   const auto* reference = calibrated_classical(report);
   const auto* recommended = find(report, report.recommended);
   if (reference && recommended && recommended != reference) {
