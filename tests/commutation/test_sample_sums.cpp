@@ -1,8 +1,8 @@
 // The identification's sums over samples (commutation/identification/
 // sample_sums.hpp) against their definition: each entry one multiply and one
-// add per sample, in sample order. Bit for bit on the dispatched (AVX2 where
-// the CPU has it) and the baseline path, and however the samples are split
-// into calls; and against long double.
+// add per sample, in sample order. Bit for bit on every path the CPU has
+// (SSE2, AVX2, AVX-512F), however the samples are split into calls; and the
+// definition against long double.
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstring>
