@@ -345,14 +345,19 @@ SinCos sin_cos(double x) noexcept {
   }
 }
 
-double sin(double x) noexcept {
+namespace {
+
+// sin of `x` advanced by `quarter_turns` quadrants (cos x = sin(x + π/2)):
+// sin and cos take the same reduction and the same kernels as sin_cos.
+double sin_turned(double x, int quarter_turns) noexcept {
   if (!(std::fabs(x) < kReductionLimit)) {
-    if (std::fabs(x) < std::numeric_limits<double>::infinity()) return std::sin(x);
+    if (std::fabs(x) < std::numeric_limits<double>::infinity()) {
+      return quarter_turns == 0 ? std::sin(x) : std::cos(x);
+    }
     return x - x;
   }
-  if (std::fabs(x) <= kPiOver4) return sin_reduced(x, 0.0);
-  const Reduced r = reduce(x);
-  switch (r.quadrant) {
+  const Reduced r = std::fabs(x) <= kPiOver4 ? Reduced{x, 0.0, 0} : reduce(x);
+  switch ((r.quadrant + quarter_turns) & 3) {
     case 0:
       return sin_reduced(r.high, r.low);
     case 1:
@@ -364,24 +369,11 @@ double sin(double x) noexcept {
   }
 }
 
-double cos(double x) noexcept {
-  if (!(std::fabs(x) < kReductionLimit)) {
-    if (std::fabs(x) < std::numeric_limits<double>::infinity()) return std::cos(x);
-    return x - x;
-  }
-  if (std::fabs(x) <= kPiOver4) return cos_reduced(x, 0.0);
-  const Reduced r = reduce(x);
-  switch (r.quadrant) {
-    case 0:
-      return cos_reduced(r.high, r.low);
-    case 1:
-      return -sin_reduced(r.high, r.low);
-    case 2:
-      return -cos_reduced(r.high, r.low);
-    default:
-      return sin_reduced(r.high, r.low);
-  }
-}
+}  // namespace
+
+double sin(double x) noexcept { return sin_turned(x, 0); }
+
+double cos(double x) noexcept { return sin_turned(x, 1); }
 
 double atan2(double y, double x) noexcept {
   if (x != x || y != y) return x + y;
