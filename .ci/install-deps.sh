@@ -1,15 +1,27 @@
 #!/usr/bin/env bash
-# Installs every package clm-servo needs to build, test and run, from Debian 12.
+# Installs the packages clm-servo needs from Debian 12: with `main`, only what
+# the main job (.ci/main: build clm, commission the simulated motor, plot)
+# needs; without, everything to build, test and run.
 # Idempotent and non-interactive: packages already present are skipped.
+#
+#   bash .ci/install-deps.sh        # everything (.ci/run)
+#   bash .ci/install-deps.sh main   # the main job's packages
 set -euo pipefail
 
+# The main job: the compiler, the libraries clm links, lcm-gen for the
+# message headers, and matplotlib for the report's plots.
 packages=(
-  build-essential cmake pkg-config git dpkg-dev
-  libeigen3-dev libyaml-cpp-dev
-  liblcm-dev liblcm-bin liblcm-java default-jdk-headless
-  catch2 libceres-dev libcli11-dev libbenchmark-dev
-  can-utils systemd rt-tests
+  build-essential cmake pkg-config
+  libeigen3-dev libyaml-cpp-dev liblcm-dev liblcm-bin libceres-dev libcli11-dev
   python3 python3-numpy python3-matplotlib
+)
+case "${1:-all}" in
+  main) ;;
+  all) packages+=(
+  git dpkg-dev
+  liblcm-java default-jdk-headless
+  catch2 libbenchmark-dev
+  can-utils systemd rt-tests
   # the PyTorch reference of the PGNN identification and its CTest test
   # torch_reference_agrees_with_ours_on_cost_and_data_terms; SciPy for the
   # reference's second L-BFGS, --optimiser scipy (docs/benchmarks.md)
@@ -20,7 +32,9 @@ packages=(
   debootstrap e2fsprogs
   # libFuzzer harnesses and their runtimes (docs/fuzzing.md)
   clang-14 libclang-rt-14-dev
-)
+  ) ;;
+  *) echo "usage: install-deps.sh [main]" >&2; exit 2 ;;
+esac
 
 missing=()
 for p in "${packages[@]}"; do

@@ -7,6 +7,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +15,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "support/daemon_experiments.hpp"
 #include "tools/data/csv_table.hpp"
 
 extern char** environ;
@@ -170,23 +172,55 @@ CsvLines synthetic_feedforward_lines(int rows) {
   return lines;
 }
 
-void write_columns_csv(const std::string& path, const std::vector<std::string>& names,
-                       const std::vector<std::vector<double>>& values) {
-  write_csv_atomically(path, names, values);
+namespace {
+const char* const kExperimentsComplete = "complete";
+}  // namespace
+
+ExperimentFiles experiment_files_in(const std::string& directory) {
+  const fs::path d(directory);
+  return {(d / "experiments.csv").string(), (d / "experiments-tenth.csv").string(),
+          (d / "experiments.lcm").string(), (d / "closed-loop.csv").string()};
+}
+
+void write_experiment_files(const std::string& directory) {
+  fs::create_directories(directory);
+  fs::remove(fs::path(directory) / kExperimentsComplete);
+  const ExperimentFiles files = experiment_files_in(directory);
+  const std::string lcm_partial = files.lcm + ".partial";
+  const test::DaemonExperiments experiments = test::run_daemon_experiments(source_path("config/servod.yaml"), lcm_partial);
+  fs::rename(lcm_partial, files.lcm);
+  const auto all = test::experiment_columns(experiments);
+  write_csv_atomically(files.csv, all.names, all.values);
+  const auto tenth = test::experiment_columns(experiments, 0, 10);
+  write_csv_atomically(files.tenth, tenth.names, tenth.values);
+  std::vector<std::vector<double>> closed_loop(3);
+  for (const auto& s : experiments.runs.front().samples) {
+    closed_loop[0].push_back(s.program_time_s);
+    closed_loop[1].push_back(s.r_m);
+    closed_loop[2].push_back(s.F_star_N);
+  }
+  const std::vector<std::string> names = {"t_s", "r_m", "F_star_N"};
+  write_csv_atomically(files.closed_loop, names, closed_loop);
+  write_file((fs::path(directory) / kExperimentsComplete).string(), "");
 }
 
 const ExperimentFiles& experiment_files() {
   struct Holder {
-    TemporaryDirectory directory;
+    TemporaryDirectory directory;  // unused when the fixture's files are there
     ExperimentFiles files;
   };
   static const std::unique_ptr<Holder> holder = [] {
     auto h = std::make_unique<Holder>();
-    h->files.csv = h->directory.file("experiments.csv");
-    h->files.lcm = h->directory.file("experiments.lcm");
-    h->files.experiments = test::run_daemon_experiments(source_path("config/servod.yaml"), h->files.lcm);
-    const auto columns = test::experiment_columns(h->files.experiments);
-    write_csv_atomically(h->files.csv, columns.names, columns.values);
+    const char* fixture = std::getenv("CLM_TEST_EXPERIMENTS");
+    if (fixture != nullptr && *fixture != '\0') {
+      if (!fs::exists(fs::path(fixture) / kExperimentsComplete))
+        throw std::runtime_error(std::string("CLM_TEST_EXPERIMENTS=") + fixture +
+                                 ": no complete experiments there (the CTest fixture cli_experiments writes them)");
+      h->files = experiment_files_in(fixture);
+    } else {
+      write_experiment_files(h->directory.path());
+      h->files = experiment_files_in(h->directory.path());
+    }
     return h;
   }();
   return holder->files;

@@ -6,7 +6,6 @@
 #include <string>
 #include <vector>
 
-#include "support/daemon_experiments.hpp"
 #include "support/temporary_directory.hpp"
 
 namespace clm::cli_test {
@@ -55,18 +54,24 @@ CsvLines synthetic_experiment_lines(int coil_sets, int rows_per_offset = 8);
 /// t_s, r_m, F_star_N of a short move.
 CsvLines synthetic_feedforward_lines(int rows = 50);
 
-/// Writes named columns as CSV with shortest round-trip numbers.
-void write_columns_csv(const std::string& path, const std::vector<std::string>& names,
-                       const std::vector<std::vector<double>>& values);
-
 /// The commissioning experiments of the default motor (config/servod.yaml),
-/// run on the daemon core once per test process, and written as the tools'
-/// experiments.csv and as the daemon's LCM log of the same runs.
+/// run on the daemon core, as the files the tests read: the tools'
+/// experiments.csv, every 10th row of it, the daemon's LCM log of the same
+/// runs, and t_s, r_m, F_star_N of the first run (closed-loop data).
 struct ExperimentFiles {
-  std::string csv;  ///< t_s, coil_set, delta_rad, magnitude_N, y_m, Fy_N, Fx_N, Tz_Nm
-  std::string lcm;  ///< every cycle of the runs as CLM_SERVO_STATE (and status/events)
-  test::DaemonExperiments experiments;
+  std::string csv;    ///< t_s, coil_set, delta_rad, magnitude_N, y_m, Fy_N, Fx_N, Tz_Nm
+  std::string tenth;  ///< every 10th row of each run of csv
+  std::string lcm;    ///< every cycle of the runs as CLM_SERVO_STATE (and status/events)
+  std::string closed_loop;  ///< t_s, r_m, F_star_N of the first run
 };
+/// The files in `directory`; a marker written last says they are complete.
+ExperimentFiles experiment_files_in(const std::string& directory);
+/// Runs the experiments and writes experiment_files_in(directory), each file
+/// whole or not at all, the marker last.
+void write_experiment_files(const std::string& directory);
+/// The experiments' files: those the CTest fixture cli_experiments wrote
+/// (CLM_TEST_EXPERIMENTS names their directory; once per build tree, not per
+/// test process), else written once per process into a temporary directory.
 const ExperimentFiles& experiment_files();
 
 }  // namespace clm::cli_test

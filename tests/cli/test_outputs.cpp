@@ -162,11 +162,8 @@ TEST_CASE("identify --model spline on the daemon's experiments writes a model th
 }
 
 TEST_CASE("identify --model pgnn on every 10th row with one restart writes a model that loads", "[cli]") {
-  const ExperimentFiles& experiments = experiment_files();
   TemporaryDirectory dir;
-  const std::string data = dir.file("experiments-tenth.csv");
-  const auto columns = test::experiment_columns(experiments.experiments, 0, 10);
-  write_columns_csv(data, columns.names, columns.values);
+  const std::string& data = experiment_files().tenth;
   const std::string output = dir.file("model-pgnn.yaml");
   const ProcessResult result = run_writing({"identify", "--motor", kMotor, "--data", data, "--output", output,
                                             "--restarts", "1", "--final-iterations", "20"},
@@ -220,16 +217,8 @@ TEST_CASE("commutate with a calibration writes the documented columns, and the c
 }
 
 TEST_CASE("ff-identify on closed-loop data writes a feedforward file that load_feedforward_file reads back", "[cli]") {
-  const ExperimentFiles& experiments = experiment_files();
   TemporaryDirectory dir;
-  const std::string data = dir.file("closed-loop.csv");
-  std::vector<std::vector<double>> columns(3);
-  for (const auto& s : experiments.experiments.runs.front().samples) {
-    columns[0].push_back(s.program_time_s);
-    columns[1].push_back(s.r_m);
-    columns[2].push_back(s.F_star_N);
-  }
-  write_columns_csv(data, {"t_s", "r_m", "F_star_N"}, columns);
+  const std::string& data = experiment_files().closed_loop;
   const std::string output = dir.file("feedforward.yaml");
   const ProcessResult result = run_writing({"ff-identify", "--data", data, "--output", output}, dir.path(), output);
   CHECK(result.err.empty());
