@@ -23,18 +23,18 @@ Node Node::load_string(const std::string& text, const std::string& origin) {
   }
 }
 
-Node Node::load_file(const std::string& path) {
+std::string Node::read_file(const std::string& path) {
   // Only a regular file, opened without blocking: a device or a pipe named by
   // mistake (motor_file: /dev/zero, docs/fuzzing.md) would exhaust memory or
   // block. The size limit keeps yaml-cpp's tree of a huge file from doing so.
-  std::string text;
   try {
-    text = read_regular_file(path, kMaxFileBytes, " for a YAML file");
+    return read_regular_file(path, kMaxFileBytes, " for a YAML file");
   } catch (const FileError& e) {
     throw Error(e.what());
   }
-  return load_string(text, path);
 }
+
+Node Node::load_file(const std::string& path) { return load_string(read_file(path), path); }
 
 int Node::line() const {
   if (!node_.IsDefined()) return 0;

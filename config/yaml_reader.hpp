@@ -34,6 +34,9 @@ class Node {
   /// for a file that is not a regular file or is larger than kMaxFileBytes
   /// (clm::read_regular_file's one-line messages).
   static Node load_file(const std::string& path);
+  /// The text load_file parses (the same checks and errors), for a caller
+  /// that also needs the bytes, e.g. their SHA-256.
+  static std::string read_file(const std::string& path);
   /// Parses text that came from `origin` (used by tests and fuzzers).
   static Node load_string(const std::string& text, const std::string& origin);
 

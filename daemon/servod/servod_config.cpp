@@ -9,6 +9,7 @@
 #include <tuple>
 
 #include "config/command_key.hpp"
+#include "config/sha256.hpp"
 #include "daemon/control/position_controller.hpp"
 #include "drivers/can/can_protocol.hpp"
 #include "daemon/servod/feedforward_file.hpp"
@@ -95,6 +96,7 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
   config.motor_file = resolve(directory, root["motor_file"].as_string());
   require_existing(root["motor_file"], config.motor_file);
   config.motor = load_motor_description(config.motor_file);
+  config.motor_sha256 = sha256_file(config.motor_file);
 
   if (const auto loop = root.optional("loop")) {
     loop->expect_keys({"rate_hz", "clock", "priority", "cpu", "lock_memory", "require_realtime",
@@ -390,9 +392,12 @@ int lcm_url_ttl(const std::string& url) {
 }
 
 ServodConfig load_servod_config(const std::string& path) {
-  const auto root = yaml::Node::load_file(path);
+  const std::string text = yaml::Node::read_file(path);
+  const auto root = yaml::Node::load_string(text, path);
   const std::string directory = std::filesystem::path(path).parent_path().string();
-  return parse_servod_config(root, directory.empty() ? "." : directory);
+  ServodConfig config = parse_servod_config(root, directory.empty() ? "." : directory);
+  config.origin_sha256 = sha256_hex(text);
+  return config;
 }
 
 }  // namespace clm::servod

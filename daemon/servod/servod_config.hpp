@@ -84,8 +84,10 @@ struct CommandsConfig {
 
 struct ServodConfig {
   std::string origin;                 ///< the config file
+  std::string origin_sha256;          ///< of the bytes read (64 hex digits)
   std::string axis_name = "axis0";    ///< names the axis in commands and status
   std::string motor_file;             ///< absolute path
+  std::string motor_sha256;           ///< of motor_file's bytes as read
   MotorDescription motor;
   LoopConfig loop;
   CanConfig can;

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 
 namespace clm::servod {
 
@@ -9,12 +10,29 @@ TelemetryBridge::TelemetryBridge(telemetry::TelemetryPublisher& publisher, const
     : publisher_(&publisher), daemon_(&daemon) {
   const double rate_hz = daemon.config().telemetry.status_rate_hz;
   status_every_cycles_ = std::max<std::int64_t>(1, std::llround(1.0 / (rate_hz * daemon.config().servo.period_s)));
+  describe_start_files();
 }
 
 TelemetryBridge::TelemetryBridge(telemetry::TelemetrySink& sink, const ServoDaemon& daemon, int state_decimation)
     : sink_(&sink), daemon_(&daemon), state_decimation_(std::max(1, state_decimation)) {
   const double rate_hz = daemon.config().telemetry.status_rate_hz;
   status_every_cycles_ = std::max<std::int64_t>(1, std::llround(1.0 / (rate_hz * daemon.config().servo.period_s)));
+  describe_start_files();
+}
+
+void TelemetryBridge::describe_start_files() {
+  const ServodConfig& config = daemon_->config();
+  const auto describe = [](const std::string& path, const std::string& sha256, telemetry::LoadedFileText& out) {
+    std::error_code error;
+    const std::filesystem::path canonical = std::filesystem::weakly_canonical(path, error);
+    if (error || sha256.empty() || !out.path.assign(canonical.string())) {
+      out = {};
+      return;
+    }
+    out.sha256.assign(sha256);
+  };
+  describe(config.origin, config.origin_sha256, configuration_);
+  describe(config.motor_file, config.motor_sha256, motor_);
 }
 
 void TelemetryBridge::fill_status(const servo::ServoCycle& cycle, const LoopTiming& timing,
@@ -60,6 +78,8 @@ void TelemetryBridge::fill_status(const servo::ServoCycle& cycle, const LoopTimi
   daemon_->loaded_file(LoadedFileSlot::kPgnnModel, out.pgnn_model);
   daemon_->loaded_file(LoadedFileSlot::kSplineModel, out.spline_model);
   daemon_->loaded_file(LoadedFileSlot::kFeedforward, out.feedforward);
+  out.configuration = configuration_;
+  out.motor = motor_;
   out.commands.refused_by_daemon = daemon_->commands_refused();
 }
 

@@ -56,6 +56,11 @@ class TelemetryBridge final : public CycleObserver {
   void fill_status(const servo::ServoCycle& cycle, const LoopTiming& timing, telemetry::ServoStatusSample& out) const noexcept;
 
  private:
+  /// The configuration file and the motor file, canonical path and SHA-256,
+  /// read once at construction; a path too long for the status is left
+  /// out (empty), never cut.
+  void describe_start_files();
+  telemetry::LoadedFileText configuration_{}, motor_{};
   telemetry::TelemetryPublisher* publisher_ = nullptr;
   telemetry::TelemetrySink* sink_ = nullptr;
   const ServoDaemon* daemon_;

@@ -168,6 +168,10 @@ clm_lcm::servo_status_t to_message(const ServoStatusSample& sample, std::int64_t
   m.spline_model_sha256 = std::string(sample.spline_model.sha256.view());
   m.feedforward_file = std::string(sample.feedforward.path.view());
   m.feedforward_sha256 = std::string(sample.feedforward.sha256.view());
+  m.configuration_file = std::string(sample.configuration.path.view());
+  m.configuration_sha256 = std::string(sample.configuration.sha256.view());
+  m.motor_file = std::string(sample.motor.path.view());
+  m.motor_sha256 = std::string(sample.motor.sha256.view());
   m.wakeup_latency_p50_s = sample.wakeup_latency_p50_s;
   m.wakeup_latency_p99_s = sample.wakeup_latency_p99_s;
   m.wakeup_latency_max_s = sample.wakeup_latency_max_s;

@@ -79,6 +79,8 @@ struct ServoStatusSample {
   LoadedFileText pgnn_model;
   LoadedFileText spline_model;
   LoadedFileText feedforward;
+  LoadedFileText configuration;  ///< the file the daemon was started from
+  LoadedFileText motor;          ///< the motor description it names
   double wakeup_latency_p50_s = 0.0;
   double wakeup_latency_p99_s = 0.0;
   double wakeup_latency_max_s = 0.0;

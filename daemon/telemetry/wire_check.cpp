@@ -68,6 +68,8 @@ constexpr std::array kStatusFields{
     text("calibration_file", kMaxTextBytes), text("calibration_sha256", 64), text("pgnn_model_file", kMaxTextBytes),
     text("pgnn_model_sha256", 64), text("spline_model_file", kMaxTextBytes), text("spline_model_sha256", 64),
     text("feedforward_file", kMaxTextBytes), text("feedforward_sha256", 64),
+    text("configuration_file", kMaxTextBytes), text("configuration_sha256", 64), text("motor_file", kMaxTextBytes),
+    text("motor_sha256", 64),
     finite("wakeup_latency_p50_s"), finite("wakeup_latency_p99_s"), finite("wakeup_latency_max_s"),
     finite("compute_time_p50_s"), finite("compute_time_p99_s"), finite("compute_time_max_s"),
     i64("overruns"), i64("cycles"), counts("wakeup_latency_histogram", kHistogramBins),

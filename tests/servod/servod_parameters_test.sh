@@ -9,7 +9,9 @@
 #   - save writes the running values into the configuration file: the old
 #     file is kept byte for byte as FILE.bak, the comments stay, and a second
 #     daemon started on the saved file reports the set values;
-#   - save refuses a configuration of another axis and leaves it unchanged.
+#     without --config it writes the file the daemon was started from;
+#   - save refuses a configuration of another axis, or of another motor
+#     (servod-2coil.yaml), and leaves it unchanged.
 # About 10 s.
 #
 #   servod_parameters_test.sh CLM_SERVOD CLM SOURCE_DIR WORK_DIR
@@ -72,8 +74,10 @@ grep -q "^  feedforward: {mass_kg: 0, viscous_N_s_per_m: 0, coulomb_N: 4.5}" "$w
 # Only the three changed lines differ.
 changed=$(diff "$work/servod.original.yaml" "$work/servod.yaml" | grep -c '^>' || true)
 [ "$changed" = 3 ] || fail "save rewrote $changed lines: $(diff "$work/servod.original.yaml" "$work/servod.yaml")"
-ctl save --config "$work/servod.yaml" > "$work/save-again.out" || fail "a second save failed"
-grep -q "nothing written" "$work/save-again.out" || fail "a second save wrote again: $(cat "$work/save-again.out")"
+# Without --config: the file the daemon was started from (its signed status names it).
+ctl save > "$work/save-again.out" || fail "a second save (no --config) failed"
+grep -q "^$(realpath "$work/servod.yaml") already holds the running configuration" "$work/save-again.out" ||
+    fail "a second save (no --config) did not name the daemon's file, or wrote again: $(cat "$work/save-again.out")"
 
 # Another axis's configuration: refused, untouched.
 sed 's/^  name: .*/  name: other-axis/' "$work/servod.original.yaml" > "$work/other.yaml"
@@ -83,6 +87,18 @@ if reply=$(ctl save --config "$work/other.yaml" 2>&1); then fail "save into anot
 [[ $reply == *"other-axis"* ]] || fail "save into another axis's file: $reply"
 cmp -s "$work/other.yaml" "$work/other.before.yaml" || fail "another axis's file was changed"
 [ ! -e "$work/other.yaml.bak" ] || fail "a backup of another axis's file was written"
+
+# Another motor's configuration for the same axis name (the two-coil-set
+# motor's, as shipped): refused, untouched.
+sed "s|^motor_file: motor-sim-2coil.yaml|motor_file: $source_dir/config/motor-sim-2coil.yaml|" \
+    "$source_dir/config/servod-2coil.yaml" > "$work/two-coil.yaml"
+grep -q "^motor_file: $source_dir/config/motor-sim-2coil.yaml" "$work/two-coil.yaml" || fail "two-coil.yaml: no motor_file"
+cp "$work/two-coil.yaml" "$work/two-coil.before.yaml"
+if reply=$(ctl save --config "$work/two-coil.yaml" 2>&1); then fail "save into another motor's file succeeded: $reply"; fi
+[[ $reply == *"motor-sim-2coil.yaml"*"is not the motor axis 'axis0' was started with"* ]] ||
+    fail "save into another motor's file: $reply"
+cmp -s "$work/two-coil.yaml" "$work/two-coil.before.yaml" || fail "another motor's file was changed"
+[ ! -e "$work/two-coil.yaml.bak" ] || fail "a backup of another motor's file was written"
 
 # A daemon started on the saved file runs with the saved values.
 rc=0
@@ -96,4 +112,4 @@ rc=0
 stop_process "$pid" 10 || rc=$?
 [ $rc = 0 ] || fail "clm-servod exit status $rc after SIGTERM"
 trap - EXIT
-echo "clm ctl get/set/save: 3 parameters set, refused beyond their ranges, saved with comments and a backup, read back by a restarted daemon"
+echo "clm ctl get/set/save: 3 parameters set, refused beyond their ranges, saved with comments and a backup (by default into the daemon's own file), refused for another axis and another motor, read back by a restarted daemon"

@@ -148,6 +148,10 @@ inline telemetry::ServoStatusSample make_status() {
   s.spline_model.sha256.assign(std::string(64, 'c'));
   s.feedforward.path.assign("/var/lib/clm-servo/feedforward.yaml");
   s.feedforward.sha256.assign(std::string(64, 'd'));
+  s.configuration.path.assign("/etc/clm-servo/servod.yaml");
+  s.configuration.sha256.assign(std::string(64, 'e'));
+  s.motor.path.assign("/etc/clm-servo/motor.yaml");
+  s.motor.sha256.assign(std::string(64, 'f'));
   s.commands = {77, 1.5, 101, 1, 2, 3, 4, 5, 6, 7, 8};
   s.wakeup_latency_p50_s = 11e-6;
   s.wakeup_latency_p99_s = 23e-6;
@@ -190,6 +194,10 @@ inline void check_status(const telemetry::ServoStatusSample& s, const clm_lcm::s
   CHECK(m.spline_model_sha256 == s.spline_model.sha256.view());
   CHECK(m.feedforward_file == s.feedforward.path.view());
   CHECK(m.feedforward_sha256 == s.feedforward.sha256.view());
+  CHECK(m.configuration_file == s.configuration.path.view());
+  CHECK(m.configuration_sha256 == s.configuration.sha256.view());
+  CHECK(m.motor_file == s.motor.path.view());
+  CHECK(m.motor_sha256 == s.motor.sha256.view());
   CHECK(m.control_client == s.commands.control_client);
   CHECK(m.control_lease_remaining_s == s.commands.control_lease_remaining_s);
   CHECK(m.commands_admitted == s.commands.admitted);

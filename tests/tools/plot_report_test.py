@@ -19,8 +19,11 @@ import sys
 
 import numpy as np
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from lcm_wire import corpus_hash  # noqa: E402  (lcm-gen's fingerprint, from the fuzz corpus)
+
 POLE_PITCH_M = 0.03
-STATUS_FINGERPRINT = bytes.fromhex("0975de882cefc7e9")  # lcmtypes/servo_status_t.lcm
+STATUS_FINGERPRINT = corpus_hash("status-fault")  # what clm writes as report.json's live.status_fingerprint
 
 
 def write_csv(path, columns):
@@ -101,7 +104,7 @@ def status_message(k, session):
     time in (2.51, 3.98] us (bin 8); the counters start from 10^6 cycles run before."""
     payload = STATUS_FINGERPRINT + struct.pack(">q", 1_800_000_000_000_000 + k * 100_000) + lcm_string("axis0")
     payload += struct.pack(">qbh", session, 1, 0) + lcm_string("") + struct.pack(">qb", -1, 2)
-    payload += b"".join(lcm_string("") for _ in range(8))
+    payload += b"".join(lcm_string("") for _ in range(12))
     latency_s = 20e-6 * (1 + (k % 7))
     cycles = 1_000_000 + 100 * k
     wakeup, compute = [0] * 31, [0] * 31
@@ -134,7 +137,7 @@ def make_directory(directory, laws, held_out, coil_sets, truth, live):
         write_csv(os.path.join(directory, "truth-comparison.csv"), truth_comparison(coil_sets))
     report = {"schema": "clm-servo-report", "schema_version": 1, "coil_sets": coil_sets}
     if live:
-        report["live"] = {"runs": 1}
+        report["live"] = {"runs": 1, "status_fingerprint": STATUS_FINGERPRINT.hex()}
         # Two daemon sessions, 50 and 20 status messages: 49 * 100 + 19 * 100 cycles between their first and last.
         lcm_log(os.path.join(directory, "logs", "evaluation-pgnn.lcm"), [status_message(k, 7) for k in range(50)])
         lcm_log(os.path.join(directory, "logs", "evaluation-spline.lcm"), [status_message(k, 8) for k in range(20)])

@@ -1,7 +1,8 @@
 // clm ctl get, set and save (docs/servod.md, "Run-time parameters"):
 //   get [KEY]        the value the daemon's cycle uses, of KEY or of every run-time parameter
 //   set KEY VALUE    change it at standstill; the daemon checks it as the configuration would
-//   save --config F  write the running parameters, law and loaded files into F (F.bak keeps the old)
+//   save [--config F]  write the running parameters, law and loaded files into F (F.bak keeps the old),
+//                      by default the file the daemon was started from; refused for another axis or motor
 // Exit status as the other ctl subcommands: 1 refused or no answer, 2 bad
 // arguments or a bad configuration file.
 #include <charconv>
@@ -58,15 +59,14 @@ std::string number(double value) {
   return std::string(text, result.ptr);
 }
 
-void run_save(const CtlOptions& options, const std::string& config_path) {
-  // What the file must say: the daemon's own configuration, for its axis.
-  const servod::ServodConfig config = servod::load_servod_config(config_path);
+void run_save(const CtlOptions& options, const std::string& requested_path) {
+  // Where: the file the daemon was started from, unless told otherwise; what
+  // the file must say: the daemon's own axis and motor.
   servod_client::Client client(command_client_options(options));
   const clm_lcm::servo_status_t status = client.wait_for_status(options.timeout_s);
-  if (status.axis != config.axis_name) {
-    throw std::runtime_error(config_path + ": axis.name is '" + config.axis_name + "', the daemon answering drives '" +
-                             status.axis + "': give the configuration of that daemon");
-  }
+  const std::string config_path = servod_client::daemons_configuration_path(requested_path, status);
+  const servod::ServodConfig config = servod::load_servod_config(config_path);
+  servod_client::require_daemons_configuration(config, status);
   const auto mode = static_cast<servo::CommutationMode>(status.commutation);  // 0..5: the wire check's range
   if (mode == servo::CommutationMode::kExperiment) {
     throw std::runtime_error("the daemon runs an identification experiment: save once it commutates with a law");
@@ -159,11 +159,13 @@ void add_ctl_parameters(CLI::App& ctl, const std::shared_ptr<CtlOptions>& option
     send_command(*options, command);
   });
 
-  auto config = std::make_shared<std::string>("/etc/clm-servo/servod.yaml");
+  auto config = std::make_shared<std::string>();
   auto* save = ctl.add_subcommand(
       "save", "write the running parameters, commutation law and loaded files into the daemon's configuration file, "
-              "keeping the previous one as FILE.bak");
-  save->add_option("--config", *config, "the daemon's configuration file")->capture_default_str()->check(CLI::ExistingFile);
+              "keeping the previous one as FILE.bak; refused for a file of another axis or motor");
+  save->add_option("--config", *config,
+                   "the file to write (default: the one the daemon was started from, as its status reports)")
+      ->check(CLI::ExistingFile);
   save->callback([options, config] { run_save(*options, *config); });
 }
 

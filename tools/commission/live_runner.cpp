@@ -9,6 +9,7 @@
 #include "daemon/control/trajectory.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 #include "tools/lcmlog/servo_log.hpp"
+#include "tools/servod_client/config_update.hpp"
 
 namespace clm::commission {
 namespace {
@@ -96,6 +97,9 @@ void LcmRunner::enable() {
   // above from a status of the axis, is given back by the destructor). One
   // without (commissioning from positions) runs on the encoder alone.
   const auto status = client_.latest_status();
+  // The configuration must be the daemon's (axis and motor), before anything
+  // moves: what commissioning measures and --save writes is for that motor.
+  if (status) servod_client::require_daemons_configuration(config_, *status);
   if (status && !can::has_force_sensor(config_.servo.protocol)) {
     if (status->force_sensor != servo_status_t::FORCE_SENSOR_NONE) {
       throw RunTimeFailure("clm-servod's axis '" + status->axis + "' has a force sensor, which this configuration "

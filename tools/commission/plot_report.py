@@ -450,9 +450,9 @@ def calibration_figure(directory, calibration, data, filename):
          rf"$\hat\zeta$ = {drive_zeta:g} rad, corrected per coil set")
 
 
-# LCM servo_status_t as far as the timing fields (lcmtypes/servo_status_t.lcm),
-# and its fingerprint: a different type is not decoded.
-STATUS_FINGERPRINT = bytes.fromhex("0975de882cefc7e9")  # lcmtypes/servo_status_t.lcm
+# LCM servo_status_t as far as the timing fields (lcmtypes/servo_status_t.lcm);
+# only messages with the fingerprint report.json names (live.status_fingerprint,
+# written by the clm that recorded them) are decoded.
 LCM_SYNC = 0xEDA1DA01
 
 
@@ -482,12 +482,14 @@ def histogram_upper_edges_s():
     return edges
 
 
-def status_timing(payload):
-    """The loop-timing fields of one servo_status_t: utime [us], session,
-    (wake-up latency p50, p99, max, compute time p50, p99, max) [s],
-    overruns, cycles and the two cumulative histograms."""
-    if payload[:8] != STATUS_FINGERPRINT:
-        raise ValueError("CLM_SERVO_STATUS has another type fingerprint than this plotter knows")
+def status_timing(payload, fingerprint):
+    """The loop-timing fields of one servo_status_t whose type has
+    `fingerprint` (8 bytes): utime [us], session, (wake-up latency p50, p99,
+    max, compute time p50, p99, max) [s], overruns, cycles and the two
+    cumulative histograms."""
+    if payload[:8] != fingerprint:
+        raise ValueError(f"a CLM_SERVO_STATUS with fingerprint {payload[:8].hex()}, not report.json's "
+                         f"{fingerprint.hex()}: logs of another clm-servo version")
     offset = 8
 
     def read(fmt):
@@ -505,7 +507,7 @@ def status_timing(payload):
     session, _state, _fault = read(">qbh")
     skip_string()                                # fault_reason
     read(">qb")                                  # fault_cycle, commutation
-    for _ in range(8):                           # the files and their SHA-256
+    for _ in range(12):                          # the files and their SHA-256
         skip_string()
     quantiles = read(">6d")
     overruns, cycles = read(">qq")
@@ -549,10 +551,11 @@ def latency_figure(directory, report, filename):
               "loop has no wake-up latency to show (the status messages carry zeros); made with --live only")
         return
     samples = []
+    fingerprint = bytes.fromhex(report["live"].get("status_fingerprint", ""))
     for path in sorted(glob.glob(os.path.join(directory, "logs", "*.lcm"))):
         for payload in lcm_events(path, "CLM_SERVO_STATUS"):
             try:
-                samples.append(status_timing(payload))
+                samples.append(status_timing(payload, fingerprint))
             except (ValueError, struct.error) as error:
                 print(f"plot_report: {filename} skipped: {path}: {error}")
                 return

@@ -1,11 +1,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <cstdio>
 #include <sstream>
 #include <vector>
 
+#include "clm_lcm/servo_status_t.hpp"
 #include "tools/commission/commission.hpp"
 #include "tools/data/csv_table.hpp"
 
@@ -24,6 +26,16 @@ const PaperRow kPaper[] = {
     {"classical", {27.4, 0.141, 0.436}, {28.1, 0.307, 1.13}, 2.75e-8},
     {"pgnn", {2.45, 0.056, 0.180}, {3.08, 0.223, 0.930}, 5.94e-9},
 };
+
+/// The servo_status_t fingerprint (lcm-gen's, the first 8 bytes of every
+/// encoding) as 16 hex digits: the plotter decodes the logs' status messages
+/// only when it matches, instead of carrying a copy that goes stale.
+std::string status_fingerprint_hex() {
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx",
+                static_cast<unsigned long long>(static_cast<std::uint64_t>(clm_lcm::servo_status_t::getHash())));
+  return text;
+}
 
 std::string number(double value) {
   if (!std::isfinite(value)) return "null";
@@ -395,7 +407,8 @@ std::string report_json(const Report& report) {
         << ", \"runs_repeated\": " << live.runs_repeated << ", \"states_received\": " << live.states_received
         << ", \"states_recorded\": " << live.states_recorded << ", \"states_missing\": " << live.states_missing_kept
         << ", \"states_missing_in_repeated_runs\": " << live.states_missing_discarded
-        << ", \"daemon_telemetry_dropped\": " << live.daemon_telemetry_dropped << "},\n";
+        << ", \"daemon_telemetry_dropped\": " << live.daemon_telemetry_dropped
+        << ", \"status_fingerprint\": " << quoted(status_fingerprint_hex()) << "},\n";
   }
   out << "  \"total_wall_time_s\": " << number(report.total_wall_s) << "\n}\n";
   return out.str();

@@ -11,6 +11,28 @@
 
 namespace clm::servod_client {
 
+std::string daemons_configuration_path(const std::string& requested, const clm_lcm::servo_status_t& status) {
+  if (!requested.empty()) return requested;
+  if (status.configuration_file.empty()) {
+    throw std::runtime_error("clm-servod's axis '" + status.axis +
+                             "' reports no configuration file (its path is too long for the status): give --config");
+  }
+  return status.configuration_file;
+}
+
+void require_daemons_configuration(const servod::ServodConfig& config, const clm_lcm::servo_status_t& status) {
+  if (status.axis != config.axis_name) {
+    throw std::runtime_error(config.origin + ": axis.name is '" + config.axis_name + "', the daemon answering drives '" +
+                             status.axis + "': give the configuration of that daemon");
+  }
+  if (status.motor_sha256 != config.motor_sha256) {
+    throw std::runtime_error(config.origin + ": its motor_file " + config.motor_file + " (SHA-256 " +
+                             config.motor_sha256.substr(0, 12) + "…) is not the motor axis '" + status.axis +
+                             "' was started with (" + status.motor_file + ", SHA-256 " +
+                             status.motor_sha256.substr(0, 12) + "…): give the configuration of that daemon");
+  }
+}
+
 ConfigUpdate update_config_file(const std::string& path, const std::vector<ConfigEdit>& edits) {
   std::error_code error;
   const std::filesystem::path file = std::filesystem::canonical(path, error);

@@ -10,7 +10,20 @@
 #include <string>
 #include <vector>
 
+#include "clm_lcm/servo_status_t.hpp"
+#include "daemon/servod/servod_config.hpp"
+
 namespace clm::servod_client {
+
+/// The configuration file to keep a running daemon's state in: `requested`
+/// when not empty, else the file the daemon reports it was started from
+/// (its signed status). Throws std::runtime_error when there is none.
+std::string daemons_configuration_path(const std::string& requested, const clm_lcm::servo_status_t& status);
+
+/// Throws std::runtime_error naming `config`'s file unless it describes the
+/// daemon whose `status` this is: the same axis.name, and a motor_file with
+/// the SHA-256 of the motor description the daemon started with.
+void require_daemons_configuration(const servod::ServodConfig& config, const clm_lcm::servo_status_t& status);
 
 /// One change: `key` ("section.key") set to `value` (YAML text), or removed.
 struct ConfigEdit {
