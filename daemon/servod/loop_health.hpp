@@ -1,9 +1,10 @@
 #pragma once
 // The axis state as other threads may read it: the loop thread stores the
 // cycle's state and fault in atomics after every cycle (the ServoCycle's own
-// fields are the loop thread's alone) and then hands the cycle on to the
-// next observer (the telemetry bridge). Read by the systemd monitor for
-// STATUS= and by main at shutdown.
+// fields are the loop thread's alone), counts fault latches, and then hands
+// the cycle on to the next observer (the telemetry bridge). Read by the
+// systemd monitor for STATUS= and the journal's fault lines, and by main at
+// shutdown.
 
 #include <atomic>
 #include <cstdio>
@@ -19,13 +20,40 @@ class LoopHealth final : public CycleObserver {
   explicit LoopHealth(CycleObserver* next = nullptr) noexcept : next_(next) {}
 
   void on_cycle(const servo::ServoCycle& cycle, const LoopTiming& timing) noexcept override {
+    const servo::Fault fault = cycle.status().fault;
     state_.store(cycle.status().state, std::memory_order_relaxed);
-    fault_.store(cycle.status().fault, std::memory_order_relaxed);
+    if (fault != servo::Fault::kNone && fault != fault_.load(std::memory_order_relaxed)) {
+      fault_cycle_.store(cycle.status().fault_cycle, std::memory_order_relaxed);
+      latches_.fetch_add(1, std::memory_order_release);
+    }
+    fault_.store(fault, std::memory_order_relaxed);
     if (next_ != nullptr) next_->on_cycle(cycle, timing);
   }
 
   servo::ServoState state() const noexcept { return state_.load(std::memory_order_relaxed); }
   servo::Fault fault() const noexcept { return fault_.load(std::memory_order_relaxed); }
+
+  /// One line for the journal per fault latched since the last call, from
+  /// any non-real-time thread: "fault 203 latched in cycle 1234 (1.234 s
+  /// after the start): <reason>", with `period_s` the cycle's period;
+  /// latches between two calls that are no longer the latched fault are
+  /// counted in it ("and 2 earlier latches since the last report"). Empty
+  /// when none latched.
+  std::string take_fault_report(double period_s) {
+    const std::int64_t latches = latches_.load(std::memory_order_acquire);
+    if (latches == reported_) return "";
+    const std::int64_t missed = latches - reported_ - 1;
+    reported_ = latches;
+    const servo::Fault fault = this->fault();
+    const std::int64_t cycle = fault_cycle_.load(std::memory_order_relaxed);
+    char text[256];
+    std::snprintf(text, sizeof(text), "fault %d latched in cycle %lld (%.3f s after the start): %s%s",
+                  static_cast<int>(fault), static_cast<long long>(cycle), static_cast<double>(cycle) * period_s,
+                  servo::describe(fault),
+                  missed > 0 ? (", and " + std::to_string(missed) + " earlier latches since the last report").c_str()
+                             : "");
+    return text;
+  }
 
   /// "state enabled, fault 0 (none)": the STATUS= line. Non-real-time.
   std::string status_line() const {
@@ -40,6 +68,9 @@ class LoopHealth final : public CycleObserver {
   CycleObserver* next_;
   std::atomic<servo::ServoState> state_{servo::ServoState::kDisabled};
   std::atomic<servo::Fault> fault_{servo::Fault::kNone};
+  std::atomic<std::int64_t> fault_cycle_{-1};
+  std::atomic<std::int64_t> latches_{0};
+  std::int64_t reported_ = 0;  // take_fault_report's thread
 };
 
 }  // namespace clm::servod

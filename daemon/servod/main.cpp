@@ -288,7 +288,12 @@ int run(const std::string& config_path, double duration_s) {
     throw std::runtime_error("the loop ran no cycle within " + std::to_string(kFirstCycleTimeout_s) + " s");
   }
   servod::ServiceMonitor monitor(notifier, watchdog_period_s, [&] { return daemon.cycles_done(); },
-                                 [&] { return health.status_line(); });
+                                 [&] {
+                                   // Every fault latch goes to the journal (stderr), from this thread.
+                                   const std::string latched = health.take_fault_report(config.servo.period_s);
+                                   if (!latched.empty()) warn(latched);
+                                   return health.status_line();
+                                 });
   notifier.notify("READY=1");
   monitor.start();  // sends the first STATUS= at once
   note(std::string("running: ") + std::to_string(static_cast<int>(config.loop.rate_hz)) + " Hz on the " +

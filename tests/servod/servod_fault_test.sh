@@ -8,7 +8,8 @@
 # a drive, a push or a stalled host can cause: the axis moves at the
 # configured maximum velocity, the step fires, and the daemon's
 # CLM_SERVO_STATE log of the case (lcm-logger, clm log2csv) shows
-#   - the fault code `clm ctl status` names, with its reason;
+#   - the fault code `clm ctl status` names, with its reason, also in the
+#     daemon's log line for the latch;
 #   - zero setpoints: every magnitude zero from the fault's cycle on (one
 #     cycle later for the faults found between cycles);
 #   - quick stop: the loop closed and the reference braking within the
@@ -108,7 +109,7 @@ run_phase() {
   for item in "${cases[@]}"; do plan+="${plan:+,}${item%% *}"; done
   write_config "$work/servod-$name.yaml" "$plan" "$limit" "$soft"
   start_daemon "$work/servod-$name.yaml" "$work/servod-$name.log"
-  local pid=$servod_pid rc=0
+  local pid=$servod_pid rc=0 log_daemon="$work/servod-$name.log"
   wait_for_status "$pid" 20 || rc=$?
   [ $rc != 2 ] || fail "clm-servod exited at start-up"
   [ $rc = 0 ] || fail "clm ctl status saw no CLM_SERVO_STATUS within 20 s"
@@ -237,6 +238,11 @@ else:
 CHECK
 ) || fail "$step: $verdict"
     echo "$step: fault $code ($reason), $verdict"
+    # The latch is in the daemon's log (the journal under systemd), with its cycle and reason.
+    local line="fault $code latched in cycle $(field fault_cycle "$status") "
+    for _ in $(seq 50); do grep -qF "$line" "$log_daemon" && break; sleep 0.1; done
+    grep -qF "$line" "$log_daemon" || fail "$step: no '$line...' in the daemon's log"
+    grep -F "$line" "$log_daemon" | grep -qF ": $reason" || fail "$step: the log's fault line lacks the reason '$reason'"
     ctl clear-fault > /dev/null || fail "$step: clear-fault refused"
     wait_state "$step: cleared" fault 0
     if ! reply=$(ctl enable 2>&1); then

@@ -6,6 +6,7 @@
 #   - get lists every parameter with the configuration's values;
 #   - set changes one, get reads it back, a move beyond a new limit is
 #     refused naming it, a value outside the configuration's range is refused;
+#   - status and watch show a move's end: position, velocity, following error;
 #   - save writes the running values into the configuration file: the old
 #     file is kept byte for byte as FILE.bak, the comments stay, and a second
 #     daemon started on the saved file reports the set values;
@@ -61,6 +62,22 @@ ctl_refused move-to --target-m 0.05 --velocity-m-per-s 0.4
 [[ $reply == *"0.3"* ]] || fail "the refusal of a move at 0.4 m/s does not name the 0.3 m/s limit: $reply"
 ctl_refused set control.force_limit_N 900
 [ "$reply" = "rejected: control.force_limit_N: expected a number in [1, 819] N, got 900" ] || fail "refusal: $reply"
+
+# status and watch show the axis's motion: a move to 0.02 m, then at rest there.
+ctl move-to --target-m 0.02 --velocity-m-per-s 0.1 > /dev/null || fail "move-to 0.02 refused"
+for _ in $(seq 50); do
+  status=$(ctl status) || fail "status failed"
+  grep -q "^program_running: false" <<< "$status" && break
+  sleep 0.1
+done
+grep -q "^state: enabled" <<< "$status" || fail "status after the move: not enabled: $status"
+awk '/^position_m: / { p = $2 } /^velocity_m_per_s: / { v = $2 } /^following_error_m: / { e = $2 }
+     END { exit !(p > 0.02 - 1e-5 && p < 0.02 + 1e-5 && v > -1e-3 && v < 1e-3 && e > -1e-5 && e < 1e-5) }' <<< "$status" ||
+    fail "status after the move to 0.02 m: position, velocity or following error off: $(grep -E '^(position|velocity|following|force)' <<< "$status")"
+grep -q "^force_demand_N: " <<< "$status" || fail "status: no force_demand_N: $status"
+watched=$(ctl watch --count 2 --every-s 0.1) || fail "watch failed"
+[ "$(grep -c '^---$' <<< "$watched")" = 2 ] && [ "$(grep -c '^position_m: ' <<< "$watched")" = 2 ] ||
+    fail "watch --count 2 did not print two statuses: $watched"
 ctl disable > /dev/null || fail "disable refused"
 
 # save: the values in the file, the comments kept, the old file as .bak.

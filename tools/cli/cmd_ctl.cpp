@@ -8,7 +8,8 @@
 // TAKE_CONTROL unless the status shows this client holding it with more than
 // 1 s left; stop and disable never take control; `release` gives it up
 // (docs/servod.md "Command authority"). `status` prints --axis's status, or
-// the first one heard.
+// the first one heard, and the axis's motion from the states that follow it;
+// `watch` prints it again and again.
 //
 // Exit status (config/exit_status.hpp): 0 status received / command
 // accepted (the ack's text on stdout); 1 no answer within --timeout-s,
@@ -24,8 +25,10 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "clm_lcm/servo_command_t.hpp"
+#include "clm_lcm/servo_state_t.hpp"
 #include "clm_lcm/servo_status_t.hpp"
 #include "config/command_line.hpp"
 #include "daemon/telemetry/telemetry.hpp"
@@ -115,17 +118,70 @@ void print_status(const clm_lcm::servo_status_t& s) {
               static_cast<long long>(s.commands_refused_unauthenticated), static_cast<long long>(s.datagrams_dropped));
 }
 
-void run_status(const CtlOptions& options) {
-  servod_client::Client client(client_options(options, telemetry::kStatusChannel));
-  clm_lcm::servo_status_t status;
+/// The axis in motion, from the CLM_SERVO_STATE messages of a short window
+/// (signed, as the status): position, velocity (Δy/Δt across the window),
+/// following error, force demand; and how long ago a latched fault latched.
+/// States name no axis: with several daemons on one URL they may be another's.
+void print_motion(const clm_lcm::servo_status_t& status, const std::vector<clm_lcm::servo_state_t>& states) {
+  if (states.empty()) {
+    std::printf("position_m: unknown (no CLM_SERVO_STATE came; telemetry.state_decimation too high?)\n");
+    return;
+  }
+  const clm_lcm::servo_state_t& last = states.back();
+  const clm_lcm::servo_state_t& first = states.front();
+  std::printf("position_m: %.9f\n", last.y_m);
+  if (last.t_s > first.t_s) {
+    std::printf("velocity_m_per_s: %.6f (over %.3f s)\n", (last.y_m - first.y_m) / (last.t_s - first.t_s),
+                last.t_s - first.t_s);
+  } else {
+    std::printf("velocity_m_per_s: unknown (one state)\n");
+  }
+  std::printf("reference_m: %.9f\n", last.r_m);
+  std::printf("following_error_m: %.3e\n", last.e_m);
+  std::printf("force_demand_N: %.3f%s\n", last.F_star_N, last.force_limited ? " (at control.force_limit_N)" : "");
+  if (status.fault != 0 && status.fault_cycle >= 0 && last.cycle > 0) {
+    const double period_s = last.t_s / static_cast<double>(last.cycle);
+    std::printf("fault_latched_s_ago: %.1f\n", static_cast<double>(last.cycle - status.fault_cycle) * period_s);
+  }
+}
+
+/// One status and the motion of the states that follow it.
+void show_status(servod_client::Client& client, const CtlOptions& options) {
+  const clm_lcm::servo_status_t status = client.wait_for_status(options.timeout_s);
+  client.start_capture();
+  const std::int64_t before = client.states_received();
+  const auto start = std::chrono::steady_clock::now();
+  // 20 ms of states, at least two of them, within the timeout.
+  while (std::chrono::steady_clock::now() - start < std::chrono::duration<double>(options.timeout_s) &&
+         (client.states_received() - before < 2 || std::chrono::steady_clock::now() - start < std::chrono::milliseconds(20))) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  std::vector<clm_lcm::servo_state_t> states;
+  for (const auto& message : client.stop_capture()) {
+    clm_lcm::servo_state_t state;
+    if (message.channel == telemetry::kStateChannel && servod_client::decode(message.data, state)) states.push_back(state);
+  }
+  print_status(status);
+  print_motion(status, states);
+}
+
+void run_status(const CtlOptions& options, int count, double every_s) {
+  servod_client::Client client(
+      client_options(options, std::string("(") + telemetry::kStatusChannel + "|" + telemetry::kStateChannel + ")"));
+  if (count != 1) servod_client::install_stop_signals();
   try {
     // Only reading: the first axis heard (or --axis's), without listening for others.
     client.target(options.timeout_s, false);
-    status = client.wait_for_status(options.timeout_s);
+    for (int shown = 0; count == 0 || shown < count; ++shown) {
+      if (shown > 0) std::this_thread::sleep_for(std::chrono::duration<double>(every_s));
+      if (servod_client::stop_signal() != 0) break;
+      if (count != 1) std::printf("---\n");
+      show_status(client, options);
+      std::fflush(stdout);
+    }
   } catch (const servod_client::SeveralAxes& e) {
     several_axes(e);
   }
-  print_status(status);
 }
 
 }  // namespace
@@ -149,9 +205,21 @@ void add_ctl(CLI::App& app) {
                   "the operators' key shared with the daemon (its commands.key_file); default: $CLM_SERVO_KEY_FILE, "
                   "else /etc/clm-servo/command.key");
 
-  ctl->add_subcommand("status", "wait for one CLM_SERVO_STATUS and print it")->callback([options] {
-    run_status(*options);
-  });
+  ctl->add_subcommand("status", "print the daemon's status and the axis's motion (position, velocity, following "
+                                "error, force demand) from its signed telemetry")
+      ->callback([options] { run_status(*options, 1, 0.0); });
+  struct WatchOptions {
+    int count = 0;
+    double every_s = 0.5;
+  };
+  auto watch = std::make_shared<WatchOptions>();
+  auto* watch_sub = ctl->add_subcommand("watch", "print the status again and again, each after a line '---', until "
+                                                 "SIGINT or --count");
+  watch_sub->add_option("--count", watch->count, "how many times (0: until interrupted)")
+      ->check(clm::at_least(0))->capture_default_str();
+  watch_sub->add_option("--every-s", watch->every_s, "time between two [s]")
+      ->check(clm::in_range(0.1, 3600.0))->capture_default_str();
+  watch_sub->callback([options, watch] { run_status(*options, watch->count, watch->every_s); });
 
   const auto simple = [&](const char* name, Kind kind, const char* help) {
     ctl->add_subcommand(name, help)->callback([options, kind] { send_command(*options, make_command(kind)); });
