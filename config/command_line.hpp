@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "config/exit_status.hpp"
+#include "config/nearest_name.hpp"
 
 namespace clm {
 
@@ -29,14 +30,6 @@ int run_command_line(CLI::App& app, int argc, const char* const* argv, const std
 /// else CLI11's own text.
 std::string describe_parse_error(const CLI::App& app, const CLI::ParseError& error);
 
-/// Optimal string alignment distance: insertions, deletions, substitutions
-/// and transpositions of adjacent characters, each 1.
-std::size_t edit_distance(std::string_view a, std::string_view b);
-
-/// The entry of `candidates` nearest to `typed` (edit_distance), the first
-/// one on a tie; empty when even the nearest differs in more than a third of
-/// `typed`'s characters (at least 1 edit is always allowed).
-std::string nearest_name(std::string_view typed, const std::vector<std::string>& candidates);
 
 /// Option checks with readable messages (CLI11 prefixes the option's name):
 /// "-1 is not > 0", "200 is not in [1, 127]", "'abc' is not a number".

@@ -1,5 +1,6 @@
 #include "config/yaml_reader.hpp"
 
+#include "config/nearest_name.hpp"
 #include "config/regular_file.hpp"
 
 #include <cerrno>
@@ -82,6 +83,7 @@ std::size_t Node::size() const {
 
 void Node::expect_keys(std::initializer_list<std::string_view> allowed) const {
   expect_map();
+  std::vector<std::pair<std::string, int>> seen;  // key, line: a key given twice would be read once, silently
   for (const auto& entry : node_) {
     // An empty key ("? : 1") or a list or map as a key ("? [a, b]: 1") has no
     // text: refuse it here, with file and line, rather than let yaml-cpp's
@@ -95,8 +97,15 @@ void Node::expect_keys(std::initializer_list<std::string_view> allowed) const {
     for (auto name : allowed) known = known || name == key;
     if (!known) {
       const std::string child_path = path_.empty() ? key : path_ + "." + key;
-      Node(file_, entry.first, child_path).fail("unknown key '" + key + "'");
+      const std::string nearest = nearest_name(key, std::vector<std::string>(allowed.begin(), allowed.end()));
+      Node(file_, entry.first, child_path)
+          .fail("unknown key '" + key + "'" + (nearest.empty() ? "" : "; did you mean '" + nearest + "'?"));
     }
+    const Node key_node(file_, entry.first, path_.empty() ? key : path_ + "." + key);
+    for (const auto& [earlier, line] : seen) {
+      if (earlier == key) key_node.fail("given twice (first on line " + std::to_string(line) + ")");
+    }
+    seen.emplace_back(key, key_node.line());
   }
 }
 

@@ -221,7 +221,7 @@ TEST_CASE("calibrate, identify and commutate refuse unknown and missing keys of 
   std::vector<Variant> variants;
   {
     const std::string text = insert_after_line(original, "  coil_sets: 3", "  coil_set: 3\n");
-    variants.push_back({text, std::to_string(line_of(text, "  coil_set: 3\n")) + ": motor.coil_set: unknown key 'coil_set'"});
+    variants.push_back({text, std::to_string(line_of(text, "  coil_set: 3\n")) + ": motor.coil_set: unknown key 'coil_set'; did you mean 'coil_sets'?"});
   }
   {
     const std::string text = erase_line(original, "  coil_sets: 3");
@@ -230,7 +230,8 @@ TEST_CASE("calibrate, identify and commutate refuse unknown and missing keys of 
   {
     const std::string text = insert_after_line(original, "    phase_offset_rad:", "    phase_offset_deg: -30\n");
     variants.push_back({text, std::to_string(line_of(text, "    phase_offset_deg")) +
-                                  ": drive.commutation.phase_offset_deg: unknown key 'phase_offset_deg'"});
+                                  ": drive.commutation.phase_offset_deg: unknown key 'phase_offset_deg'; did you mean "
+                                 "'phase_offset_rad'?"});
   }
   {
     const std::string text = erase_line(original, "    motor_constant_N_per_A: 67.0");

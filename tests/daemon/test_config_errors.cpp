@@ -106,6 +106,18 @@ TEST_CASE("configuration errors are refused naming file, line and key path", "[d
     lines.push_back("logging: {level: debug}");
     CHECK(load_error(dir, lines) == file + ":17: logging: unknown key 'logging'");
   }
+  SECTION("a misspelt key gets the nearest known key") {
+    lines.push_back("telemetri: {enabled: false}");
+    CHECK(load_error(dir, lines) == file + ":17: telemetri: unknown key 'telemetri'; did you mean 'telemetry'?");
+    lines.pop_back();
+    lines[13] = "  overun_limit: 5";
+    CHECK(load_error(dir, lines) == file + ":14: faults.overun_limit: unknown key 'overun_limit'; did you mean "
+                                           "'overrun_limit'?");
+  }
+  SECTION("a key given twice") {
+    lines.push_back("faults: {overrun_limit: 1000}");
+    CHECK(load_error(dir, lines) == file + ":17: faults: given twice (first on line 13)");
+  }
   SECTION("wrong type") {
     lines[2] = "  rate_hz: fast";
     CHECK(load_error(dir, lines) == file + ":3: loop.rate_hz: expected a number, got 'fast'");

@@ -46,6 +46,10 @@ start() {  # start LOG
 }
 start "$work/servod.log"
 
+# Without --lcm-url, clm ctl takes the URL from $CLM_SERVO_LCM_URL.
+CLM_SERVO_LCM_URL="$url" "$clm" ctl --timeout-s 5 status > /dev/null ||
+    fail "clm ctl status with CLM_SERVO_LCM_URL and no --lcm-url did not find the daemon"
+
 # get: every parameter, the configuration's values.
 listing=$(ctl get) || fail "get refused"
 [ "$(wc -l <<< "$listing")" = 15 ] || fail "get listed $(wc -l <<< "$listing") parameters, expected 15: $listing"

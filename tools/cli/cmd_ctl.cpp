@@ -191,8 +191,10 @@ void add_ctl(CLI::App& app) {
   ctl->require_subcommand(1);
   ctl->fallthrough();  // --lcm-url and --timeout-s also after the subcommand
   auto options = std::make_shared<CtlOptions>();
-  options->lcm_url = telemetry::kDefaultLcmUrl;
-  ctl->add_option("--lcm-url", options->lcm_url, "LCM URL of the daemon (its telemetry.lcm_url)")->capture_default_str();
+  options->lcm_url = servod_client::default_lcm_url();
+  ctl->add_option("--lcm-url", options->lcm_url,
+                  "LCM URL of the daemon (its telemetry.lcm_url); default: $CLM_SERVO_LCM_URL, else the shipped one")
+      ->capture_default_str();
   ctl->add_option("--timeout-s", options->timeout_s, "how long to wait for the status or the ack [s]")
       ->check(clm::positive_number())
       ->capture_default_str();

@@ -15,6 +15,7 @@
 #include "daemon/control/position_controller.hpp"
 #include "daemon/servo/servo_cycle.hpp"
 #include "daemon/servod/program_file.hpp"
+#include "tools/servod_client/client.hpp"
 
 namespace clm::sim {
 class SimulatedMotor;
@@ -26,7 +27,7 @@ struct Recording;  // runs.hpp
 
 /// How to reach a running clm-servod (LcmRunner).
 struct LiveOptions {
-  std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string lcm_url = servod_client::default_lcm_url();
   /// The operators' key shared with the daemon; empty: clm::default_command_key_path().
   std::string key_file;
   /// How long each command waits for its CLM_SERVO_COMMAND_ACK [s].

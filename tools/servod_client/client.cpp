@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 #include "clm_lcm/servo_command_ack_t.hpp"
 #include "config/command_key.hpp"
@@ -16,6 +17,12 @@
 #include "tools/servod_client/stop_signals.hpp"
 
 namespace clm::servod_client {
+
+std::string default_lcm_url() {
+  const char* url = std::getenv("CLM_SERVO_LCM_URL");
+  return url != nullptr && *url != '\0' ? std::string(url) : std::string(telemetry::kDefaultLcmUrl);
+}
+
 namespace {
 
 using clm_lcm::servo_state_t;

@@ -155,8 +155,12 @@ class Interrupted : public Error {
   using Error::Error;
 };
 
+/// The LCM URL a client uses unless told otherwise (--lcm-url):
+/// $CLM_SERVO_LCM_URL when set and not empty, else telemetry::kDefaultLcmUrl.
+std::string default_lcm_url();
+
 struct Options {
-  std::string lcm_url = telemetry::kDefaultLcmUrl;
+  std::string lcm_url = default_lcm_url();
   /// The channels to receive, an LCM regular expression: ".*" also receives
   /// events and the commands themselves (multicast loops them back).
   std::string channels = ".*";
