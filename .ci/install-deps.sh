@@ -18,7 +18,7 @@ packages=(
 case "${1:-all}" in
   main) ;;
   all) packages+=(
-  git dpkg-dev
+  git dpkg-dev help2man man-db
   liblcm-java default-jdk-headless
   catch2 libbenchmark-dev
   can-utils systemd rt-tests

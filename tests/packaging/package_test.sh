@@ -7,9 +7,15 @@
 #      embedded simulated motor; telemetry off) and exits 0;
 #   3. the staged clm commissions on it with a short program and finds its
 #      plotter in share/clm-servo beside bin/ (the PNGs are written);
-#   4. cpack makes the .deb, and dpkg-deb lists the same files and a
-#      Depends line from dpkg-shlibdeps.
-# About 40 s.
+#   4. cpack makes the .deb, and dpkg-deb lists the same files, a Depends
+#      line from dpkg-shlibdeps, and every file under /etc as a conffile;
+#   5. as root, the package's life in a root of its own (dpkg --root, the
+#      maintainer scripts run with DPKG_ROOT): install; an edit of
+#      /etc/clm-servo/servod.yaml survives an upgrade to a rebuilt package
+#      with a higher version and a remove, and a purge removes it and the
+#      key; /var/lib/clm-servo belongs to clm-operators; `man clm-servod`
+#      shows the installed page.
+# About 60 s.
 #
 #   package_test.sh BUILD_DIR WORK_DIR
 set -euo pipefail
@@ -24,13 +30,15 @@ DESTDIR="$stage" cmake --install "$build" --prefix /usr > "$work/install.log" 2>
     fail "cmake --install: $(tail -1 "$work/install.log")"
 expected=(
   usr/bin/clm usr/bin/clm-servod
-  usr/lib/systemd/system/clm-servod.service
+  usr/lib/systemd/system/clm-servod.service usr/lib/systemd/system/clm-vcan0.service
+  usr/share/man/man1/clm.1 usr/share/man/man1/clm-servod.1
+  usr/bin/clm-spy usr/share/clm-servo/clm_lcmtypes.jar
   etc/clm-servo/servod.yaml etc/clm-servo/motor-sim.yaml etc/clm-servo/programs/fig8.yaml
   etc/clm-servo/programs/validation.yaml
   usr/share/clm-servo/plot_report.py
   usr/share/clm-servo/templates/servod-real.yaml usr/share/clm-servo/templates/motor-real.yaml
-  usr/share/doc/clm-servo/servod.md usr/share/doc/clm-servo/bring-up.md usr/share/doc/clm-servo/README.md
-  usr/share/doc/clm-servo/clm-servo.dbc
+  usr/share/doc/clm-servo/docs/servod.md usr/share/doc/clm-servo/docs/bring-up.md usr/share/doc/clm-servo/README.md
+  usr/share/doc/clm-servo/docs/images/tracking-error.png usr/share/doc/clm-servo/clm-servo.dbc
 )
 for file in "${expected[@]}"; do [ -f "$stage/$file" ] || fail "not installed: /$file"; done
 for file in usr/bin/clm usr/bin/clm-servod usr/share/clm-servo/plot_report.py; do
@@ -52,6 +60,7 @@ echo "staged: ${#expected[@]} files where docs/packaging.md says; ExecStart $exe
 # ---- 2. the daemon on the staged default configuration ------------------------------
 etc="$stage/etc/clm-servo"
 sed -e 's/^  enabled: true/  enabled: false/' -e 's/^  priority: 80/  priority: 0/' -e 's/^  lock_memory: true/  lock_memory: false/' \
+    -e "s|^  file_directories: .*|  file_directories: [$etc, $stage/var/lib/clm-servo]|" \
     "$etc/servod.yaml" > "$etc/servod-test.yaml"
 grep -q "^  enabled: false" "$etc/servod-test.yaml" || fail "could not switch telemetry off in the copy"
 "$stage/usr/bin/clm-servod" --config "$etc/servod-test.yaml" --duration-s 1 > "$work/servod.out" 2> "$work/servod.err" ||
@@ -80,4 +89,66 @@ depends=$(dpkg-deb -f "$deb" Depends)
 for library in liblcm libyaml-cpp libstdc++6 python3-matplotlib; do
   [[ "$depends" == *"$library"* ]] || fail "Depends lacks $library: $depends"
 done
-echo "package: $(basename "$deb"), $(wc -l < "$work/contents.txt") entries; Depends: $depends"
+[ -d "$stage/var/lib/clm-servo" ] || fail "/var/lib/clm-servo is not installed"
+# The README's images where its links point.
+grep -o '](docs/images/[^)]*)' "$stage/usr/share/doc/clm-servo/README.md" | sed 's/^](//; s/)$//' | while read -r image; do
+  [ -f "$stage/usr/share/doc/clm-servo/$image" ] || fail "the installed README's image $image is missing"
+done
+# The packaged configuration allows the state directory, and loads.
+grep -q "^  file_directories: \[/etc/clm-servo, /var/lib/clm-servo\]" "$etc/servod.yaml" ||
+    fail "the packaged servod.yaml does not allow /var/lib/clm-servo: $(grep -A3 '^commands:' "$etc/servod.yaml")"
+# The types jar holds the messages lcm-spy must decode.
+for type in servo_state_t servo_status_t servo_event_t servo_command_t servo_command_ack_t; do
+  /usr/bin/python3 -c "import sys, zipfile; sys.exit(0 if 'clm_lcm/$type.class' in zipfile.ZipFile(sys.argv[1]).namelist() else 1)" \
+          "$stage/usr/share/clm-servo/clm_lcmtypes.jar" || fail "clm_lcmtypes.jar has no clm_lcm/$type.class"
+done
+dpkg-deb -e "$deb" "$work/control"
+for file in servod.yaml motor-sim.yaml programs/fig8.yaml programs/validation.yaml; do
+  grep -qx "/etc/clm-servo/$file" "$work/control/conffiles" || fail "/etc/clm-servo/$file is not a conffile"
+done
+echo "package: $(basename "$deb"), $(wc -l < "$work/contents.txt") entries, $(wc -l < "$work/control/conffiles") conffiles; Depends: $depends"
+
+# ---- 5. install, upgrade, remove, purge --------------------------------------------------
+if [ "$(id -u)" != 0 ]; then
+  echo "lifecycle: not checked (dpkg --root needs root to give files their owners)"
+  exit 0
+fi
+root="$work/root"
+mkdir -p "$root/var/lib/dpkg/info" "$root/var/lib/dpkg/updates" "$root/etc"
+touch "$root/var/lib/dpkg/status"
+cp /etc/group /etc/passwd "$root/etc/"
+[ -f /etc/gshadow ] && cp /etc/gshadow "$root/etc/"
+sed -i '/^clm-operators:/d' "$root/etc/group" "$root/etc/gshadow" 2>/dev/null || true
+dpkg_root() {  # dpkg in the scratch root: its scripts run outside a chroot with DPKG_ROOT set
+  dpkg --root="$root" --log=/dev/null --force-script-chrootless --force-depends "$@" < /dev/null > "$work/dpkg.log" 2>&1 ||
+      fail "dpkg $*: $(grep -v 'depends on\|is not installed\|dependency problems\|Package lib\|Package python' "$work/dpkg.log" | tail -3)"
+}
+dpkg_root -i "$deb"
+config_file="$root/etc/clm-servo/servod.yaml"
+[ -f "$config_file" ] && [ -f "$root/etc/clm-servo/command.key" ] || fail "install: no configuration or no key"
+grep -q "^clm-operators:" "$root/etc/group" || fail "install: no group clm-operators"
+[ "$(stat -c '%G %a' "$root/var/lib/clm-servo")" = "clm-operators 2775" ] ||
+    fail "/var/lib/clm-servo is $(stat -c '%G %a' "$root/var/lib/clm-servo"), expected clm-operators 2775"
+sed -i 's/^  rate_hz: 1000\(.*\)/  rate_hz: 500\1  # edited/' "$config_file"
+grep -q "rate_hz: 500 .*# edited" "$config_file" || fail "could not edit the installed servod.yaml"
+cp "$config_file" "$work/edited.yaml"
+cp "$root/etc/clm-servo/command.key" "$work/key"
+# The same package rebuilt with a higher version.
+dpkg-deb -R "$deb" "$work/rebuilt"
+version=$(dpkg-deb -f "$deb" Version)
+sed -i "s/^Version: .*/Version: ${version}+1/" "$work/rebuilt/DEBIAN/control"
+dpkg-deb -b "$work/rebuilt" "$work/clm-servo-upgrade.deb" > /dev/null
+dpkg_root -i "$work/clm-servo-upgrade.deb"
+[ "$(dpkg-query --admindir="$root/var/lib/dpkg" -W -f '${Version}' clm-servo)" = "${version}+1" ] || fail "upgrade: not installed"
+cmp -s "$config_file" "$work/edited.yaml" || fail "upgrade: the edited servod.yaml was not kept"
+cmp -s "$root/etc/clm-servo/command.key" "$work/key" || fail "upgrade: the operators' key changed"
+MANPATH="$root/usr/share/man" man -P cat clm-servod 2> "$work/man.err" | grep -q "clm-servod" ||
+    fail "man clm-servod: $(head -1 "$work/man.err")"
+dpkg_root -r clm-servo
+[ ! -e "$root/usr/bin/clm-servod" ] || fail "remove: /usr/bin/clm-servod is still there"
+cmp -s "$config_file" "$work/edited.yaml" || fail "remove: the edited servod.yaml was not kept"
+dpkg_root -P clm-servo
+[ ! -e "$config_file" ] || fail "purge: /etc/clm-servo/servod.yaml is still there"
+[ ! -e "$root/etc/clm-servo/command.key" ] || fail "purge: the operators' key is still there"
+echo "lifecycle: installed ${version}, an edit of servod.yaml kept by the upgrade to ${version}+1 and by remove," \
+     "removed by purge with the key; /var/lib/clm-servo clm-operators 2775; man clm-servod"

@@ -130,9 +130,9 @@ check_sandbox() {
   fifo_threads=$(for stat in /proc/"$pid"/task/*/stat; do
                    sed 's/^.*) //' "$stat" | awk -v p="$priority" '$39 == 1 && $38 == p { print "x" }'
                  done | wc -l)
-  state_uid=$(stat -L -c %u /var/lib/clm-servo 2>/dev/null || echo none)
+  state_uid=$(stat -L -c %u /var/lib/clm-servod 2>/dev/null || echo none)
   seen="uid $uid (unit's UID $(prop UID)), VmLck $vmlck kB, $fifo_threads thread(s) SCHED_FIFO $priority,"
-  seen="$seen /var/lib/clm-servo -> $(readlink /var/lib/clm-servo) owned by $state_uid"
+  seen="$seen /var/lib/clm-servod -> $(readlink /var/lib/clm-servod) owned by $state_uid"
   why=$seen
   [ "$uid" -ne 0 ] && [ "$uid" = "$(prop UID)" ] || { why="not the unit's dynamic user: $seen"; return 1; }
   [ "${vmlck:-0}" -gt 0 ] || { why="no memory locked: $seen"; return 1; }
