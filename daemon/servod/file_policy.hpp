@@ -22,4 +22,10 @@ struct FilePolicy {
 /// realpath), never reads the file.
 std::string check_loadable(const FilePolicy& policy, const std::string& path, std::string& canonical);
 
+/// Whether files that will be written into `directory` (which need not exist
+/// yet) will load under `policy`: "" or the one-line refusal naming the
+/// directory, the allowed ones and the fix. For tools that write what the
+/// daemon is to load (`clm commission --live --out`).
+std::string check_output_directory(const FilePolicy& policy, const std::string& directory);
+
 }  // namespace clm::servod

@@ -31,8 +31,10 @@ inline constexpr std::int16_t kRecordingResumedEvent = 308;
 inline constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
 
 using servo::FixedText;
-/// One-line reasons and event texts: up to 127 characters.
-using ReasonText = FixedText<128>;
+/// One-line reasons, acks and event texts: up to 511 characters, room for
+/// the longest refusal (a 255-character path and the rule it broke), so that
+/// no answer is cut.
+using ReasonText = FixedText<512>;
 /// File paths in commands and status: up to 255 characters.
 using PathText = servo::PathText;
 

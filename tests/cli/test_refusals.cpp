@@ -386,3 +386,22 @@ TEST_CASE("commission refuses a configuration without a force sensor before it w
   CHECK(lines[0].find("can.force_sensor_node_id: absent") != std::string::npos);
   CHECK_FALSE(fs::exists(out));
 }
+
+TEST_CASE("commission --live refuses an --out the daemon may not load from before it contacts the daemon", "[cli]") {
+  TemporaryDirectory dir;  // outside config/servod.yaml's file directories (its own)
+  const std::string out = dir.file("commissioning");
+  // A port no daemon listens on: were the directory checked only when the
+  // daemon is asked to load, the run would end with "no CLM_SERVO_STATUS" instead.
+  const ProcessResult result = run_clm({"commission", "--live", "--config", source_path("config/servod.yaml"), "--out",
+                                        out, "--lcm-url", "udpm://239.255.76.67:7699?ttl=0", "--no-plots"});
+  INFO("stderr: " << result.err);
+  CHECK(result.exit_code == 2);
+  const auto lines = result.err_lines();
+  REQUIRE(lines.size() == 1);
+  CHECK(lines[0].find("clm commission: error: --out '" + out + "'") == 0);
+  CHECK(lines[0].find("is outside the directories the daemon may load from (" +
+                      std::filesystem::canonical(source_path("config")).string() + ", its commands.file_directories)") !=
+        std::string::npos);
+  CHECK(lines[0].find("choose --out inside one of them") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(out));
+}

@@ -17,6 +17,7 @@
 #include "config/atomic_file.hpp"
 #include "config/sha256.hpp"
 #include "daemon/servod/feedforward_file.hpp"
+#include "daemon/servod/file_policy.hpp"
 #include "drivers/sim/motor.hpp"
 #include "tools/commission/live_runner.hpp"
 #include "tools/data/csv_table.hpp"
@@ -415,6 +416,11 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
                              "positions alone with --no-force-sensor");
   }
   if (options.live) {
+    // The daemon loads what is written to --out: refused now, not after the
+    // experiments and the identification.
+    const std::string out_refusal =
+        servod::check_output_directory({config.commands.file_directories, config.commands.max_file_bytes}, options.out_dir);
+    if (!out_refusal.empty()) throw std::runtime_error("--out " + out_refusal);
     LiveOptions live = options.live_options;
     LcmRunner runner(config, live);
     Report report = run(options, runner, progress);
