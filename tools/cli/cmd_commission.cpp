@@ -94,6 +94,10 @@ void add_commission(CLI::App& app) {
   auto* sub = app.add_subcommand("commission",
                                  "calibrate, identify and evaluate all commutations on the embedded simulated motor, "
                                  "or with --live on a running clm-servod over LCM");
+  sub->footer("With --live on a host whose CPU is not reserved for the loop, late wake-ups trip a short drive "
+              "watchdog (fault 206) and faults.overrun_limit (fault 205): keep the drive's watchdog several times "
+              "above the wake-up latency clm ctl status shows (the simulated drive: drive.watchdog_timeout_s 0.1) and "
+              "raise faults.overrun_limit (e.g. 1000); docs/bring-up.md, section 6.");
   struct Options {
     commission::Options run;
     bool plots = true;
