@@ -151,9 +151,10 @@ void show_status(servod_client::Client& client, const CtlOptions& options) {
   client.start_capture();
   const std::int64_t before = client.states_received();
   const auto start = std::chrono::steady_clock::now();
+  const auto waited = [&] { return std::chrono::steady_clock::now() - start; };
   // 20 ms of states, at least two of them, within the timeout.
-  while (std::chrono::steady_clock::now() - start < std::chrono::duration<double>(options.timeout_s) &&
-         (client.states_received() - before < 2 || std::chrono::steady_clock::now() - start < std::chrono::milliseconds(20))) {
+  while (waited() < std::chrono::duration<double>(options.timeout_s) &&
+         (client.states_received() - before < 2 || waited() < std::chrono::milliseconds(20))) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   std::vector<clm_lcm::servo_state_t> states;
