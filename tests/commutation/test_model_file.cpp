@@ -159,9 +159,16 @@ TEST_CASE("corrupted model files are refused with file, line and key", "[model_f
   // Where the rows came from: three known names.
   const std::string generator = "  generator: \"test\"\n";
   REQUIRE(text.find(generator) != std::string::npos);
+  // The file's own rows_from out first: a key given twice is refused.
+  const std::regex rows_from_line("  rows_from: \\[[^\\]]*\\]\n");
+  REQUIRE(std::regex_search(text, rows_from_line));
+  const std::string without_rows_from = std::regex_replace(text, rows_from_line, "");
   const auto rows_from = [&](const std::string& list) {
-    return error_of(replace_first(generator, generator + "  rows_from: " + list + "\n"));
+    return error_of(replace_first_in(without_rows_from, generator, generator + "  rows_from: " + list + "\n"));
   };
+  error = error_of(replace_first(generator, generator + "  rows_from: [position, drive_constants, force_sensor]\n"));
+  CHECK(std::regex_search(error, located));
+  CHECK(error.find("provenance.rows_from: given twice (first on line") != std::string::npos);
   CHECK(rows_from("[position, drive_constants, force_sensor]").empty());
   error = rows_from("[position, drive_constants]");
   CHECK(std::regex_search(error, located));
