@@ -631,8 +631,19 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
       return;
     }
     if (std::string(name) == "pgnn-paper" && paper_is_chosen) return;  // the same model as "pgnn": copied below
-    if (!model.empty()) on.load_model(mode, model);
-    if (!calibration.empty()) on.load_calibration(calibration);
+    try {
+      if (!model.empty()) on.load_model(mode, model);
+      if (!calibration.empty()) on.load_calibration(calibration);
+    } catch (const LawRefused& refused) {
+      // Not run, and said so: the daemon judged the law unfit to drive the
+      // axis. The law recommended for service must run, or nothing is recommended.
+      if (name == report.recommended) {
+        throw std::runtime_error("the recommended law " + std::string(name) + " was refused: " + refused.what());
+      }
+      outcome.result = CommutationResult{name, false, refused.what()};
+      if (validation_program) outcome.validation = CommutationResult{name, false, refused.what()};
+      return;
+    }
     on.set_commutation(mode);
     on.load_feedforward(no_feedforward.parameters, no_feedforward_path);
     const auto open_law_log = [&](const std::string& log) {

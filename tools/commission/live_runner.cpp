@@ -179,7 +179,11 @@ void LcmRunner::set_commutation(servo::CommutationMode mode) {
 void LcmRunner::load_calibration(const std::string& path) {
   Command message = make_command(Kind::kLoadCalibration);
   servod_client::assign_text(message.path, path, "calibration file");
-  command("LOAD_CALIBRATION " + path, message);
+  try {
+    command("LOAD_CALIBRATION " + path, message);
+  } catch (const servod_client::Refused& refused) {
+    throw LawRefused(refused.what());
+  }
   // Swapped in at the next standstill: the axis stands still, so within a cycle.
   wait_cycles(20, "LOAD_CALIBRATION " + path);
 }
@@ -188,7 +192,11 @@ void LcmRunner::load_model(servo::CommutationMode, const std::string& path) {
   // The daemon takes the law from the file's own kind:.
   Command message = make_command(Kind::kLoadModel);
   servod_client::assign_text(message.path, path, "model file");
-  command("LOAD_MODEL " + path, message);
+  try {
+    command("LOAD_MODEL " + path, message);
+  } catch (const servod_client::Refused& refused) {
+    throw LawRefused(refused.what());
+  }
   wait_cycles(20, "LOAD_MODEL " + path);
 }
 

@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,14 @@ struct LiveSummary {
   std::int64_t daemon_telemetry_dropped = 0;  ///< servo_status_t.telemetry_dropped growth during commissioning
 };
 
+/// The daemon refused a law's file (its gains or cost out of bounds, docs/
+/// servod.md "What a law may cost and mean"): that law is reported as not
+/// evaluated, with the daemon's reason, and commissioning goes on.
+class LawRefused : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 class ExperimentRunner {
  public:
   virtual ~ExperimentRunner() = default;
@@ -62,6 +71,7 @@ class ExperimentRunner {
   /// Loads a calibration file (absolute path) into the classical law; returns once it is in use.
   virtual void load_calibration(const std::string& path) = 0;
   /// Loads a model file (absolute path) into the pgnn or spline law; returns once it is in use.
+  /// Both throw LawRefused when the daemon refuses the file.
   virtual void load_model(servo::CommutationMode mode, const std::string& path) = 0;
   /// Sets the feedforward of eq. (40): `parameters`, which the file at `path`
   /// (absolute, format clm-servo-feedforward) holds.

@@ -36,8 +36,23 @@ void Recorder::on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming
 
 namespace {
 
+/// A command the in-process daemon refused.
+class CommandRefused : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 void check_reply(const servod::CommandReply& reply) {
-  if (!reply.accepted()) throw std::runtime_error("daemon refused a command: " + reply.text());
+  if (!reply.accepted()) throw CommandRefused("daemon refused a command: " + reply.text());
+}
+
+/// execute(), a refusal thrown as LawRefused.
+void load_law_file(servod::ServoDaemon& daemon, const servo::Command& command) {
+  try {
+    execute(daemon, command);
+  } catch (const CommandRefused& refused) {
+    throw LawRefused(refused.what());
+  }
 }
 
 void run_reply_cycle(servod::ServoDaemon& daemon) {
@@ -153,14 +168,14 @@ void InProcessRunner::set_commutation(servo::CommutationMode mode) {
 void InProcessRunner::load_calibration(const std::string& path) {
   auto command = make(servo::CommandKind::kLoadCalibration);
   command.path = path_text(path);
-  execute(*daemon_, command);
+  load_law_file(*daemon_, command);
 }
 
 void InProcessRunner::load_model(servo::CommutationMode mode, const std::string& path) {
   auto command = make(servo::CommandKind::kLoadModel);
   command.commutation = mode;
   command.path = path_text(path);
-  execute(*daemon_, command);
+  load_law_file(*daemon_, command);
 }
 
 void InProcessRunner::load_feedforward(const control::FeedforwardParameters& parameters, const std::string&) {
