@@ -1,5 +1,6 @@
 #include "tools/commission/live_runner.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -144,14 +145,20 @@ void LcmRunner::enable() {
                              "th cycle's CLM_SERVO_STATE; commissioning records every cycle: set "
                              "telemetry.state_decimation: 1 in the daemon's configuration");
   }
+  // The period: the median step of t_s between consecutive cycles, so that a
+  // late wake-up of a loaded host (one step of several periods) is not taken
+  // for another rate.
+  std::vector<double> steps_s;
   for (std::size_t k = 1; k < cycles.size(); ++k) {
-    if (cycles[k] - cycles[k - 1] != 1) continue;
-    const double period_s = times_s[k] - times_s[k - 1];
+    if (cycles[k] - cycles[k - 1] == 1) steps_s.push_back(times_s[k] - times_s[k - 1]);
+  }
+  if (!steps_s.empty()) {
+    std::nth_element(steps_s.begin(), steps_s.begin() + static_cast<std::ptrdiff_t>(steps_s.size() / 2), steps_s.end());
+    const double period_s = steps_s[steps_s.size() / 2];
     if (std::abs(period_s - config_.servo.period_s) > 1e-3 * config_.servo.period_s) {
       throw std::runtime_error("clm-servod runs at a period of " + seconds(period_s) + ", " + config_.origin +
                                " says " + seconds(config_.servo.period_s) + ": give --config the daemon's configuration");
     }
-    break;
   }
 }
 
