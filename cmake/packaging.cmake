@@ -76,7 +76,9 @@ if(TARGET clm_lcmtypes_jar)
 endif()
 install(FILES ${PROJECT_SOURCE_DIR}/config/servod-real.yaml ${PROJECT_SOURCE_DIR}/config/motor-real.yaml
         DESTINATION ${CMAKE_INSTALL_DATADIR}/clm-servo/templates)
-install(PROGRAMS ${PROJECT_SOURCE_DIR}/tools/commission/plot_report.py DESTINATION ${CMAKE_INSTALL_DATADIR}/clm-servo)
+# The plotters clm runs (tools/cli/share_script.hpp).
+set(CLM_SHARE_SCRIPTS ${PROJECT_SOURCE_DIR}/tools/commission/plot_report.py ${PROJECT_SOURCE_DIR}/tools/scope/plot_capture.py)
+install(PROGRAMS ${CLM_SHARE_SCRIPTS} DESTINATION ${CMAKE_INSTALL_DATADIR}/clm-servo)
 # The documentation as the source tree lays it out (README.md beside docs/,
 # its images in docs/images), so that the links between them hold.
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs DESTINATION ${CMAKE_INSTALL_DATADIR}/doc/clm-servo
@@ -86,9 +88,11 @@ install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/drivers/can/
         DESTINATION ${CMAKE_INSTALL_DATADIR}/doc/clm-servo)
 
 # The build tree mirrors share/clm-servo beside bin/, so that clm finds the
-# plotter the same way in both (relative to its own executable).
-configure_file(${PROJECT_SOURCE_DIR}/tools/commission/plot_report.py
-               ${CMAKE_BINARY_DIR}/${CMAKE_INSTALL_DATADIR}/clm-servo/plot_report.py COPYONLY)
+# plotters the same way in both (relative to its own executable).
+foreach(script ${CLM_SHARE_SCRIPTS})
+  get_filename_component(script_name ${script} NAME)
+  configure_file(${script} ${CMAKE_BINARY_DIR}/${CMAKE_INSTALL_DATADIR}/clm-servo/${script_name} COPYONLY)
+endforeach()
 
 set(CPACK_PACKAGE_NAME clm-servo)
 set(CPACK_PACKAGE_VENDOR "clm-servo")

@@ -1,11 +1,6 @@
 // clm commission: calibrate, identify and evaluate every commutation on the
 // embedded simulated motor (or, with --live, on a running clm-servod over
 // LCM), and write the report.
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -20,6 +15,7 @@
 #include "tools/servod_client/stop_signals.hpp"
 
 #include "tools/cli/commands.hpp"
+#include "tools/cli/share_script.hpp"
 #include "tools/commission/commission.hpp"
 
 namespace clm::cli {
@@ -28,34 +24,6 @@ namespace {
 
 // Where the package installs the default configuration (docs/packaging.md).
 constexpr const char* kDefaultConfig = "/etc/clm-servo/servod.yaml";
-
-// The report plotter: share/clm-servo/plot_report.py beside this
-// executable's bin/ (the build tree mirrors the installed layout).
-std::filesystem::path plot_script() {
-  std::error_code error;
-  const auto exe = std::filesystem::read_symlink("/proc/self/exe", error);
-  if (error) return {};
-  return exe.parent_path().parent_path() / "share" / "clm-servo" / "plot_report.py";
-}
-
-// Plots by Debian's python3-matplotlib; the report says when they are
-// missing. Run without a shell: the output directory is passed as it is.
-bool make_plots(const std::string& out_dir) {
-  const std::filesystem::path script = plot_script();
-  if (script.empty() || !std::filesystem::is_regular_file(script)) return false;
-  // Debian's interpreter, which has python3-matplotlib; another python3 may come first on PATH.
-  const std::string python = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-  const std::string script_text = script.string();
-  char* argv[] = {const_cast<char*>(python.c_str()), const_cast<char*>(script_text.c_str()),
-                  const_cast<char*>(out_dir.c_str()), nullptr};
-  pid_t pid = 0;
-  if (posix_spawnp(&pid, python.c_str(), nullptr, nullptr, argv, environ) != 0) return false;
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) return false;
-  }
-  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
-}
 
 std::string cell(double value) {
   char buffer[32];
@@ -191,7 +159,7 @@ void add_commission(CLI::App& app) {
       const auto plot_start = std::chrono::steady_clock::now();
       // The directory is incomplete again until every plot is drawn.
       commission::IncompleteMarker incomplete(options->run.out_dir, "drawing the plots");
-      plotted = make_plots(options->run.out_dir);
+      plotted = run_share_script("plot_report.py", {options->run.out_dir});
       incomplete.finished();
       plot_s = seconds_since(plot_start);
     }

@@ -19,6 +19,7 @@ void add_commutate(CLI::App& app);
 void add_commission(CLI::App& app);
 void add_ctl(CLI::App& app);
 void add_sim(CLI::App& app);
+void add_scope(CLI::App& app);
 
 /// The mechanics, knot choice and balance residuals of a position-based
 /// identification, on stdout (clm identify and clm calibrate).

@@ -27,5 +27,6 @@ int main(int argc, char** argv) {
   clm::lcmlog::add_log2csv(app);
   clm::cli::add_ctl(app);
   clm::cli::add_sim(app);
+  clm::cli::add_scope(app);
   return clm::run_command_line(app, argc, argv);
 }

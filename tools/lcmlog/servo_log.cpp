@@ -1,5 +1,7 @@
 #include "tools/lcmlog/servo_log.hpp"
 
+#include "tools/lcmlog/state_fields.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cerrno>
@@ -397,57 +399,17 @@ CsvColumns feedforward_columns(std::span<const servo::CycleRecord> states) {
 CsvColumns full_columns(std::span<const servo::CycleRecord> states) {
   int coil_sets = 0;
   for (const auto& s : states) coil_sets = std::max(coil_sets, static_cast<int>(s.coil_sets));
-  constexpr double kAbsent = std::numeric_limits<double>::quiet_NaN();
-  ColumnBuilder out;
-  for (std::size_t k = 0; k < states.size(); ++k) {
-    const auto& s = states[k];
-    out.begin_row(k);
-    out.add("utime", static_cast<double>(s.utime));
-    out.add("cycle", static_cast<double>(s.cycle));
-    out.add("t_s", s.t_s);
-    out.add("r_m", s.r_m);
-    out.add("r_dot_m_per_s", s.r_dot_m_per_s);
-    out.add("r_ddot_m_per_s2", s.r_ddot_m_per_s2);
-    out.add("y_m", s.y_m);
-    out.add("e_m", s.e_m);
-    out.add("F_star_N", s.F_star_N);
-    out.add("u_fb_N", s.u_fb_N);
-    out.add("u_ff_N", s.u_ff_N);
-    out.add("Fy_star_N", s.Fy_star_N);
-    out.add("Fx_star_N", s.Fx_star_N);
-    out.add("Tz_star_Nm", s.Tz_star_Nm);
-    out.add("Fy_N", s.Fy_N);
-    out.add("Fx_N", s.Fx_N);
-    out.add("Tz_Nm", s.Tz_Nm);
-    out.add("commutation", static_cast<double>(s.commutation));
-    out.add("coil_set", s.coil_set);
-    out.add("delta_rad", s.delta_rad);
-    out.add("coil_sets", s.coil_sets);
-    for (int l = 0; l < coil_sets; ++l) {
-      const bool present = l < s.coil_sets;
-      const auto i = static_cast<std::size_t>(l);
-      const std::string suffix = "_" + std::to_string(l + 1);
-      out.add("magnitude_N" + suffix, present ? s.magnitude_N[i] : kAbsent);
-      out.add("setpoint_delta_rad" + suffix, present ? s.setpoint_delta_rad[i] : kAbsent);
-      out.add("ia_A" + suffix, present ? s.ia_A[i] : kAbsent);
-      out.add("ib_A" + suffix, present ? s.ib_A[i] : kAbsent);
-    }
-    out.add("damping_engaged", s.damping_engaged ? 1.0 : 0.0);
-    out.add("current_square_sum_A2", s.current_square_sum_A2);
-    out.add("force_limited", s.force_limited ? 1.0 : 0.0);
-    out.add("state", static_cast<double>(s.state));
-    out.add("program_running", s.program_running ? 1.0 : 0.0);
-    out.add("program_time_s", s.program_time_s);
-    out.add("restricted", s.restricted ? 1.0 : 0.0);
-    out.add("force_measured", s.force_measured ? 1.0 : 0.0);
-    out.add("drive_profile", static_cast<double>(s.drive_profile));
-    out.end_row();
+  CsvColumns out;
+  for (const StateField& field : state_fields(coil_sets)) {
+    std::vector<double> column;
+    column.reserve(states.size());
+    for (const auto& s : states) column.push_back(field.value(s));
+    out.names.push_back(field.name);
+    out.values.push_back(std::move(column));
   }
-  return out.finish({"utime", "cycle", "t_s", "r_m", "r_dot_m_per_s", "r_ddot_m_per_s2", "y_m", "e_m",
-                             "F_star_N", "u_fb_N", "u_ff_N", "Fy_star_N", "Fx_star_N", "Tz_star_Nm", "Fy_N", "Fx_N",
-                             "Tz_Nm", "commutation", "coil_set", "delta_rad", "coil_sets", "damping_engaged",
-                             "current_square_sum_A2", "force_limited", "state", "program_running",
-                             "program_time_s", "restricted", "force_measured", "drive_profile"});
+  out.source_states.resize(states.size());
+  for (std::size_t k = 0; k < states.size(); ++k) out.source_states[k] = k;
+  return out;
 }
 
 CsvColumns to_csv_columns(std::span<const servo::CycleRecord> states, CsvFormat format) {

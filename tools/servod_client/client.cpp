@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <utility>
 
 #include "clm_lcm/servo_command_ack_t.hpp"
 #include "config/command_key.hpp"
@@ -472,9 +473,12 @@ void Client::start_capture() {
 std::vector<ReceivedMessage> Client::stop_capture() {
   std::lock_guard lock(mutex_);
   capturing_ = false;
-  std::vector<ReceivedMessage> messages;
-  messages.swap(captured_);
-  return messages;
+  return std::exchange(captured_, {});
+}
+
+std::vector<ReceivedMessage> Client::take_captured() {
+  std::lock_guard lock(mutex_);
+  return std::exchange(captured_, {});
 }
 
 }  // namespace clm::servod_client

@@ -279,6 +279,9 @@ class Client {
   void start_capture();
   /// Stops keeping messages; returns those kept since start_capture().
   std::vector<ReceivedMessage> stop_capture();
+  /// Returns the messages kept since start_capture() or the last call, and
+  /// keeps capturing (a reader that runs as long as the daemon: clm scope).
+  std::vector<ReceivedMessage> take_captured();
 
  private:
   void receive_loop();
