@@ -170,7 +170,7 @@ stop_process() {
 # key made here: the EXIT trap.
 cleanup_processes() {
   local pid
-  for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null; done
+  for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null || true; done
   [ -n "$created_iface" ] && ip link del dev "$created_iface" 2>/dev/null
   [ -n "${key_dir:-}" ] && rm -rf "$key_dir"
   return 0

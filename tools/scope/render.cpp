@@ -126,8 +126,8 @@ std::vector<std::string> render_screen(const Acquisition& acquisition, const Scr
     trig = "trigger " + text.channels[static_cast<std::size_t>(trigger.channel)] + " " + name(trigger.edge) + " " +
            number(trigger.level) + ", pre " + number(100.0 * trigger.pre_trigger) + " %";
   }
-  lines.push_back(fit("clm scope  " + text.source + "  |  " + name(trigger.mode) + ", " + trig + "  |  " +
-                          format_seconds(acquisition.window_s() / 10.0) + "/div  |  " + name(acquisition.phase()),
+  lines.push_back(fit(std::string("clm scope  [") + name(acquisition.phase()) + "]  " + name(trigger.mode) + ", " +
+                          trig + "  |  " + format_seconds(acquisition.window_s() / 10.0) + "/div  |  " + text.source,
                       columns));
   std::string about = "waiting for a trigger";
   if (window.triggered()) {
