@@ -35,13 +35,13 @@ expected=(
   usr/bin/clm-spy usr/share/clm-servo/clm_lcmtypes.jar
   etc/clm-servo/servod.yaml etc/clm-servo/motor-sim.yaml etc/clm-servo/programs/fig8.yaml
   etc/clm-servo/programs/validation.yaml
-  usr/share/clm-servo/plot_report.py
+  usr/share/clm-servo/plot_report.py usr/share/clm-servo/plot_capture.py
   usr/share/clm-servo/templates/servod-real.yaml usr/share/clm-servo/templates/motor-real.yaml
   usr/share/doc/clm-servo/docs/servod.md usr/share/doc/clm-servo/docs/bring-up.md usr/share/doc/clm-servo/README.md
   usr/share/doc/clm-servo/docs/images/tracking-error.png usr/share/doc/clm-servo/clm-servo.dbc
 )
 for file in "${expected[@]}"; do [ -f "$stage/$file" ] || fail "not installed: /$file"; done
-for file in usr/bin/clm usr/bin/clm-servod usr/share/clm-servo/plot_report.py; do
+for file in usr/bin/clm usr/bin/clm-servod usr/share/clm-servo/plot_report.py usr/share/clm-servo/plot_capture.py; do
   [ -x "$stage/$file" ] || fail "not executable: /$file"
 done
 unit="$stage/usr/lib/systemd/system/clm-servod.service"
