@@ -101,7 +101,7 @@ TEST_CASE("Normal mode captures every crossing whose window does not overlap the
   CHECK(a.phase() == Phase::kArmed);
 }
 
-TEST_CASE("Either edge triggers on both; NaN never triggers", "[scope]") {
+TEST_CASE("Either edge triggers on both, NaN never triggers", "[scope]") {
   Acquisition a(2, 0.1, Trigger{.channel = 0, .level = 0.0, .edge = TriggerEdge::kEither, .mode = TriggerMode::kNormal});
   push_sine(a, 2.0, 0.0, 2.0);
   CHECK(a.captures() == 7);  // crossings at 0.25, 0.5, ..., 1.75 s; the one at 0 s has nothing before it
@@ -113,7 +113,7 @@ TEST_CASE("Either edge triggers on both; NaN never triggers", "[scope]") {
   CHECK(b.captures() == 0);
 }
 
-TEST_CASE("Auto mode rolls without a trigger; pause keeps the window; time going back starts afresh", "[scope]") {
+TEST_CASE("Auto mode rolls without a trigger, pause keeps the window, time going back starts afresh", "[scope]") {
   Acquisition a(2, 0.2, Trigger{.channel = 0, .level = 5.0, .mode = TriggerMode::kAuto});  // never reached
   push_sine(a, 1.0, 0.0, 1.0);
   CHECK(a.captures() == 0);
@@ -208,7 +208,7 @@ TEST_CASE("The screen fills the terminal exactly and names what it shows", "[sco
   CHECK(tiny[2].find("too small") != std::string::npos);
 }
 
-TEST_CASE("State fields by name: unique, in log2csv's order, the nearest suggested", "[scope][lcmlog]") {
+TEST_CASE("State fields by name are unique, in log2csv order, the nearest suggested", "[scope][lcmlog]") {
   const auto fields = clm::lcmlog::state_fields(2);
   std::set<std::string> names;
   for (const auto& f : fields) names.insert(f.name);

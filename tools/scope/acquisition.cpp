@@ -178,17 +178,19 @@ void Acquisition::set_window(double window_s) {
 namespace clm::scope {
 
 double step_window(double window_s, int steps) {
-  // The sequence as k = 3·decade + {0, 1, 2} for {1, 2, 5}·10^decade.
-  constexpr double kMantissas[] = {1.0, 2.0, 5.0};
-  const auto value = [&](int k) {
-    const int decade = k >= 0 ? k / 3 : -((-k + 2) / 3);
-    return kMantissas[k - 3 * decade] * std::pow(10.0, decade);
-  };
-  int k = static_cast<int>(std::floor(std::log10(window_s))) * 3;
-  while (value(k + 1) <= window_s * (1.0 + 1e-9)) ++k;  // the largest on the sequence not above window_s
-  if (value(k) < window_s * (1.0 - 1e-9) && steps < 0) ++steps;  // off the sequence: the first step down is to k
-  k += steps;
-  return std::clamp(value(k), 1e-3, 100.0);
+  // The time bases 1 ms, 2 ms, 5 ms, 10 ms, ... 100 s.
+  std::vector<double> bases;
+  for (double decade = 1e-3; decade < 150.0; decade *= 10.0) {
+    for (double mantissa : {1.0, 2.0, 5.0}) {
+      if (mantissa * decade <= 100.0 * (1.0 + 1e-9)) bases.push_back(mantissa * decade);
+    }
+  }
+  int k = 0;  // the largest base not above window_s
+  while (k + 1 < static_cast<int>(bases.size()) && bases[static_cast<std::size_t>(k + 1)] <= window_s * (1.0 + 1e-9)) ++k;
+  const bool off = bases[static_cast<std::size_t>(k)] < window_s * (1.0 - 1e-9);
+  if (off && steps < 0) ++steps;  // off the sequence: the first step down is to that base
+  k = std::clamp(k + steps, 0, static_cast<int>(bases.size()) - 1);
+  return bases[static_cast<std::size_t>(k)];
 }
 
 }  // namespace clm::scope
