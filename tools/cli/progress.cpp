@@ -6,7 +6,7 @@
 #include <string>
 
 #include "clm_version.hpp"
-#include "tools/cli/commands.hpp"
+#include "tools/cli/progress.hpp"
 
 namespace clm::cli {
 
