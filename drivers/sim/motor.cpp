@@ -18,6 +18,7 @@ constexpr double kMaxSubsteps = 1e7;
 // The watchdog trips at the first substep boundary at or after the deadline;
 // the tolerance absorbs the rounding of the accumulated time.
 constexpr double kWatchdogTolerance_s = 1e-9;
+constexpr double kTwoPi = 6.283185307179586;
 constexpr std::uint32_t kLatchedBits = kStatusFault | kStatusWatchdog | kStatusEndStop | kStatusInvalidSetpoint;
 
 const MotorParameters& validated(const MotorParameters& parameters) {
@@ -30,7 +31,14 @@ const MotorParameters& validated(const MotorParameters& parameters) {
 SimulatedMotor::SimulatedMotor(const MotorParameters& parameters)
     : parameters_(validated(parameters)),
       truth_(parameters_.electromagnetics, parameters_.mechanics.end_stop_min_m, parameters_.mechanics.end_stop_max_m),
-      noise_(parameters_.sensors.noise_seed) {
+      noise_(parameters_.sensors.noise_seed),
+      disturbance_(parameters_.mechanics.force_disturbance),
+      current_loop_(parameters_.drive.current_loop) {
+  // The interpolation error's phases: a stream of their own, so that the
+  // noise draws per frame stay those of a motor without it.
+  RandomStream phases(stream_seed(parameters_.sensors.noise_seed, 7));
+  interpolation_phase_rad_[0] = kTwoPi * phases.uniform();
+  interpolation_phase_rad_[1] = kTwoPi * phases.uniform();
   reset(0.5 * (parameters_.stroke_min_m + parameters_.stroke_max_m));
 }
 
@@ -45,6 +53,16 @@ void SimulatedMotor::reset(double position_m, double velocity_m_per_s) {
   time_s_ = 0.0;
   position_m_ = position_m;
   velocity_m_per_s_ = velocity_m_per_s;
+  encoder_position_m_ = position_m;
+  encoder_velocity_m_per_s_ = velocity_m_per_s;
+  history_time_s_[0] = 0.0;
+  history_position_m_[0] = position_m;
+  history_next_ = 1;
+  history_count_ = 1;
+  disturbance_.reset();
+  current_loop_.reset(2 * coil_sets());
+  reference_A_.setZero(2 * coil_sets());
+  pending_count_ = 0;
   disturbance_force_N_ = 0.0;
   in_contact_ = position_m == mechanics.end_stop_min_m || position_m == mechanics.end_stop_max_m;
   setpoints_.fill(DriveSetpoint{});
@@ -67,6 +85,28 @@ void SimulatedMotor::latch_fault(std::uint32_t bits) noexcept {
   enable_requested_ = false;
   setpoints_.fill(DriveSetpoint{});
   commanded_currents_.fill(PhaseCurrentSetpoint{});
+  pending_count_ = 0;
+}
+
+double SimulatedMotor::motor_side_mass_kg() const noexcept {
+  const auto& mechanics = parameters_.mechanics;
+  return mechanics.flexible_mode.rigid()
+             ? mechanics.translator_mass_kg
+             : mechanics.translator_mass_kg * (1.0 - mechanics.flexible_mode.encoder_mass_fraction);
+}
+
+void SimulatedMotor::take_pending() noexcept {
+  const Pending& due = pending_[static_cast<std::size_t>(pending_first_)];
+  setpoints_ = due.setpoints;
+  commanded_currents_ = due.currents;
+  pending_first_ = (pending_first_ + 1) % kPendingCapacity;
+  --pending_count_;
+}
+
+void SimulatedMotor::apply_due_setpoints(double time_s) noexcept {
+  while (pending_count_ > 0 && pending_[static_cast<std::size_t>(pending_first_)].due_s <= time_s + 1e-12) {
+    take_pending();
+  }
 }
 
 CommandResult SimulatedMotor::check_command(DriveProfile profile, std::size_t count, bool finite) noexcept {
@@ -85,6 +125,30 @@ CommandResult SimulatedMotor::check_command(DriveProfile profile, std::size_t co
   return result;
 }
 
+void SimulatedMotor::take_setpoints(std::span<const DriveSetpoint> setpoints,
+                                    std::span<const PhaseCurrentSetpoint> currents) noexcept {
+  const double delay_s = parameters_.drive.setpoint_delay_s;
+  if (delay_s == 0.0) {
+    std::copy(setpoints.begin(), setpoints.end(), setpoints_.begin());
+    std::copy(currents.begin(), currents.end(), commanded_currents_.begin());
+    return;
+  }
+  if (pending_count_ == kPendingCapacity) take_pending();  // more in flight than it buffers: the oldest now
+  Pending& next = pending_[static_cast<std::size_t>((pending_first_ + pending_count_) % kPendingCapacity)];
+  next.due_s = time_s_ + delay_s;
+  next.setpoints = setpoints_;
+  next.currents = commanded_currents_;
+  if (pending_count_ > 0) {  // on top of what is already in flight
+    const Pending& last =
+        pending_[static_cast<std::size_t>((pending_first_ + pending_count_ - 1) % kPendingCapacity)];
+    next.setpoints = last.setpoints;
+    next.currents = last.currents;
+  }
+  std::copy(setpoints.begin(), setpoints.end(), next.setpoints.begin());
+  std::copy(currents.begin(), currents.end(), next.currents.begin());
+  ++pending_count_;
+}
+
 void SimulatedMotor::take_command(bool enable) noexcept {
   enable_requested_ = enable;
   last_command_time_s_ = time_s_;
@@ -97,7 +161,7 @@ CommandResult SimulatedMotor::command(std::span<const DriveSetpoint> setpoints, 
   });
   const CommandResult result = check_command(DriveProfile::kMagnitudePhase, setpoints.size(), finite);
   if (result != CommandResult::kAccepted) return result;
-  std::copy(setpoints.begin(), setpoints.end(), setpoints_.begin());
+  take_setpoints(setpoints, {});
   take_command(enable);
   return result;
 }
@@ -109,7 +173,7 @@ CommandResult SimulatedMotor::command_currents(std::span<const PhaseCurrentSetpo
   });
   const CommandResult result = check_command(DriveProfile::kPhaseCurrent, currents.size(), finite);
   if (result != CommandResult::kAccepted) return result;
-  std::copy(currents.begin(), currents.end(), commanded_currents_.begin());
+  take_setpoints({}, currents);
   take_command(enable);
   return result;
 }
@@ -165,19 +229,30 @@ StepResult SimulatedMotor::step(double period_s) noexcept {
   const int count = substeps(period_s);
   if (count < 0) return StepResult::kInvalidPeriod;
   const auto& mechanics = parameters_.mechanics;
+  const auto& mode = mechanics.flexible_mode;
   const double h = period_s / count;
-  const double inverse_mass = 1.0 / mechanics.translator_mass_kg;
+  const double inverse_mass = 1.0 / motor_side_mass_kg();
+  // The flexible mode: the encoder's side m₂ = f·m on a spring k and damper
+  // c to the motor's m₁ = (1 − f)·m, so that the relative motion has the
+  // mode's frequency and damping: k = ω²·μ, c = 2ζω·μ, μ = m₁·m₂/m.
+  const double omega = kTwoPi * mode.frequency_Hz;
+  const double encoder_mass_kg = mechanics.translator_mass_kg * mode.encoder_mass_fraction;
+  const double reduced_mass_kg = (1.0 - mode.encoder_mass_fraction) * encoder_mass_kg;
+  const double stiffness_N_per_m = omega * omega * reduced_mass_kg;
+  const double damping_N_s_per_m = 2.0 * mode.damping_ratio * omega * reduced_mass_kg;
   const double deadline_s = parameters_.drive.watchdog_timeout_s - kWatchdogTolerance_s;
   const double start_s = time_s_;
   limited_in_last_step_ = false;
 
   for (int k = 0; k < count; ++k) {
     const double t = start_s + k * h;
+    apply_due_setpoints(t);
     if (drive_active() && t - last_command_time_s_ >= deadline_s) latch_fault(kStatusWatchdog);
-    if (drive_currents(position_m_, currents_A_)) {
+    if (drive_currents(position_m_, reference_A_)) {
       limited_in_last_step_ = true;
       ++current_limited_substeps_;
     }
+    drive_windings(reference_A_, h);
     // The direction-dependent force's tanh and the friction's in one call:
     // two lanes of one vector cost what one does, with the bits of two calls.
     const double ratio[2] = {truth_.direction_ratio(velocity_m_per_s_),
@@ -185,11 +260,25 @@ StepResult SimulatedMotor::step(double period_s) noexcept {
     double shape[2];
     elementary::tanh_array(ratio, shape, 2);
     const double driving_force_N = truth_.driving_force_N(position_terms(position_m_), shape[0], currents_A_);
-    // Semi-implicit (symplectic) Euler: velocity first, then the position
-    // with the new velocity.
-    velocity_m_per_s_ +=
-        h * inverse_mass * (driving_force_N + disturbance_force_N_ - friction_N(velocity_m_per_s_, shape[1]));
-    position_m_ += h * velocity_m_per_s_;
+    // Semi-implicit (symplectic) Euler: velocities first, then the positions
+    // with the new velocities.
+    const double external_N = disturbance_force_N_ + disturbance_.force_N();
+    if (mode.rigid()) {
+      velocity_m_per_s_ +=
+          h * inverse_mass * (driving_force_N + external_N - friction_N(velocity_m_per_s_, shape[1]));
+      position_m_ += h * velocity_m_per_s_;
+      encoder_position_m_ = position_m_;
+      encoder_velocity_m_per_s_ = velocity_m_per_s_;
+    } else {
+      const double coupling_N = stiffness_N_per_m * (position_m_ - encoder_position_m_) +
+                                damping_N_s_per_m * (velocity_m_per_s_ - encoder_velocity_m_per_s_);
+      velocity_m_per_s_ +=
+          h * inverse_mass * (driving_force_N + external_N - friction_N(velocity_m_per_s_, shape[1]) - coupling_N);
+      encoder_velocity_m_per_s_ += h * coupling_N / encoder_mass_kg;
+      position_m_ += h * velocity_m_per_s_;
+      encoder_position_m_ += h * encoder_velocity_m_per_s_;
+    }
+    disturbance_.step(h);
 
     // Hard end stops: the translator stops dead (inelastic); the first impact
     // trips the limit switch.
@@ -210,6 +299,11 @@ StepResult SimulatedMotor::step(double period_s) noexcept {
       velocity_m_per_s_ = 0.0;
     }
     in_contact_ = position_m_ == mechanics.end_stop_max_m || position_m_ == mechanics.end_stop_min_m;
+    if (mode.rigid()) encoder_position_m_ = position_m_;
+    history_time_s_[static_cast<std::size_t>(history_next_)] = start_s + (k + 1) * h;
+    history_position_m_[static_cast<std::size_t>(history_next_)] = encoder_position_m_;
+    history_next_ = (history_next_ + 1) % kEncoderHistory;
+    history_count_ = std::min(history_count_ + 1, kEncoderHistory);
   }
   time_s_ = start_s + period_s;
   update_outputs();
@@ -221,8 +315,56 @@ void SimulatedMotor::update_outputs() noexcept {
       time_s_ - last_command_time_s_ >= parameters_.drive.watchdog_timeout_s - kWatchdogTolerance_s) {
     latch_fault(kStatusWatchdog);
   }
-  drive_currents(position_m_, currents_A_);
+  if (parameters_.drive.current_loop.ideal()) {
+    drive_currents(position_m_, currents_A_);
+  } else {
+    // The windings keep their currents until the next substep; a drive that
+    // stops (disable, fault) opens its bridge and they fall to zero.
+    if (!drive_active()) current_loop_.reset(2 * coil_sets());
+    currents_A_ = current_loop_.current_A();
+  }
   wrench_ = truth_.wrench(position_terms(position_m_), velocity_m_per_s_, currents_A_);
+}
+
+void SimulatedMotor::drive_windings(const CurrentVector& reference_A, double h_s) noexcept {
+  if (parameters_.drive.current_loop.ideal()) {
+    currents_A_ = reference_A;
+    return;
+  }
+  if (!drive_active()) {
+    current_loop_.reset(2 * coil_sets());
+  } else {
+    // Back-EMF of each independent current: the velocity times its force
+    // constant dF_y/di (power F_y·v = Σ e·i; SI units make them equal).
+    const auto& terms = position_terms(position_m_);
+    CurrentVector emf_V(2 * coil_sets());
+    for (int l = 0; l < coil_sets(); ++l) {
+      const auto& sl = terms.s[static_cast<std::size_t>(l)];
+      emf_V[2 * l] = velocity_m_per_s_ * (sl[0] - sl[2]);
+      emf_V[2 * l + 1] = velocity_m_per_s_ * (sl[1] - sl[2]);
+    }
+    current_loop_.step(reference_A, emf_V, h_s);
+  }
+  currents_A_ = current_loop_.current_A();
+}
+
+double SimulatedMotor::encoder_side_position_m(double delay_s) const noexcept {
+  // The newest history entry at or before now − delay, interpolated towards
+  // the one after it; the oldest kept when the history does not reach back.
+  const double wanted_s = time_s_ - delay_s;
+  int newer = (history_next_ - 1 + kEncoderHistory) % kEncoderHistory;
+  for (int n = 1; n < history_count_; ++n) {
+    const int older = (newer - 1 + kEncoderHistory) % kEncoderHistory;
+    const double t0 = history_time_s_[static_cast<std::size_t>(older)];
+    if (t0 <= wanted_s) {
+      const double t1 = history_time_s_[static_cast<std::size_t>(newer)];
+      const double x0 = history_position_m_[static_cast<std::size_t>(older)];
+      const double x1 = history_position_m_[static_cast<std::size_t>(newer)];
+      return t1 > t0 ? x0 + (x1 - x0) * std::clamp((wanted_s - t0) / (t1 - t0), 0.0, 1.0) : x1;
+    }
+    newer = older;
+  }
+  return history_position_m_[static_cast<std::size_t>(newer)];
 }
 
 const ElectromagneticTruth::PositionTerms& SimulatedMotor::position_terms(double position_m) noexcept {
@@ -240,7 +382,13 @@ SensorFrame SimulatedMotor::sense() noexcept {
   frame.time_s = time_s_;
   // Four draws per frame whatever the noise levels, so the stream stays
   // aligned when one of them is switched off.
-  double position = position_m_ + sensors.encoder_noise_m * noise_.normal();
+  double position = sensors.encoder_delay_s > 0.0 ? encoder_side_position_m(sensors.encoder_delay_s) : encoder_position_m_;
+  if (sensors.encoder_interpolation_error_m > 0.0 || sensors.encoder_interpolation_second_m > 0.0) {
+    const double angle = kTwoPi * position / sensors.encoder_scale_pitch_m;
+    position += sensors.encoder_interpolation_error_m * elementary::sin(angle + interpolation_phase_rad_[0]) +
+                sensors.encoder_interpolation_second_m * elementary::sin(2.0 * angle + interpolation_phase_rad_[1]);
+  }
+  position += sensors.encoder_noise_m * noise_.normal();
   if (sensors.encoder_resolution_m > 0.0) {
     position = sensors.encoder_resolution_m * std::round(position / sensors.encoder_resolution_m);
   }
@@ -265,6 +413,7 @@ void SimulatedMotor::latch_internal_fault() noexcept {
 
 void SimulatedMotor::clear_fault() noexcept {
   latched_ = 0;
+  pending_count_ = 0;
   enable_requested_ = false;
   setpoints_.fill(DriveSetpoint{});
   commanded_currents_.fill(PhaseCurrentSetpoint{});
@@ -276,6 +425,9 @@ TruthState SimulatedMotor::truth() const noexcept {
   state.time_s = time_s_;
   state.position_m = position_m_;
   state.velocity_m_per_s = velocity_m_per_s_;
+  state.encoder_side_position_m = encoder_position_m_;
+  state.encoder_side_velocity_m_per_s = encoder_velocity_m_per_s_;
+  state.disturbance_N = disturbance_.force_N();
   state.currents_A = currents_A_;
   state.wrench = wrench_;
   state.friction_N = friction_N(velocity_m_per_s_);

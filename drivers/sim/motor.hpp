@@ -11,6 +11,7 @@
 #include <span>
 
 #include "commutation/types.hpp"
+#include "drivers/sim/current_loop.hpp"
 #include "drivers/sim/electromagnetics.hpp"
 #include "drivers/sim/parameters.hpp"
 #include "drivers/sim/random.hpp"
@@ -65,7 +66,9 @@ enum class StepResult {
 /// One sample of the sensors, taken by sense().
 struct SensorFrame {
   double time_s = 0.0;      ///< simulation time of the sample [s]
-  double position_m = 0.0;  ///< encoder: true position + noise, quantised [m]
+  /// encoder: the read head's true position encoder_delay_s ago, plus the
+  /// interpolation error and noise, quantised [m]
+  double position_m = 0.0;
   /// Force/torque sensor in the translator: the electromagnetic wrench
   /// (Σ K^l i^l + F_cog + direction-dependent term) + bias + noise. Bearing
   /// friction is not seen. [N, N, N·m]
@@ -75,10 +78,16 @@ struct SensorFrame {
 /// The exact state, for tests and reports.
 struct TruthState {
   double time_s = 0.0;
-  double position_m = 0.0;
-  double velocity_m_per_s = 0.0;
-  /// Phase currents [i_a^1, i_b^1, ...] applied now (after the current
-  /// limit); i_c = −i_a − i_b [A].
+  double position_m = 0.0;        ///< the motor side, where the coils' force acts [m]
+  double velocity_m_per_s = 0.0;  ///< of the motor side [m/s]
+  /// The encoder's read head (the other side of the flexible mode; the
+  /// motor side's for a rigid translator) [m], [m/s].
+  double encoder_side_position_m = 0.0;
+  double encoder_side_velocity_m_per_s = 0.0;
+  /// The band-limited disturbance force acting now (ForceDisturbanceParameters) [N].
+  double disturbance_N = 0.0;
+  /// Phase currents [i_a^1, i_b^1, ...] in the windings now (the current
+  /// loop's, after the current limit of their setpoints); i_c = −i_a − i_b [A].
   CurrentVector currents_A;
   /// Electromagnetic wrench produced now, without sensor bias and noise [N, N, N·m].
   Wrench wrench = Wrench::Zero();
@@ -110,10 +119,12 @@ class SimulatedMotor {
   CommandResult command_currents(std::span<const PhaseCurrentSetpoint> currents, bool enable) noexcept;
 
   /// Advances the simulation by `period_s` in n = max(10, ⌈period_s/h⌉) equal
-  /// substeps. In every substep the drive computes the phase currents from
-  /// the true position (eq. 18/19; profile phase_current: the commanded
-  /// currents), applies the current limit and the
-  /// watchdog, and the translator is integrated with semi-implicit Euler.
+  /// substeps. In every substep the drive takes the setpoints whose delay
+  /// has passed, computes the phase current setpoints from the true position
+  /// (eq. 18/19; profile phase_current: the commanded currents), applies the
+  /// current limit and the watchdog, its current loop drives the windings
+  /// (at once when ideal), and the translator (one mass, or two with the
+  /// flexible mode) is integrated with semi-implicit Euler.
   StepResult step(double period_s) noexcept;
 
   /// Samples the encoder and the force/torque sensor at the current time.
@@ -165,8 +176,21 @@ class SimulatedMotor {
   void take_command(bool enable) noexcept;
   bool drive_active() const noexcept;
   void latch_fault(std::uint32_t bits) noexcept;
-  /// Phase currents the drive applies at `position_m`; true if limited.
+  /// Phase current setpoints of the drive at `position_m`, after its current
+  /// limit (zero when not active); true if limited.
   bool drive_currents(double position_m, CurrentVector& currents_A) const noexcept;
+  /// The windings' currents after a substep of `h_s` towards `reference_A`
+  /// (the current loop, or the reference itself when ideal) into currents_A_.
+  void drive_windings(const CurrentVector& reference_A, double h_s) noexcept;
+  /// Setpoints received: in effect now, or after DriveParameters::setpoint_delay_s.
+  void take_setpoints(std::span<const DriveSetpoint> setpoints, std::span<const PhaseCurrentSetpoint> currents) noexcept;
+  /// The oldest pending setpoints into effect.
+  void take_pending() noexcept;
+  /// Takes the pending setpoints whose time has come by `time_s`.
+  void apply_due_setpoints(double time_s) noexcept;
+  /// The read head's position `delay_s` before now, from the history.
+  double encoder_side_position_m(double delay_s) const noexcept;
+  double motor_side_mass_kg() const noexcept;
   double friction_N(double velocity_m_per_s) const noexcept;
   /// The same with friction_tanh = tanh(v/v_s) given.
   double friction_N(double velocity_m_per_s, double friction_tanh) const noexcept;
@@ -187,6 +211,33 @@ class SimulatedMotor {
   double velocity_m_per_s_ = 0.0;
   double disturbance_force_N_ = 0.0;
   bool in_contact_ = false;
+
+  // The read head's side of the flexible mode (the motor side's when rigid).
+  double encoder_position_m_ = 0.0;
+  double encoder_velocity_m_per_s_ = 0.0;
+  // The read head's positions at the ends of the latest substeps, for the
+  // encoder's delay: a ring of kEncoderHistory.
+  static constexpr int kEncoderHistory = 512;
+  std::array<double, kEncoderHistory> history_time_s_{};
+  std::array<double, kEncoderHistory> history_position_m_{};
+  int history_next_ = 0;
+  int history_count_ = 0;
+  // The interpolation error's phases (drawn once from the noise seed).
+  double interpolation_phase_rad_[2] = {0.0, 0.0};
+  ForceDisturbance disturbance_;
+  CurrentLoop current_loop_;
+  CurrentVector reference_A_;  ///< the drive's current setpoints in the last substep
+
+  // Setpoints received but not yet applied (DriveParameters::setpoint_delay_s).
+  struct Pending {
+    double due_s = 0.0;
+    std::array<DriveSetpoint, kMaxCoilSets> setpoints{};
+    std::array<PhaseCurrentSetpoint, kMaxCoilSets> currents{};
+  };
+  static constexpr int kPendingCapacity = 32;
+  std::array<Pending, kPendingCapacity> pending_{};
+  int pending_first_ = 0;
+  int pending_count_ = 0;
 
   // Drive state.
   std::array<DriveSetpoint, kMaxCoilSets> setpoints_{};

@@ -111,7 +111,7 @@ void read_direction_dependent(const Node& section, ElectromagneticParameters& em
 void read_mechanics(const Node& section, const MotorParameters& motor, MechanicsParameters& mechanics) {
   section.expect_keys({"translator_mass_kg", "viscous_friction_N_s_per_m", "coulomb_friction_N",
                        "friction_smoothing_velocity_m_per_s", "integration_step_s", "end_stop_min_m",
-                       "end_stop_max_m"});
+                       "end_stop_max_m", "flexible_mode", "force_disturbance"});
   mechanics.translator_mass_kg = section["translator_mass_kg"].as_positive();
   mechanics.viscous_friction_N_s_per_m = optional_double(section, "viscous_friction_N_s_per_m", 0.0, 0.0, kInfinity);
   mechanics.coulomb_friction_N = optional_double(section, "coulomb_friction_N", 0.0, 0.0, kInfinity);
@@ -123,16 +123,52 @@ void read_mechanics(const Node& section, const MotorParameters& motor, Mechanics
       optional_double(section, "end_stop_min_m", motor.stroke_min_m - 0.01, -kInfinity, motor.stroke_min_m);
   mechanics.end_stop_max_m =
       optional_double(section, "end_stop_max_m", motor.stroke_max_m + 0.01, motor.stroke_max_m, kInfinity);
+  if (const auto mode = section.optional("flexible_mode")) {
+    mode->expect_keys({"frequency_Hz", "damping_ratio", "encoder_mass_fraction"});
+    auto& m = mechanics.flexible_mode;
+    m.frequency_Hz = optional_double(*mode, "frequency_Hz", 0.0, 0.0, 1e5);
+    m.damping_ratio = optional_double(*mode, "damping_ratio", m.damping_ratio, 1e-6, 1.0);
+    m.encoder_mass_fraction = optional_double(*mode, "encoder_mass_fraction", m.encoder_mass_fraction, 1e-3, 0.999);
+  }
+  if (const auto disturbance = section.optional("force_disturbance")) {
+    disturbance->expect_keys({"rms_N", "low_Hz", "high_Hz", "seed"});
+    auto& d = mechanics.force_disturbance;
+    d.rms_N = optional_double(*disturbance, "rms_N", 0.0, 0.0, 1e4);
+    d.low_Hz = optional_double(*disturbance, "low_Hz", d.low_Hz, 1e-3, 1e5);
+    d.high_Hz = optional_double(*disturbance, "high_Hz", d.high_Hz, d.low_Hz, 1e5);
+    if (const auto seed = disturbance->optional("seed")) d.seed = seed_value(*seed);
+  }
+}
+
+// The simulated drive's dynamics (the drive: section holds what a real
+// drive is set to; these are its physics).
+void read_drive_dynamics(const Node& section, DriveParameters& drive) {
+  section.expect_keys({"setpoint_delay_s", "current_loop"});
+  drive.setpoint_delay_s = optional_double(section, "setpoint_delay_s", 0.0, 0.0, kMaxSetpointDelay_s);
+  if (const auto loop = section.optional("current_loop")) {
+    loop->expect_keys({"bandwidth_Hz", "phase_resistance_ohm", "phase_inductance_H", "voltage_limit_V"});
+    auto& c = drive.current_loop;
+    c.bandwidth_Hz = optional_double(*loop, "bandwidth_Hz", 0.0, 0.0, 1e5);
+    c.phase_resistance_ohm = optional_positive(*loop, "phase_resistance_ohm", c.phase_resistance_ohm);
+    c.phase_inductance_H = optional_positive(*loop, "phase_inductance_H", c.phase_inductance_H);
+    c.voltage_limit_V = optional_positive(*loop, "voltage_limit_V", c.voltage_limit_V);
+  }
 }
 
 void read_sensors(const Node& section, SensorParameters& sensors) {
   section.expect_keys({"noise_seed", "encoder_resolution_m", "encoder_noise_m", "force_noise_N_N_Nm",
-                       "force_bias_N_N_Nm"});
+                       "force_bias_N_N_Nm", "encoder_delay_s", "encoder_scale_pitch_m",
+                       "encoder_interpolation_error_m", "encoder_interpolation_second_m"});
   if (const auto seed = section.optional("noise_seed")) sensors.noise_seed = seed_value(*seed);
   sensors.encoder_resolution_m = optional_double(section, "encoder_resolution_m", 0.0, 0.0, 1e-3);
   sensors.encoder_noise_m = optional_double(section, "encoder_noise_m", 0.0, 0.0, 1e-3);
   sensors.force_noise_N_N_Nm = optional_triple(section, "force_noise_N_N_Nm", 0.0, kInfinity);
   sensors.force_bias_N_N_Nm = optional_triple(section, "force_bias_N_N_Nm", -kInfinity, kInfinity);
+  sensors.encoder_delay_s = optional_double(section, "encoder_delay_s", 0.0, 0.0, kMaxEncoderDelay_s);
+  sensors.encoder_scale_pitch_m =
+      optional_double(section, "encoder_scale_pitch_m", sensors.encoder_scale_pitch_m, 1e-7, 1.0);
+  sensors.encoder_interpolation_error_m = optional_double(section, "encoder_interpolation_error_m", 0.0, 0.0, 1e-4);
+  sensors.encoder_interpolation_second_m = optional_double(section, "encoder_interpolation_second_m", 0.0, 0.0, 1e-4);
 }
 
 }  // namespace
@@ -157,7 +193,7 @@ MotorParameters read_motor_parameters(const yaml::Node& root, bool allow_other_s
 
   const Node simulation = root["simulation"];
   simulation.expect_keys({"seed", "coil_sets", "orthogonal_ratio", "phase_gain_mismatch_rms", "magnet_track",
-                          "cogging", "direction_dependent", "mechanics", "sensors"});
+                          "cogging", "direction_dependent", "drive", "mechanics", "sensors"});
   ElectromagneticParameters& em = motor.electromagnetics;
   em.pole_pitch_m = description.pole_pitch_m;
   if (const auto seed = simulation.optional("seed")) em.seed = seed_value(*seed);
@@ -167,6 +203,7 @@ MotorParameters read_motor_parameters(const yaml::Node& root, bool allow_other_s
   if (const auto track = simulation.optional("magnet_track")) read_magnet_track(*track, em);
   if (const auto cogging = simulation.optional("cogging")) read_cogging(*cogging, em);
   if (const auto direction = simulation.optional("direction_dependent")) read_direction_dependent(*direction, em);
+  if (const auto dynamics = simulation.optional("drive")) read_drive_dynamics(*dynamics, motor.drive);
   const Node mechanics = simulation["mechanics"];
   read_mechanics(mechanics, motor, motor.mechanics);
   if (const auto sensors = simulation.optional("sensors")) read_sensors(*sensors, motor.sensors);

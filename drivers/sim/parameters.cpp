@@ -85,6 +85,24 @@ void MechanicsParameters::validate() const {
   require_finite("end_stop_min_m", end_stop_min_m);
   require_finite("end_stop_max_m", end_stop_max_m);
   if (!(end_stop_max_m > end_stop_min_m)) fail("end_stop_max_m", end_stop_max_m, "must be above end_stop_min_m");
+  require_non_negative("flexible_mode.frequency_Hz", flexible_mode.frequency_Hz);
+  if (!(flexible_mode.damping_ratio > 0.0 && flexible_mode.damping_ratio <= 1.0)) {
+    fail("flexible_mode.damping_ratio", flexible_mode.damping_ratio, "must lie in (0, 1]");
+  }
+  if (!(flexible_mode.encoder_mass_fraction > 0.0 && flexible_mode.encoder_mass_fraction < 1.0)) {
+    fail("flexible_mode.encoder_mass_fraction", flexible_mode.encoder_mass_fraction, "must lie in (0, 1)");
+  }
+  // Semi-implicit Euler on the mode is stable for ω·h < 2; ω·h ≤ 0.5 keeps
+  // its frequency within 1 % of the true one.
+  if (2.0 * 3.141592653589793 * flexible_mode.frequency_Hz * integration_step_s > 0.5) {
+    fail("flexible_mode.frequency_Hz", flexible_mode.frequency_Hz,
+         "too high for integration_step_s " + std::to_string(integration_step_s) + " s: 2π·f·h must be at most 0.5");
+  }
+  require_non_negative("force_disturbance.rms_N", force_disturbance.rms_N);
+  require_positive("force_disturbance.low_Hz", force_disturbance.low_Hz);
+  if (!(force_disturbance.high_Hz >= force_disturbance.low_Hz) || !std::isfinite(force_disturbance.high_Hz)) {
+    fail("force_disturbance.high_Hz", force_disturbance.high_Hz, "must be finite and at least low_Hz");
+  }
 }
 
 void DriveParameters::validate() const {
@@ -92,6 +110,13 @@ void DriveParameters::validate() const {
   require_finite("drive.commutation.phase_offset_rad", commutation.phase_offset_rad);
   require_positive("phase_current_limit_A", phase_current_limit_A);
   require_positive("watchdog_timeout_s", watchdog_timeout_s);
+  if (!(setpoint_delay_s >= 0.0 && setpoint_delay_s <= kMaxSetpointDelay_s)) {
+    fail("setpoint_delay_s", setpoint_delay_s, "must lie in 0.." + std::to_string(kMaxSetpointDelay_s) + " s");
+  }
+  require_non_negative("current_loop.bandwidth_Hz", current_loop.bandwidth_Hz);
+  require_positive("current_loop.phase_resistance_ohm", current_loop.phase_resistance_ohm);
+  require_positive("current_loop.phase_inductance_H", current_loop.phase_inductance_H);
+  require_positive("current_loop.voltage_limit_V", current_loop.voltage_limit_V);
 }
 
 void SensorParameters::validate() const {
@@ -99,6 +124,12 @@ void SensorParameters::validate() const {
   require_non_negative("encoder_noise_m", encoder_noise_m);
   require_non_negative("force_noise_N_N_Nm", force_noise_N_N_Nm);
   require_finite("force_bias_N_N_Nm", force_bias_N_N_Nm);
+  if (!(encoder_delay_s >= 0.0 && encoder_delay_s <= kMaxEncoderDelay_s)) {
+    fail("encoder_delay_s", encoder_delay_s, "must lie in 0.." + std::to_string(kMaxEncoderDelay_s) + " s");
+  }
+  require_positive("encoder_scale_pitch_m", encoder_scale_pitch_m);
+  require_non_negative("encoder_interpolation_error_m", encoder_interpolation_error_m);
+  require_non_negative("encoder_interpolation_second_m", encoder_interpolation_second_m);
 }
 
 void MotorParameters::validate() const {
@@ -149,10 +180,14 @@ void MotorParameters::validate() const {
   const double slope_N_s_per_m = mechanics.viscous_friction_N_s_per_m +
                                  mechanics.coulomb_friction_N / mechanics.friction_smoothing_velocity_m_per_s +
                                  std::abs(em.direction_dependent_N_N_Nm.x()) / em.direction_smoothing_velocity_m_per_s;
-  const double stiffness = mechanics.integration_step_s * slope_N_s_per_m / mechanics.translator_mass_kg;
+  // The friction acts on the motor's side of a flexible translator.
+  const double motor_side_kg = mechanics.flexible_mode.rigid()
+                                   ? mechanics.translator_mass_kg
+                                   : mechanics.translator_mass_kg * (1.0 - mechanics.flexible_mode.encoder_mass_fraction);
+  const double stiffness = mechanics.integration_step_s * slope_N_s_per_m / motor_side_kg;
   if (stiffness > 0.5) {
     fail("integration_step_s", mechanics.integration_step_s,
-         "too large for the friction smoothing: h·(b + F_c/v_s + |C_y|/v_c)/m = " + std::to_string(stiffness) +
+         "too large for the friction smoothing: h·(b + F_c/v_s + |C_y|/v_c)/m₁ = " + std::to_string(stiffness) +
              " > 0.5; reduce the step or widen the smoothing velocities");
   }
 }

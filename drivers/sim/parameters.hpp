@@ -99,7 +99,30 @@ struct ElectromagneticParameters {
   void validate() const;
 };
 
-/// Rigid translator moving along y on a bearing.
+/// One flexible mode of the translator between the motor (where the coils'
+/// force acts) and the encoder's read head: the translator's mass split in
+/// two, coupled by a spring and a damper. frequency_Hz 0: rigid.
+struct FlexibleModeParameters {
+  double frequency_Hz = 0.0;           ///< undamped frequency of the mode [Hz], ≥ 0; 0 = rigid
+  double damping_ratio = 0.02;         ///< ζ of the mode [-], in (0, 1]
+  double encoder_mass_fraction = 0.3;  ///< share of translator_mass_kg on the encoder's side [-], in (0, 1)
+  bool rigid() const { return frequency_Hz == 0.0; }
+};
+
+/// A band-limited force on the translator's motor side (floor vibration
+/// through the base, the cable slab's stick-slip): a sum of kDisturbanceLines
+/// sinusoids of equal amplitude at frequencies drawn uniformly in
+/// [low_Hz, high_Hz] with random phases, whose RMS is rms_N. Not seen by the
+/// force sensor (it measures the coils' wrench).
+struct ForceDisturbanceParameters {
+  double rms_N = 0.0;     ///< RMS of the force [N], ≥ 0; 0 = none
+  double low_Hz = 1.0;    ///< lower band edge [Hz], > 0
+  double high_Hz = 50.0;  ///< upper band edge [Hz], ≥ low_Hz
+  std::uint64_t seed = 3; ///< seed of the frequencies and phases
+};
+inline constexpr int kDisturbanceLines = 64;
+
+/// The translator moving along y on a bearing: rigid, or with one flexible mode.
 struct MechanicsParameters {
   double translator_mass_kg = 0.0;                     ///< m [kg], > 0
   double viscous_friction_N_s_per_m = 0.0;             ///< b [N·s/m], ≥ 0
@@ -110,8 +133,24 @@ struct MechanicsParameters {
   double integration_step_s = 5e-5;
   double end_stop_min_m = -0.13;  ///< lower hard stop [m]
   double end_stop_max_m = 0.13;   ///< upper hard stop [m], > end_stop_min_m
+  FlexibleModeParameters flexible_mode;
+  ForceDisturbanceParameters force_disturbance;
 
   void validate() const;
+};
+
+/// The drive's current loop per phase: a PI controller tuned for
+/// bandwidth_Hz by pole-zero cancellation (K_p = L·ω_c, K_i = R·ω_c, so that
+/// the currents follow their setpoints as ω_c/(s + ω_c)), a bridge that
+/// applies at most voltage_limit_V, and each phase winding's R and L with the
+/// motor's back-EMF (its force constant times the velocity, SI units).
+/// bandwidth_Hz 0: ideal, the currents equal their setpoints at once.
+struct CurrentLoopParameters {
+  double bandwidth_Hz = 0.0;          ///< closed-loop bandwidth [Hz], ≥ 0; 0 = ideal
+  double phase_resistance_ohm = 2.0;  ///< R [Ω], > 0
+  double phase_inductance_H = 1e-3;   ///< L [H], > 0
+  double voltage_limit_V = 150.0;     ///< largest phase voltage [V], > 0
+  bool ideal() const { return bandwidth_Hz == 0.0; }
 };
 
 /// The drive: a fixed classical commutation (eq. 18/19) or phase-current
@@ -124,6 +163,11 @@ struct DriveParameters {
   DriveProfile profile = DriveProfile::kMagnitudePhase;
   double phase_current_limit_A = 10.0; ///< |i_a|, |i_b|, |i_c| ≤ limit [A], > 0
   double watchdog_timeout_s = 0.01;    ///< current stops this long after the last setpoint [s], > 0
+  /// A setpoint takes effect this long after it is received (the drive's
+  /// frame processing and PWM update) [s], 0..kMaxSetpointDelay_s. Enable
+  /// and disable act at once.
+  double setpoint_delay_s = 0.0;
+  CurrentLoopParameters current_loop;
 
   void validate() const;
 };
@@ -135,6 +179,14 @@ struct SensorParameters {
   Wrench force_noise_N_N_Nm = Wrench::Zero();  ///< standard deviation per axis [N, N, N·m], ≥ 0
   Wrench force_bias_N_N_Nm = Wrench::Zero();   ///< constant offset per axis [N, N, N·m]
   std::uint64_t noise_seed = 2;                ///< seed of the measurement noise
+  /// The encoder reports the position this long before sense() [s],
+  /// 0..kMaxEncoderDelay_s (its sampling and the frame's way).
+  double encoder_delay_s = 0.0;
+  /// Interpolation error of the read head, periodic in the scale's pitch:
+  /// a1·sin(2π·x/p + φ1) + a2·sin(4π·x/p + φ2), φ drawn from noise_seed.
+  double encoder_scale_pitch_m = 20e-6;          ///< p [m], > 0
+  double encoder_interpolation_error_m = 0.0;    ///< a1 [m], ≥ 0
+  double encoder_interpolation_second_m = 0.0;   ///< a2 [m], ≥ 0
 
   void validate() const;
 };
@@ -144,6 +196,10 @@ struct SensorParameters {
 /// the coil sets reach): 10^6, 8 MB per component. A correlation length
 /// that tiny against the travel is refused, not allocated.
 inline constexpr double kMaxTrackKnots = 1e6;
+
+/// Longest setpoint delay and encoder delay the simulator keeps history for [s].
+inline constexpr double kMaxSetpointDelay_s = 0.005;
+inline constexpr double kMaxEncoderDelay_s = 0.002;
 
 struct MotorParameters {
   double stroke_min_m = -0.1;  ///< lower end of the usable travel [m]

@@ -1,0 +1,273 @@
+// The simulated plant's dynamics beyond a rigid mass (docs/simulator.md,
+// "The plant's dynamics"), each against its analytic response: the flexible
+// mode's step response, the current loop's first-order step, the bridge's
+// voltage limit with the back-EMF, the setpoint and encoder delays, the
+// encoder's interpolation error, the disturbance's RMS and band.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <numbers>
+#include <vector>
+
+#include "config/yaml_reader.hpp"
+#include "drivers/sim/motor.hpp"
+#include "drivers/sim/motor_file.hpp"
+#include "sim_support.hpp"
+
+using namespace clm;
+using namespace clm::sim;
+
+namespace {
+
+constexpr double kPiRad = std::numbers::pi;
+
+/// An ideal one-coil-set motor taking phase currents, without friction, noise
+/// or quantisation: what is left is the term under test.
+MotorParameters bare_motor(double pole_pitch_m = 0.032) {
+  MotorParameters motor = fixtures::ideal_motor(1, pole_pitch_m);
+  fixtures::ideal_sensors(motor);
+  motor.drive.profile = DriveProfile::kPhaseCurrent;
+  motor.drive.watchdog_timeout_s = 1.0;
+  motor.mechanics.end_stop_min_m = -1.0;
+  motor.mechanics.end_stop_max_m = 1.0;
+  return motor;
+}
+
+}  // namespace
+
+TEST_CASE("The flexible mode's relative motion follows the analytic step response", "[sim][plant]") {
+  MotorParameters parameters = bare_motor();
+  auto& mode = parameters.mechanics.flexible_mode;
+  mode.frequency_Hz = 300.0;
+  mode.damping_ratio = 0.03;
+  mode.encoder_mass_fraction = 0.3;
+  SimulatedMotor motor(parameters);
+  // A force step on the motor's side: the read head follows through the
+  // spring; the relative coordinate r = x₁ − x₂ settles at m₂·F/(m·k).
+  const double force_N = 20.0, m = parameters.mechanics.translator_mass_kg;
+  const double omega = 2.0 * kPiRad * mode.frequency_Hz, zeta = mode.damping_ratio;
+  const double m2 = mode.encoder_mass_fraction * m, mu = (1.0 - mode.encoder_mass_fraction) * m2;
+  const double settled_m = m2 * force_N / (m * omega * omega * mu);
+  const double omega_d = omega * std::sqrt(1.0 - zeta * zeta);
+  motor.set_disturbance_force_N(force_N);
+  double worst = 0.0;
+  for (int k = 1; k <= 300; ++k) {
+    REQUIRE(motor.step(1e-4) == StepResult::kOk);
+    const double t = k * 1e-4;
+    const auto truth = motor.truth();
+    const double r = truth.position_m - truth.encoder_side_position_m;
+    const double expected = settled_m * (1.0 - std::exp(-zeta * omega * t) *
+                                                   (std::cos(omega_d * t) + zeta / std::sqrt(1.0 - zeta * zeta) *
+                                                                                std::sin(omega_d * t)));
+    worst = std::max(worst, std::abs(r - expected));
+    // The encoder reads the read head's side.
+    REQUIRE(motor.sense().position_m == truth.encoder_side_position_m);
+  }
+  INFO("relative deflection settles at " << settled_m << " m; largest deviation " << worst << " m");
+  CHECK(worst <= 0.01 * settled_m);
+}
+
+TEST_CASE("The current loop follows a step as ω_c/(s + ω_c)", "[sim][plant]") {
+  MotorParameters parameters = bare_motor();
+  parameters.mechanics.translator_mass_kg = 1e6;  // at rest: no back-EMF
+  auto& loop = parameters.drive.current_loop;
+  loop.bandwidth_Hz = 1000.0;
+  loop.phase_resistance_ohm = 2.0;
+  loop.phase_inductance_H = 1e-3;
+  loop.voltage_limit_V = 150.0;  // K_p·1 A = 6.3 V: far from it
+  SimulatedMotor motor(parameters);
+  const PhaseCurrentSetpoint step[] = {{1.0, -0.5}};
+  REQUIRE(motor.command_currents(step, true) == CommandResult::kAccepted);
+  for (int k = 1; k <= 30; ++k) {
+    REQUIRE(motor.step(1e-4) == StepResult::kOk);
+    const double t = k * 1e-4;
+    const double follows = 1.0 - std::exp(-2.0 * kPiRad * loop.bandwidth_Hz * t);
+    const auto currents = motor.truth().currents_A;
+    INFO("t = " << t << " s");
+    CHECK(currents[0] == Approx(1.0 * follows).epsilon(1e-6));
+    CHECK(currents[1] == Approx(-0.5 * follows).epsilon(1e-6));
+  }
+}
+
+TEST_CASE("At the voltage limit the winding's current rises as (V − e)/R·(1 − exp(−R·t/L)), with the back-EMF", "[sim][plant]") {
+  // A pole pitch of 100 m keeps the force constant (and so the back-EMF per
+  // m/s) the same over the millimetres moved.
+  MotorParameters parameters = bare_motor(100.0);
+  parameters.mechanics.translator_mass_kg = 1e6;
+  auto& loop = parameters.drive.current_loop;
+  loop.bandwidth_Hz = 1000.0;
+  loop.phase_resistance_ohm = 2.0;
+  loop.phase_inductance_H = 1e-3;
+  loop.voltage_limit_V = 5.0;  // K_p·10 A = 63 V asked: at the limit throughout
+  for (const double v : {0.0, 0.2}) {
+    SimulatedMotor motor(parameters);
+    motor.reset(0.0, v);
+    const double emf_V = v * motor.true_gain(0, 0.0)(0, 0);
+    const PhaseCurrentSetpoint step[] = {{10.0, 0.0}};
+    REQUIRE(motor.command_currents(step, true) == CommandResult::kAccepted);
+    for (int k = 1; k <= 20; ++k) {
+      REQUIRE(motor.step(1e-4) == StepResult::kOk);
+      const double t = k * 1e-4;
+      const double expected = (loop.voltage_limit_V - emf_V) / loop.phase_resistance_ohm *
+                              (1.0 - std::exp(-loop.phase_resistance_ohm * t / loop.phase_inductance_H));
+      INFO("v = " << v << " m/s, back-EMF " << emf_V << " V, t = " << t << " s");
+      CHECK(motor.truth().currents_A[0] == Approx(expected).epsilon(1e-3));
+    }
+  }
+}
+
+TEST_CASE("A setpoint takes effect after the drive's delay; enable at once", "[sim][plant]") {
+  MotorParameters parameters = bare_motor();
+  parameters.drive.setpoint_delay_s = 3e-4;
+  SimulatedMotor motor(parameters);
+  const PhaseCurrentSetpoint first[] = {{2.0, 0.0}};
+  REQUIRE(motor.command_currents(first, true) == CommandResult::kAccepted);
+  REQUIRE(motor.step(2e-4) == StepResult::kOk);
+  CHECK(motor.truth().currents_A[0] == 0.0);
+  CHECK(motor.status().enabled());
+  REQUIRE(motor.step(2e-4) == StepResult::kOk);  // t = 0.4 ms
+  CHECK(motor.truth().currents_A[0] == 2.0);
+  // Two in flight: each after its own delay.
+  const PhaseCurrentSetpoint second[] = {{3.0, 0.0}};
+  REQUIRE(motor.command_currents(second, true) == CommandResult::kAccepted);  // due at 0.7 ms
+  REQUIRE(motor.step(2e-4) == StepResult::kOk);
+  const PhaseCurrentSetpoint third[] = {{4.0, 0.0}};
+  REQUIRE(motor.command_currents(third, true) == CommandResult::kAccepted);  // due at 0.9 ms
+  REQUIRE(motor.step(2e-4) == StepResult::kOk);  // 0.8 ms
+  CHECK(motor.truth().currents_A[0] == 3.0);
+  REQUIRE(motor.step(2e-4) == StepResult::kOk);  // 1.0 ms
+  CHECK(motor.truth().currents_A[0] == 4.0);
+  // Disable acts at once.
+  REQUIRE(motor.command_currents(third, false) == CommandResult::kAccepted);
+  CHECK(motor.truth().currents_A[0] == 0.0);
+}
+
+TEST_CASE("The encoder reports the position its delay ago", "[sim][plant]") {
+  MotorParameters parameters = bare_motor();
+  parameters.mechanics.translator_mass_kg = 1e6;
+  parameters.sensors.encoder_delay_s = 5e-4;
+  SimulatedMotor motor(parameters);
+  const double v = 0.1;
+  motor.reset(0.0, v);
+  for (int k = 0; k < 10; ++k) REQUIRE(motor.step(1e-3) == StepResult::kOk);
+  const auto truth = motor.truth();
+  CHECK(motor.sense().position_m == Approx(truth.position_m - v * 5e-4).margin(1e-12));
+}
+
+TEST_CASE("The encoder's interpolation error has its amplitudes at the scale pitch and its half", "[sim][plant]") {
+  MotorParameters parameters = bare_motor();
+  parameters.sensors.encoder_scale_pitch_m = 20e-6;
+  parameters.sensors.encoder_interpolation_error_m = 10e-9;
+  parameters.sensors.encoder_interpolation_second_m = 3e-9;
+  SimulatedMotor motor(parameters);
+  const int n = 64;
+  double c1 = 0, s1 = 0, c2 = 0, s2 = 0, mean = 0;
+  for (int k = 0; k < n; ++k) {
+    const double y = 0.01 + k * 20e-6 / n;
+    motor.reset(y);
+    const double error = motor.sense().position_m - y;
+    const double angle = 2.0 * kPiRad * (y - 0.01) / 20e-6;
+    c1 += error * std::cos(angle) * 2 / n;
+    s1 += error * std::sin(angle) * 2 / n;
+    c2 += error * std::cos(2 * angle) * 2 / n;
+    s2 += error * std::sin(2 * angle) * 2 / n;
+    mean += error / n;
+  }
+  CHECK(std::hypot(c1, s1) == Approx(10e-9).epsilon(1e-6));
+  CHECK(std::hypot(c2, s2) == Approx(3e-9).epsilon(1e-6));
+  CHECK(std::abs(mean) < 1e-15);
+}
+
+TEST_CASE("The force disturbance has its RMS and no power outside its band", "[sim][plant]") {
+  MotorParameters parameters = bare_motor();
+  parameters.mechanics.translator_mass_kg = 1e6;
+  auto& d = parameters.mechanics.force_disturbance;
+  d.rms_N = 0.5;
+  d.low_Hz = 5.0;
+  d.high_Hz = 50.0;
+  SimulatedMotor motor(parameters);
+  std::vector<double> force;
+  for (int k = 0; k < 40000; ++k) {  // 40 s at 1 kHz
+    REQUIRE(motor.step(1e-3) == StepResult::kOk);
+    force.push_back(motor.truth().disturbance_N);
+  }
+  double sum_squares = 0.0;
+  for (double f : force) sum_squares += f * f;
+  const double rms = std::sqrt(sum_squares / force.size());
+  CHECK(rms == Approx(0.5).epsilon(0.05));
+  // Power at 1 Hz steps outside [5, 50] Hz against the total (a periodogram
+  // of 40 s: 0.025 Hz resolution).
+  const auto power_at = [&](double f_Hz) {
+    double c = 0, s = 0;
+    for (std::size_t k = 0; k < force.size(); ++k) {
+      c += force[k] * std::cos(2 * kPiRad * f_Hz * (k + 1) * 1e-3);
+      s += force[k] * std::sin(2 * kPiRad * f_Hz * (k + 1) * 1e-3);
+    }
+    return (c * c + s * s) / (force.size() * force.size());
+  };
+  double inside = 0.0, outside = 0.0;
+  for (double f = 10.0; f <= 40.0; f += 0.5) inside = std::max(inside, power_at(f));
+  for (double f = 70.0; f <= 300.0; f += 7.0) outside = std::max(outside, power_at(f));
+  INFO("largest line power inside " << inside << " N^2, outside " << outside << " N^2");
+  CHECK(outside < 1e-3 * inside);
+}
+
+TEST_CASE("Plant settings out of range are refused by name", "[sim][plant]") {
+  MotorParameters parameters = bare_motor();
+  parameters.mechanics.flexible_mode.frequency_Hz = 5000.0;  // 2π·f·h = 1.6
+  CHECK_THROWS_WITH(parameters.validate(), Catch::Contains("flexible_mode.frequency_Hz"));
+  parameters = bare_motor();
+  parameters.drive.setpoint_delay_s = 0.1;
+  CHECK_THROWS_WITH(parameters.validate(), Catch::Contains("setpoint_delay_s"));
+  parameters = bare_motor();
+  parameters.sensors.encoder_delay_s = -1e-3;
+  CHECK_THROWS_WITH(parameters.validate(), Catch::Contains("encoder_delay_s"));
+  parameters = bare_motor();
+  parameters.mechanics.force_disturbance.high_Hz = 0.5;  // below low_Hz
+  CHECK_THROWS_WITH(parameters.validate(), Catch::Contains("force_disturbance.high_Hz"));
+}
+
+TEST_CASE("The motor file sets every plant term, and refuses an unknown key in them", "[sim][plant]") {
+  std::ifstream in(fixtures::source_path("config/motor-sim.yaml"));
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  std::string text = buffer.str();
+  const auto insert_after = [&](const std::string& anchor, const std::string& lines) {
+    const auto at = text.find(anchor);
+    REQUIRE(at != std::string::npos);
+    text.insert(at + anchor.size(), lines);
+  };
+  insert_after("\n  mechanics:\n",
+               "    flexible_mode: {frequency_Hz: 250.0, damping_ratio: 0.04, encoder_mass_fraction: 0.25}\n"
+               "    force_disturbance: {rms_N: 0.3, low_Hz: 2.0, high_Hz: 80.0, seed: 9}\n");
+  insert_after("\n  sensors:\n",
+               "    encoder_delay_s: 1.0e-4\n    encoder_scale_pitch_m: 4.0e-5\n"
+               "    encoder_interpolation_error_m: 5.0e-9\n    encoder_interpolation_second_m: 1.0e-9\n");
+  insert_after("\nsimulation:\n",
+               "  drive:\n    setpoint_delay_s: 2.5e-4\n"
+               "    current_loop: {bandwidth_Hz: 1500.0, phase_resistance_ohm: 3.0, phase_inductance_H: 1.5e-3, "
+               "voltage_limit_V: 100.0}\n");
+  const MotorParameters m = read_motor_parameters(yaml::Node::load_string(text, "motor.yaml"));
+  CHECK(m.mechanics.flexible_mode.frequency_Hz == 250.0);
+  CHECK(m.mechanics.flexible_mode.damping_ratio == 0.04);
+  CHECK(m.mechanics.flexible_mode.encoder_mass_fraction == 0.25);
+  CHECK(m.mechanics.force_disturbance.rms_N == 0.3);
+  CHECK(m.mechanics.force_disturbance.high_Hz == 80.0);
+  CHECK(m.mechanics.force_disturbance.seed == 9);
+  CHECK(m.sensors.encoder_delay_s == 1.0e-4);
+  CHECK(m.sensors.encoder_scale_pitch_m == 4.0e-5);
+  CHECK(m.sensors.encoder_interpolation_error_m == 5.0e-9);
+  CHECK(m.sensors.encoder_interpolation_second_m == 1.0e-9);
+  CHECK(m.drive.setpoint_delay_s == 2.5e-4);
+  CHECK(m.drive.current_loop.bandwidth_Hz == 1500.0);
+  CHECK(m.drive.current_loop.phase_resistance_ohm == 3.0);
+  CHECK(m.drive.current_loop.phase_inductance_H == 1.5e-3);
+  CHECK(m.drive.current_loop.voltage_limit_V == 100.0);
+  std::string misspelt = text;
+  misspelt.replace(misspelt.find("damping_ratio"), 13, "damping_ration");
+  CHECK_THROWS_WITH(read_motor_parameters(yaml::Node::load_string(misspelt, "motor.yaml")),
+                    Catch::Contains("damping_ration"));
+}
