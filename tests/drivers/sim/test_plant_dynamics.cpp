@@ -119,7 +119,7 @@ TEST_CASE("At the voltage limit the winding's current rises as (V − e)/R·(1 �
   }
 }
 
-TEST_CASE("A setpoint takes effect after the drive's delay; enable at once", "[sim][plant]") {
+TEST_CASE("A setpoint takes effect after the drive's delay, enable at once", "[sim][plant]") {
   MotorParameters parameters = bare_motor();
   parameters.drive.setpoint_delay_s = 3e-4;
   SimulatedMotor motor(parameters);
