@@ -21,6 +21,7 @@ void add_commission(CLI::App& app);
 void add_ctl(CLI::App& app);
 void add_sim(CLI::App& app);
 void add_scope(CLI::App& app);
+void add_margins(CLI::App& app);
 
 /// The mechanics, knot choice and balance residuals of a position-based
 /// identification, on stdout (clm identify and clm calibrate).

@@ -28,5 +28,6 @@ int main(int argc, char** argv) {
   clm::cli::add_ctl(app);
   clm::cli::add_sim(app);
   clm::cli::add_scope(app);
+  clm::cli::add_margins(app);
   return clm::run_command_line(app, argc, argv);
 }
