@@ -21,12 +21,7 @@ fail() { fail_with_status "$*" "$work/servod.log"; }
 
 # A loaded host's settings (docs/bring-up.md, section 6): this tests the
 # scope, not the loop's timing.
-missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml") ||
-    fail "motor: no line '$missing' after editing"
-missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" \
-          "motor_file: $work/motor-sim.yaml" "  clock: realtime" \
-          "  lcm_url: \"$url\"" "  overrun_limit: 1000") ||
-    fail "config: no line '$missing' after editing"
+process_test_config "$work/servod.yaml"
 
 start_daemon "$work/servod.yaml" "$work/servod.log"
 rc=0
