@@ -20,6 +20,7 @@
 #include "daemon/servod/file_policy.hpp"
 #include "drivers/sim/motor.hpp"
 #include "tools/commission/live_runner.hpp"
+#include "tools/commission/preflight.hpp"
 #include "tools/data/csv_table.hpp"
 
 namespace clm::commission {
@@ -416,13 +417,16 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
                              "positions alone with --no-force-sensor");
   }
   if (options.live) {
-    // The daemon loads what is written to --out: refused now, not after the
-    // experiments and the identification.
+    // Everything that could fail late is checked now, before the first
+    // experiment (preflight.hpp): --out, the programs, the daemon, timing.
+    // --out first, before anything is opened: it needs no daemon.
     const std::string out_refusal =
         servod::check_output_directory({config.commands.file_directories, config.commands.max_file_bytes}, options.out_dir);
-    if (!out_refusal.empty()) throw std::runtime_error("--out " + out_refusal);
+    if (!out_refusal.empty()) throw std::runtime_error(describe_refusals({"--out " + out_refusal}));
     LiveOptions live = options.live_options;
     LcmRunner runner(config, live);
+    const std::vector<std::string> refusals = live_preflight(config, options, runner.observe());
+    if (!refusals.empty()) throw std::runtime_error(describe_refusals(refusals));
     Report report = run(options, runner, progress);
     return report;
   }
@@ -474,13 +478,11 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     return fitted;
   };
   const std::string config_dir = std::filesystem::absolute(options.config_path).parent_path().string();
-  const std::string program_path = std::filesystem::absolute(
-      options.program_path.empty() ? config_dir + "/programs/fig8.yaml" : options.program_path).lexically_normal().string();
+  const ProgramPaths paths = program_paths(options);
+  const std::string program_path = paths.evaluation;
   const servod::ProgramFile program = fit(program_path, "evaluation program");
   const control::MoveProgram timeline(program.start_m, program.steps);
-  const std::string experiment_path = std::filesystem::absolute(
-      options.experiment_program_path.empty() ? config_dir + "/programs/identification.yaml"
-                                              : options.experiment_program_path).lexically_normal().string();
+  const std::string experiment_path = paths.experiment;
   const servod::ProgramFile experiment_program = fit(experiment_path, "experiment program");
   report.experiment_program = experiment_path;
   report.evaluation_program = program_path;
@@ -489,7 +491,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   if (options.validation_program_path != "none") {
     report.validation_program = options.validation_program_path.empty() ? config_dir + "/programs/validation.yaml"
                                                                         : options.validation_program_path;
-    validation_path = std::filesystem::absolute(report.validation_program).lexically_normal().string();
+    validation_path = paths.validation;
     validation_program = fit(report.validation_program, "validation program");
   }
 
