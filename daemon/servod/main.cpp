@@ -301,6 +301,13 @@ int run(const std::string& config_path, double duration_s) {
                                        config.servo.period_s, {config.motor.drive_watchdog_timeout_s,
                                                                config.servo.overrun_limit, kTimingHorizon_s});
                                    if (!timing.empty()) warn(timing);
+                                   // Refused stops, quick stops and disables, rate-limited.
+                                   if (publisher) {
+                                     for (const std::string& line : publisher->safety_refusals().take_lines(
+                                              telemetry::wall_clock_utime())) {
+                                       warn(line);
+                                     }
+                                   }
                                    return health.status_line();
                                  });
   notifier.notify("READY=1");
