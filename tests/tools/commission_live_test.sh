@@ -23,6 +23,13 @@
 #       commutation not experiment, no program running) and nobody holds
 #       control (control_client 0); after SIGTERM the tool exits 1 and says
 #       why. About 1 min.
+#   commission_live_test.sh resume CLM_SERVOD CLM SOURCE_DIR WORK_DIR
+#       the daemon as for run; `clm commission --live` ended by SIGTERM once
+#       its progress file lists the first experiment; --resume refused (exit
+#       2, within 10 s) when the progress names another configuration; then
+#       resumed: experiment 1's log untouched, only the other experiments
+#       and the laws run, experiments.csv and the joined experiments.lcm hold
+#       all six. About 2.5 min.
 #   commission_live_test.sh preflight CLM_SERVOD CLM SOURCE_DIR WORK_DIR
 #       the daemon with a simulated drive whose watchdog is 1 ms: `clm
 #       commission --live` is refused within 10 s, exit 2, one line naming
@@ -181,7 +188,7 @@ CHECK
   exit 0
 fi
 
-[ "$mode" = run ] || [ "$mode" = no-sensor ] || [ "$mode" = killed ] || fail "unknown mode $mode"
+[ "$mode" = run ] || [ "$mode" = no-sensor ] || [ "$mode" = killed ] || [ "$mode" = resume ] || fail "unknown mode $mode"
 # A port range of each mode's own, 10480..10619, above every other test's:
 # ctest runs the modes side by side and beside the other process tests (the
 # earlier ranges overlapped those of servod_process_test.sh, the authority,
@@ -191,6 +198,7 @@ case "$mode" in
   run) url="udpm://239.255.76.67:$((10480 + $$ % 30))?ttl=0" ;;
   no-sensor) url="udpm://239.255.76.67:$((10510 + $$ % 40))?ttl=0" ;;
   killed) url="udpm://239.255.76.67:$((10550 + $$ % 40))?ttl=0" ;;
+  resume) url="udpm://239.255.76.67:$((10690 + $$ % 30))?ttl=0" ;;
 esac
 
 # config/servod.yaml as it is (SCHED_FIFO 80 and mlockall where allowed, else
@@ -286,6 +294,80 @@ if [ "$mode" = killed ]; then
   kill_commission early KILL holds_control
   kill_commission experiment KILL in_experiment
   kill_commission experiment-term TERM in_experiment
+  rc=0
+  stop_process $pid 20 || rc=$?
+  trap - EXIT
+  [ $rc = 0 ] || fail "clm-servod exit status $rc after SIGTERM"
+  exit 0
+fi
+
+if [ "$mode" = resume ]; then
+  out="$work/out"
+  live_args=(--live --lcm-url "$url" --config "$work/servod.yaml" --program "$work/program.yaml"
+             --experiment-program "$work/program.yaml" --validation-program none --no-plots)
+  # Interrupted (SIGTERM) once the first experiment is listed as complete.
+  "$clm" commission "${live_args[@]}" --out "$out" > "$work/commission-1.out" 2> "$work/commission.err" &
+  tool=$!
+  start=$(date +%s)
+  # Experiments listed as complete in the progress file (0 before it exists).
+  completed() { if [ -f "$out/commission-progress.yaml" ]; then grep -c "coil_set:" "$out/commission-progress.yaml" || true; else echo 0; fi; }
+  while [ "$(completed)" -lt 1 ]; do
+    kill -0 $tool 2>/dev/null || fail "clm commission ended before its first experiment: $(tail -n 1 "$work/commission.err")"
+    [ $(( $(date +%s) - start )) -lt 120 ] || { kill -KILL $tool; fail "no experiment completed within 120 s"; }
+    sleep 0.1
+  done
+  kill -TERM $tool
+  rc=0
+  wait $tool || rc=$?
+  [ $rc = 1 ] || fail "clm commission after SIGTERM: exit status $rc, expected 1"
+  completed=$(completed)
+  [ -f "$out/INCOMPLETE" ] || fail "the interrupted directory is not marked INCOMPLETE"
+  first_sha=$(sha256sum "$out/logs/experiment-1.lcm" | cut -d' ' -f1)
+  grep -qF "$first_sha" "$out/commission-progress.yaml" || fail "the progress file does not hold experiment 1's SHA-256"
+  # Another configuration recorded: refused within 10 s, nothing run.
+  cp "$out/commission-progress.yaml" "$work/progress.yaml"
+  sed -i "s/^configuration_sha256: .*/configuration_sha256: \"$(printf '0%.0s' $(seq 1 64))\"/" \
+      "$out/commission-progress.yaml"
+  t0=$(date +%s.%N)
+  rc=0
+  "$clm" commission "${live_args[@]}" --resume "$out" > /dev/null 2> "$work/refused.err" || rc=$?
+  t=$(echo "$(date +%s.%N) - $t0" | bc)
+  [ $rc = 2 ] || fail "--resume with another configuration recorded: exit $rc, expected 2: $(cat "$work/refused.err")"
+  [ "$(echo "$t < 10" | bc)" = 1 ] || fail "the --resume refusal took $t s"
+  for words in "--resume" "daemon's configuration" "Fix:"; do
+    grep -qF -- "$words" "$work/refused.err" || fail "the --resume refusal does not say '$words': $(cat "$work/refused.err")"
+  done
+  cp "$work/progress.yaml" "$out/commission-progress.yaml"
+  # Resumed: the completed experiments reused, the rest and the laws run.
+  "$clm" commission "${live_args[@]}" --resume "$out" > "$work/commission.out" 2> "$work/commission.err" ||
+      fail "clm commission --resume failed: $(tail -n 1 "$work/commission.err")"
+  [ ! -e "$out/INCOMPLETE" ] || fail "INCOMPLETE left after the resumed run"
+  [ "$(sha256sum "$out/logs/experiment-1.lcm" | cut -d' ' -f1)" = "$first_sha" ] ||
+      fail "experiment 1's log was rewritten: it was run again"
+  "$clm" log2csv --log "$out/logs/experiments.lcm" --format experiment --output "$work/experiments-from-log.csv" \
+      --fail-on-gaps || fail "log2csv of the joined logs/experiments.lcm"
+  verdict=$(py_check "$out/report.json" "$out/experiments.csv" "$work/experiments-from-log.csv" "$completed" <<'CHECK'
+import csv, json, sys
+report = json.load(open(sys.argv[1]))
+completed = int(sys.argv[4])
+rows = list(csv.DictReader(open(sys.argv[2])))
+pairs = sorted({(int(float(r["coil_set"])), float(r["delta_rad"]) > 0) for r in rows})
+assert pairs == [(l, d) for l in (1, 2, 3) for d in (False, True)], f"experiments.csv holds {pairs}"
+from_log = sum(1 for _ in open(sys.argv[3])) - 1
+assert from_log == len(rows), f"experiments.lcm has {from_log} experiment rows, experiments.csv {len(rows)}"
+c = report["commutations"]
+chosen = [t for t in report["selection"]["pgnn"]["trials"] if t["chosen"]][0]["capacity"]
+evaluated = 6 if chosen != "pgnn 2/16 Lambda 0.1" and c["pgnn-paper"]["evaluated"] else 5
+runs = report["live"]["runs"]
+assert runs == 6 - completed + 2 * evaluated, \
+    f"{runs} live runs, expected {6 - completed} experiments + 2 x {evaluated} laws ({completed} reused)"
+assert any(f"resumed: {completed} of 6 experiments reused" in n for n in report["notes"]), report["notes"]
+for name in ("original", "classical", "pgnn", "spline"):
+    assert c[name]["evaluated"], f"{name} not evaluated"
+print(f"resumed: {completed} of 6 experiments reused, {runs} runs made; experiments.csv {len(rows)} rows of 6 experiments")
+CHECK
+) || fail "the resumed report: $verdict"
+  echo "$verdict"
   rc=0
   stop_process $pid 20 || rc=$?
   trap - EXIT

@@ -12,6 +12,7 @@
 #include "daemon/servod/file_policy.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 #include "tools/commission/commission.hpp"
+#include "tools/commission/progress.hpp"
 #include "tools/servod_client/config_update.hpp"
 
 namespace clm::commission {
@@ -155,6 +156,18 @@ std::vector<std::string> live_preflight(const servod::ServodConfig& config, cons
   } catch (const std::exception& e) {
     refusals.push_back(e.what());
     return refusals;
+  }
+
+  // --resume: the completed experiments were made on this daemon's
+  // configuration and motor with this experiment program, and are intact.
+  if (options.resume) {
+    std::string refusal;
+    try {
+      refusal = check_resume(options.out_dir, run_identity(daemon.status, program_paths(options).experiment));
+    } catch (const std::exception& e) {
+      refusal = std::string("--resume: ") + e.what();
+    }
+    if (!refusal.empty()) refusals.push_back(refusal);
   }
 
   std::vector<PlannedProgram> programs;
