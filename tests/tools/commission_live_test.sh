@@ -368,6 +368,8 @@ print(f"resumed: {completed} of 6 experiments reused, {runs} runs made; experime
 CHECK
 ) || fail "the resumed report: $verdict"
   echo "$verdict"
+  # A 1 s watchdog and 1000 overruns: the daemon saw no timing risk.
+  ! grep -q "timing margin" "$work/servod.log" || fail "clm-servod warned: $(grep "timing margin" "$work/servod.log")"
   rc=0
   stop_process $pid 20 || rc=$?
   trap - EXIT

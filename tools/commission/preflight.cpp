@@ -203,11 +203,6 @@ std::vector<std::string> live_preflight(const servod::ServodConfig& config, cons
                          ": experiments would be read with the wrong drive model. Fix: restart the daemon on this "
                          "configuration, or give --config the daemon's");
     }
-    if (daemon.state->coil_sets != config.motor.coil_sets) {
-      refusals.push_back("clm-servod drives " + std::to_string(daemon.state->coil_sets) + " coil sets, " +
-                         config.origin + " describes a motor with " + std::to_string(config.motor.coil_sets) +
-                         ". Fix: give --config the daemon's configuration");
-    }
   }
 
   const servo::MeasuredTiming measured{config.servo.period_s, daemon.status.wakeup_latency_p99_s,

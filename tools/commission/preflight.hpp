@@ -10,8 +10,8 @@
 //     daemon's own move decision (servo::decide_move: soft limits, motion
 //     limits, the stop from every cycle), and within control.force_limit_N
 //     at control.mass_kg;
-//   - the daemon: the configuration's axis and motor, the drive profile and
-//     coil sets of its states;
+//   - the daemon: the configuration's axis and motor, the drive profile of
+//     its states (the coil sets and the period LcmRunner::enable checks);
 //   - the timing margin: the drive's watchdog and faults.overrun_limit
 //     against the daemon's measured wake-up latency and overruns, over the
 //     commissioning's expected duration (servo::judge_timing_margin, the
