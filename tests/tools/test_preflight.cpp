@@ -30,6 +30,7 @@ struct Preflight {
     config = servod::load_servod_config(options.config_path);
     config.commands.file_directories = {std::filesystem::canonical(directory.file("")).string()};
     // A healthy daemon of this configuration: 0.1 ms wake-up latency at most, no overrun.
+    daemon.status = {};  // every field zero, as in a status of a fresh daemon
     daemon.status.axis = config.axis_name;
     daemon.status.motor_sha256 = config.motor_sha256;
     daemon.status.cycles = 10000;
@@ -49,7 +50,9 @@ struct Preflight {
 
 TEST_CASE("preflight: a healthy daemon and fitting programs pass", "[commission][preflight]") {
   Preflight p;
-  CHECK(p.run().empty());
+  const auto refusals = p.run();
+  INFO(commission::describe_refusals(refusals));
+  CHECK(refusals.empty());
 }
 
 TEST_CASE("preflight: too little free space in --out is refused with the estimate", "[commission][preflight]") {
@@ -65,6 +68,7 @@ TEST_CASE("preflight: too little free space in --out is refused with the estimat
   CHECK(estimate > floor_bytes);
   CHECK(estimate < 20 * floor_bytes + commission::kFixedOutputBytes);
   const auto refusals = p.run(estimate - 1);
+  INFO(commission::describe_refusals(refusals));
   REQUIRE(refusals.size() == 1);
   CHECK_THAT(refusals[0], Catch::Contains("--out") && Catch::Contains("free") && Catch::Contains("Fix:"));
   CHECK(p.run(estimate).empty());
@@ -79,6 +83,7 @@ TEST_CASE("preflight: a program beyond the motion limits or the soft limits is r
                          "jerk_m_per_s3: 100.0, dwell_s: 0.1}\n";
   p.options.program_path = fast;
   auto refusals = p.run();
+  INFO(commission::describe_refusals(refusals));
   REQUIRE(refusals.size() == 1);
   CHECK_THAT(refusals[0], Catch::Contains("evaluation program " + fast) && Catch::Contains("velocity") &&
                               Catch::Contains("Fix:"));
@@ -89,6 +94,7 @@ TEST_CASE("preflight: a program beyond the motion limits or the soft limits is r
   p.options.program_path = p.options.experiment_program_path;
   p.options.experiment_program_path = wide;
   refusals = p.run();
+  INFO(commission::describe_refusals(refusals));
   REQUIRE(refusals.size() == 1);
   CHECK_THAT(refusals[0], Catch::Contains("experiment program " + wide) && Catch::Contains("soft limit"));
 }
@@ -99,6 +105,7 @@ TEST_CASE("preflight: the force a program's acceleration takes beyond force_limi
   // 15 kg x 1 m/s^2 = 15 N: a 10 N limit is below it.
   p.config.servo.force_limit_N = 10.0;
   const auto refusals = p.run();
+  INFO(commission::describe_refusals(refusals));
   REQUIRE(refusals.size() == 2);  // the experiment and the evaluation program
   CHECK_THAT(refusals[0], Catch::Contains("15 N") && Catch::Contains("control.force_limit_N 10 N"));
 }
@@ -107,6 +114,7 @@ TEST_CASE("preflight: another drive profile on the daemon is refused", "[commiss
   Preflight p;
   p.daemon.state->drive_profile = static_cast<std::int8_t>(DriveProfile::kPhaseCurrent);
   const auto refusals = p.run();
+  INFO(commission::describe_refusals(refusals));
   REQUIRE(refusals.size() == 1);
   CHECK_THAT(refusals[0], Catch::Contains("phase_current") && Catch::Contains("magnitude_phase") &&
                               Catch::Contains("Fix:"));
@@ -120,6 +128,7 @@ TEST_CASE("preflight: a watchdog below period + 3 x the measured max latency, an
   p.daemon.status.overruns = 1000;              // a tenth of the cycles
   p.config.servo.overrun_limit = 3;             // 1e-3 per cycle: many trips in the commissioning
   const auto refusals = p.run();
+  INFO(commission::describe_refusals(refusals));
   REQUIRE(refusals.size() == 2);
   CHECK_THAT(refusals[0], Catch::Contains("drive.watchdog_timeout_s 5 ms") && Catch::Contains("max 2 ms") &&
                               Catch::Contains("at least 7 ms") && Catch::Contains(p.config.motor_file));
@@ -134,6 +143,7 @@ TEST_CASE("preflight: --out outside the file directories and another motor are b
   p.options.out_dir = "/";
   p.daemon.status.motor_sha256 = std::string(64, '0');
   const auto refusals = p.run();
+  INFO(commission::describe_refusals(refusals));
   REQUIRE(refusals.size() == 2);
   CHECK_THAT(refusals[0], Catch::StartsWith("--out '/'") && Catch::Contains("outside"));
   CHECK_THAT(refusals[1], Catch::Contains("is not the motor axis"));

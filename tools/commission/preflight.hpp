@@ -73,7 +73,7 @@ inline constexpr double kIdentificationAllowance_s = 600.0;
 
 /// What the daemon showed before anything was commanded.
 struct DaemonView {
-  clm_lcm::servo_status_t status;
+  clm_lcm::servo_status_t status{};
   std::optional<clm_lcm::servo_state_t> state;  ///< a CLM_SERVO_STATE, when one came
 };
 
