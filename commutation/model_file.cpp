@@ -131,6 +131,9 @@ MotorDescription read_motor_description(const yaml::Node& root) {
       profile->fail("must be magnitude_phase or phase_current, got '" + text + "'");
     }
   }
+  if (const auto watchdog = root["drive"].optional("watchdog_timeout_s")) {
+    motor.drive_watchdog_timeout_s = watchdog->as_positive();
+  }
   return motor;
 }
 

@@ -29,6 +29,9 @@ struct MotorDescription {
   /// is then the nominal law clm-servod applies itself where the drive's law
   /// is meant (commutation mode original, the experiments of Algorithm 1).
   DriveProfile drive_profile = DriveProfile::kMagnitudePhase;
+  /// drive.watchdog_timeout_s: the drive's setpoint watchdog [s]; 0 when the
+  /// file does not say (the timing margin then does not judge it).
+  double drive_watchdog_timeout_s = 0.0;
 };
 
 /// Reads `motor:` and `drive.commutation:` of a YAML document; other top-level

@@ -63,6 +63,14 @@ void CommandServer::ack(std::int64_t sequence, std::int64_t client, bool accepte
   ++acks;
 }
 
+void CommandServer::record_safety_refusal(const servo::Command& command, const CommandReply& reply) {
+  if (reply.accepted() || !servo::is_safety_command(command.kind)) return;
+  publisher_.safety_refusals().record(telemetry::wall_clock_utime(), command.kind, command.client, command.sequence,
+                                      reply.result,
+                                      reply.detail.empty() ? std::string_view(servo::describe(reply.result))
+                                                           : std::string_view(reply.detail));
+}
+
 void CommandServer::check_other_daemon() {
   const std::int64_t other = publisher_.foreign_session();
   if (other == 0 || other == other_session_handled_) return;
@@ -122,6 +130,7 @@ int CommandServer::serve_once() {
       const bool deadman_holder = gate_->deadman() && gate_->holder(now_us) == received.client;
       const CommandReply decision = gate_->admit(origin, command_class(received.kind), now_us);
       if (!decision.accepted()) {
+        record_safety_refusal(received, decision);
         ack(decision, acks);
         continue;
       }
@@ -149,7 +158,10 @@ int CommandServer::serve_once() {
     const CommandReply reply = daemon_.submit(received);
     // A command the cycle or the loader answers is acked once, with its
     // decision (below).
-    if (!reply.answered_later()) ack(reply, acks);
+    if (!reply.answered_later()) {
+      record_safety_refusal(received, reply);
+      ack(reply, acks);
+    }
   }
   for (const CommandReply& reply : daemon_.take_replies()) {
     if (own_command(reply)) continue;

@@ -89,6 +89,9 @@ class CommandServer final : public AuthorityReport, public telemetry::SafetyLatc
  private:
   void ack(const CommandReply& reply, int& acks);
   void ack(std::int64_t sequence, std::int64_t client, bool accepted, const std::string& text, int& acks);
+  /// A refusal of a stop, quick stop or disable goes to the publisher's
+  /// SafetyRefusalLog (the journal); any other reply is left alone.
+  void record_safety_refusal(const servo::Command& command, const CommandReply& reply);
   void check_other_daemon();
   /// A deadman lease that lapsed: the daemon stops the axis and ends an
   /// experiment (ServoDaemon::request_owner_gone); the holder is forgotten.

@@ -4,12 +4,14 @@
 // fields are the loop thread's alone), counts fault latches, and then hands
 // the cycle on to the next observer (the telemetry bridge). Read by the
 // systemd monitor for STATUS= and the journal's fault lines, and by main at
-// shutdown.
+// shutdown; and the loop's measured timing, which the monitor judges once
+// after the first second (take_timing_warning).
 
 #include <atomic>
 #include <cstdio>
 #include <string>
 
+#include "daemon/servo/timing.hpp"
 #include "daemon/servod/servo_daemon.hpp"
 
 namespace clm::servod {
@@ -27,6 +29,15 @@ class LoopHealth final : public CycleObserver {
       latches_.fetch_add(1, std::memory_order_release);
     }
     fault_.store(fault, std::memory_order_relaxed);
+    // The timing the start-up warning judges; the p99 (a scan of the bins)
+    // every kQuantileEvery cycles.
+    const auto& counters = cycle.status().counters;
+    latency_max_s_.store(timing.wakeup_latency.max_s(), std::memory_order_relaxed);
+    if (counters.cycles % kQuantileEvery == 0) {
+      latency_p99_s_.store(timing.wakeup_latency.quantile_s(0.99), std::memory_order_relaxed);
+    }
+    overruns_.store(counters.overruns, std::memory_order_relaxed);
+    cycles_.store(counters.cycles, std::memory_order_release);
     if (next_ != nullptr) next_->on_cycle(cycle, timing);
   }
 
@@ -55,6 +66,22 @@ class LoopHealth final : public CycleObserver {
     return text;
   }
 
+  /// Once, when the loop has run `after_s` [s] of cycles of `period_s` [s]
+  /// (a wake-up latency measured over them): "timing margin: ..." when
+  /// servo::judge_timing_margin finds `limits` at risk, with the figures and
+  /// the fix; else, and on every later call, "". Non-real-time.
+  std::string take_timing_warning(double period_s, const servo::TimingLimits& limits, double after_s = 1.0) {
+    if (timing_judged_) return "";
+    const std::int64_t cycles = cycles_.load(std::memory_order_acquire);
+    if (static_cast<double>(cycles) * period_s < after_s) return "";
+    timing_judged_ = true;
+    const servo::MeasuredTiming measured{period_s, latency_p99_s_.load(std::memory_order_relaxed),
+                                         latency_max_s_.load(std::memory_order_relaxed), cycles,
+                                         overruns_.load(std::memory_order_relaxed)};
+    const servo::TimingMargin margin = servo::judge_timing_margin(measured, limits);
+    return margin.at_risk() ? "timing margin: " + margin.text() : "";
+  }
+
   /// "state enabled, fault 0 (none)": the STATUS= line. Non-real-time.
   std::string status_line() const {
     const servo::Fault fault = this->fault();
@@ -71,6 +98,12 @@ class LoopHealth final : public CycleObserver {
   std::atomic<std::int64_t> fault_cycle_{-1};
   std::atomic<std::int64_t> latches_{0};
   std::int64_t reported_ = 0;  // take_fault_report's thread
+  static constexpr std::int64_t kQuantileEvery = 100;
+  std::atomic<double> latency_max_s_{0.0};
+  std::atomic<double> latency_p99_s_{0.0};
+  std::atomic<std::int64_t> overruns_{0};
+  std::atomic<std::int64_t> cycles_{0};
+  bool timing_judged_ = false;  // take_timing_warning's thread
 };
 
 }  // namespace clm::servod

@@ -103,6 +103,9 @@ double seconds_since(Clock::time_point start) { return std::chrono::duration<dou
 
 /// How long start-up waits for the first cycle before giving up.
 constexpr double kFirstCycleTimeout_s = 5.0;
+/// How long the start-up timing warning asks the watchdog and the overrun
+/// limit to hold at the measured timing [s] (servo::judge_timing_margin).
+constexpr double kTimingHorizon_s = 3600.0;
 
 /// Waits until `done()` or `timeout_s`; true if done.
 template <typename Done>
@@ -292,6 +295,19 @@ int run(const std::string& config_path, double duration_s) {
                                    // Every fault latch goes to the journal (stderr), from this thread.
                                    const std::string latched = health.take_fault_report(config.servo.period_s);
                                    if (!latched.empty()) warn(latched);
+                                   // Once, after the first second: the timing margin of the
+                                   // drive's watchdog and the overrun limit (docs/servod.md).
+                                   const std::string timing = health.take_timing_warning(
+                                       config.servo.period_s, {config.motor.drive_watchdog_timeout_s,
+                                                               config.servo.overrun_limit, kTimingHorizon_s});
+                                   if (!timing.empty()) warn(timing);
+                                   // Refused stops, quick stops and disables, rate-limited.
+                                   if (publisher) {
+                                     for (const std::string& line : publisher->safety_refusals().take_lines(
+                                              telemetry::wall_clock_utime())) {
+                                       warn(line);
+                                     }
+                                   }
                                    return health.status_line();
                                  });
   notifier.notify("READY=1");

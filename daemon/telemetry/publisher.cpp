@@ -199,6 +199,7 @@ bool TelemetryPublisher::submit_command(const clm_lcm::servo_command_t& message)
   commands_received_.fetch_add(1, std::memory_order_relaxed);
   servo::Command command;
   std::string reason = to_command(message, command);
+  servo::CommandResult refusal = servo::CommandResult::kRejectedInvalid;  // when `reason` is set
   if (!reason.empty()) commands_malformed_.fetch_add(1, std::memory_order_relaxed);
   if (reason.empty() && safety_latch_ != nullptr && servo::is_safety_command(command.kind)) {
     const std::uint64_t ticket = safety_latch_->latch(command);
@@ -229,8 +230,15 @@ bool TelemetryPublisher::submit_command(const clm_lcm::servo_command_t& message)
     }
     if (queued) return true;
     reason = "command queue full (" + std::to_string(commands_.capacity()) + "): the servo cycle is not taking commands";
+    refusal = servo::CommandResult::kRejectedQueueFull;
   }
   commands_rejected_.fetch_add(1, std::memory_order_relaxed);
+  if (servo::is_command_kind(message.command) &&
+      servo::is_safety_command(static_cast<servo::CommandKind>(message.command))) {
+    safety_refusals_.record(wall_clock_utime(), static_cast<servo::CommandKind>(message.command), message.client,
+                            message.sequence,
+                            refusal, reason);
+  }
   publish_ack(message.sequence, message.client, false, reason);
   return false;
 }

@@ -43,6 +43,7 @@
 #include "daemon/servo/cycle_record.hpp"
 #include "daemon/telemetry/lcm_sink.hpp"
 #include "daemon/telemetry/messages.hpp"
+#include "daemon/telemetry/safety_refusals.hpp"
 #include "daemon/telemetry/sink.hpp"
 #include "daemon/telemetry/spsc_queue.hpp"
 
@@ -172,6 +173,10 @@ class TelemetryPublisher {
   /// The session of the last CLM_SERVO_STATUS of this axis from another
   /// session (0: none seen), with the LCM instance only.
   std::int64_t foreign_session() const noexcept { return foreign_session_.load(std::memory_order_acquire); }
+  /// The refusals of stop, quick stop and disable, for the journal: this
+  /// publisher records those it refuses (ill-formed, queue full), the command
+  /// server those it and the daemon refuse; the daemon's monitor logs them.
+  SafetyRefusalLog& safety_refusals() noexcept { return safety_refusals_; }
   /// Handles `message` as if it had arrived on CLM_SERVO_COMMAND: checks it,
   /// latches it (a safety command, with a SafetyLatch set: acked once a
   /// cycle obeyed it, on the receiver thread or at the next
@@ -210,6 +215,7 @@ class TelemetryPublisher {
   std::unique_ptr<UdpmReceiver> receiver_;
   std::vector<std::uint8_t> datagram_;  // the receiver's buffer, one UDP datagram
   SafetyLatch* safety_latch_ = nullptr;
+  SafetyRefusalLog safety_refusals_;
   /// Latched safety commands not yet acked, oldest first. Only safety
   /// commands fill it; full, the oldest is acked at once (latched, it is
   /// obeyed without condition by the next cycle).

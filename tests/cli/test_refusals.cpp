@@ -398,7 +398,9 @@ TEST_CASE("commission --live refuses an --out the daemon may not load from befor
   CHECK(result.exit_code == 2);
   const auto lines = result.err_lines();
   REQUIRE(lines.size() == 1);
-  CHECK(lines[0].find("clm commission: error: --out '" + out + "'") == 0);
+  // The preflight's one line (tools/commission/preflight.hpp), with this one refusal.
+  CHECK(lines[0].find("clm commission: error: live commissioning refused before the first experiment (1 problem): "
+                      "1) --out '" + out + "'") == 0);
   CHECK(lines[0].find("is outside the directories the daemon may load from (" +
                       std::filesystem::canonical(source_path("config")).string() + ", its commands.file_directories)") !=
         std::string::npos);

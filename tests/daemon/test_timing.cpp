@@ -55,3 +55,43 @@ TEST_CASE("quantiles are read to within one fine bin, and never above the maximu
   CHECK(histogram.quantile_s(0.5) == 0.0);
   CHECK(histogram.coarse_counts()[0] == 0);
 }
+
+// ---- the timing margin (daemon/servo/timing.hpp), against figures worked by hand ----
+
+using clm::servo::judge_timing_margin;
+using clm::servo::MeasuredTiming;
+using clm::servo::TimingLimits;
+
+TEST_CASE("a watchdog below period + 3 x the max wake-up latency is at risk, naming both and the fix", "[timing]") {
+  // 1 ms period, 2 ms max latency: at least 1 + 3 * 2 = 7 ms is needed.
+  const MeasuredTiming measured{1e-3, 0.4e-3, 2e-3, 1000, 0};
+  const auto short_watchdog = judge_timing_margin(measured, {5e-3, 5, 3600.0});
+  CHECK(short_watchdog.at_risk());
+  CHECK(short_watchdog.overrun.empty());
+  CHECK_THAT(short_watchdog.watchdog, Catch::Contains("drive.watchdog_timeout_s 5 ms"));
+  CHECK_THAT(short_watchdog.watchdog, Catch::Contains("max 2 ms"));
+  CHECK_THAT(short_watchdog.watchdog, Catch::Contains("at least 7 ms"));
+  CHECK_THAT(short_watchdog.watchdog, Catch::Contains("Fix:"));
+  CHECK(clm::servo::required_watchdog_s(measured) == Approx(7e-3));
+  CHECK_FALSE(judge_timing_margin(measured, {7.01e-3, 5, 3600.0}).at_risk());
+  // A motor file that does not state its watchdog is not judged on it.
+  CHECK_FALSE(judge_timing_margin(measured, {0.0, 5, 3600.0}).at_risk());
+}
+
+TEST_CASE("an overrun limit is at risk when cycles x rate^limit reaches 1 %", "[timing]") {
+  // 10 overruns in 10000 cycles: rate 1e-3. One hour at 1 kHz = 3.6e6 cycles.
+  const MeasuredTiming measured{1e-3, 0.1e-3, 0.5e-3, 10000, 10};
+  // limit 2: 3.6e6 * 1e-6 = 3.6 expected trips; limit 3: 3.6e-3, below 0.01.
+  CHECK(clm::servo::expected_overrun_trips(measured, {0.0, 2, 3600.0}) == Approx(3.6));
+  const auto two = judge_timing_margin(measured, {0.0, 2, 3600.0});
+  CHECK(two.watchdog.empty());
+  CHECK_THAT(two.overrun, Catch::Contains("faults.overrun_limit 2"));
+  CHECK_THAT(two.overrun, Catch::Contains("10 overruns in 10000 cycles"));
+  CHECK_THAT(two.overrun, Catch::Contains("raise faults.overrun_limit"));
+  CHECK_FALSE(judge_timing_margin(measured, {0.0, 3, 3600.0}).at_risk());
+  // No overrun seen: no risk at any limit.
+  CHECK_FALSE(judge_timing_margin({1e-3, 0.1e-3, 0.5e-3, 10000, 0}, {0.0, 1, 3600.0}).at_risk());
+  // Both parts at once, joined.
+  const auto both = judge_timing_margin({1e-3, 0.4e-3, 2e-3, 10000, 10}, {5e-3, 2, 3600.0});
+  CHECK(both.text() == both.watchdog + "; " + both.overrun);
+}

@@ -13,6 +13,12 @@
 #                 a new one, and 30 stop/quick stop/disable datagrams are acked
 #                 with a median latency of at most 50 ms; no command is refused
 #                 for lack of a client slot.
+#      refused-stops  3 s of 500 stop/quick stop/disable datagrams/s for
+#                 another axis: every one refused (other_axis), and the
+#                 daemon's stderr has at most 5 "refused" lines a second, each
+#                 with its time, kind, code and reason, and "N more ...
+#                 suppressed" lines whose N with the lines logged add up to
+#                 the refusals the status counts.
 #      fragments  10 s of 200 datagrams/s of LCM fragments whose header claims
 #                 2^28 - 1 bytes, with the memory locked (mlockall): the
 #                 daemon's resident memory stays within 10 MB of its idle value
@@ -23,9 +29,9 @@ mode=$1 servod=$2 clm=$3 source_dir=$4 work=$5
 source "$(dirname "${BASH_SOURCE[0]}")/../support/script_helpers.sh"
 flood="$source_dir/tests/support/flood_lcm.py"
 
-# A port of its own per mode (10400..10479, no other test's).
+# A port of its own per mode (10400..10479 and 10650..10689, no other test's).
 case $mode in
-  stop) base=10400 ;; fragments) base=10440 ;;
+  stop) base=10400 ;; fragments) base=10440 ;; refused-stops) base=10650 ;;
   *) echo "unknown mode $mode" >&2; exit 2 ;;
 esac
 port=$((base + $$ % 40))
@@ -100,6 +106,51 @@ stop)
   wait "$flood_pid" 2>/dev/null || true
   echo "under 1200 datagrams/s of forged reads and unauthorised commands: clm ctl stop, quick-stop, disable accepted" \
        "from two clients; $(tail -n 1 "$work/latency.out"); $(field commands "$s")"
+  ;;
+# ---------------------------------------------------------------------------------
+refused-stops)
+  process_test_config "$work/servod.yaml" "  lock_memory: false"
+  up "$work/servod.yaml" "$work/servod.log"
+  session=$(field session "$(ctl status)")
+  before=$(ctl status)
+  start=$(date +%s)
+  python3 "$flood" flood "$url" --session "$session" --kind stops-other-axis --rate 500 --duration-s 3 \
+      > "$work/flood.out" 2> "$work/flood.log" || fail "the flood failed: $(cat "$work/flood.log")"
+  # Every refusal is counted by then (bounded wait); its second is over 1 s
+  # after the last, and the monitor says the suppressed ones within a status period.
+  sleep 2
+  s=$(ctl status)
+  refused=$(( $(commands "$s" other_axis) - $(commands "$before" other_axis) ))
+  elapsed=$(( $(date +%s) - start + 1 ))
+  [ "$refused" -gt 500 ] || fail "only $refused stops for another axis refused (the flood: $(cat "$work/flood.out"))"
+  sent=$(sed -n 's/^flood stops-other-axis: \([0-9]*\) datagrams.*/\1/p' "$work/flood.out")
+  verdict=$(py_check "$work/servod.log" "$refused" "$elapsed" "$sent" <<'CHECK'
+import re, sys, collections
+lines = open(sys.argv[1]).read().splitlines()
+refused, elapsed, sent = int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
+logged = [l for l in lines if l.startswith("clm-servod: warning: refused ")]
+pattern = re.compile(r"clm-servod: warning: refused (stop|quick_stop|disable) at "
+                     r"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d)\.\d{3}Z from client \d+ \(sequence \d+\): "
+                     r"code \d+, (other_axis: for axis 'other-axis', this daemon drives axis 'axis0'|command queue full .*)$")
+per_second = collections.Counter()
+for line in logged:
+    m = pattern.match(line)
+    assert m, f"a refusal line without time, kind, code and reason: {line}"
+    per_second[m.group(2)] += 1
+assert logged, "no refused safety command logged"
+assert max(per_second.values()) <= 5, f"more than 5 refusals logged in one second: {per_second.most_common(1)}"
+suppressed = sum(int(m.group(1)) for l in lines
+                 for m in [re.match(r"clm-servod: warning: (\d+) more refusals of safety commands suppressed", l)] if m)
+# Every refusal the status counts is logged or counted as suppressed; those
+# refused before the command thread (its queue full: no status counter) come
+# on top, and nothing beyond what was sent.
+assert refused <= len(logged) + suppressed <= sent, \
+    f"{len(logged)} logged + {suppressed} suppressed; the status counts {refused} refused, {sent} were sent"
+print(f"{refused} refused stops for another axis: {len(logged)} lines logged (at most "
+      f"{max(per_second.values())} a second) and {suppressed} counted in 'suppressed' lines")
+CHECK
+) || fail "the journal: $verdict"
+  echo "$verdict"
   ;;
 # ---------------------------------------------------------------------------------
 fragments)

@@ -11,6 +11,9 @@ flood: sends R datagrams a second for D seconds, in bursts every 5 ms:
                 (1000 of them, in turn), this session, a fresh utime;
   unauthorised  ENABLE and MOVE_TO from made-up client ids (none holds control);
   mixed         half reads, half unauthorised;
+  stops-other-axis  STOP, QUICK_STOP and DISABLE in turn for the axis
+                "other-axis" (not --axis), unsigned: each refused as for
+                another axis, and logged (rate-limited) by the daemon;
   fragments     1 kB LCM fragments (LC03) whose header claims 2^28 - 1 bytes.
 --sign: the commands carry the mac of the key $CLM_SERVO_KEY_FILE names (a
 flood from a holder of the operators' key, which the command authority must
@@ -89,7 +92,10 @@ def flood(args):
             if kind == "fragments":
                 packet = fragment_datagram(sent)
             else:
-                if kind == "reads":
+                if kind == "stops-other-axis":
+                    payload = command(command_hash, "other-axis", args.session, client, sent + 1,
+                                      (STOP, QUICK_STOP, DISABLE)[sent % 3])
+                elif kind == "reads":
                     payload = command(command_hash, args.axis, args.session, client, sent + 1,
                                       GET_PARAMETER, parameter="control.bandwidth_hz")
                 else:
@@ -191,7 +197,7 @@ def main():
     f.add_argument("url")
     f.add_argument("--axis", default="axis0")
     f.add_argument("--session", type=int, default=0)
-    f.add_argument("--kind", choices=["reads", "unauthorised", "mixed", "fragments"], required=True)
+    f.add_argument("--kind", choices=["reads", "unauthorised", "mixed", "fragments", "stops-other-axis"], required=True)
     f.add_argument("--rate", type=float, required=True)
     f.add_argument("--duration-s", type=float, required=True)
     f.add_argument("--sign", action="store_true",

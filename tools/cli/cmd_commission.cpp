@@ -64,8 +64,13 @@ void add_commission(CLI::App& app) {
                                  "or with --live on a running clm-servod over LCM");
   sub->footer("With --live on a host whose CPU is not reserved for the loop, late wake-ups trip a short drive "
               "watchdog (fault 206) and faults.overrun_limit (fault 205): keep the drive's watchdog several times "
-              "above the wake-up latency clm ctl status shows (the simulated drive: drive.watchdog_timeout_s 0.1) and "
-              "raise faults.overrun_limit (e.g. 1000); docs/bring-up.md, section 6.");
+              "above the wake-up latency clm ctl status shows (the simulated drive: drive.watchdog_timeout_s 0.1 to 1) and "
+              "raise faults.overrun_limit (e.g. 1000); docs/bring-up.md, section 6.\n"
+              "Before its first experiment --live checks --out (file directories, free space), every program "
+              "against the daemon's limits, the daemon's motor and drive profile, and the timing margin (watchdog "
+              "at least the period + 3 x the measured max wake-up latency); it refuses with every reason and fix "
+              "(exit 2). A live commissioning ended early resumes with --resume DIR instead of --out DIR: the "
+              "experiments it completed are reused (docs/commissioning.md, \"Resuming\").");
   struct Options {
     commission::Options run;
     bool plots = true;
@@ -76,7 +81,13 @@ void add_commission(CLI::App& app) {
   sub->add_option("--config", options->run.config_path, "daemon configuration (YAML); the default is where the package installs it")
       ->check(CLI::ExistingFile)
       ->capture_default_str();
-  sub->add_option("--out", options->run.out_dir, "output directory")->required();
+  auto* out = sub->add_option("--out", options->run.out_dir, "output directory");
+  auto* resume = sub->add_option("--resume", options->run.out_dir,
+                                 "--live: resume the interrupted live commissioning in DIR (its --out): the "
+                                 "experiments it completed are reused when the daemon runs the same configuration, "
+                                 "motor and experiment program and their logs are intact; the rest runs")
+                     ->type_name("DIR");
+  out->excludes(resume);
   sub->add_option("--program", options->run.program_path,
                   "evaluation program: feedforward data and the evaluation of every law (default: programs/fig8.yaml "
                   "beside the config)")
@@ -124,7 +135,12 @@ void add_commission(CLI::App& app) {
                 "feedforward go into --config (the previous file stays as FILE.bak)");
   add_friction_options(*sub, options->run.position.motion.viscous_N_s_per_m,
                        options->run.position.motion.direction_N);
-  sub->callback([options, mass] {
+  sub->callback([options, mass, out, resume] {
+    if (out->count() == 0 && resume->count() == 0) throw CLI::RequiredError("--out");
+    options->run.resume = resume->count() > 0;
+    if (options->run.resume && !options->run.live) {
+      throw std::runtime_error("--resume: only a live commissioning resumes: give --live");
+    }
     // A friction given sets the scale instead of the configuration's mass.
     const auto& motion = options->run.position.motion;
     options->run.mass_from_config = mass->count() == 0 && motion.viscous_N_s_per_m == 0.0 && motion.direction_N == 0.0;

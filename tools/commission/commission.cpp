@@ -20,6 +20,8 @@
 #include "daemon/servod/file_policy.hpp"
 #include "drivers/sim/motor.hpp"
 #include "tools/commission/live_runner.hpp"
+#include "tools/commission/preflight.hpp"
+#include "tools/commission/progress.hpp"
 #include "tools/data/csv_table.hpp"
 
 namespace clm::commission {
@@ -416,15 +418,24 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
                              "positions alone with --no-force-sensor");
   }
   if (options.live) {
-    // The daemon loads what is written to --out: refused now, not after the
-    // experiments and the identification.
+    // Everything that could fail late is checked now, before the first
+    // experiment (preflight.hpp): --out, the programs, the daemon, timing.
+    // --out first, before anything is opened: it needs no daemon.
     const std::string out_refusal =
         servod::check_output_directory({config.commands.file_directories, config.commands.max_file_bytes}, options.out_dir);
-    if (!out_refusal.empty()) throw std::runtime_error("--out " + out_refusal);
+    if (!out_refusal.empty()) throw std::runtime_error(describe_refusals({"--out " + out_refusal}));
     LiveOptions live = options.live_options;
     LcmRunner runner(config, live);
-    Report report = run(options, runner, progress);
+    const DaemonView daemon = runner.observe();
+    const std::vector<std::string> refusals = live_preflight(config, options, daemon);
+    if (!refusals.empty()) throw std::runtime_error(describe_refusals(refusals));
+    Options with_identity = options;
+    with_identity.identity = run_identity(daemon.status, program_paths(options).experiment);
+    Report report = run(with_identity, runner, progress);
     return report;
+  }
+  if (options.resume) {
+    throw std::runtime_error("--resume: only a live commissioning (--live) resumes; in process it runs whole");
   }
   if (config.can.bus != servod::BusKind::kSimulated) {
     throw std::runtime_error(options.config_path + ": can.interface: commissioning runs against the embedded "
@@ -474,13 +485,11 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     return fitted;
   };
   const std::string config_dir = std::filesystem::absolute(options.config_path).parent_path().string();
-  const std::string program_path = std::filesystem::absolute(
-      options.program_path.empty() ? config_dir + "/programs/fig8.yaml" : options.program_path).lexically_normal().string();
+  const ProgramPaths paths = program_paths(options);
+  const std::string program_path = paths.evaluation;
   const servod::ProgramFile program = fit(program_path, "evaluation program");
   const control::MoveProgram timeline(program.start_m, program.steps);
-  const std::string experiment_path = std::filesystem::absolute(
-      options.experiment_program_path.empty() ? config_dir + "/programs/identification.yaml"
-                                              : options.experiment_program_path).lexically_normal().string();
+  const std::string experiment_path = paths.experiment;
   const servod::ProgramFile experiment_program = fit(experiment_path, "experiment program");
   report.experiment_program = experiment_path;
   report.evaluation_program = program_path;
@@ -489,7 +498,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   if (options.validation_program_path != "none") {
     report.validation_program = options.validation_program_path.empty() ? config_dir + "/programs/validation.yaml"
                                                                         : options.validation_program_path;
-    validation_path = std::filesystem::absolute(report.validation_program).lexically_normal().string();
+    validation_path = paths.validation;
     validation_program = fit(report.validation_program, "validation program");
   }
 
@@ -508,19 +517,61 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     report.files.push_back("logs/" + name);
     runner.open_log(dir + "/logs/" + name);
   };
-  open_log("experiments.lcm");
   std::vector<Recording> experiments;
   const int runs = 2 * motor.coil_sets;
+  // Live, each experiment has a log of its own and is listed in the progress
+  // file once complete, so that --resume can reuse it (progress.hpp); the
+  // logs are joined into experiments.lcm at the end.
+  CommissionProgress done{options.identity, {}};
+  if (options.resume) done = read_progress(dir);  // checked by the preflight
+  const std::size_t reusable = done.experiments.size();
+  if (options.live && !options.resume) write_progress(dir, done);
+  std::vector<std::string> experiment_logs;
+  if (!options.live) open_log("experiments.lcm");
   for (int l = 1; l <= motor.coil_sets; ++l) {
     for (double delta : {-kPi / 4, kPi / 4}) {
-      tell("experiments", static_cast<double>(experiments.size()) / runs,
-           "coil set " + std::to_string(l) + ", delta " + (delta < 0 ? "-pi/4" : "+pi/4"));
+      const std::size_t k = experiments.size();
+      const std::string what = "coil set " + std::to_string(l) + ", delta " + (delta < 0 ? "-pi/4" : "+pi/4");
+      const std::string name = "experiment coil set " + std::to_string(l);
+      tell("experiments", static_cast<double>(k) / runs, what);
+      if (!options.live) {
+        runner.set_experiment(l, delta);
+        experiments.push_back(runner.run_program(experiment_program, experiment_path, name));
+        continue;
+      }
+      const std::string log = "logs/experiment-" + std::to_string(k + 1) + ".lcm";
+      report.files.push_back(log);
+      experiment_logs.push_back(dir + "/" + log);
+      if (k < reusable) {
+        const CompletedExperiment& completed = done.experiments[k];
+        if (completed.coil_set != l || completed.delta_rad != delta || completed.log != log) {
+          throw std::runtime_error("--resume: " + std::string(kProgressFile) + " lists experiment " +
+                                   std::to_string(k + 1) + " as coil set " + std::to_string(completed.coil_set) +
+                                   " in " + completed.log + ", expected " + what + " in " + log);
+        }
+        experiments.push_back(read_experiment_recording(dir + "/" + log, name));
+        tell("experiments", static_cast<double>(k + 1) / runs, what + ": reused");
+        continue;
+      }
       runner.set_experiment(l, delta);
-      experiments.push_back(
-          runner.run_program(experiment_program, experiment_path, "experiment coil set " + std::to_string(l)));
+      runner.open_log(dir + "/" + log);
+      experiments.push_back(runner.run_program(experiment_program, experiment_path, name));
+      runner.close_log();
+      done.experiments.push_back({l, delta, log, sha256_file(dir + "/" + log)});
+      write_progress(dir, done);
     }
   }
-  runner.close_log();
+  if (options.live) {
+    report.files.push_back("logs/experiments.lcm");
+    concatenate_logs(experiment_logs, dir + "/logs/experiments.lcm");
+    if (options.resume) {
+      report.notes.push_back("resumed: " + std::to_string(std::min<std::size_t>(reusable, experiments.size())) +
+                             " of " + std::to_string(runs) + " experiments reused from " + std::string(kProgressFile) +
+                             "; the identification and every law's evaluation ran anew");
+    }
+  } else {
+    runner.close_log();
+  }
   tell("experiments", 1.0, "done");
   report.steps.push_back({"experiments", seconds_since(step_start)});
 

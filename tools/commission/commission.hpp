@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "daemon/control/metrics.hpp"
+#include "tools/commission/progress.hpp"
 #include "tools/commission/runner.hpp"
 #include "tools/commission/runs.hpp"
 #include "tools/data/commissioning_steps.hpp"
@@ -38,6 +39,12 @@ struct Options {
   /// (LcmRunner) instead of the in-process simulated motor.
   bool live = false;
   LiveOptions live_options;
+  /// --resume (live only): out_dir holds an interrupted live commissioning;
+  /// its completed experiments (progress.hpp) are reused, the rest run.
+  bool resume = false;
+  /// Live: the daemon's configuration and motor (from its status) and the
+  /// experiment program the runs are made with; run() sets it.
+  RunIdentity identity;
   /// Commission from positions as an axis without a force sensor would
   /// (docs/commissioning.md, "Without a force sensor"): the same experiments
   /// without their force columns give classical-position and

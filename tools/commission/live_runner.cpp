@@ -88,6 +88,23 @@ void LcmRunner::wait_cycles(std::int64_t cycles, const std::string& what) {
   client_.wait_states(cycles, timeout_s, what);
 }
 
+DaemonView LcmRunner::observe() {
+  client_.target_for(options_.ack_timeout_s, "ENABLE");
+  DaemonView view;
+  view.status = client_.wait_for_status(options_.ack_timeout_s);
+  for (int k = 0; k < 10 && !client_.latest_state(); ++k) {
+    try {
+      client_.wait_states(1, 0.1, "a CLM_SERVO_STATE for the checks before the first experiment");
+    } catch (const servod_client::Timeout&) {
+      // Telemetry of states may lag the status: try again.
+    } catch (const servod_client::Faulted&) {
+      break;  // a latched fault: the state still says the profile
+    }
+  }
+  view.state = client_.latest_state();
+  return view;
+}
+
 void LcmRunner::enable() {
   // The first command of commissioning: take control for all of it.
   client_.take_control(options_.ack_timeout_s, "ENABLE");

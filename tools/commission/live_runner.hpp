@@ -16,6 +16,7 @@
 
 #include "daemon/servo/command.hpp"
 #include "daemon/servod/servod_config.hpp"
+#include "tools/commission/preflight.hpp"
 #include "tools/commission/runner.hpp"
 #include "tools/commission/runs.hpp"
 #include "tools/servod_client/client.hpp"
@@ -51,6 +52,11 @@ class LcmRunner final : public ExperimentRunner {
   LcmRunner(const LcmRunner&) = delete;
   LcmRunner& operator=(const LcmRunner&) = delete;
 
+  /// What the daemon shows before anything is commanded, for the checks of
+  /// live_preflight: its latest status (waiting up to the ack timeout for
+  /// one; none is a NoAck naming ENABLE, the first command) and a
+  /// CLM_SERVO_STATE (waiting up to 1 s more; none: no state in the view).
+  DaemonView observe();
   /// TAKE_CONTROL (held for the whole commissioning), ENABLE; then checks that states arrive for every cycle, at the
   /// configuration's period and coil-set count.
   void enable() override;

@@ -277,7 +277,12 @@ void Client::take_control(double timeout_s, const std::string& what) {
   const Target to = target_for(timeout_s, what);
   Ack ack = send_once(make_command(servo::CommandKind::kTakeControl), to, timeout_s,
                       what == "TAKE_CONTROL" ? what : "TAKE_CONTROL (for " + what + ")");
-  if (!ack.accepted) throw Refused("clm-servod refused TAKE_CONTROL: " + ack.text, std::move(ack));
+  if (!ack.accepted) {
+    // The message first: the order in which arguments are evaluated is
+    // unspecified, and the Ack moved first left the text empty.
+    const std::string message = "clm-servod refused TAKE_CONTROL: " + ack.text;
+    throw Refused(message, std::move(ack));
+  }
 }
 
 void Client::release_control(double timeout_s) {
