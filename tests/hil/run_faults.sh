@@ -80,6 +80,14 @@ run=$work/faults
 rm -rf "$run"
 mkdir -p "$run"
 trap cleanup_processes EXIT
+# The simulated drive's watchdog at a real drive's 5 ms, for the daemon and
+# clm sim alike: this suite measures the loop's timing (the shipped simulated
+# motor's watchdog is sized for a host without a reserved CPU).
+sim_motor=$run/motor-sim.yaml
+if ! missing=$(strict_drive_watchdog "$source_dir/config/motor-sim.yaml" "$sim_motor"); then
+  echo "FAIL: motor: no line '$missing' after editing" >&2
+  exit 1
+fi
 # The value of key=value item $1 in line $2.
 value() { awk -v key="$1" '{ for (k = 1; k <= NF; ++k) if (index($k, key "=") == 1) { print substr($k, length(key) + 2); exit } }' <<< "$2"; }
 
@@ -94,7 +102,7 @@ port=$((9930 + $$ % 30))
 url="udpm://239.255.76.67:${port}?ttl=0"
 config=$run/servod-faults.yaml
 if ! missing=$(config_edit "$source_dir/config/servod-vcan.yaml" "$config" \
-               "motor_file: $source_dir/config/motor-sim.yaml" "  interface: $iface" "  priority: $priority" \
+               "motor_file: $sim_motor" "  interface: $iface" "  priority: $priority" \
                "  lcm_url: \"$url\"" "  stall_limit_s: 1" &&
                config_require "$config" "  missing_frame_limit: 3" "  receive_window_fraction: 0.5" "  rate_hz: 1000"); then
   fail "config: no line '$missing' in $config"

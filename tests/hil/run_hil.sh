@@ -79,6 +79,14 @@ rm -rf "$work/run"
 mkdir -p "$work/run"
 run=$work/run
 trap cleanup_processes EXIT
+# The simulated drive's watchdog at a real drive's 5 ms, for the daemon and
+# clm sim alike: this suite measures the loop's timing (the shipped simulated
+# motor's watchdog is sized for a host without a reserved CPU).
+sim_motor=$run/motor-sim.yaml
+if ! missing=$(strict_drive_watchdog "$source_dir/config/motor-sim.yaml" "$sim_motor"); then
+  echo "FAIL: motor: no line '$missing' after editing" >&2
+  exit 1
+fi
 
 # ---- the bus -------------------------------------------------------------------
 if [ "${HIL_CAN:-}" = sim ]; then
@@ -124,7 +132,7 @@ url="udpm://239.255.76.67:${port}?ttl=0"
 write_config() {
   local mode=$1 output=$2 missing
   missing=$(config_edit "$source_dir/config/servod-vcan.yaml" "$output" \
-            "motor_file: $source_dir/config/motor-sim.yaml" "  interface: $iface" "  priority: $priority" \
+            "motor_file: $sim_motor" "  interface: $iface" "  priority: $priority" \
             "  lcm_url: \"$url\"" "  stall_limit_s: 1") || { fail "config: no line '$missing' in $output"; return 1; }
   sed -i -e "s|^  feedforward: .*|  feedforward_file: $artifacts/feedforward-$mode.yaml|" \
       -e "s|^\(commutation:.*\)|\1\n  calibration_file: $artifacts/calibration.yaml\n  pgnn_model_file: $artifacts/model-pgnn.yaml|" \

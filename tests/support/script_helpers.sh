@@ -276,6 +276,12 @@ config_edit() {
 # axis keeps its own watchdog). Prints the line it could not set and returns 1.
 loaded_host_motor() { config_edit "$1" "$2" "  watchdog_timeout_s: 0.1"; }
 
+# OUT: the motor file IN with the drive's setpoint watchdog of a real drive,
+# 5 ms (config/motor-real.yaml), for the suites that measure the loop's
+# timing (the HIL suite): the shipped simulated motor's is sized for a host
+# without a reserved CPU. Prints the line it could not set and returns 1.
+strict_drive_watchdog() { config_edit "$1" "$2" "  watchdog_timeout_s: 0.005"; }
+
 # OUT: config/servod.yaml for a process test on a loaded host: an absolute
 # motor file ($work/motor-sim.yaml, the drive's watchdog relaxed by
 # loaded_host_motor), no SCHED_FIFO, the real-time clock, the test's $url,
