@@ -464,7 +464,7 @@ TEST_CASE("a drive watchdog trip is reported by the drive and latches kDriveFaul
   const double watchdog_s = axis.motor().parameters().drive.watchdog_timeout_s;
   const auto cycles_lost = static_cast<int>(std::ceil(watchdog_s / axis.daemon.config().servo.period_s)) + 3;
   axis.injection().drop_setpoint_frames = cycles_lost * static_cast<int>(can::setpoint_frame_count(protocol.coil_sets));
-  const auto cycles = test::run_until_fault(axis.daemon, 50);
+  const auto cycles = test::run_until_fault(axis.daemon, cycles_lost + 10);
   INFO("fault after " << cycles << " cycles");
   // The drive faults first, and the cycle latches in the cycle its status word says so.
   CHECK(axis.motor().status().watchdog());
