@@ -9,7 +9,8 @@
 #include "config/regular_file.hpp"
 
 namespace clm {
-namespace {
+// Named, not anonymous: HmacSha256::Pads, declared in the header, holds a Sha256.
+namespace sha256_detail {
 
 constexpr std::array<std::uint32_t, 64> kRound = {
     0x428a2f98, 0x71374491, 0xb5c0fbcf, 0xe9b5dba5, 0x3956c25b, 0x59f111f1, 0x923f82a4, 0xab1c5ed5,
@@ -105,7 +106,9 @@ class Sha256 {
   std::uint64_t total_ = 0;
 };
 
-}  // namespace
+}  // namespace sha256_detail
+
+using sha256_detail::Sha256;
 
 struct HmacSha256::Pads {
   Sha256 inner;  ///< after the key XOR ipad block

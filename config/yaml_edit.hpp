@@ -22,7 +22,8 @@ std::string set_value(const std::string& text, std::string_view dotted_key, std:
 /// A key whose value continues on further lines is refused (std::invalid_argument).
 std::string remove_key(const std::string& text, std::string_view dotted_key);
 
-/// `text` as a double-quoted YAML scalar (backslash and quote escaped).
+/// `text` as a double-quoted scalar: backslash and quote escaped, control
+/// characters as \u00XX. Valid YAML and valid JSON alike.
 std::string quoted(std::string_view text);
 
 }  // namespace clm::yaml

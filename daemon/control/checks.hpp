@@ -17,6 +17,9 @@ inline std::string format_number(double value) {
 }
 
 /// Throws std::invalid_argument "<context>: <name> must be positive and finite, got <value>".
+/// −1, 0 or +1.
+inline double sign(double value) noexcept { return static_cast<double>((value > 0.0) - (value < 0.0)); }
+
 inline void require_positive_finite(const char* context, const char* name, double value) {
   if (!(value > 0.0) || !std::isfinite(value)) {
     throw std::invalid_argument(std::string(context) + ": " + name + " must be positive and finite, got " +

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "commutation/elementary.hpp"
+#include "commutation/types.hpp"
 #include <stdexcept>
 #include <string>
 
@@ -12,8 +13,6 @@ namespace clm::control {
 namespace {
 
 using Complex = std::complex<double>;
-constexpr double kTwoPi = 6.283185307179586;
-constexpr double kPi = 3.141592653589793;
 constexpr double kLn10 = 2.302585092994046;
 
 /// e^(−j·x), by the project's CPU-independent functions.

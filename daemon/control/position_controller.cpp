@@ -4,17 +4,15 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 #include <stdexcept>
 #include <string>
 
+#include "commutation/types.hpp"
 #include "daemon/control/checks.hpp"
 
 namespace clm::control {
 
 namespace {
-
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 void require_non_negative_finite(const char* context, const char* name, double value) {
   if (!(value >= 0.0) || !std::isfinite(value)) {
@@ -22,8 +20,6 @@ void require_non_negative_finite(const char* context, const char* name, double v
                                 detail::format_number(value));
   }
 }
-
-double sign(double value) noexcept { return static_cast<double>((value > 0.0) - (value < 0.0)); }
 
 }  // namespace
 
@@ -128,7 +124,7 @@ double feedforward_force_N(const FeedforwardParameters& parameters, const Refere
   // Eq. (40), δ = (z+1)/2.
   return parameters.mass_kg * 0.5 * (now.acceleration_m_per_s2 + next.acceleration_m_per_s2) +
          parameters.viscous_N_s_per_m * 0.5 * (now.velocity_m_per_s + next.velocity_m_per_s) +
-         parameters.coulomb_N * 0.5 * (sign(now.velocity_m_per_s) + sign(next.velocity_m_per_s));
+         parameters.coulomb_N * 0.5 * (detail::sign(now.velocity_m_per_s) + detail::sign(next.velocity_m_per_s));
 }
 
 FeedforwardParameters identify_feedforward(std::span<const ReferenceSample> reference,
@@ -168,7 +164,7 @@ FeedforwardFit fit_feedforward(std::span<const ReferenceSample> reference, std::
     const ReferenceSample& next = reference[static_cast<std::size_t>(k + 1)];
     regressors(k, 0) = 0.5 * (now.acceleration_m_per_s2 + next.acceleration_m_per_s2);
     regressors(k, 1) = 0.5 * (now.velocity_m_per_s + next.velocity_m_per_s);
-    regressors(k, 2) = 0.5 * (sign(now.velocity_m_per_s) + sign(next.velocity_m_per_s));
+    regressors(k, 2) = 0.5 * (detail::sign(now.velocity_m_per_s) + detail::sign(next.velocity_m_per_s));
     force(k) = force_demand_N[static_cast<std::size_t>(k)];
   }
 

@@ -2,10 +2,10 @@
 
 #include <cmath>
 
+#include "daemon/control/checks.hpp"
+
 namespace clm::control {
 namespace {
-
-double sign(double x) noexcept { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); }
 
 bool finite(const ReferenceSample& s) noexcept {
   return std::isfinite(s.position_m) && std::isfinite(s.velocity_m_per_s) && std::isfinite(s.acceleration_m_per_s2);
@@ -42,18 +42,18 @@ StopProfile StopProfile::plan(const ReferenceSample& start, const StopLimits& li
   ReferenceSample s = p.start_;
   // An acceleration beyond the limit is first brought back to it.
   if (std::fabs(s.acceleration_m_per_s2) > a_max) {
-    const double jerk = -sign(s.acceleration_m_per_s2) * j;
+    const double jerk = -detail::sign(s.acceleration_m_per_s2) * j;
     const double t = (std::fabs(s.acceleration_m_per_s2) - a_max) / j;
     add(t, jerk);
     s = advance(s, jerk, t);
-    s.acceleration_m_per_s2 = sign(s.acceleration_m_per_s2) * a_max;
+    s.acceleration_m_per_s2 = detail::sign(s.acceleration_m_per_s2) * a_max;
   }
   // Velocity left after taking the acceleration straight to zero.
   const double a0 = s.acceleration_m_per_s2;
   const double v_left = s.velocity_m_per_s + a0 * std::fabs(a0) / (2.0 * j);
-  const double d = sign(v_left);
+  const double d = detail::sign(v_left);
   if (d == 0.0) {
-    add(std::fabs(a0) / j, -sign(a0) * j);
+    add(std::fabs(a0) / j, -detail::sign(a0) * j);
   } else {
     // In the frame where v_left > 0: brake at −a_p.
     const double v = d * s.velocity_m_per_s;

@@ -3,13 +3,13 @@
 #include <cmath>
 
 #include "commutation/elementary.hpp"
+#include "commutation/types.hpp"
 #include "drivers/sim/random.hpp"
 
 namespace clm::sim {
 
 namespace {
 
-constexpr double kTwoPi = 6.283185307179586;
 
 /// exp(M) of a 4 × 4 matrix: scaling until the norm is at most 1/8, a
 /// Taylor series of 14 terms, squaring back. Plain arithmetic, the same bits

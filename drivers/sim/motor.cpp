@@ -7,6 +7,7 @@
 
 #include "commutation/classical.hpp"
 #include "commutation/elementary.hpp"
+#include "commutation/types.hpp"
 
 namespace clm::sim {
 namespace {
@@ -18,7 +19,6 @@ constexpr double kMaxSubsteps = 1e7;
 // The watchdog trips at the first substep boundary at or after the deadline;
 // the tolerance absorbs the rounding of the accumulated time.
 constexpr double kWatchdogTolerance_s = 1e-9;
-constexpr double kTwoPi = 6.283185307179586;
 constexpr std::uint32_t kLatchedBits = kStatusFault | kStatusWatchdog | kStatusEndStop | kStatusInvalidSetpoint;
 
 const MotorParameters& validated(const MotorParameters& parameters) {

@@ -156,7 +156,9 @@ cpu_jiffies() { awk '/^cpu / { print $5 + $6, $2 + $3 + $4 + $5 + $6 + $7 + $8 +
 expected_bus="error-active"  # the embedded motor's in-process bus too (it has error states only when injected)
 if [ "$iface" != sim ]; then
   start_candump "$run/candump.log" "$run/candump.err"
-  if start_sim "$run/sim.out" "$run/sim.err"; then
+  # The motor's event log records each expiry of the drive's watchdog; its
+  # stop line names the fault the drive latched (printed below).
+  if start_sim "$run/sim.out" "$run/sim.err" --event-log "$run/sim-events.log"; then
     pass "clm sim: listening on $iface"
   else
     fail "clm sim: not up: $(head -1 "$run/sim.err")"
@@ -495,6 +497,7 @@ stop_process $sim_pid 30
 rc=$?
 summary=$(grep "^clm sim: stopped" "$run/sim.out")
 echo "HIL: $summary"
+[ -s "$run/sim-events.log" ] && sed -n '1,5s/^/HIL: clm sim event: /p' "$run/sim-events.log"
 sim_syncs=$(sed -n 's/.*: \([0-9]*\) SYNCs.*/\1/p' <<< "$summary")
 if [ $rc = 0 ] && grep -q " 0 frames rejected, 0 feedback values not encodable" <<< "$summary" &&
    grep -q " 0 not sent" <<< "$summary" && [ -n "$sim_syncs" ]; then

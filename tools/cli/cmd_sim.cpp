@@ -41,6 +41,22 @@
 namespace clm::cli {
 namespace {
 
+/// ", fault latched (watchdog expired, end stop)": which latched bits the
+/// drive's status word holds; "" without a fault.
+std::string latched_fault_text(const sim::DriveStatus& status) {
+  if (!status.fault()) return "";
+  std::string causes;
+  const auto add = [&causes](bool set, const char* cause) {
+    if (!set) return;
+    causes += causes.empty() ? "" : ", ";
+    causes += cause;
+  };
+  add(status.watchdog(), "watchdog expired");
+  add(status.end_stop(), "end stop");
+  add(status.invalid_setpoint(), "invalid setpoint");
+  return ", fault latched (" + (causes.empty() ? std::string("inside the drive") : causes) + ")";
+}
+
 std::atomic<int> g_stop_signal{0};
 std::atomic<int> g_injection_requests{0};
 
@@ -239,7 +255,7 @@ void run_sim(const SimOptions& options) {
               static_cast<long long>(c.feedback_not_encoded), static_cast<long long>(replies_sent),
               static_cast<long long>(replies_failed), static_cast<unsigned long long>(bus.error_frames()),
               static_cast<unsigned long long>(bus.dropped_frames()), truth.position_m,
-              motor.status().enabled() ? "enabled" : "disabled", motor.status().fault() ? ", fault latched" : "");
+              motor.status().enabled() ? "enabled" : "disabled", latched_fault_text(motor.status()).c_str());
   std::fflush(stdout);
 }
 

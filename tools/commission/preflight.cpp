@@ -24,7 +24,7 @@ std::string megabytes(std::int64_t bytes) {
   return text;
 }
 
-std::string number(double value) {
+std::string six_digits(double value) {
   char text[32];
   std::snprintf(text, sizeof(text), "%g", value);
   return text;
@@ -65,9 +65,9 @@ std::string check_program(const PlannedProgram& planned, const servod::ServodCon
     }
     const double force_N = config.control_mass_kg * acceleration_m_per_s2;
     if (config.control_mass_kg > 0.0 && force_N >= config.servo.force_limit_N) {
-      return "the " + planned.what + " " + planned.path + " accelerates at up to " + number(acceleration_m_per_s2) +
-             " m/s^2, which takes " + number(force_N) + " N at control.mass_kg " + number(config.control_mass_kg) +
-             " kg, at or beyond control.force_limit_N " + number(config.servo.force_limit_N) +
+      return "the " + planned.what + " " + planned.path + " accelerates at up to " + six_digits(acceleration_m_per_s2) +
+             " m/s^2, which takes " + six_digits(force_N) + " N at control.mass_kg " + six_digits(config.control_mass_kg) +
+             " kg, at or beyond control.force_limit_N " + six_digits(config.servo.force_limit_N) +
              " N. Fix: lower the program's acceleration_m_per_s2, or raise control.force_limit_N within the drive's "
              "current limit";
     }

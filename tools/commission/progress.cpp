@@ -8,6 +8,7 @@
 
 #include "config/atomic_file.hpp"
 #include "config/sha256.hpp"
+#include "config/yaml_edit.hpp"
 #include "config/yaml_reader.hpp"
 #include "daemon/telemetry/lcm_log_writer.hpp"
 #include "tools/lcmlog/servo_log.hpp"
@@ -15,15 +16,6 @@
 namespace clm::commission {
 namespace {
 
-// A YAML double-quoted scalar: paths may hold any character.
-std::string quoted(const std::string& text) {
-  std::string out = "\"";
-  for (const char c : text) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out + "\"";
-}
 
 }  // namespace
 
@@ -37,15 +29,15 @@ void write_progress(const std::string& dir, const CommissionProgress& progress) 
   std::ostringstream out;
   out << "# clm commission --live: the experiments completed, for --resume (docs/commissioning.md)\n"
       << "format: clm-commission-progress\nformat_version: 1\n"
-      << "configuration_file: " << quoted(id.configuration_file) << "\n"
-      << "configuration_sha256: " << quoted(id.configuration_sha256) << "\n"
-      << "motor_file: " << quoted(id.motor_file) << "\n"
-      << "motor_sha256: " << quoted(id.motor_sha256) << "\n"
-      << "experiment_program_sha256: " << quoted(id.experiment_program_sha256) << "\n"
+      << "configuration_file: " << yaml::quoted(id.configuration_file) << "\n"
+      << "configuration_sha256: " << yaml::quoted(id.configuration_sha256) << "\n"
+      << "motor_file: " << yaml::quoted(id.motor_file) << "\n"
+      << "motor_sha256: " << yaml::quoted(id.motor_sha256) << "\n"
+      << "experiment_program_sha256: " << yaml::quoted(id.experiment_program_sha256) << "\n"
       << "experiments:" << (progress.experiments.empty() ? " []\n" : "\n");
   for (const auto& e : progress.experiments) {
     out << "  - {coil_set: " << e.coil_set << ", delta_rad: " << yaml::format_double(e.delta_rad)
-        << ", log: " << quoted(e.log) << ", sha256: " << quoted(e.sha256) << "}\n";
+        << ", log: " << yaml::quoted(e.log) << ", sha256: " << yaml::quoted(e.sha256) << "}\n";
   }
   write_file_atomically(dir + "/" + kProgressFile, out.str());
 }

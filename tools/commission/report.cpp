@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "clm_lcm/servo_status_t.hpp"
+#include "config/yaml_edit.hpp"
 #include "tools/commission/commission.hpp"
 #include "tools/data/csv_table.hpp"
 
@@ -48,14 +49,6 @@ std::string triple(const std::array<double, 3>& values) {
 
 std::string triple(const Eigen::Vector3d& values) { return triple(std::array<double, 3>{values[0], values[1], values[2]}); }
 
-std::string quoted(const std::string& text) {
-  std::string out = "\"";
-  for (char c : text) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out + "\"";
-}
 
 const CommutationResult* find(const Report& report, const std::string& name) {
   for (const auto& r : report.results) {
@@ -121,11 +114,11 @@ void identification_json(std::ostringstream& out, const std::vector<data::CoilSe
     for (std::size_t g = 0; g < r.excitation_gaps.size(); ++g) {
       const auto& gap = r.excitation_gaps[g];
       out << (g ? ", " : "") << "{\"low_m\": " << number(gap.low_m) << ", \"high_m\": " << number(gap.high_m)
-          << ", \"lack\": " << quoted(identification::describe(gap.lack)) << "}";
+          << ", \"lack\": " << yaml::quoted(identification::describe(gap.lack)) << "}";
     }
     out << "], \"warnings\": [";
     const auto warnings = identification::identification_warnings(r.regressors, r.excitation_gaps);
-    for (std::size_t w = 0; w < warnings.size(); ++w) out << (w ? ", " : "") << quoted(warnings[w]);
+    for (std::size_t w = 0; w < warnings.size(); ++w) out << (w ? ", " : "") << yaml::quoted(warnings[w]);
     out << "]}";
   }
   out << "]";
@@ -134,7 +127,7 @@ void identification_json(std::ostringstream& out, const std::vector<data::CoilSe
 void selection_json(std::ostringstream& out, const data::IdentifySummary& summary) {
   const auto& offset = summary.sensor_offset;
   out << "{\"nuisance_identified\": " << (summary.nuisance ? "true" : "false");
-  if (!summary.nuisance_skipped.empty()) out << ", \"nuisance_skipped\": " << quoted(summary.nuisance_skipped);
+  if (!summary.nuisance_skipped.empty()) out << ", \"nuisance_skipped\": " << yaml::quoted(summary.nuisance_skipped);
   if (summary.nuisance) {
     out << ", \"sensor_offset\": {\"offset_y_N\": " << number(offset.offset_N) << ", \"mass_kg\": "
         << number(offset.mass_kg) << ", \"viscous_N_s_per_m\": " << number(offset.viscous_N_s_per_m)
@@ -143,7 +136,7 @@ void selection_json(std::ostringstream& out, const data::IdentifySummary& summar
     out << ", \"direction_force\": " << (summary.direction_force ? "true" : "false")
         << ", \"direction_force_inflation\": " << number(summary.direction_force_inflation);
     if (!summary.direction_force_skipped.empty()) {
-      out << ", \"direction_force_skipped\": " << quoted(summary.direction_force_skipped);
+      out << ", \"direction_force_skipped\": " << yaml::quoted(summary.direction_force_skipped);
     }
     out << ", \"direction_smoothing\": [";
     for (std::size_t k = 0; k < summary.direction_smoothing_scores.size(); ++k) {
@@ -155,7 +148,7 @@ void selection_json(std::ostringstream& out, const data::IdentifySummary& summar
   out << ", \"trials\": [";
   for (std::size_t k = 0; k < summary.trials.size(); ++k) {
     const auto& trial = summary.trials[k];
-    out << (k ? ", " : "") << "{\"capacity\": " << quoted(trial.capacity) << ", \"validation_score\": "
+    out << (k ? ", " : "") << "{\"capacity\": " << yaml::quoted(trial.capacity) << ", \"validation_score\": "
         << number(trial.validation_score) << ", \"chosen\": " << (k == summary.chosen ? "true" : "false")
         << ", \"direction_force_N_N_Nm\": [";
     for (std::size_t l = 0; l < trial.coil_sets.size(); ++l) {
@@ -182,7 +175,7 @@ void calibration_json(std::ostringstream& out, const CalibrationFile& file) {
           << number(q.separation_condition) << ", \"offset_inflation\": [" << number(q.offset_inflation[0]) << ", "
           << number(q.offset_inflation[1]) << "], \"warnings\": [";
       const auto warnings = calibration_warnings(c.gain_ratio.data(), q);
-      for (std::size_t w = 0; w < warnings.size(); ++w) out << (w ? ", " : "") << quoted(warnings[w]);
+      for (std::size_t w = 0; w < warnings.size(); ++w) out << (w ? ", " : "") << yaml::quoted(warnings[w]);
       out << "]";
     }
     out << "}";
@@ -233,17 +226,17 @@ std::string position_summary(const Report& report) {
 std::string report_json(const Report& report) {
   std::ostringstream out;
   out << "{\n  \"schema\": \"clm-servo-report\",\n  \"schema_version\": 1,\n";
-  out << "  \"config\": " << quoted(report.config_path) << ",\n  \"coil_sets\": " << report.coil_sets << ",\n";
+  out << "  \"config\": " << yaml::quoted(report.config_path) << ",\n  \"coil_sets\": " << report.coil_sets << ",\n";
   out << "  \"notes\": [";
-  for (std::size_t k = 0; k < report.notes.size(); ++k) out << (k ? ", " : "") << quoted(report.notes[k]);
+  for (std::size_t k = 0; k < report.notes.size(); ++k) out << (k ? ", " : "") << yaml::quoted(report.notes[k]);
   out << "],\n";
   out << "  \"commutations\": {\n";
   bool first = true;
   for (const auto& r : report.results) {
-    out << (first ? "" : ",\n") << "    " << quoted(r.name) << ": ";
+    out << (first ? "" : ",\n") << "    " << yaml::quoted(r.name) << ": ";
     first = false;
     if (!r.evaluated) {
-      out << "{\"evaluated\": false, \"reason\": " << quoted(r.skipped_reason) << "}";
+      out << "{\"evaluated\": false, \"reason\": " << yaml::quoted(r.skipped_reason) << "}";
       continue;
     }
     out << "{\"evaluated\": true, \"commutation_mse\": {\"filtered\": " << triple(r.mse.filtered)
@@ -260,10 +253,10 @@ std::string report_json(const Report& report) {
         << ", \"damping_cycles\": " << r.damping_cycles << ", \"force_limited_cycles\": " << r.force_limited_cycles << "}";
   }
   out << "\n  },\n";
-  out << "  \"validation\": {\"program\": " << quoted(report.validation_program) << ", \"commutations\": {";
+  out << "  \"validation\": {\"program\": " << yaml::quoted(report.validation_program) << ", \"commutations\": {";
   for (std::size_t k = 0; k < report.validation.size(); ++k) {
     const auto& r = report.validation[k];
-    out << (k ? ", " : "") << quoted(r.name) << ": ";
+    out << (k ? ", " : "") << yaml::quoted(r.name) << ": ";
     if (!r.evaluated) {
       out << "{\"evaluated\": false}";
       continue;
@@ -297,31 +290,31 @@ std::string report_json(const Report& report) {
     bool first_ratio = true;
     for (const auto& r : report.results) {
       if (!r.evaluated) continue;
-      out << (first_ratio ? "" : ", ") << quoted(r.name) << ": " << number(r.tracking_mse_m2 / oracle->tracking_mse_m2);
+      out << (first_ratio ? "" : ", ") << yaml::quoted(r.name) << ": " << number(r.tracking_mse_m2 / oracle->tracking_mse_m2);
       first_ratio = false;
     }
     out << "}";
   }
   if (const auto* reference = calibrated_classical(report)) {
     out << separator << "\"improvement_over_classical\": {\"classical\": "
-        << quoted(reference->name);
+        << yaml::quoted(reference->name);
     for (const auto& r : report.results) {
       if (!r.evaluated || &r == reference) continue;
       const Improvement ratio = improvement(*reference, r);
-      out << ", " << quoted(r.name) << ": {\"commutation_mse_filtered\": " << triple(ratio.force)
+      out << ", " << yaml::quoted(r.name) << ": {\"commutation_mse_filtered\": " << triple(ratio.force)
           << ", \"tracking_mse\": " << number(ratio.tracking) << "}";
     }
     out << "}";
   }
   out << "},\n";
-  out << "  \"recommended\": {\"law\": " << quoted(report.recommended) << ", \"why\": " << quoted(report.recommendation)
-      << ", \"force_sensor_law\": " << quoted(report.force_recommended) << "},\n";
+  out << "  \"recommended\": {\"law\": " << yaml::quoted(report.recommended) << ", \"why\": " << yaml::quoted(report.recommendation)
+      << ", \"force_sensor_law\": " << yaml::quoted(report.force_recommended) << "},\n";
   out << "  \"validation_scores\": {";
   for (std::size_t k = 0; k < report.law_scores.size(); ++k) {
     const auto& entry = report.law_scores[k];
     std::size_t blocks = 0;
     for (const auto& coil_set : entry.blocks) blocks += coil_set.size();
-    out << (k ? ", " : "") << quoted(entry.law) << ": {\"score\": " << number(entry.score.value)
+    out << (k ? ", " : "") << yaml::quoted(entry.law) << ": {\"score\": " << number(entry.score.value)
         << ", \"standard_error\": " << number(entry.score.standard_error) << ", \"held_out_blocks\": " << blocks;
     if (const auto* recommended = scored(report, report.recommended)) {
       const data::ScoreEstimate d = data::score_difference(entry, *recommended);
@@ -332,14 +325,14 @@ std::string report_json(const Report& report) {
   }
   out << "},\n";
   const data::Verdict& verdict = report.verdict;
-  out << "  \"verdict\": {\"recommended\": " << quoted(report.recommended) << ", \"decided_by\": "
-      << quoted(report.decided_by) << ", \"tie\": " << (verdict.tie ? "true" : "false") << ", \"tied\": [";
-  for (std::size_t k = 0; k < verdict.tied.size(); ++k) out << (k ? ", " : "") << quoted(verdict.tied[k]);
-  out << "], \"runner_up\": " << (verdict.runner_up.empty() ? "null" : quoted(verdict.runner_up))
+  out << "  \"verdict\": {\"recommended\": " << yaml::quoted(report.recommended) << ", \"decided_by\": "
+      << yaml::quoted(report.decided_by) << ", \"tie\": " << (verdict.tie ? "true" : "false") << ", \"tied\": [";
+  for (std::size_t k = 0; k < verdict.tied.size(); ++k) out << (k ? ", " : "") << yaml::quoted(verdict.tied[k]);
+  out << "], \"runner_up\": " << (verdict.runner_up.empty() ? "null" : yaml::quoted(verdict.runner_up))
       << ", \"margin_score\": " << number(verdict.margin_score)
       << ", \"margin_standard_errors\": " << number(verdict.margin_standard_errors)
       << ", \"tie_standard_errors\": " << number(data::kTieStandardErrors) << ", \"tie_order\": [";
-  for (std::size_t k = 0; k < std::size(kTieOrder); ++k) out << (k ? ", " : "") << quoted(kTieOrder[k]);
+  for (std::size_t k = 0; k < std::size(kTieOrder); ++k) out << (k ? ", " : "") << yaml::quoted(kTieOrder[k]);
   out << "]";
   const auto* reference = calibrated_classical(report);
   const auto* recommended = find(report, report.recommended);
@@ -365,7 +358,7 @@ std::string report_json(const Report& report) {
   out << "},\n  \"paper\": {";
   for (std::size_t k = 0; k < std::size(kPaper); ++k) {
     const auto& row = kPaper[k];
-    out << (k ? ", " : "") << quoted(row.name) << ": {\"commutation_mse\": {\"filtered\": "
+    out << (k ? ", " : "") << yaml::quoted(row.name) << ": {\"commutation_mse\": {\"filtered\": "
         << triple(std::array<double, 3>{row.filtered[0], row.filtered[1], row.filtered[2]}) << ", \"unfiltered\": "
         << triple(std::array<double, 3>{row.unfiltered[0], row.unfiltered[1], row.unfiltered[2]})
         << "}, \"tracking_mse_m2\": " << number(row.tracking_mse_m2) << "}";
@@ -375,7 +368,7 @@ std::string report_json(const Report& report) {
     const auto& position = report.position;
     out << "  \"from_position\": {\"mass_kg\": " << number(position.mass_kg)
         << ", \"validation_score\": " << number(report.position_validation_score)
-        << ", \"mass_source\": " << quoted(report.position_mass_source)
+        << ", \"mass_source\": " << yaml::quoted(report.position_mass_source)
         << ", \"knot_spacing_m\": " << number(position.knot_spacing_m) << ", \"spacing_scores\": [";
     for (std::size_t k = 0; k < position.spacing_scores.size(); ++k) {
       out << (k ? ", " : "") << "{\"knot_spacing_m\": " << number(position.spacing_scores[k].first)
@@ -383,7 +376,7 @@ std::string report_json(const Report& report) {
     }
     out << "], \"rows_from\": [";
     const auto& rows_from = position.model.provenance.rows_from;
-    for (std::size_t q = 0; q < rows_from.size(); ++q) out << (q ? ", " : "") << quoted(name(rows_from[q]));
+    for (std::size_t q = 0; q < rows_from.size(); ++q) out << (q ? ", " : "") << yaml::quoted(name(rows_from[q]));
     out << "], \"coil_sets\": [";
     for (std::size_t l = 0; l < position.fits.size(); ++l) {
       const auto& fit = position.fits[l];
@@ -394,21 +387,21 @@ std::string report_json(const Report& report) {
     }
     out << "], \"calibration\": ";
     calibration_json(out, report.calibration_position);
-    out << ", \"summary\": " << quoted(position_summary(report)) << "},\n";
+    out << ", \"summary\": " << yaml::quoted(position_summary(report)) << "},\n";
   }
   out << "  \"step_wall_time_s\": {";
   for (std::size_t k = 0; k < report.steps.size(); ++k) {
-    out << (k ? ", " : "") << quoted(report.steps[k].step) << ": " << number(report.steps[k].wall_s);
+    out << (k ? ", " : "") << yaml::quoted(report.steps[k].step) << ": " << number(report.steps[k].wall_s);
   }
   out << "},\n";
   if (report.live.live) {
     const LiveSummary& live = report.live;
-    out << "  \"live\": {\"lcm_url\": " << quoted(live.lcm_url) << ", \"runs\": " << live.runs
+    out << "  \"live\": {\"lcm_url\": " << yaml::quoted(live.lcm_url) << ", \"runs\": " << live.runs
         << ", \"runs_repeated\": " << live.runs_repeated << ", \"states_received\": " << live.states_received
         << ", \"states_recorded\": " << live.states_recorded << ", \"states_missing\": " << live.states_missing_kept
         << ", \"states_missing_in_repeated_runs\": " << live.states_missing_discarded
         << ", \"daemon_telemetry_dropped\": " << live.daemon_telemetry_dropped
-        << ", \"status_fingerprint\": " << quoted(status_fingerprint_hex()) << "},\n";
+        << ", \"status_fingerprint\": " << yaml::quoted(status_fingerprint_hex()) << "},\n";
   }
   out << "  \"total_wall_time_s\": " << number(report.total_wall_s) << "\n}\n";
   return out.str();
