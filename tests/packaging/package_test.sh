@@ -127,8 +127,15 @@ dpkg_root -i "$deb"
 config_file="$root/etc/clm-servo/servod.yaml"
 [ -f "$config_file" ] && [ -f "$root/etc/clm-servo/command.key" ] || fail "install: no configuration or no key"
 grep -q "^clm-operators:" "$root/etc/group" || fail "install: no group clm-operators"
-[ "$(stat -c '%G %a' "$root/var/lib/clm-servo")" = "clm-operators 2775" ] ||
-    fail "/var/lib/clm-servo is $(stat -c '%G %a' "$root/var/lib/clm-servo"), expected clm-operators 2775"
+# The group's name from the scratch root's own /etc/group: the id the package
+# gave it there need not name a group (or the same one) on this host.
+state_dir_owner() {
+  local gid mode
+  read -r gid mode < <(stat -c '%g %a' "$root/var/lib/clm-servo")
+  echo "$(awk -F: -v gid="$gid" '$3 == gid { print $1; exit }' "$root/etc/group") $mode"
+}
+[ "$(state_dir_owner)" = "clm-operators 2775" ] ||
+    fail "/var/lib/clm-servo is $(state_dir_owner) (group by $root/etc/group), expected clm-operators 2775"
 sed -i 's/^  rate_hz: 1000\(.*\)/  rate_hz: 500\1  # edited/' "$config_file"
 grep -q "rate_hz: 500 .*# edited" "$config_file" || fail "could not edit the installed servod.yaml"
 cp "$config_file" "$work/edited.yaml"

@@ -425,6 +425,7 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
         servod::check_output_directory({config.commands.file_directories, config.commands.max_file_bytes}, options.out_dir);
     if (!out_refusal.empty()) throw std::runtime_error(describe_refusals({"--out " + out_refusal}));
     LiveOptions live = options.live_options;
+    if (live.lcm_url.empty()) live.lcm_url = servod_client::lcm_url_or(config.telemetry.lcm_url);
     LcmRunner runner(config, live);
     const DaemonView daemon = runner.observe();
     const std::vector<std::string> refusals = live_preflight(config, options, daemon);

@@ -28,7 +28,8 @@ struct Recording;  // runs.hpp
 
 /// How to reach a running clm-servod (LcmRunner).
 struct LiveOptions {
-  std::string lcm_url = servod_client::default_lcm_url();
+  /// Empty: $CLM_SERVO_LCM_URL, else the configuration's telemetry.lcm_url.
+  std::string lcm_url;
   /// The operators' key shared with the daemon; empty: clm::default_command_key_path().
   std::string key_file;
   /// How long each command waits for its CLM_SERVO_COMMAND_ACK [s].

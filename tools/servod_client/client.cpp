@@ -19,10 +19,12 @@
 
 namespace clm::servod_client {
 
-std::string default_lcm_url() {
+std::string lcm_url_or(const std::string& fallback) {
   const char* url = std::getenv("CLM_SERVO_LCM_URL");
-  return url != nullptr && *url != '\0' ? std::string(url) : std::string(telemetry::kDefaultLcmUrl);
+  return url != nullptr && *url != '\0' ? std::string(url) : fallback;
 }
+
+std::string default_lcm_url() { return lcm_url_or(std::string(telemetry::kDefaultLcmUrl)); }
 
 namespace {
 

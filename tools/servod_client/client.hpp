@@ -155,8 +155,12 @@ class Interrupted : public Error {
   using Error::Error;
 };
 
+/// $CLM_SERVO_LCM_URL when set and not empty, else `fallback`: the URL of a
+/// tool that knows the daemon's configuration (clm commission --live).
+std::string lcm_url_or(const std::string& fallback);
+
 /// The LCM URL a client uses unless told otherwise (--lcm-url):
-/// $CLM_SERVO_LCM_URL when set and not empty, else telemetry::kDefaultLcmUrl.
+/// lcm_url_or(telemetry::kDefaultLcmUrl).
 std::string default_lcm_url();
 
 struct Options {
