@@ -65,7 +65,7 @@ void add_commission(CLI::App& app) {
   sub->footer("With --live on a host whose CPU is not reserved for the loop, late wake-ups trip a short drive "
               "watchdog (fault 206) and faults.overrun_limit (fault 205): keep the drive's watchdog several times "
               "above the wake-up latency clm ctl status shows (the simulated drive: drive.watchdog_timeout_s 0.1 to 1) and "
-              "raise faults.overrun_limit (e.g. 1000); docs/bring-up.md, section 6.\n"
+              "raise faults.overrun_limit (the shipped configuration: 100); docs/bring-up.md, section 6.\n"
               "Before its first experiment --live checks --out (file directories, free space), every program "
               "against the daemon's limits, the daemon's motor and drive profile, and the timing margin (watchdog "
               "at least the period + 3 x the measured max wake-up latency); it refuses with every reason and fix "
