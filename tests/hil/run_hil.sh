@@ -151,6 +151,23 @@ write_config() {
 # starting up must not delay the drive's reply or the recording.
 # "idle total" jiffies of all CPUs, from /proc/stat.
 cpu_jiffies() { awk '/^cpu / { print $5 + $6, $2 + $3 + $4 + $5 + $6 + $7 + $8 + $9 }' /proc/stat; }
+# "pid name jiffies" (user + system) of every process, to name what kept the
+# CPU busy during a run (busiest_since).
+process_jiffies() {
+  local stat
+  for stat in /proc/[0-9]*/stat; do
+    # The name is in parentheses and may hold spaces: the fields after ") ".
+    awk '{ name = $0; sub(/^[0-9]+ \(/, "", name); sub(/\) .*/, "", name); rest = $0; sub(/^.*\) /, "", rest);
+           split(rest, f, " "); gsub(/ /, "_", name); print $1, name, f[12] + f[13] }' "$stat" 2> /dev/null
+  done
+}
+# The three processes that used the most CPU since FILE (process_jiffies),
+# with their share of the CPU over TOTAL jiffies: "clm-servod 12 %, ...".
+busiest_since() {  # FILE TOTAL
+  process_jiffies | awk -v total="$2" 'NR == FNR { before[$1] = $3; next }
+    { used = $3 - before[$1]; if (used > 0) print used, $2 }' "$1" - |
+    sort -rn | head -3 | awk -v total="$2" '{ printf "%s%s %d %%", (NR > 1 ? ", " : ""), $2, 100 * $1 / (total + 1) }'
+}
 
 # ---- bus recorder and simulated motor, for all runs --------------------------------
 expected_bus="error-active"  # the embedded motor's in-process bus too (it has error states only when injected)
@@ -206,6 +223,7 @@ run_program_logged() {  # TAG PROGRAM
   sleep 0.5
   run_start=$(date +%s)
   read -r idle_before total_before < <(cpu_jiffies)
+  process_jiffies > "$run/jiffies-$1.txt"
   if [ -z "$problem" ] && ! reply=$(ctl run-program "$2" 2>&1); then
     status=$(ctl status) || status=""
     problem="run-program: $reply; the daemon: state $(field state "$status"), fault $(field fault "$status") ($(field fault_reason "$status")), fault cycle $(field fault_cycle "$status")"
@@ -229,6 +247,7 @@ run_program_logged() {  # TAG PROGRAM
   run_s=$(( $(date +%s) - run_start ))
   read -r idle_after total_after < <(cpu_jiffies)
   busy=$(( 100 - 100 * (idle_after - idle_before) / (total_after - total_before + 1) ))
+  busy+=" % busy: $(busiest_since "$run/jiffies-$1.txt" $(( total_after - total_before )))"
   sleep 0.3  # the last states reach the logger (a fixed pause, as above)
   # SIGINT: lcm-logger writes what it has and closes the log. It notices the
   # signal when its loop wakes, i.e. with the next message; a second one ends
@@ -246,9 +265,9 @@ run_program_logged() {  # TAG PROGRAM
   frames="frames missing $missing, late $late, rejected $(counter "$status" rejected); overruns $(field overruns "$status");"
   frames+=" wake-up latency $(field wakeup_latency_s "$status")"
   if [ -n "$problem" ]; then
-    fail "$1: $problem ($frames)"
+    fail "$1: $problem ($frames; CPUs $busy)"
   else
-    pass "$1: program ran to its end in $run_s s without a fault ($frames; CPUs $busy % busy)"
+    pass "$1: program ran to its end in $run_s s without a fault ($frames; CPUs $busy)"
   fi
 }
 
