@@ -1,0 +1,52 @@
+#!/usr/bin/python3
+"""tools/commission/plant_terms.py edits the motor file as it says: for each
+term, and for all together, the edited file parses as YAML and holds exactly
+the term's keys at their place under `simulation:`, with the rest of the
+file unchanged; an unknown variant is refused with exit status 2.
+
+    plant_terms_test.py PLANT_TERMS_PY MOTOR_YAML
+"""
+
+import importlib.util
+import subprocess
+import sys
+
+import yaml
+
+
+def check(condition, what):
+    if not condition:
+        print(f"plant_terms_test: FAIL: {what}")
+        sys.exit(1)
+
+
+def main():
+    script, motor_path = sys.argv[1], sys.argv[2]
+    spec = importlib.util.spec_from_file_location("plant_terms", script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    with open(motor_path, encoding="utf-8") as f:
+        text = f.read()
+    original = yaml.safe_load(text)
+    variants = [[term] for term in module.TERMS] + [list(module.TERMS)]
+    for terms in variants:
+        edited = yaml.safe_load(module.motor_with(text, terms, motor_path))
+        expected = yaml.safe_load(text)
+        for term in terms:
+            section, keys = module.TERMS[term]
+            target = expected["simulation"].setdefault(section, {})
+            for key in keys:
+                target.update(yaml.safe_load(key))
+        check(edited == expected, f"{'+'.join(terms)}: the edited motor file is not the original with the term's keys "
+                                  f"(differs in {[k for k in expected['simulation'] if edited['simulation'].get(k) != expected['simulation'][k]]})")
+        check(edited["motor"] == original["motor"] and edited["drive"] == original["drive"],
+              f"{'+'.join(terms)}: motor: or drive: changed")
+    result = subprocess.run([sys.executable, script, "--terms", "none,stiffness"], capture_output=True, text=True,
+                            check=False)
+    check(result.returncode == 2 and "unknown variant 'stiffness'" in result.stderr,
+          f"an unknown variant: exit {result.returncode}, stderr '{result.stderr.strip()}'")
+    print(f"plant_terms_test: {len(variants)} edits of {motor_path} as expected; an unknown variant refused (exit 2)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,140 @@
+#!/usr/bin/python3
+"""Commissions the embedded simulated motor with the plant's dynamics beyond a
+rigid mass (docs/simulator.md, "The plant's dynamics beyond a rigid mass")
+switched on one at a time, all together and none, and prints what each does
+to every law's true driving-force error and tracking (docs/simulator.md,
+"A realistic plant: sizes and what it does").
+
+    tools/commission/plant_terms.py [--clm build/bin/clm] [--config config/servod.yaml]
+                                    [--out out/plant-terms] [--terms none,all,flexible_mode,...]
+
+Each variant is `clm commission --no-plots` on a copy of the configuration
+and its motor file with the term's keys added; nothing outside --out is
+written. Exit status 2 for bad usage or a configuration it cannot edit,
+1 when a commissioning fails.
+"""
+
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+# The sizes of a stage like the default motor's (15 kg, 0.24 m stroke): why
+# each is plausible is in docs/simulator.md. Each term: its section of the
+# motor file's `simulation:` and its keys there.
+TERMS = {
+    "flexible_mode": ("mechanics",
+                      ["flexible_mode: {frequency_Hz: 300.0, damping_ratio: 0.02, encoder_mass_fraction: 0.3}"]),
+    "force_disturbance": ("mechanics", ["force_disturbance: {rms_N: 0.3, low_Hz: 1.0, high_Hz: 50.0, seed: 3}"]),
+    "current_loop": ("drive", ["current_loop: {bandwidth_Hz: 1500.0, phase_resistance_ohm: 2.0, "
+                               "phase_inductance_H: 0.001, voltage_limit_V: 150.0}"]),
+    "setpoint_delay": ("drive", ["setpoint_delay_s: 2.0e-4"]),
+    "encoder": ("sensors", ["encoder_resolution_m: 1.0e-9", "encoder_noise_m: 1.0e-9", "encoder_delay_s: 1.0e-4",
+                            "encoder_scale_pitch_m: 2.0e-5", "encoder_interpolation_error_m: 5.0e-9",
+                            "encoder_interpolation_second_m: 2.0e-9"]),
+}
+
+
+class UsageError(Exception):
+    pass
+
+
+def motor_with(text, terms, motor_path):
+    """The motor file's text with `terms` added: each key replaces the line of
+    the same key in its section, or is added at the section's start."""
+    for term in terms:
+        section, keys = TERMS[term]
+        for key in keys:
+            name = key.split(":", 1)[0]
+            existing = re.search(r"^    " + re.escape(name) + r":.*\n", text, re.MULTILINE)
+            if existing is not None:
+                text = text[:existing.start()] + "    " + key + "\n" + text[existing.end():]
+                continue
+            header = re.search(r"^  " + section + r":\n", text, re.MULTILINE)
+            if header is None and section == "drive":
+                top = re.search(r"^simulation:\n", text, re.MULTILINE)
+                if top is None:
+                    raise UsageError(f"{motor_path}: no 'simulation:' section to add the term {term} to")
+                text = text[:top.end()] + "  drive:\n" + text[top.end():]
+                header = re.search(r"^  drive:\n", text[top.start():], re.MULTILINE)
+                header_end = top.start() + header.end()
+            elif header is None:
+                raise UsageError(f"{motor_path}: no 'simulation.{section}:' section to add the term {term} to")
+            else:
+                header_end = header.end()
+            text = text[:header_end] + "    " + key + "\n" + text[header_end:]
+    return text
+
+
+def commission(clm, config, out, terms):
+    """Runs clm commission on a copy of `config` with `terms`; the report's JSON."""
+    source_dir = os.path.dirname(os.path.abspath(config))
+    with open(config, encoding="utf-8") as f:
+        config_text = f.read()
+    match = re.search(r"^motor_file:\s*(\S+)", config_text, re.MULTILINE)
+    if match is None:
+        raise UsageError(f"{config}: no motor_file key")
+    motor_path = os.path.join(source_dir, match.group(1))
+    with open(motor_path, encoding="utf-8") as f:
+        motor_text = f.read()
+    if os.path.exists(out):
+        shutil.rmtree(out)
+    os.makedirs(out)
+    shutil.copy(config, os.path.join(out, os.path.basename(config)))
+    programs = os.path.join(source_dir, "programs")
+    if os.path.isdir(programs):
+        shutil.copytree(programs, os.path.join(out, "programs"))
+    with open(os.path.join(out, match.group(1)), "w", encoding="utf-8") as f:
+        f.write(motor_with(motor_text, terms, motor_path))
+    result = subprocess.run([clm, "commission", "--config", os.path.join(out, os.path.basename(config)),
+                             "--out", os.path.join(out, "commission"), "--no-plots"],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, check=False)
+    if result.returncode != 0:
+        tail = result.stdout.strip().splitlines()[-1:] or ["(no output)"]
+        raise RuntimeError(f"clm commission with {'+'.join(terms) or 'no terms'} failed: {tail[0]}")
+    with open(os.path.join(out, "commission", "report.json"), encoding="utf-8") as f:
+        return json.load(f)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--clm", default="build/bin/clm")
+    parser.add_argument("--config", default="config/servod.yaml")
+    parser.add_argument("--out", default="out/plant-terms")
+    parser.add_argument("--terms", default="none," + ",".join(TERMS) + ",all",
+                        help="comma-separated variants: none, all, or a term (" + ", ".join(TERMS) + ")")
+    args = parser.parse_args()
+    variants = args.terms.split(",")
+    for variant in variants:
+        if variant not in ("none", "all") and variant not in TERMS:
+            raise UsageError(f"--terms: unknown variant '{variant}' (none, all, {', '.join(TERMS)})")
+    rows = []
+    for variant in variants:
+        terms = [] if variant == "none" else list(TERMS) if variant == "all" else [variant]
+        report = commission(args.clm, args.config, os.path.join(args.out, variant), terms)
+        laws = report["commutations"]
+        oracle = laws.get("oracle", {}).get("tracking_mse_m2")
+        for name, law in laws.items():
+            if not law.get("evaluated"):
+                continue
+            tracking = law["tracking_mse_m2"]
+            rows.append((variant, name, law["true_electromagnetic_mse"]["filtered"][0], tracking,
+                         tracking / oracle if oracle else float("nan")))
+        print(f"plant_terms: {variant} done", file=sys.stderr)
+    print(f"{'plant':18} {'law':16} {'true y [N^2]':>13} {'tracking [m^2]':>15} {'/oracle':>8}")
+    for variant, name, true_y, tracking, ratio in rows:
+        print(f"{variant:18} {name:16} {true_y:13.3g} {tracking:15.3g} {ratio:8.3g}")
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except UsageError as error:
+        print(f"plant_terms: {error}", file=sys.stderr)
+        sys.exit(2)
+    except (OSError, RuntimeError, KeyError, ValueError) as error:
+        print(f"plant_terms: {error}", file=sys.stderr)
+        sys.exit(1)
