@@ -164,7 +164,7 @@ process_jiffies() {
 # The three processes that used the most CPU since FILE (process_jiffies),
 # with their share of the CPU over TOTAL jiffies: "clm-servod 12 %, ...".
 busiest_since() {  # FILE TOTAL
-  process_jiffies | awk -v total="$2" 'NR == FNR { before[$1] = $3; next }
+  process_jiffies | awk 'NR == FNR { before[$1] = $3; next }
     { used = $3 - before[$1]; if (used > 0) print used, $2 }' "$1" - |
     sort -rn | head -3 | awk -v total="$2" '{ printf "%s%s %d %%", (NR > 1 ? ", " : ""), $2, 100 * $1 / (total + 1) }'
 }

@@ -101,7 +101,9 @@ void add_commission(CLI::App& app) {
   sub->add_flag("--live", options->run.live,
                 "run every experiment on a running clm-servod over LCM (it must read this config and share this "
                 "file system: files are sent as absolute paths)");
-  sub->add_option("--lcm-url", options->run.live_options.lcm_url, "--live: LCM URL of the daemon; default: $CLM_SERVO_LCM_URL, else the configuration's telemetry.lcm_url");
+  sub->add_option("--lcm-url", options->run.live_options.lcm_url,
+                  "--live: LCM URL of the daemon; default: $CLM_SERVO_LCM_URL, else the configuration's "
+                  "telemetry.lcm_url");
   sub->add_option("--key-file", options->run.live_options.key_file,
                   "--live: the operators' key shared with the daemon (its commands.key_file); default: "
                   "$CLM_SERVO_KEY_FILE, else /etc/clm-servo/command.key");
