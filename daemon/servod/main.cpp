@@ -370,11 +370,12 @@ int run(const std::string& config_path, double duration_s) {
     const auto us = [](double s) { return s * 1e6; };
     std::fprintf(stderr,
                  "clm-servod: timing: cycles %lld, wake-up latency p50 %.1f us p99 %.1f us p99.9 %.1f us max %.1f us, "
-                 "compute p50 %.1f us p99 %.1f us max %.1f us, missed deadlines %lld, late setpoints %lld\n",
+                 "compute p50 %.1f us p99 %.1f us max %.1f us (cycle %lld), missed deadlines %lld, late setpoints %lld\n",
                  static_cast<long long>(daemon.cycles_done()), us(timing.wakeup_latency.quantile_s(0.5)),
                  us(timing.wakeup_latency.quantile_s(0.99)), us(timing.wakeup_latency.quantile_s(0.999)),
                  us(timing.wakeup_latency.max_s()), us(timing.compute_time.quantile_s(0.5)),
                  us(timing.compute_time.quantile_s(0.99)), us(timing.compute_time.max_s()),
+                 static_cast<long long>(timing.longest_compute_cycle),
                  static_cast<long long>(timing.missed_deadlines), static_cast<long long>(timing.late_setpoints));
   }
   daemon.set_observer(nullptr);

@@ -54,6 +54,7 @@ struct LoopTiming {
   servo::LatencyHistogram compute_time;
   std::int64_t missed_deadlines = 0;   ///< grid points skipped after overruns
   std::int64_t late_setpoints = 0;     ///< setpoints not sent because their cycle was over
+  std::int64_t longest_compute_cycle = -1;  ///< the cycle (servo_state_t.cycle) with the longest compute time
 };
 
 /// Sees every cycle on the loop thread: must not block or allocate.

@@ -98,7 +98,9 @@ void ServoDaemon::run_realtime(const std::atomic<bool>& stop) {
     previous_wake = wake;
     one_cycle(start, planned + window_ns, static_cast<double>(planned - start_ns) * 1e-9, planned + period_ns, true);
     const std::int64_t done = monotonic_ns();
-    timing_.compute_time.add(static_cast<double>(done - wake) * 1e-9);
+    const double compute_s = static_cast<double>(done - wake) * 1e-9;
+    if (compute_s > timing_.compute_time.max_s()) timing_.longest_compute_cycle = cycle().record().cycle;
+    timing_.compute_time.add(compute_s);
     const std::int64_t missed = schedule.advance(done);
     timing_.missed_deadlines += missed;
     overran = missed > 0;
