@@ -149,8 +149,9 @@ write_config() {
 # The simulated motor and the recorders run with SCHED_FIFO below the
 # daemon's loop (fifo), where chrt and the rights exist: a `clm ctl`
 # starting up must not delay the drive's reply or the recording.
-# "idle total" jiffies of all CPUs, from /proc/stat.
-cpu_jiffies() { awk '/^cpu / { print $5 + $6, $2 + $3 + $4 + $5 + $6 + $7 + $8 + $9 }' /proc/stat; }
+# "idle total system interrupts" jiffies of all CPUs, from /proc/stat
+# (interrupts: hard and soft, which no process is charged with).
+cpu_jiffies() { awk '/^cpu / { print $5 + $6, $2 + $3 + $4 + $5 + $6 + $7 + $8 + $9, $4, $7 + $8 }' /proc/stat; }
 # "pid name jiffies" (user + system) of every process, to name what kept the
 # CPU busy during a run (busiest_since).
 process_jiffies() {
@@ -222,7 +223,7 @@ run_program_logged() {  # TAG PROGRAM
   # simulated drive's 5 ms watchdog expired (fault 101 before the program).
   sleep 0.5
   run_start=$(date +%s)
-  read -r idle_before total_before < <(cpu_jiffies)
+  read -r idle_before total_before system_before irq_before < <(cpu_jiffies)
   process_jiffies > "$run/jiffies-$1.txt"
   if [ -z "$problem" ] && ! reply=$(ctl run-program "$2" 2>&1); then
     status=$(ctl status) || status=""
@@ -245,9 +246,11 @@ run_program_logged() {  # TAG PROGRAM
     sleep 1  # each `clm ctl` costs the guest a process start-up
   done
   run_s=$(( $(date +%s) - run_start ))
-  read -r idle_after total_after < <(cpu_jiffies)
+  read -r idle_after total_after system_after irq_after < <(cpu_jiffies)
   busy=$(( 100 - 100 * (idle_after - idle_before) / (total_after - total_before + 1) ))
-  busy+=" % busy: $(busiest_since "$run/jiffies-$1.txt" $(( total_after - total_before )))"
+  busy+=" % busy (kernel $(( 100 * (system_after - system_before) / (total_after - total_before + 1) )) %,"
+  busy+=" interrupts $(( 100 * (irq_after - irq_before) / (total_after - total_before + 1) )) %):"
+  busy+=" $(busiest_since "$run/jiffies-$1.txt" $(( total_after - total_before )))"
   sleep 0.3  # the last states reach the logger (a fixed pause, as above)
   # SIGINT: lcm-logger writes what it has and closes the log. It notices the
   # signal when its loop wakes, i.e. with the next message; a second one ends
