@@ -101,6 +101,7 @@ void commutate_with_gain(const StackedGain& gain, const Wrench& cogging, const W
   if (!out.currents_A.allFinite()) out.currents_A.setZero();  // zero gain: nothing to command
 
   out.model_wrench.noalias() = gain * out.currents_A;
+  out.driving_gain_N_per_A = gain.row(0).transpose();
   out.model_wrench += cogging;
   out.current_square_sum_A2 = current_square_sum(out.currents_A);
   // Eq. (39); Γ uses the drive's angle, common to all coil sets (docs/commutation.md §5).
@@ -136,6 +137,12 @@ void ClassicalCommutator::commutate(double position_m, const Wrench& desired, Co
                       std::span<DriveSetpoint>(out.setpoints.data(), static_cast<std::size_t>(count_)));
   // The classical law's own model: each coil set produces its share along y only.
   out.model_wrench = Wrench(desired.x(), 0.0, 0.0);
+  out.driving_gain_N_per_A.resize(2 * count_);
+  for (int l = 0; l < count_; ++l) {
+    const auto& estimate = estimates_[static_cast<std::size_t>(l)];
+    const ClassicalCoilSet coil_set{estimate.motor_constant_N_per_A, estimate.phase_offset_rad, 0.0, 0.0};
+    out.driving_gain_N_per_A.segment<2>(2 * l) = classical_gain(coil_set, position_m, pole_pitch_m_).row(0).transpose();
+  }
   out.current_square_sum_A2 = current_square_sum(out.currents_A);
   out.singular_value_ratio = 1.0;
   out.damping_engaged = false;

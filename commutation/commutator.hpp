@@ -27,6 +27,9 @@ struct CommutationOutput {
   CurrentVector currents_A;                             ///< [i_a^1, i_b^1, ...] [A]
   std::array<DriveSetpoint, kMaxCoilSets> setpoints{};  ///< eq. (39) per coil set
   Wrench model_wrench{Wrench::Zero()};                  ///< F̂ the law's model predicts for the currents
+  /// ∂F̂_y/∂i of the law's model at the position, one per current [N/A]: in
+  /// SI units also each winding's back-EMF per velocity [V·s/m].
+  CurrentVector driving_gain_N_per_A;
   double current_square_sum_A2 = 0.0;                   ///< Σ i_a² + i_b² + i_c² [A²]
   double singular_value_ratio = 1.0;                    ///< σ_min/σ_max of the weighted K̂ [-]
   bool damping_engaged = false;                         ///< the damped pseudo-inverse was used

@@ -12,6 +12,7 @@
 
 #include "commutation/calibration.hpp"
 #include "commutation/classical.hpp"
+#include "commutation/current_loop_compensation.hpp"
 #include "commutation/model.hpp"
 #include "config/yaml_reader.hpp"
 
@@ -32,6 +33,9 @@ struct MotorDescription {
   /// drive.watchdog_timeout_s: the drive's setpoint watchdog [s]; 0 when the
   /// file does not say (the timing margin then does not judge it).
   double drive_watchdog_timeout_s = 0.0;
+  /// drive.current_loop: the drive's current loop as its manual gives it;
+  /// absent, the currents are taken to follow their references at once.
+  CurrentLoopModel current_loop;
 };
 
 /// Reads `motor:` and `drive.commutation:` of a YAML document; other top-level

@@ -62,6 +62,7 @@ void RangeBlendedCommutator::commutate(double position_m, const Wrench& desired,
   model_law_.commutate(position_m, desired, out);
   out.currents_A = w * out.currents_A + (1.0 - w) * classical.currents_A;
   out.model_wrench = w * out.model_wrench + (1.0 - w) * classical.model_wrench;
+  out.driving_gain_N_per_A = w * out.driving_gain_N_per_A + (1.0 - w) * classical.driving_gain_N_per_A;
   out.current_square_sum_A2 = current_square_sum(out.currents_A);
   const Eigen::Matrix2d gamma_inv = gamma_inverse(drive_, position_m, pole_pitch_m_);
   for (int l = 0; l < out.coil_sets; ++l) {

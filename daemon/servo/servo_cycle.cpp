@@ -38,8 +38,10 @@ double step_target_m(const control::MoveProgram& program, double t_s) noexcept {
 
 ServoCycle::ServoCycle(const ServoSettings& settings)
     : settings_((settings.validate(), settings)),
-      controller_(settings.pid, settings.feedforward, settings.period_s) {
+      controller_(settings.pid, settings.feedforward, settings.period_s),
+      compensation_(settings.current_loop, settings.period_s) {
   commutation_.currents_A.resize(2 * settings.protocol.coil_sets);
+  references_A_.resize(2 * settings.protocol.coil_sets);
   record_.coil_sets = settings.protocol.coil_sets;
 }
 
@@ -187,45 +189,80 @@ can::Frame ServoCycle::begin_cycle(const CycleStart& start) noexcept {
 }
 
 void ServoCycle::zero_setpoints() noexcept {
+  compensation_.reset();
   setpoints_.setpoints.fill({});
   setpoints_.currents.fill({});
+  commanded_.setpoints.fill({});
+  commanded_.currents.fill({});
   record_.damping_engaged = false;
   record_.current_square_sum_A2 = 0.0;
 }
 
-void ServoCycle::commutate(double position_m, double force_N) noexcept {
+void ServoCycle::commutate(double position_m, double velocity_m_per_s, double force_N) noexcept {
   const int coil_sets = settings_.protocol.coil_sets;
   const Wrench desired(force_N, 0.0, 0.0);
   record_.Fy_star_N = desired.x();
   record_.Fx_star_N = desired.y();
   record_.Tz_star_Nm = desired.z();
+  // The currents are wanted where the axis will be when the drive's current
+  // loop has delivered them, 1/ω_c ahead (0 without drive.current_loop).
+  const double lead_position_m = position_m + velocity_m_per_s * compensation_.lead_s();
+  commanded_.setpoints.fill({});
+  commanded_.currents.fill({});
   if (status_.mode == CommutationMode::kExperiment) {
-    // Algorithms 1 and 2: the whole demand through one coil set at Δ.
-    zero_setpoints();
+    // Algorithms 1 and 2: the whole demand through one coil set at Δ. The
+    // back-EMF is the drive's nominal law's (nothing is calibrated yet).
     const auto l = static_cast<std::size_t>(experiment_coil_set_ - 1);
     const DriveSetpoint setpoint{force_N, experiment_delta_rad_};
     const Eigen::Vector2d i = drive_phase_currents(settings_.drive, setpoint, position_m, settings_.pole_pitch_m);
-    setpoints_.setpoints[l] = setpoint;
-    setpoints_.currents[l] = {i.x(), i.y()};
+    commanded_.setpoints[l] = setpoint;
+    commanded_.currents[l] = {i.x(), i.y()};
     record_.current_square_sum_A2 = i.squaredNorm() + (i.x() + i.y()) * (i.x() + i.y());
-    return;
+    if (compensation_.active()) {
+      commutation_.currents_A.setZero();
+      commutation_.currents_A.segment<2>(2 * static_cast<Eigen::Index>(l)) =
+          drive_phase_currents(settings_.drive, setpoint, lead_position_m, settings_.pole_pitch_m);
+      const ClassicalCoilSet nominal{settings_.drive.motor_constant_N_per_A, settings_.drive.phase_offset_rad, 0.0, 0.0};
+      const Eigen::Vector2d gain = classical_gain(nominal, lead_position_m, settings_.pole_pitch_m).row(0).transpose();
+      commutation_.driving_gain_N_per_A.resize(2 * coil_sets);
+      for (int k = 0; k < coil_sets; ++k) commutation_.driving_gain_N_per_A.segment<2>(2 * k) = gain;
+    }
+  } else {
+    const CommutationLaw* law = laws_[static_cast<std::size_t>(status_.mode)];
+    law->commutate(lead_position_m, desired, commutation_);
+    for (int l = 0; l < coil_sets; ++l) {
+      const auto s = static_cast<std::size_t>(l);
+      commanded_.setpoints[s] = commutation_.setpoints[s];
+      commanded_.currents[s] = {commutation_.currents_A[2 * l], commutation_.currents_A[2 * l + 1]};
+    }
+    record_.damping_engaged = commutation_.damping_engaged;
+    record_.current_square_sum_A2 = commutation_.current_square_sum_A2;
+    if (commutation_.damping_engaged) ++status_.counters.damping_cycles;
   }
-  const CommutationLaw* law = laws_[static_cast<std::size_t>(status_.mode)];
-  law->commutate(position_m, desired, commutation_);
+  setpoints_.setpoints = commanded_.setpoints;
+  setpoints_.currents = commanded_.currents;
+  if (compensation_.active()) {
+    // The references that make the drive's loop deliver the currents, as
+    // setpoints at the position the drive commutates at now.
+    compensation_.references(commutation_.currents_A, commutation_.driving_gain_N_per_A, velocity_m_per_s,
+                             references_A_);
+    for (int l = 0; l < coil_sets; ++l) {
+      const auto s = static_cast<std::size_t>(l);
+      const auto reference_A = references_A_.segment<2>(2 * l);
+      setpoints_.setpoints[s] = setpoint_from_currents(settings_.drive, position_m, settings_.pole_pitch_m,
+                                                       reference_A, settings_.phase_convention);
+      setpoints_.currents[s] = {reference_A.x(), reference_A.y()};
+    }
+  }
   for (int l = 0; l < coil_sets; ++l) {
     const auto s = static_cast<std::size_t>(l);
-    const DriveSetpoint& setpoint = commutation_.setpoints[s];
-    const double ia_A = commutation_.currents_A[2 * l], ib_A = commutation_.currents_A[2 * l + 1];
-    setpoints_.setpoints[s] = setpoint;
-    setpoints_.currents[s] = {ia_A, ib_A};
-    if (!std::isfinite(setpoint.magnitude_N) || !std::isfinite(setpoint.delta_rad) || !std::isfinite(ia_A) ||
-        !std::isfinite(ib_A)) {
+    const DriveSetpoint& setpoint = setpoints_.setpoints[s];
+    const PhaseCurrentSetpoint& currents = setpoints_.currents[s];
+    if (!std::isfinite(setpoint.magnitude_N) || !std::isfinite(setpoint.delta_rad) ||
+        !std::isfinite(currents.ia_A) || !std::isfinite(currents.ib_A)) {
       latch(Fault::kCommutationNotFinite);
     }
   }
-  record_.damping_engaged = commutation_.damping_engaged;
-  record_.current_square_sum_A2 = commutation_.current_square_sum_A2;
-  if (commutation_.damping_engaged) ++status_.counters.damping_cycles;
 }
 
 std::span<const can::Frame> ServoCycle::end_cycle(double time_s, const BusReport& bus) noexcept {
@@ -322,7 +359,11 @@ void ServoCycle::drive() noexcept {
     saturated_time_s_ = 0.0;
   }
   record_.F_star_N = force;
-  if (status_.state == ServoState::kEnabled || status_.fault_reaction_running) commutate(position_m_, force);
+  if (status_.state == ServoState::kEnabled || status_.fault_reaction_running) {
+    // The filtered velocity lags by the filter's time constant: corrected
+    // with the reference's acceleration, as in approach_guard.
+    commutate(position_m_, velocity_estimate_m_per_s_ + now.acceleration_m_per_s2 * kVelocityFilter_s, force);
+  }
 }
 
 void ServoCycle::approach_guard(const control::ReferenceSample& now, const control::ReferenceSample& next) noexcept {
@@ -395,12 +436,14 @@ std::size_t ServoCycle::encode_setpoints(bool driving) noexcept {
 }
 
 void ServoCycle::fill_record(double time_s) noexcept {
-  // The setpoints as sent.
+  // The commutation's setpoints and currents; with drive.current_loop the
+  // frames carry them corrected for the drive's current loop
+  // (docs/commutation.md, "The drive's current loop").
   for (std::size_t l = 0; l < static_cast<std::size_t>(setpoints_.coil_sets); ++l) {
-    record_.magnitude_N[l] = setpoints_.setpoints[l].magnitude_N;
-    record_.setpoint_delta_rad[l] = setpoints_.setpoints[l].delta_rad;
-    record_.ia_A[l] = setpoints_.currents[l].ia_A;
-    record_.ib_A[l] = setpoints_.currents[l].ib_A;
+    record_.magnitude_N[l] = commanded_.setpoints[l].magnitude_N;
+    record_.setpoint_delta_rad[l] = commanded_.setpoints[l].delta_rad;
+    record_.ia_A[l] = commanded_.currents[l].ia_A;
+    record_.ib_A[l] = commanded_.currents[l].ib_A;
   }
   record_.cycle = cycle_;
   record_.t_s = time_s;

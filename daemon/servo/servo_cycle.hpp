@@ -13,6 +13,7 @@
 #include <span>
 
 #include "commutation/commutator.hpp"
+#include "commutation/current_loop_compensation.hpp"
 #include "daemon/control/envelope.hpp"
 #include "daemon/control/position_controller.hpp"
 #include "daemon/control/stop_profile.hpp"
@@ -32,6 +33,11 @@ struct ServoSettings {
   double period_s = 1e-3;
   double pole_pitch_m = 0.0;
   DriveCommutation drive;
+  /// The drive's current loop (drive.current_loop of the motor file): the
+  /// cycle sends the references that make it deliver the law's currents.
+  CurrentLoopModel current_loop;
+  /// The sign convention of the setpoints the cycle derives itself (commutation.phase_convention).
+  PhaseConvention phase_convention = PhaseConvention::kSignedMagnitude;
   can::ProtocolConfig protocol;
   control::PidGains pid{};
   control::FeedforwardParameters feedforward{};
@@ -229,7 +235,7 @@ class ServoCycle {
   /// The setpoint frames (zero at once on a fault found while encoding); their count.
   std::size_t encode_setpoints(bool driving) noexcept;
   void fill_record(double time_s) noexcept;
-  void commutate(double position_m, double force_N) noexcept;
+  void commutate(double position_m, double velocity_m_per_s, double force_N) noexcept;
   void zero_setpoints() noexcept;
   /// Plans a stop from the present reference and follows it from the next sample.
   void begin_stop(const control::StopLimits& limits, bool quick) noexcept;
@@ -292,7 +298,10 @@ class ServoCycle {
   // Output.
   std::uint8_t setpoint_alive_ = 0;
   CommutationOutput commutation_;
-  can::SetpointCommand setpoints_;  // this cycle's, from the law; the record copies them
+  CurrentLoopCompensation compensation_;
+  CurrentVector references_A_;  // the currents asked of the drive's current loop
+  can::SetpointCommand commanded_;  // this cycle's, from the law or the experiment; the record copies them
+  can::SetpointCommand setpoints_;  // as sent: commanded_, corrected for the drive's current loop
   std::array<can::Frame, can::kMaxSetpointFrames> frames_{};
   CycleRecord record_;
 };

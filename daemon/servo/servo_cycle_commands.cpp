@@ -27,6 +27,7 @@ void ServoSettings::validate() const {
   require(pole_pitch_m > 0.0, "pole_pitch_m must be positive");
   require(drive.motor_constant_N_per_A > 0.0, "drive motor constant must be positive");
   protocol.validate();
+  current_loop.validate();
   require(soft_limit_max_m > soft_limit_min_m, "soft_limit_max_m must be above soft_limit_min_m");
   require(following_error_limit_m > 0.0, "following_error_limit_m must be positive");
   require(force_limit_N > 0.0, "force_limit_N must be positive");

@@ -121,6 +121,7 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
   config.servo.period_s = 1.0 / config.loop.rate_hz;
   config.servo.pole_pitch_m = config.motor.pole_pitch_m;
   config.servo.drive = config.motor.drive;
+  config.servo.current_loop = config.motor.current_loop;  // drive.current_loop of the motor file
   config.servo.protocol.coil_sets = config.motor.coil_sets;
   config.servo.protocol.drive_profile = config.motor.drive_profile;  // drive.profile of the motor file
 
@@ -245,6 +246,7 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     if (const auto v = commutation->optional("min_singular_value_ratio")) {
       config.commutation.options.min_singular_value_ratio = v->as_double_in(0.0, 0.5);
     }
+    config.servo.phase_convention = config.commutation.options.phase_convention;
     const auto needs = [&](servo::CommutationMode mode, const std::string& file, const char* key) {
       if (config.commutation.mode == mode && file.empty()) {
         (*commutation)["mode"].fail(std::string("mode needs commutation.") + key);

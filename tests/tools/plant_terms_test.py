@@ -37,10 +37,12 @@ def main():
             target = expected["simulation"].setdefault(section, {})
             for key in keys:
                 target.update(yaml.safe_load(key))
+            for key in module.DRIVE_KEYS.get(term, []):
+                expected["drive"].update(yaml.safe_load(key))
         check(edited == expected, f"{'+'.join(terms)}: the edited motor file is not the original with the term's keys "
                                   f"(differs in {[k for k in expected['simulation'] if edited['simulation'].get(k) != expected['simulation'][k]]})")
-        check(edited["motor"] == original["motor"] and edited["drive"] == original["drive"],
-              f"{'+'.join(terms)}: motor: or drive: changed")
+        check(edited["motor"] == original["motor"] and edited["drive"] == expected["drive"],
+              f"{'+'.join(terms)}: motor: changed, or drive: is not the original with the term's drive keys")
     result = subprocess.run([sys.executable, script, "--terms", "none,stiffness"], capture_output=True, text=True,
                             check=False)
     check(result.returncode == 2 and "unknown variant 'stiffness'" in result.stderr,

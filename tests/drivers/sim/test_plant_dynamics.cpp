@@ -13,6 +13,10 @@
 #include <vector>
 
 #include "config/yaml_reader.hpp"
+#include "commutation/classical.hpp"
+#include "commutation/current_loop_compensation.hpp"
+#include "commutation/transform.hpp"
+#include "drivers/sim/current_loop.hpp"
 #include "drivers/sim/motor.hpp"
 #include "drivers/sim/motor_file.hpp"
 #include "sim_support.hpp"
@@ -270,4 +274,110 @@ TEST_CASE("The motor file sets every plant term, and refuses an unknown key in t
   misspelt.replace(misspelt.find("damping_ratio"), 13, "damping_ration");
   CHECK_THROWS_WITH(read_motor_parameters(yaml::Node::load_string(misspelt, "motor.yaml")),
                     Catch::Contains("damping_ration"));
+}
+
+namespace {
+
+/// The RMS error of a drive's current loop against the currents a classical
+/// law asks for, on one coil set moving as y = v₀t + at²/2 for 0.2 s, with the
+/// cycle's setpoints (1 kHz) rotated by the drive's own commutation in every
+/// 10 µs substep, as a magnitude/phase drive does; with the references of
+/// CurrentLoopCompensation or without them. The back-EMF is the true one.
+double current_loop_error_A(bool compensated, double v0_m_per_s, double a_m_per_s2) {
+  const double pitch_m = 0.03, period_s = 1e-3, h_s = 1e-5;
+  const ClassicalCoilSet truth{60.0, 0.3, 0.0, 0.0};
+  const ClassicalEstimate law{truth.motor_constant_N_per_A, truth.phase_offset_rad};
+  const DriveCommutation drive{67.0, -0.52};
+  CurrentLoopParameters loop_parameters;
+  loop_parameters.bandwidth_Hz = 1500.0;
+  loop_parameters.phase_resistance_ohm = 2.0;
+  loop_parameters.phase_inductance_H = 1e-3;
+  loop_parameters.voltage_limit_V = 1e6;  // linear: the compensation's subject
+  CurrentLoop loop(loop_parameters);
+  loop.reset(2);
+  CurrentLoopCompensation compensation({1500.0, 2.0, 1e-3}, period_s);
+  const double force_N = 100.0;
+  const auto law_currents = [&](double y_m) {
+    CurrentVector i(2);
+    classical_currents(std::span<const ClassicalEstimate>(&law, 1), pitch_m, y_m, force_N, i);
+    return i;
+  };
+  double sum_A2 = 0.0;
+  long count = 0;
+  const int substeps = static_cast<int>(std::lround(period_s / h_s));
+  for (int n = 0; n < 200; ++n) {
+    const double t_s = n * period_s;
+    const double y_m = v0_m_per_s * t_s + 0.5 * a_m_per_s2 * t_s * t_s;
+    const double v_m_per_s = v0_m_per_s + a_m_per_s2 * t_s;
+    const double lead_m = compensated ? v_m_per_s * compensation.lead_s() : 0.0;
+    CurrentVector reference = law_currents(y_m + lead_m);
+    if (compensated) {
+      const CurrentVector gain = classical_gain(truth, y_m + lead_m, pitch_m).row(0).transpose();
+      const CurrentVector currents = reference;
+      compensation.references(currents, gain, v_m_per_s, reference);
+    }
+    const DriveSetpoint setpoint =
+        setpoint_from_currents(drive, y_m, pitch_m, reference.head<2>(), PhaseConvention::kSignedMagnitude);
+    for (int k = 0; k < substeps; ++k) {
+      // The substep's reference and back-EMF, held, at its midpoint.
+      const double t = t_s + k * h_s, t_mid = t + 0.5 * h_s;
+      const double y = v0_m_per_s * t_mid + 0.5 * a_m_per_s2 * t_mid * t_mid;
+      const double v = v0_m_per_s + a_m_per_s2 * t_mid;
+      CurrentVector r(2), emf(2);
+      r = drive_phase_currents(drive, setpoint, y, pitch_m);
+      emf = v * classical_gain(truth, y, pitch_m).row(0).transpose();
+      loop.step(r, emf, h_s);
+      const double t_after = t + h_s;
+      const CurrentVector wanted = law_currents(v0_m_per_s * t_after + 0.5 * a_m_per_s2 * t_after * t_after);
+      if (n >= 50) {  // after the loop's and the differences' start
+        sum_A2 += (loop.current_A() - wanted).squaredNorm();
+        ++count;
+      }
+    }
+  }
+  return std::sqrt(sum_A2 / static_cast<double>(count));
+}
+
+}  // namespace
+
+TEST_CASE("The current loop's compensation delivers the law's currents through the back-EMF and the lag",
+          "[sim][plant][compensation]") {
+  // Uncompensated, a PI loop tuned by pole-zero cancellation lags by about
+  // 1/ω_c (0.11 ms, 0.6° of electrical angle at 0.5 m/s on a 30 mm pitch)
+  // and lets through s/((Ls + R)(s + ω_c)) of the back-EMF (about 30 V at
+  // 0.5 m/s). The lag alone is removed to 0.6 % (R 2 kΩ, L 1 H: no
+  // back-EMF current). With the back-EMF 6–9 % remain at a 1 ms cycle and
+  // 2–4 % at 0.25 ms: more than the second-order terms in ω_e/ω_c, ω_e·L/R
+  // and ω_e·T predict; docs/commutation.md lists it as open. The bound keeps
+  // the measured share with a margin, not a derived one.
+  for (const auto& [v0, a] : {std::pair{0.5, 0.0}, std::pair{-0.3, 0.0}, std::pair{0.05, 4.0}}) {
+    const double without_A = current_loop_error_A(false, v0, a);
+    const double with_A = current_loop_error_A(true, v0, a);
+    INFO("v0 " << v0 << " m/s, a " << a << " m/s^2: RMS current error " << without_A << " A without, " << with_A
+               << " A with the compensation");
+    CHECK(without_A > 0.05);          // the loop's error is there to compensate
+    CHECK(with_A < 0.15 * without_A);  // and the compensation removes at least 85 % of it
+  }
+}
+
+TEST_CASE("The current loop's compensation is off without a current loop and starts without a derivative",
+          "[sim][plant][compensation]") {
+  CurrentLoopCompensation ideal({}, 1e-3);
+  CHECK_FALSE(ideal.active());
+  CHECK(ideal.lead_s() == 0.0);
+  CurrentVector currents(2), gain(2), out(2);
+  currents << 1.0, -2.0;
+  gain << 30.0, 40.0;
+  ideal.references(currents, gain, 0.5, out);
+  CHECK(out == currents);
+  CurrentLoopCompensation loop({1000.0, 2.0, 1e-3}, 1e-3);
+  CHECK(loop.lead_s() == Approx(1.0 / (2.0 * kPiRad * 1000.0)));
+  loop.references(currents, gain, 0.5, out);  // the first cycle: no back-EMF history
+  CHECK(out == currents);
+  loop.references(currents, gain, 0.6, out);  // the second: the back-EMF's difference, (0.1·gain/1 ms)/(R·ω_c)
+  const double scale = 1.0 / (2.0 * (2.0 * kPiRad * 1000.0));
+  CHECK(out[0] == Approx(currents[0] + scale * 0.1 * 30.0 / 1e-3));
+  CHECK(out[1] == Approx(currents[1] + scale * 0.1 * 40.0 / 1e-3));
+  REQUIRE_THROWS_WITH(CurrentLoopCompensation({1000.0, -1.0, 1e-3}, 1e-3),
+                      Catch::Contains("phase_resistance_ohm"));
 }

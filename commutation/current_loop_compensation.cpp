@@ -1,0 +1,65 @@
+#include "commutation/current_loop_compensation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace clm {
+
+void CurrentLoopModel::validate() const {
+  if (ideal()) return;
+  if (!(bandwidth_Hz > 0.0 && bandwidth_Hz <= 1e5)) {
+    throw std::invalid_argument("current loop: bandwidth_Hz must lie in (0, 1e5], got " + std::to_string(bandwidth_Hz));
+  }
+  if (!(phase_resistance_ohm > 0.0 && phase_resistance_ohm <= 1e4)) {
+    throw std::invalid_argument("current loop: phase_resistance_ohm must lie in (0, 1e4], got " +
+                                std::to_string(phase_resistance_ohm));
+  }
+  if (!(phase_inductance_H > 0.0 && phase_inductance_H <= 10.0)) {
+    throw std::invalid_argument("current loop: phase_inductance_H must lie in (0, 10], got " +
+                                std::to_string(phase_inductance_H));
+  }
+}
+
+CurrentLoopCompensation::CurrentLoopCompensation(const CurrentLoopModel& model, double period_s)
+    : model_(model), period_s_(period_s) {
+  model.validate();
+  if (!(period_s > 0.0)) throw std::invalid_argument("current loop compensation: the period must be positive");
+  emf_V_.setZero(kMaxCurrents);
+  derivative_V_per_s_.setZero(kMaxCurrents);
+  if (!active()) return;
+  const double omega_rad_per_s = kTwoPi * model.bandwidth_Hz;
+  lead_s_ = 1.0 / omega_rad_per_s;
+  gain_s_per_ohm_ = 1.0 / (model.phase_resistance_ohm * omega_rad_per_s);
+  // The difference of the back-EMF 1/ω_c ahead over the last period is its
+  // derivative at lead − T/2 from now; the correction needs it at −L/R (the
+  // winding's lag, s/(Ls + R) ≈ (s/R)·e^(−s·L/R) well below R/L). Linear
+  // extrapolation over at most one period either way.
+  const double winding_s = model.phase_inductance_H / model.phase_resistance_ohm;
+  extrapolation_ = std::clamp((0.5 * period_s - lead_s_ - winding_s) / period_s, -1.0, 1.0);
+}
+
+void CurrentLoopCompensation::references(const CurrentVector& currents_A, const CurrentVector& driving_gain_N_per_A,
+                                         double velocity_m_per_s, CurrentVector& references_A) noexcept {
+  references_A = currents_A;
+  if (!active()) return;
+  const Eigen::Index n = currents_A.size();
+  for (Eigen::Index k = 0; k < n; ++k) {
+    // Back-EMF of each independent current: v·∂F_y/∂i (power F_y·v = Σ e·i).
+    const double emf_V = velocity_m_per_s * driving_gain_N_per_A[k];
+    const double derivative_V_per_s = (emf_V - emf_V_[k]) / period_s_;
+    double used_V_per_s = 0.0;
+    if (history_ >= 2) {
+      used_V_per_s = derivative_V_per_s + extrapolation_ * (derivative_V_per_s - derivative_V_per_s_[k]);
+    } else if (history_ == 1) {
+      used_V_per_s = derivative_V_per_s;
+    }
+    references_A[k] += gain_s_per_ohm_ * used_V_per_s;
+    emf_V_[k] = emf_V;
+    derivative_V_per_s_[k] = history_ >= 1 ? derivative_V_per_s : 0.0;
+  }
+  history_ = std::min(history_ + 1, 2);
+}
+
+}  // namespace clm
