@@ -46,8 +46,12 @@ void CurrentLoopCompensation::references(const CurrentVector& currents_A, const 
   if (!active()) return;
   const Eigen::Index n = currents_A.size();
   for (Eigen::Index k = 0; k < n; ++k) {
-    // Back-EMF of each independent current: v·∂F_y/∂i (power F_y·v = Σ e·i).
-    const double emf_V = velocity_m_per_s * driving_gain_N_per_A[k];
+    // Back-EMF of phase a (b): v times its force constant less the three
+    // phases' mean, (2·∂F_y/∂i_a − ∂F_y/∂i_b)/3 (and a, b swapped) with
+    // i_c = −i_a − i_b; the star point takes up the mean.
+    const Eigen::Index other = k ^ 1;
+    const double emf_V =
+        velocity_m_per_s * (2.0 * driving_gain_N_per_A[k] - driving_gain_N_per_A[other]) / 3.0;
     const double derivative_V_per_s = (emf_V - emf_V_[k]) / period_s_;
     double used_V_per_s = 0.0;
     if (history_ >= 2) {

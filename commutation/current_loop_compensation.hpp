@@ -1,9 +1,10 @@
 #pragma once
 // The drive's current loop seen from the commutation (docs/commutation.md,
 // "The drive's current loop"): a drive closes a PI loop per phase current
-// around a winding R, L with the back-EMF e = v·∂F_y/∂i as its disturbance.
-// Tuned by pole-zero cancellation (K_p = L·ω_c, K_i = R·ω_c), a current
-// follows its reference r as
+// around a winding R, L with the phase's back-EMF e as its disturbance: v
+// times the phase's force constant less the three phases' mean, which the
+// star point takes up. Tuned by pole-zero cancellation (K_p = L·ω_c,
+// K_i = R·ω_c), a current follows its reference r as
 //   i = ω_c/(s + ω_c)·r − s/((L·s + R)(s + ω_c))·e,
 // so the references that make the currents i* flow are
 //   r = i* + (1/ω_c)·di*/dt + (1/ω_c)·s/(L·s + R)·e.

@@ -334,14 +334,17 @@ void SimulatedMotor::drive_windings(const CurrentVector& reference_A, double h_s
   if (!drive_active()) {
     current_loop_.reset(2 * coil_sets());
   } else {
-    // Back-EMF of each independent current: the velocity times its force
-    // constant dF_y/di (power F_y·v = Σ e·i; SI units make them equal).
+    // Back-EMF of phases a and b: the velocity times each phase's force
+    // constant less the three phases' mean, which the floating star point
+    // takes up (power F_y·v = Σ e·i over the three phases; SI units make
+    // the constants equal).
     const auto& terms = position_terms(position_m_);
     CurrentVector emf_V(2 * coil_sets());
     for (int l = 0; l < coil_sets(); ++l) {
       const auto& sl = terms.s[static_cast<std::size_t>(l)];
-      emf_V[2 * l] = velocity_m_per_s_ * (sl[0] - sl[2]);
-      emf_V[2 * l + 1] = velocity_m_per_s_ * (sl[1] - sl[2]);
+      const double mean = (sl[0] + sl[1] + sl[2]) / 3.0;
+      emf_V[2 * l] = velocity_m_per_s_ * (sl[0] - mean);
+      emf_V[2 * l + 1] = velocity_m_per_s_ * (sl[1] - mean);
     }
     current_loop_.step(reference_A, emf_V, h_s);
   }
