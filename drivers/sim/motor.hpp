@@ -154,6 +154,11 @@ class SimulatedMotor {
   /// ParameterError for a position outside the end stops.
   void reset(double position_m, double velocity_m_per_s = 0.0);
 
+  /// The force disturbance (ForceDisturbanceParameters) back to its time 0,
+  /// the rest of the state kept: runs started after it meet the same
+  /// disturbance (common random numbers, to compare laws run by run).
+  void restart_disturbance() noexcept { disturbance_.reset(); }
+
   /// The static truth K^l(y) [N/A, N/A, N·m/A] and F_cog(y) [N, N, N·m], and
   /// the direction-dependent term at a velocity [N, N, N·m].
   CoilGain true_gain(int coil_set, double position_m) const noexcept { return truth_.gain(coil_set, position_m); }

@@ -115,15 +115,18 @@ ClosedLoop closed_loop(const servod::ServodConfig& config, const NamedModel& mod
   auto ff = make(Kind::kLoadFeedforward);  // no path: the parameters as given
   ff.feedforward = {};
   commission::execute(daemon, ff);
-  const auto identification_run = commission::run_program(axis, program, model.name + " feedforward data");
+  const auto identification_run = commission::run_program(axis, program, model.name + " feedforward data", nullptr,
+                                                            commission::Disturbance::kRestarts);
   ff.feedforward = identify_ff(identification_run);
   commission::execute(daemon, ff);
   ClosedLoop result;
-  result.program = evaluate(commission::run_program(axis, program, model.name + " evaluation"), config.servo.period_s);
+  result.program = evaluate(commission::run_program(axis, program, model.name + " evaluation", nullptr,
+                                                           commission::Disturbance::kRestarts), config.servo.period_s);
   result.program.name = model.name;
   result.program.feedforward = ff.feedforward;
   if (validation_program) {
-    result.validation = evaluate(commission::run_program(axis, *validation_program, model.name + " validation"),
+    result.validation = evaluate(commission::run_program(axis, *validation_program, model.name + " validation", nullptr,
+                                                         commission::Disturbance::kRestarts),
                                  config.servo.period_s);
     result.validation->name = model.name;
     result.validation->feedforward = ff.feedforward;

@@ -71,7 +71,8 @@ class PaperRuns {
     for (int l = 1; l <= config_.motor.coil_sets; ++l) {
       for (const double delta_rad : {-kPi / 4.0, kPi / 4.0}) {
         runner_.set_experiment(l, delta_rad);
-        experiments.runs.push_back(runner_.run_program(program_, "", "experiment coil set " + std::to_string(l)));
+        experiments.runs.push_back(runner_.run_program(program_, "", "experiment coil set " + std::to_string(l),
+                                                             commission::Disturbance::kRunsOn));
       }
     }
     const test::ExperimentColumns columns = test::experiment_columns(experiments);
@@ -87,9 +88,9 @@ class PaperRuns {
   CommutationFigures measure(CommutationMode mode) {
     runner_.set_commutation(mode);
     runner_.load_feedforward({}, "");
-    const commission::Recording identification = runner_.run_program(program_, "", "feedforward data");
+    const commission::Recording identification = runner_.run_program(program_, "", "feedforward data", commission::Disturbance::kRestarts);
     runner_.load_feedforward(commission::identify_ff(identification), "");
-    const commission::Recording evaluation = runner_.run_program(program_, "", "evaluation");
+    const commission::Recording evaluation = runner_.run_program(program_, "", "evaluation", commission::Disturbance::kRestarts);
     const commission::CommutationResult result = commission::evaluate(evaluation, config_.servo.period_s);
     return {result.mse, result.tracking_mse_m2};
   }

@@ -537,7 +537,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
       tell("experiments", static_cast<double>(k) / runs, what);
       if (!options.live) {
         runner.set_experiment(l, delta);
-        experiments.push_back(runner.run_program(experiment_program, experiment_path, name));
+        experiments.push_back(runner.run_program(experiment_program, experiment_path, name, Disturbance::kRunsOn));
         continue;
       }
       const std::string log = "logs/experiment-" + std::to_string(k + 1) + ".lcm";
@@ -556,7 +556,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
       }
       runner.set_experiment(l, delta);
       runner.open_log(dir + "/" + log);
-      experiments.push_back(runner.run_program(experiment_program, experiment_path, name));
+      experiments.push_back(runner.run_program(experiment_program, experiment_path, name, Disturbance::kRunsOn));
       runner.close_log();
       done.experiments.push_back({l, delta, log, sha256_file(dir + "/" + log)});
       write_progress(dir, done);
@@ -703,7 +703,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
       on.open_log(dir + "/logs/" + log);
     };
     open_law_log(std::string("feedforward-data-") + name + ".lcm");
-    const Recording identification_run = on.run_program(program, program_path, std::string(name) + " feedforward data");
+    const Recording identification_run = on.run_program(program, program_path, std::string(name) + " feedforward data", Disturbance::kRestarts);
     on.close_log();
     write_feedforward_csv(law_file(std::string("feedforward-data-") + name + ".csv"), identification_run);
     servod::FeedforwardFile ff_file;
@@ -713,7 +713,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     write_file_atomically(ff_path, servod::format_feedforward_file(ff_file));
     on.load_feedforward(ff_file.parameters, ff_path);
     open_law_log(std::string("evaluation-") + name + ".lcm");
-    const Recording evaluation = on.run_program(program, program_path, std::string(name) + " evaluation");
+    const Recording evaluation = on.run_program(program, program_path, std::string(name) + " evaluation", Disturbance::kRestarts);
     on.close_log();
     write_evaluation_csv(law_file(std::string("evaluation-") + name + ".csv"), evaluation, timeline);
     CommutationResult result = evaluate(evaluation, config.servo.period_s);
@@ -724,7 +724,8 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
       // Held out: neither the models nor the feedforward saw this trajectory.
       open_law_log(std::string("validation-") + name + ".lcm");
       const Recording held_out =
-          on.run_program(*validation_program, validation_path, std::string(name) + " validation");
+          on.run_program(*validation_program, validation_path, std::string(name) + " validation",
+                           Disturbance::kRestarts);
       on.close_log();
       const control::MoveProgram validation_timeline(validation_program->start_m, validation_program->steps);
       write_evaluation_csv(law_file(std::string("validation-") + name + ".csv"), held_out, validation_timeline);

@@ -295,7 +295,7 @@ Recording LcmRunner::attempt(const servod::ProgramFile& program, const std::stri
 }
 
 Recording LcmRunner::run_program(const servod::ProgramFile& program, const std::string& program_path,
-                                 const std::string& name) {
+                                 const std::string& name, Disturbance) {
   ++summary_.runs;
   for (int k = 1;; ++k) {
     std::vector<ReceivedMessage> messages;

@@ -68,7 +68,7 @@ class LcmRunner final : public ExperimentRunner {
   void open_log(const std::string& path) override;
   void close_log() override;
   Recording run_program(const servod::ProgramFile& program, const std::string& program_path,
-                        const std::string& name) override;
+                        const std::string& name, Disturbance disturbance) override;
   const sim::SimulatedMotor* simulated_motor() const override { return nullptr; }
   std::string oracle_unavailable_reason() const override;
   LiveSummary live_summary() const override;

@@ -60,6 +60,14 @@ class LawRefused : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// What a simulated motor's force disturbance does at a run's start.
+enum class Disturbance {
+  kRunsOn,    ///< it goes on as it was: each run meets another stretch of it
+  /// It starts again at the program's start, so that the runs comparing laws
+  /// meet the same one. A real axis's floor does not restart: live, as kRunsOn.
+  kRestarts,
+};
+
 class ExperimentRunner {
  public:
   virtual ~ExperimentRunner() = default;
@@ -84,7 +92,7 @@ class ExperimentRunner {
   /// Moves to the program's start, settles, runs `program` (whose file is
   /// `program_path`, absolute) and returns the cycles of the program proper.
   virtual Recording run_program(const servod::ProgramFile& program, const std::string& program_path,
-                                const std::string& name) = 0;
+                                const std::string& name, Disturbance disturbance) = 0;
   /// The simulator's truth when the runs happen on a simulated motor in this process, else nullptr.
   virtual const sim::SimulatedMotor* simulated_motor() const = 0;
   /// Why the oracle commutation cannot be evaluated; "" when it can.

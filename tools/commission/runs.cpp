@@ -67,8 +67,8 @@ void execute(servod::ServoDaemon& daemon, const servo::Command& command) {
   run_reply_cycle(daemon);
 }
 
-Recording run_program(servod::ServoDaemon& daemon, const sim::SimulatedMotor* truth, const servod::ProgramFile& program,
-                      const std::string& name, servod::CycleObserver* log) {
+Recording run_program(servod::ServoDaemon& daemon, sim::SimulatedMotor* motor, const servod::ProgramFile& program,
+                      const std::string& name, servod::CycleObserver* log, Disturbance disturbance) {
   // Approach: move to the start and settle.
   servo::Command approach;
   approach.kind = servo::CommandKind::kMoveTo;
@@ -78,7 +78,8 @@ Recording run_program(servod::ServoDaemon& daemon, const sim::SimulatedMotor* tr
   daemon.run_until_idle(1'000'000);
   daemon.run_cycles(200);
 
-  Recorder recorder(truth);
+  if (motor != nullptr && disturbance == Disturbance::kRestarts) motor->restart_disturbance();
+  Recorder recorder(motor);
   recorder.forward_to(log);
   daemon.set_observer(&recorder);
   recorder.start(name);
@@ -98,8 +99,8 @@ Recording run_program(servod::ServoDaemon& daemon, const sim::SimulatedMotor* tr
 }
 
 Recording run_program(servod::WiredAxis& axis, const servod::ProgramFile& program, const std::string& name,
-                      servod::CycleObserver* log) {
-  return run_program(axis.daemon, axis.simulated_motor(), program, name, log);
+                      servod::CycleObserver* log, Disturbance disturbance) {
+  return run_program(axis.daemon, axis.simulated_motor(), program, name, log, disturbance);
 }
 
 // ---- InProcessRunner -----------------------------------------------------------
@@ -191,13 +192,14 @@ void InProcessRunner::close_log() {
   log_.reset();
 }
 
-Recording InProcessRunner::run_program(const servod::ProgramFile& program, const std::string&, const std::string& name) {
+Recording InProcessRunner::run_program(const servod::ProgramFile& program, const std::string&, const std::string& name,
+                                       Disturbance disturbance) {
   // The log holds the runs only: the approach and the time between runs are left out on purpose.
   if (log_) {
     const auto& last = daemon_->cycle().record();
     telemetry::mark_recording_resumed(log_->writer, last.cycle, last.utime);
   }
-  return commission::run_program(*axis_, program, name, log_ ? &log_->bridge : nullptr);
+  return commission::run_program(*axis_, program, name, log_ ? &log_->bridge : nullptr, disturbance);
 }
 
 const sim::SimulatedMotor* InProcessRunner::simulated_motor() const { return axis_->wiring.motor.get(); }

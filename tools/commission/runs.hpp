@@ -57,15 +57,16 @@ class Recorder final : public servod::CycleObserver {
 void execute(servod::ServoDaemon& daemon, const servo::Command& command);
 
 /// Runs `program` from the program's start (an approach move first, not
-/// recorded) and returns the recording of the program proper; `truth` is the
-/// simulated motor the daemon drives, for Recording::y_true_m (nullptr: none).
+/// recorded) and returns the recording of the program proper; `motor` is the
+/// simulated motor the daemon drives, for Recording::y_true_m and the
+/// disturbance's restart (nullptr: none).
 /// With `log` set, the cycles of the program are also written there (one
 /// CLM_SERVO_STATE per cycle, status and events) as an LCM log.
-Recording run_program(servod::ServoDaemon& daemon, const sim::SimulatedMotor* truth, const servod::ProgramFile& program,
-                      const std::string& name, servod::CycleObserver* log = nullptr);
-/// The same on a daemon with its wiring (truth: its simulated motor).
+Recording run_program(servod::ServoDaemon& daemon, sim::SimulatedMotor* motor, const servod::ProgramFile& program,
+                      const std::string& name, servod::CycleObserver* log, Disturbance disturbance);
+/// The same on a daemon with its wiring (its simulated motor, if any).
 Recording run_program(servod::WiredAxis& axis, const servod::ProgramFile& program, const std::string& name,
-                      servod::CycleObserver* log = nullptr);
+                      servod::CycleObserver* log = nullptr, Disturbance disturbance = Disturbance::kRunsOn);
 
 /// The commissioning's runs on a daemon core in this process (the
 /// configuration's bus, normally the embedded simulated motor) on the virtual
@@ -89,7 +90,7 @@ class InProcessRunner final : public ExperimentRunner {
   void open_log(const std::string& path) override;
   void close_log() override;
   Recording run_program(const servod::ProgramFile& program, const std::string& program_path,
-                        const std::string& name) override;
+                        const std::string& name, Disturbance disturbance) override;
   const sim::SimulatedMotor* simulated_motor() const override;
   std::string oracle_unavailable_reason() const override;
   /// Another daemon core on the same configuration, built as this one was;

@@ -222,6 +222,36 @@ TEST_CASE("The force disturbance has its RMS and no power outside its band", "[s
   CHECK(outside < 1e-3 * inside);
 }
 
+TEST_CASE("A restarted disturbance repeats its first stretch; one that runs on does not", "[sim][plant]") {
+  MotorParameters parameters = bare_motor();
+  parameters.mechanics.translator_mass_kg = 1e6;
+  auto& d = parameters.mechanics.force_disturbance;
+  d.rms_N = 0.5;
+  d.low_Hz = 1.0;
+  d.high_Hz = 50.0;
+  SimulatedMotor motor(parameters);
+  const auto stretch = [&motor] {
+    std::vector<double> force;
+    for (int k = 0; k < 2000; ++k) {
+      REQUIRE(motor.step(1e-3) == StepResult::kOk);
+      force.push_back(motor.truth().disturbance_N);
+    }
+    return force;
+  };
+  const std::vector<double> first = stretch();
+  const std::vector<double> running_on = stretch();
+  motor.restart_disturbance();
+  const std::vector<double> restarted = stretch();
+  // The phasors are set exactly at time 0 and rotated alike after it.
+  for (std::size_t k = 0; k < first.size(); ++k) {
+    INFO("step " << k);
+    REQUIRE(restarted[k] == Approx(first[k]).margin(1e-12));
+  }
+  double difference = 0.0;
+  for (std::size_t k = 0; k < first.size(); ++k) difference = std::max(difference, std::abs(running_on[k] - first[k]));
+  CHECK(difference > 0.1);  // the next 2 s are another stretch (0.5 N RMS)
+}
+
 TEST_CASE("Plant settings out of range are refused by name", "[sim][plant]") {
   MotorParameters parameters = bare_motor();
   parameters.mechanics.flexible_mode.frequency_Hz = 5000.0;  // 2π·f·h = 1.6
