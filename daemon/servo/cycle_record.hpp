@@ -68,6 +68,8 @@ struct CycleRecord {
   /// What the setpoint frames carried: magnitude_N and setpoint_delta_rad
   /// (magnitude_phase), or ia_A and ib_A as they are (phase_current; the
   /// magnitudes and offsets are then the equivalent eq. (39) values, not sent).
+  /// With drive.current_loop the frames carry them corrected for the drive's
+  /// current loop (docs/commutation.md, "The drive's current loop").
   DriveProfile drive_profile = DriveProfile::kMagnitudePhase;
 
   // In process only, not in servo_state_t (servo_status_t carries the fault);

@@ -21,14 +21,18 @@ using servo::CommutationMode;
 
 namespace {
 
-/// 10^5 cycles of `mode` with a program running on the axis of `servod_file`, counted.
+/// 10^5 cycles of `mode` with a program running on the axis of `servod_file`,
+/// counted; with `current_loop`, the cycle also compensates a drive's current
+/// loop (the simulated drive's own stays as the motor file has it).
 void check_cycles_allocate_nothing(CommutationMode mode, const std::string& servod_file,
-                                   const std::string& motor_file) {
+                                   const std::string& motor_file, const CurrentLoopModel& current_loop = {}) {
   constexpr std::int64_t kCycles = 100'000;
   test::TemporaryDirectory dir("clm-daemon-allocations");
   const auto files = test::write_truth_laws(dir, test::source_path(motor_file));
   INFO("mode " << servo::name(mode) << ", " << servod_file);
-  servod::WiredAxis axis(test::config_with_laws(files, CommutationMode::kOriginal, servod_file));
+  servod::ServodConfig config = test::config_with_laws(files, CommutationMode::kOriginal, servod_file);
+  config.motor.current_loop = config.servo.current_loop = current_loop;
+  servod::WiredAxis axis(config);
   servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
   if (mode == CommutationMode::kExperiment) {
@@ -93,6 +97,11 @@ TEST_CASE("10^5 cycles with a program running allocate nothing, in every commuta
   const auto mode = GENERATE(CommutationMode::kOriginal, CommutationMode::kClassical, CommutationMode::kPgnn,
                              CommutationMode::kSpline, CommutationMode::kOracle, CommutationMode::kExperiment);
   check_cycles_allocate_nothing(mode, "config/servod.yaml", "config/motor-sim.yaml");
+}
+
+TEST_CASE("10^5 cycles allocate nothing while compensating a drive's current loop", "[daemon][allocation]") {
+  const auto mode = GENERATE(CommutationMode::kClassical, CommutationMode::kPgnn, CommutationMode::kExperiment);
+  check_cycles_allocate_nothing(mode, "config/servod.yaml", "config/motor-sim.yaml", {1500.0, 2.0, 1e-3});
 }
 
 TEST_CASE("10^5 cycles allocate nothing with a phase-current drive either", "[daemon][allocation][phase_current]") {

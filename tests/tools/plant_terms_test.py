@@ -43,6 +43,19 @@ def main():
                                   f"(differs in {[k for k in expected['simulation'] if edited['simulation'].get(k) != expected['simulation'][k]]})")
         check(edited["motor"] == original["motor"] and edited["drive"] == expected["drive"],
               f"{'+'.join(terms)}: motor: changed, or drive: is not the original with the term's drive keys")
+    # The budget of a plant whose terms add: its parts sum to the whole.
+    base, law_excess = 1e-15, 3e-15
+    increase = {term: (k + 1) * 1e-14 for k, term in enumerate(module.TERMS)}
+    rows = [("none", "oracle", 0, base, 1), ("none", "spline", 0, base + law_excess, 1)]
+    rows += [(term, "oracle", 0, base + increase[term], 1) for term in module.TERMS]
+    all_oracle = base + sum(increase.values())
+    rows += [("all", "oracle", 0, all_oracle, 1), ("all", "spline", 0, all_oracle + law_excess, 1)]
+    lines = module.error_budget(rows, "spline", ["none", "all", *module.TERMS])
+    check(len(lines) == len(module.TERMS) + 4 and "100.0 % (interaction of the terms: 0.0 %)" in lines[-1]
+          and "the commutation" in lines[-2] and f"{law_excess:.3g}" in lines[-2],
+          "an additive plant's budget: the parts (the loop, each term, the commutation) sum to the whole:\n" +
+          "\n".join(lines))
+    check(module.error_budget(rows, "spline", ["none", "all"]) == [], "no budget without every term's run")
     result = subprocess.run([sys.executable, script, "--terms", "none,stiffness"], capture_output=True, text=True,
                             check=False)
     check(result.returncode == 2 and "unknown variant 'stiffness'" in result.stderr,

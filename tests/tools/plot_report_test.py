@@ -164,10 +164,41 @@ def check(script, directory, expected, said):
     print(f"plot_report.py {os.path.basename(directory)}: {len(written)} plots: {', '.join(written)}")
 
 
+def check_psd(script):
+    """tracking_psd against analytic values: a sine of amplitude A puts A²/2
+    into the cumulative PSD within a few bins of its frequency; white noise
+    of variance σ² spreads σ² evenly; their sum ends at A²/2 + σ² (Parseval)."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("plot_report", script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    period_s, amplitude, sigma, f0 = 1e-3, 2e-6, 1e-6, 37.0
+    t = np.arange(0.0, 60.0, period_s)
+    noise = np.random.default_rng(5).normal(0.0, sigma, t.size)
+    frequency, psd, cumulative = module.tracking_psd(amplitude * np.sin(2 * np.pi * f0 * t) + noise, period_s)
+    df = frequency[1] - frequency[0]
+    below = cumulative[np.searchsorted(frequency, f0 - 3 * df)]
+    above = cumulative[np.searchsorted(frequency, f0 + 3 * df)]
+    line = above - below - sigma ** 2 * 6 * df / frequency[-1]
+    total = amplitude ** 2 / 2 + sigma ** 2
+    if abs(line / (amplitude ** 2 / 2) - 1) > 0.02:
+        sys.exit(f"FAIL: tracking_psd: the sine's line holds {line:.4g} m², expected {amplitude ** 2 / 2:.4g} (2 %)")
+    if abs(cumulative[-1] / total - 1) > 0.02:
+        sys.exit(f"FAIL: tracking_psd: the cumulative PSD ends at {cumulative[-1]:.4g} m², "
+                 f"expected A²/2 + σ² = {total:.4g} (2 %)")
+    flat = psd[(frequency > 100) & (frequency < 400)]
+    if abs(np.mean(flat) / (2 * sigma ** 2 * period_s) - 1) > 0.05:
+        sys.exit(f"FAIL: tracking_psd: white noise's level {np.mean(flat):.4g} m²/Hz, expected 2σ²T = "
+                 f"{2 * sigma ** 2 * period_s:.4g} (5 %)")
+    print(f"tracking_psd: the sine's line {line:.4g} m² (A²/2 {amplitude ** 2 / 2:.4g}), total {cumulative[-1]:.4g} m² "
+          f"(A²/2 + σ² {total:.4g})")
+
+
 def main():
     script, work = sys.argv[1], sys.argv[2]
-    always = ["commutation-error-slow.png", "commutation-error-fast.png", "tracking-error.png", "position-error.png",
-              "calibration.png"]
+    check_psd(script)
+    always = ["commutation-error-slow.png", "commutation-error-fast.png", "tracking-error.png", "tracking-psd.png",
+              "position-error.png", "calibration.png"]
     simulated = os.path.join(work, "simulated")
     make_directory(simulated, ["original", "classical", "pgnn", "my-law"], ["classical", "pgnn"], 2, True, False)
     check(script, simulated,

@@ -217,6 +217,9 @@ void add_commission(CLI::App& app) {
         if (r.evaluated && &r != oracle) std::printf(" %s %.2fx", r.name.c_str(), r.tracking_mse_m2 / oracle->tracking_mse_m2);
       }
       std::printf("\n");
+      if (const std::string line = commission::commutation_share_summary(report); !line.empty()) {
+        std::printf("%s\n", line.c_str());
+      }
     }
     for (const CalibrationFile* file : {&report.calibration_paper, &report.calibration_robust}) {
       for (std::size_t l = 0; l < file->coil_sets.size(); ++l) {

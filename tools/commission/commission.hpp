@@ -178,6 +178,12 @@ control::FeedforwardParameters identify_ff(const Recording& run);
 /// (tracking, true y error, identification wall time); "" without them.
 std::string position_summary(const Report& report);
 
+/// One line: the share of the recommended law's tracking MSE its commutation
+/// causes, 1 − the oracle's tracking MSE over the law's (in simulation, where
+/// every law meets the same disturbance and the oracle commutes exactly);
+/// "" without the oracle or a recommendation.
+std::string commutation_share_summary(const Report& report);
+
 /// The laws in their order of preference when their validation scores tie
 /// (docs/commutation.md, "The recommendation"): the calibrated classical law
 /// (no model beats the physics-only fit by more than the noise), then the

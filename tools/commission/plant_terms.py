@@ -124,9 +124,11 @@ def main():
         if variant not in ("none", "all") and variant not in TERMS:
             raise UsageError(f"--terms: unknown variant '{variant}' (none, all, {', '.join(TERMS)})")
     rows = []
+    recommended = {}
     for variant in variants:
         terms = [] if variant == "none" else list(TERMS) if variant == "all" else [variant]
         report = commission(args.clm, args.config, os.path.join(args.out, variant), terms)
+        recommended[variant] = report["recommended"]["law"]
         laws = report["commutations"]
         oracle = laws.get("oracle", {}).get("tracking_mse_m2")
         for name, law in laws.items():
@@ -139,6 +141,31 @@ def main():
     print(f"{'plant':18} {'law':16} {'true y [N^2]':>13} {'tracking [m^2]':>15} {'/oracle':>8}")
     for variant, name, true_y, tracking, ratio in rows:
         print(f"{variant:18} {name:16} {true_y:13.3g} {tracking:15.3g} {ratio:8.3g}")
+    for line in error_budget(rows, recommended.get("all"), variants):
+        print(line)
+
+
+def error_budget(rows, law, variants):
+    """The tracking MSE of `law` with every term on, split by source: the
+    oracle on the ideal plant (what the loop leaves with exact commutation),
+    each term's increase of the oracle's MSE when on alone, and the law's
+    commutation (its MSE over the oracle's, both with every term on, meeting
+    the same disturbance). What the parts do not add up to is the terms'
+    interaction. Empty unless none, all and every term were run."""
+    if law is None or not all(v in variants for v in ["none", "all", *TERMS]):
+        return []
+    tracking = {(variant, name): value for variant, name, _, value, _ in rows}
+    whole = tracking[("all", law)]
+    base = tracking[("none", "oracle")]
+    parts = [("the loop with exact commutation, ideal plant", base)]
+    parts += [(term, tracking[(term, "oracle")] - base) for term in TERMS]
+    parts.append((f"the commutation ({law} over the oracle)", whole - tracking[("all", "oracle")]))
+    total = sum(value for _, value in parts)
+    lines = [f"error budget of the recommended law ({law}), tracking MSE with every term on: {whole:.3g} m^2"]
+    lines += [f"  {name:48} {value:11.3g} m^2 {100 * value / whole:6.1f} %" for name, value in parts]
+    lines.append(f"  {'sum of the parts':48} {total:11.3g} m^2 {100 * total / whole:6.1f} % "
+                 f"(interaction of the terms: {100 * (whole - total) / whole:.1f} %)")
+    return lines
 
 
 if __name__ == "__main__":

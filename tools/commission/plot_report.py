@@ -293,6 +293,52 @@ def tracking_figure(directory, laws, runs, filename, title):
     save(fig, directory, filename, title)
 
 
+def tracking_psd(error, period_s, segment=4096):
+    """One-sided power spectral density of `error` [unit²/Hz] by Welch's
+    method (Hann windows of `segment` samples, half overlapping, each
+    without its mean; one window of the whole record when it is shorter),
+    and its cumulative integral over frequency [unit²]. By Parseval the
+    cumulative PSD at the Nyquist frequency is the variance of the error."""
+    error = np.asarray(error, dtype=float)
+    n = min(segment, len(error))
+    window = np.hanning(n)
+    scale = 1.0 / (np.sum(window ** 2) / period_s)
+    starts = range(0, len(error) - n + 1, max(n // 2, 1))
+    psd = np.zeros(n // 2 + 1)
+    for start in starts:
+        piece = error[start:start + n]
+        spectrum = np.fft.rfft((piece - np.mean(piece)) * window)
+        psd += np.abs(spectrum) ** 2
+    psd *= scale / len(starts)
+    psd[1:(n + 1) // 2] *= 2.0  # one-sided: every bin but DC (and Nyquist for even n) twice
+    frequency = np.fft.rfftfreq(n, period_s)
+    df = frequency[1] - frequency[0]
+    return frequency, psd, np.cumsum(psd) * df
+
+
+def tracking_psd_figure(directory, laws, runs, filename):
+    """The tracking error's PSD (top) and cumulative PSD (bottom) of every
+    law on shared axes: where in frequency each law's error lies, and how
+    much of its mean square is below each frequency."""
+    fig, axes = plt.subplots(2, 1, figsize=(9.0, 6.0), sharex=True)
+    for law in laws:
+        d = runs[law]
+        period_s = float(np.median(np.diff(d["t_s"])))
+        frequency, psd, cumulative = tracking_psd(d["e_m"], period_s)
+        axes[0].loglog(frequency[1:], psd[1:], color=law_colour(law), linewidth=0.7, label=law)
+        axes[1].semilogx(frequency[1:], cumulative[1:], color=law_colour(law), linewidth=1.0,
+                         label=f"{law}: variance {cumulative[-1]:.3g} m²")
+    axes[0].set_ylabel("PSD of r − y [m²/Hz]")
+    axes[1].set_ylabel("cumulative PSD [m²]")
+    axes[1].set_yscale("log")
+    axes[1].set_xlabel("frequency [Hz]")
+    legend_outside(axes[0])
+    legend_outside(axes[1])
+    save(fig, directory, filename,
+         "Tracking error r − y on the evaluation reference: power spectral density and its cumulative integral "
+         "(Welch, 4.1 s Hann windows; the cumulative value at the right end is the error's variance)")
+
+
 def position_error_figure(directory, laws, evaluations, pole_pitch_m, range_m, filename, bin_m=0.25e-3):
     """Per law: the driving-direction error F_y - F_y* averaged in position bins
     over the whole evaluation run, and its amplitude spectrum over spatial
@@ -629,13 +675,14 @@ def plot_all(directory):
     evaluations = {law: load_csv(os.path.join(directory, f"evaluation-{law}.csv")) for law in laws}
     held_out = laws_present(directory, "validation")
     truth = os.path.exists(os.path.join(directory, "truth-comparison.csv"))
-    # commutation error slow and fast, tracking, position error, calibration;
-    # validation; cogging, its error, gain, its error; latency (live runs).
-    PROGRESS.plan(5 + bool(held_out) + 4 * truth + (not truth))
+    # commutation error slow and fast, tracking, its PSD, position error,
+    # calibration; validation; cogging, its error, gain, its error; latency (live runs).
+    PROGRESS.plan(6 + bool(held_out) + 4 * truth + (not truth))
     for which in ("slow", "fast"):
         commutation_error_figure(directory, laws, evaluations, which, f"commutation-error-{which}.png")
     tracking_figure(directory, laws, evaluations, "tracking-error.png",
                     "Tracking error on the evaluation reference, each law with its own feedforward (40)")
+    tracking_psd_figure(directory, laws, evaluations, "tracking-psd.png")
     position_error_figure(directory, laws, evaluations, calibration["pole_pitch_m"], range_m, "position-error.png")
     del evaluations
     if held_out:

@@ -2,6 +2,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <cstdio>
 #include <sstream>
@@ -55,6 +56,15 @@ const CommutationResult* find(const Report& report, const std::string& name) {
     if (r.name == name && r.evaluated) return &r;
   }
   return nullptr;
+}
+
+/// 1 − the oracle's tracking MSE over the recommended law's: the share of the
+/// law's tracking error its commutation causes (commutation_share_summary).
+std::optional<double> commutation_share(const Report& report) {
+  const auto* oracle = find(report, "oracle");
+  const auto* recommended = find(report, report.recommended);
+  if (oracle == nullptr || recommended == nullptr || !(recommended->tracking_mse_m2 > 0.0)) return std::nullopt;
+  return 1.0 - oracle->tracking_mse_m2 / recommended->tracking_mse_m2;
 }
 
 std::string fixed(double value, const char* format = "%.3g") {
@@ -184,6 +194,16 @@ void calibration_json(std::ostringstream& out, const CalibrationFile& file) {
 }
 
 }  // namespace
+
+std::string commutation_share_summary(const Report& report) {
+  const std::optional<double> share = commutation_share(report);
+  if (!share) return "";
+  const std::string text =
+      *share >= 0.0 ? fixed(100.0 * *share, "%.0f") + " %"
+                    : "none measurable (the oracle's tracking MSE is " + fixed(1.0 - *share, "%.2f") + "x the law's)";
+  return "commutation's share of the recommended law's (" + report.recommended + ") tracking MSE: " + text +
+         " (1 - the oracle's tracking MSE over the law's; the rest is the plant's: disturbance, noise, the loop)";
+}
 
 std::string position_summary(const Report& report) {
   if (!report.from_position) return "";
@@ -341,6 +361,8 @@ std::string report_json(const Report& report) {
     out << ", \"classical_over_recommended_commutation_mse_y\": " << number(ratio.force[0])
         << ", \"classical_over_recommended_tracking_mse\": " << number(ratio.tracking);
   }
+  const std::optional<double> share = commutation_share(report);
+  out << ", \"commutation_share_of_tracking_mse\": " << (share ? number(*share) : std::string("null"));
   out << "},\n";
   out << "  \"selection\": {\"pgnn\": ";
   selection_json(out, report.pgnn_selection);
@@ -549,6 +571,7 @@ std::string report_markdown(const Report& report) {
       if (r.evaluated && &r != oracle) out << " " << r.name << " " << fixed(r.tracking_mse_m2 / oracle->tracking_mse_m2, "%.2f") << "×;";
     }
     out << "\n";
+    if (const std::string line = commutation_share_summary(report); !line.empty()) out << "\nThe " << line << ".\n";
   }
   if (!report.validation.empty()) {
     out << "\n## Held-out trajectory\n\nThe same commutations and feedforwards on `" << report.validation_program
@@ -683,7 +706,7 @@ std::string report_markdown(const Report& report) {
   // each answers is in docs/report-format.md, "Plots".
   out << "\n## Plots\n\nWhat each plot answers and what to look for: docs/report-format.md, \"Plots\".\n\n";
   std::vector<std::string> plots{"calibration.png", "commutation-error-slow.png", "commutation-error-fast.png",
-                                 "position-error.png", "tracking-error.png"};
+                                 "position-error.png", "tracking-error.png", "tracking-psd.png"};
   if (!report.validation.empty()) plots.push_back("validation.png");
   if (std::find(report.files.begin(), report.files.end(), "truth-comparison.csv") != report.files.end()) {
     plots.insert(plots.end(), {"cogging.png", "cogging-error.png", "gain.png", "gain-error.png"});

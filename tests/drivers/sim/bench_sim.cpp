@@ -79,7 +79,7 @@ void BM_DaemonFig8(benchmark::State& state) {
   runner.enable();
   std::int64_t cycles = 0;
   for (auto _ : state) {
-    const commission::Recording run = runner.run_program(program, "", "fig8");
+    const commission::Recording run = runner.run_program(program, "", "fig8", commission::Disturbance::kRunsOn);
     cycles += static_cast<std::int64_t>(run.samples.size());
     benchmark::DoNotOptimize(run.samples.back().y_m);
   }

@@ -222,7 +222,7 @@ TEST_CASE("The force disturbance has its RMS and no power outside its band", "[s
   CHECK(outside < 1e-3 * inside);
 }
 
-TEST_CASE("A restarted disturbance repeats its first stretch; one that runs on does not", "[sim][plant]") {
+TEST_CASE("A restarted disturbance repeats its first stretch, and one that runs on does not", "[sim][plant]") {
   MotorParameters parameters = bare_motor();
   parameters.mechanics.translator_mass_kg = 1e6;
   auto& d = parameters.mechanics.force_disturbance;
