@@ -30,10 +30,18 @@ void classical_physics_parameters(const ClassicalCoilSet& coil_set, CoilGain& a,
   b = classical_gain(coil_set, 0.25, 1.0);
 }
 
+namespace {
+
+/// [sin η, sin(η + 2π/3)]: the shape of phases a and b at commutation angle η.
+Eigen::Vector2d phase_sines(double commutation_angle_rad) {
+  return {elementary::sin(commutation_angle_rad), elementary::sin(commutation_angle_rad + kTwoPiOverThree)};
+}
+
+}  // namespace
+
 Eigen::Vector2d sinusoidal_currents(double magnitude_N, double commutation_angle_rad,
                                     double motor_constant_N_per_A) {
-  const double scale = magnitude_N / motor_constant_N_per_A;
-  return {scale * elementary::sin(commutation_angle_rad), scale * elementary::sin(commutation_angle_rad + kTwoPiOverThree)};
+  return magnitude_N / motor_constant_N_per_A * phase_sines(commutation_angle_rad);
 }
 
 Eigen::Vector2d drive_phase_currents(const DriveCommutation& drive, const DriveSetpoint& setpoint,
@@ -54,16 +62,25 @@ void classical_force_share(std::span<const ClassicalEstimate> estimates, double 
 }
 
 void classical_currents(std::span<const ClassicalEstimate> estimates, double pole_pitch_m,
-                        double position_m, double driving_force_N, CurrentVector& currents_A) {
+                        double position_m, double driving_force_N, CurrentVector& currents_A,
+                        CurrentVector* driving_gain_N_per_A) {
   const auto coil_sets = static_cast<Eigen::Index>(estimates.size());
   currents_A.resize(2 * coil_sets);
+  if (driving_gain_N_per_A != nullptr) driving_gain_N_per_A->resize(2 * coil_sets);
   double share[kMaxCoilSets];
   classical_force_share(estimates, driving_force_N, std::span<double>(share, estimates.size()));
   const double theta = electrical_angle_rad(position_m, pole_pitch_m);
   for (Eigen::Index l = 0; l < coil_sets; ++l) {
     const auto& estimate = estimates[static_cast<std::size_t>(l)];
-    currents_A.segment<2>(2 * l) = sinusoidal_currents(share[l], theta + estimate.phase_offset_rad,
-                                                       estimate.motor_constant_N_per_A);
+    const double k = estimate.motor_constant_N_per_A;
+    const Eigen::Vector2d sines = phase_sines(theta + estimate.phase_offset_rad);
+    currents_A.segment<2>(2 * l) = share[l] / k * sines;
+    if (driving_gain_N_per_A != nullptr) {
+      // Row y of classical_gain: phase p's force constant (2/3)·k·sin(η + φ_p)
+      // less phase c's, which is −(a + b) for the balanced set.
+      driving_gain_N_per_A->segment<2>(2 * l) =
+          2.0 / 3.0 * k * Eigen::Vector2d(2.0 * sines.x() + sines.y(), sines.x() + 2.0 * sines.y());
+    }
   }
 }
 

@@ -49,9 +49,11 @@ void classical_force_share(std::span<const ClassicalEstimate> estimates, double 
                            std::span<double> share_N);
 
 /// Classical commutation (12): currents [i_a^l, i_b^l] for a desired driving force,
-/// L = estimates.size() coil sets. No allocation.
+/// L = estimates.size() coil sets; with `driving_gain_N_per_A`, also the y row
+/// of classical_gain per current (the model's ∂F_y/∂i). No allocation.
 void classical_currents(std::span<const ClassicalEstimate> estimates, double pole_pitch_m,
-                        double position_m, double driving_force_N, CurrentVector& currents_A);
+                        double position_m, double driving_force_N, CurrentVector& currents_A,
+                        CurrentVector* driving_gain_N_per_A = nullptr);
 
 /// Classical commutation (12) expressed as setpoints of a drive with fixed
 /// commutation: magnitude k̂_d/k̂^l·F_y^{l*} and offset ζ̂^l − ζ̂_d, put into the

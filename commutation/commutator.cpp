@@ -132,17 +132,11 @@ ClassicalCommutator::ClassicalCommutator(std::span<const ClassicalEstimate> esti
 void ClassicalCommutator::commutate(double position_m, const Wrench& desired, CommutationOutput& out) const noexcept {
   const std::span<const ClassicalEstimate> estimates(estimates_.data(), static_cast<std::size_t>(count_));
   out.coil_sets = count_;
-  classical_currents(estimates, pole_pitch_m_, position_m, desired.x(), out.currents_A);
+  classical_currents(estimates, pole_pitch_m_, position_m, desired.x(), out.currents_A, &out.driving_gain_N_per_A);
   classical_setpoints(estimates, drive_, desired.x(), convention_,
                       std::span<DriveSetpoint>(out.setpoints.data(), static_cast<std::size_t>(count_)));
   // The classical law's own model: each coil set produces its share along y only.
   out.model_wrench = Wrench(desired.x(), 0.0, 0.0);
-  out.driving_gain_N_per_A.resize(2 * count_);
-  for (int l = 0; l < count_; ++l) {
-    const auto& estimate = estimates_[static_cast<std::size_t>(l)];
-    const ClassicalCoilSet coil_set{estimate.motor_constant_N_per_A, estimate.phase_offset_rad, 0.0, 0.0};
-    out.driving_gain_N_per_A.segment<2>(2 * l) = classical_gain(coil_set, position_m, pole_pitch_m_).row(0).transpose();
-  }
   out.current_square_sum_A2 = current_square_sum(out.currents_A);
   out.singular_value_ratio = 1.0;
   out.damping_engaged = false;

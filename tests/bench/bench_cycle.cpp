@@ -22,8 +22,9 @@ using namespace clm;
 constexpr double kPolePitch = 0.03;
 const DriveCommutation kDrive{67.0, -0.52};
 
-servo::ServoSettings settings(int coil_sets) {
+servo::ServoSettings settings(int coil_sets, const CurrentLoopModel& current_loop = {}) {
   servo::ServoSettings s;
+  s.current_loop = current_loop;
   s.period_s = 1e-3;
   s.pole_pitch_m = kPolePitch;
   s.drive = kDrive;
@@ -34,6 +35,10 @@ servo::ServoSettings settings(int coil_sets) {
   s.soft_limit_max_m = 1.0;
   s.following_error_limit_m = 1.0;  // the frames below do not follow the reference
   s.force_limit_N = 800.0;
+  // A stroke wide enough for that following-error limit (the envelope wants
+  // the soft limits inside it by twice the limit): the cycle's work is the same.
+  s.machine.stroke_min_m = -10.0;
+  s.machine.stroke_max_m = 10.0;
   return s;
 }
 
@@ -59,8 +64,9 @@ Feedback make_feedback(const can::ProtocolConfig& protocol) {
   return f;
 }
 
-void run(benchmark::State& state, servo::CommutationMode mode, const CommutationLaw& law, int coil_sets) {
-  servo::ServoCycle cycle(settings(coil_sets));
+void run(benchmark::State& state, servo::CommutationMode mode, const CommutationLaw& law, int coil_sets,
+         const CurrentLoopModel& current_loop = {}) {
+  servo::ServoCycle cycle(settings(coil_sets, current_loop));
   cycle.install_law(servo::CommutationMode::kOriginal, &law);
   cycle.install_law(mode, &law);
   cycle.execute({.kind = servo::CommandKind::kSetCommutation, .commutation = mode});
@@ -108,6 +114,11 @@ void cycle_pgnn(benchmark::State& state) {
   const Laws laws(static_cast<int>(state.range(0)));
   run(state, servo::CommutationMode::kPgnn, *laws.pgnn_law, static_cast<int>(state.range(0)));
 }
+// The same with the drive's current loop compensated (drive.current_loop).
+void cycle_pgnn_compensated(benchmark::State& state) {
+  const Laws laws(static_cast<int>(state.range(0)));
+  run(state, servo::CommutationMode::kPgnn, *laws.pgnn_law, static_cast<int>(state.range(0)), {1500.0, 2.0, 1e-3});
+}
 void cycle_spline(benchmark::State& state) {
   const Laws laws(static_cast<int>(state.range(0)));
   run(state, servo::CommutationMode::kSpline, *laws.spline_law, static_cast<int>(state.range(0)));
@@ -131,6 +142,7 @@ void commutation_pgnn(benchmark::State& state) {
 BENCHMARK(cycle_classical)->Name("cycle/classical")->Arg(3);
 BENCHMARK(cycle_pgnn)->Name("cycle/pgnn")->Arg(3);
 BENCHMARK(cycle_spline)->Name("cycle/spline")->Arg(3);
+BENCHMARK(cycle_pgnn_compensated)->Name("cycle/pgnn_current_loop")->Arg(3);
 BENCHMARK(cycle_classical)->Name("cycle_scaling/classical")->DenseRange(1, 4);
 BENCHMARK(cycle_pgnn)->Name("cycle_scaling/pgnn")->DenseRange(1, 4);
 BENCHMARK(commutation_pgnn)->Name("commutation_scaling/pgnn")->DenseRange(1, 8);

@@ -190,3 +190,34 @@ TEST_CASE("a commutation call does not allocate", "[commutator][realtime]") {
     CHECK(scope.allocations() == 0);
   }
 }
+
+TEST_CASE("each law reports its model's driving-force gain ∂F_y/∂i at the position", "[commutator]") {
+  // The model law: row y of the model's gain; the classical law: row y of
+  // classical_gain with its estimates, and the driving force its currents
+  // make through that row is the demand.
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> position(-0.12, 0.12);
+  const auto model = test::random_pgnn_model(3, kPolePitch, rng);
+  const ModelCommutator model_law(model, kDrive);
+  const std::vector<ClassicalEstimate> estimates{{61.0, -0.5}, {63.0, -0.45}, {59.0, -0.6}};
+  const ClassicalCommutator classical_law(estimates, kPolePitch, kDrive);
+  CommutationOutput out;
+  for (int trial = 0; trial < 200; ++trial) {
+    const double y = position(rng);
+    const Wrench desired = random_wrench(rng);
+    StackedGain gain;
+    Wrench cogging;
+    model.evaluate(y, gain, cogging);
+    model_law.commutate(y, desired, out);
+    REQUIRE((out.driving_gain_N_per_A - gain.row(0).transpose()).norm() < 1e-12 * gain.row(0).norm());
+    classical_law.commutate(y, desired, out);
+    for (int l = 0; l < 3; ++l) {
+      const auto& e = estimates[static_cast<std::size_t>(l)];
+      const Eigen::RowVector2d expected = classical_gain({e.motor_constant_N_per_A, e.phase_offset_rad, 0.0, 0.0}, y,
+                                                         kPolePitch).row(0);
+      INFO("y " << y << ", coil set " << l + 1);
+      REQUIRE((out.driving_gain_N_per_A.segment<2>(2 * l).transpose() - expected).norm() < 1e-9 * expected.norm() + 1e-12);
+    }
+    REQUIRE(out.driving_gain_N_per_A.dot(out.currents_A) == Approx(desired.x()).margin(1e-9));
+  }
+}
