@@ -51,6 +51,12 @@ void ServoCycle::install_law(CommutationMode mode, const CommutationLaw* law) no
   mailbox_.laws_[index].set_current(law);
 }
 
+double ServoCycle::velocity_now_m_per_s(const control::ReferenceSample& now) const noexcept {
+  // The filtered velocity lags by the filter's time constant: corrected with
+  // the reference's acceleration.
+  return velocity_estimate_m_per_s_ + now.acceleration_m_per_s2 * kVelocityFilter_s;
+}
+
 bool ServoCycle::at_standstill() const noexcept {
   return running_ == nullptr && !status_.stopping && std::abs(velocity_estimate_m_per_s_) < settings_.standstill_velocity_m_per_s;
 }
@@ -217,6 +223,7 @@ void ServoCycle::commutate(double position_m, double velocity_m_per_s, double fo
     const Eigen::Vector2d i = drive_phase_currents(settings_.drive, setpoint, position_m, settings_.pole_pitch_m);
     commanded_.setpoints[l] = setpoint;
     commanded_.currents[l] = {i.x(), i.y()};
+    record_.damping_engaged = false;
     record_.current_square_sum_A2 = i.squaredNorm() + (i.x() + i.y()) * (i.x() + i.y());
     if (compensation_.active()) {
       commutation_.currents_A.setZero();
@@ -360,9 +367,7 @@ void ServoCycle::drive() noexcept {
   }
   record_.F_star_N = force;
   if (status_.state == ServoState::kEnabled || status_.fault_reaction_running) {
-    // The filtered velocity lags by the filter's time constant: corrected
-    // with the reference's acceleration, as in approach_guard.
-    commutate(position_m_, velocity_estimate_m_per_s_ + now.acceleration_m_per_s2 * kVelocityFilter_s, force);
+    commutate(position_m_, velocity_now_m_per_s(now), force);
   }
 }
 
@@ -383,12 +388,9 @@ void ServoCycle::approach_guard(const control::ReferenceSample& now, const contr
     const bool target_outside = outside_soft_limits(target_m);
     const bool near_limit = reference_stop_m > settings_.soft_limit_max_m - band_m ||
                             reference_stop_m < settings_.soft_limit_min_m + band_m;
-    // The filtered velocity lags by the filter's time constant: corrected
-    // with the reference's acceleration. Within the following-error limit
-    // the deviation is the loop's to correct (and kFollowingError's to catch).
-    const control::ReferenceSample measured{
-        position_m_, velocity_estimate_m_per_s_ + now.acceleration_m_per_s2 * kVelocityFilter_s,
-        now.acceleration_m_per_s2, 0.0};
+    // Within the following-error limit the deviation is the loop's to
+    // correct (and kFollowingError's to catch).
+    const control::ReferenceSample measured{position_m_, velocity_now_m_per_s(now), now.acceleration_m_per_s2, 0.0};
     const double axis_stop_m = control::stopping_position_m(measured, settings_.quick_stop_limits);
     const double axis_margin_m = settings_.following_error_limit_m;
     if (reference_stop_m < settings_.soft_limit_min_m - kStopTolerance_m ||

@@ -236,6 +236,8 @@ class ServoCycle {
   std::size_t encode_setpoints(bool driving) noexcept;
   void fill_record(double time_s) noexcept;
   void commutate(double position_m, double velocity_m_per_s, double force_N) noexcept;
+  /// The axis's velocity now: the filtered estimate, its lag corrected with `now`'s acceleration.
+  double velocity_now_m_per_s(const control::ReferenceSample& now) const noexcept;
   void zero_setpoints() noexcept;
   /// Plans a stop from the present reference and follows it from the next sample.
   void begin_stop(const control::StopLimits& limits, bool quick) noexcept;
