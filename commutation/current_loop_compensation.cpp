@@ -9,17 +9,15 @@ namespace clm {
 
 void CurrentLoopModel::validate() const {
   if (ideal()) return;
-  if (!(bandwidth_Hz > 0.0 && bandwidth_Hz <= 1e5)) {
-    throw std::invalid_argument("current loop: bandwidth_Hz must lie in (0, 1e5], got " + std::to_string(bandwidth_Hz));
-  }
-  if (!(phase_resistance_ohm > 0.0 && phase_resistance_ohm <= 1e4)) {
-    throw std::invalid_argument("current loop: phase_resistance_ohm must lie in (0, 1e4], got " +
-                                std::to_string(phase_resistance_ohm));
-  }
-  if (!(phase_inductance_H > 0.0 && phase_inductance_H <= 10.0)) {
-    throw std::invalid_argument("current loop: phase_inductance_H must lie in (0, 10], got " +
-                                std::to_string(phase_inductance_H));
-  }
+  const auto require = [](double value, double low, double high, const char* name) {
+    if (!(value >= low && value <= high)) {
+      throw std::invalid_argument(std::string("current loop: ") + name + " must lie in [" + std::to_string(low) +
+                                  ", " + std::to_string(high) + "], got " + std::to_string(value));
+    }
+  };
+  require(bandwidth_Hz, kMinBandwidth_Hz, kMaxBandwidth_Hz, "bandwidth_Hz");
+  require(phase_resistance_ohm, kMinResistance_ohm, kMaxResistance_ohm, "phase_resistance_ohm");
+  require(phase_inductance_H, kMinInductance_H, kMaxInductance_H, "phase_inductance_H");
 }
 
 CurrentLoopCompensation::CurrentLoopCompensation(const CurrentLoopModel& model, double period_s)

@@ -25,6 +25,11 @@ struct CurrentLoopModel {
   bool ideal() const noexcept { return bandwidth_Hz == 0.0; }
   /// Throws std::invalid_argument naming the value that is out of range.
   void validate() const;
+
+  /// What validate() and the motor file's reader accept (ideal aside).
+  static constexpr double kMinBandwidth_Hz = 1.0, kMaxBandwidth_Hz = 1e5;
+  static constexpr double kMinResistance_ohm = 1e-4, kMaxResistance_ohm = 1e4;
+  static constexpr double kMinInductance_H = 1e-7, kMaxInductance_H = 10.0;
 };
 
 /// The references a cycle sends so that the drive's current loop delivers the

@@ -137,9 +137,12 @@ MotorDescription read_motor_description(const yaml::Node& root) {
   if (const auto loop = root["drive"].optional("current_loop")) {
     loop->expect_map();
     loop->expect_keys({"bandwidth_Hz", "phase_resistance_ohm", "phase_inductance_H"});
-    motor.current_loop.bandwidth_Hz = (*loop)["bandwidth_Hz"].as_double_in(1.0, 1e5);
-    motor.current_loop.phase_resistance_ohm = (*loop)["phase_resistance_ohm"].as_double_in(1e-4, 1e4);
-    motor.current_loop.phase_inductance_H = (*loop)["phase_inductance_H"].as_double_in(1e-7, 10.0);
+    using Loop = CurrentLoopModel;
+    motor.current_loop.bandwidth_Hz = (*loop)["bandwidth_Hz"].as_double_in(Loop::kMinBandwidth_Hz, Loop::kMaxBandwidth_Hz);
+    motor.current_loop.phase_resistance_ohm =
+        (*loop)["phase_resistance_ohm"].as_double_in(Loop::kMinResistance_ohm, Loop::kMaxResistance_ohm);
+    motor.current_loop.phase_inductance_H =
+        (*loop)["phase_inductance_H"].as_double_in(Loop::kMinInductance_H, Loop::kMaxInductance_H);
   }
   return motor;
 }

@@ -15,6 +15,7 @@
 #include "config/yaml_reader.hpp"
 #include "commutation/classical.hpp"
 #include "commutation/current_loop_compensation.hpp"
+#include "commutation/model_file.hpp"
 #include "commutation/transform.hpp"
 #include "drivers/sim/current_loop.hpp"
 #include "drivers/sim/motor.hpp"
@@ -414,4 +415,36 @@ TEST_CASE("The current loop's compensation is off without a current loop and sta
   CHECK(out[1] == Approx(currents[1] + scale * 0.1 * (50.0 / 3.0) / 1e-3));
   REQUIRE_THROWS_WITH(CurrentLoopCompensation({1000.0, -1.0, 1e-3}, 1e-3),
                       Catch::Contains("phase_resistance_ohm"));
+}
+
+TEST_CASE("drive.current_loop of the motor file is read, and refused out of range by file, line and key",
+          "[sim][plant][compensation]") {
+  const auto motor_text = [](const std::string& loop) {
+    return "motor: {pole_pitch_m: 0.03, coil_sets: 3}\n"
+           "drive:\n"
+           "  commutation: {motor_constant_N_per_A: 67.0, phase_offset_rad: -0.52}\n"
+           "  current_loop: " + loop + "\n";
+  };
+  const MotorDescription read = read_motor_description(yaml::Node::load_string(
+      motor_text("{bandwidth_Hz: 1350.0, phase_resistance_ohm: 2.2, phase_inductance_H: 0.0011}"), "m.yaml"));
+  CHECK(read.current_loop.bandwidth_Hz == 1350.0);
+  CHECK(read.current_loop.phase_resistance_ohm == 2.2);
+  CHECK(read.current_loop.phase_inductance_H == 0.0011);
+  CHECK(read_motor_description(yaml::Node::load_string(
+                                   "motor: {pole_pitch_m: 0.03, coil_sets: 3}\n"
+                                   "drive:\n  commutation: {motor_constant_N_per_A: 67.0, phase_offset_rad: -0.52}\n",
+                                   "m.yaml"))
+            .current_loop.ideal());
+  for (const auto& [loop, key] : {std::pair{std::string("{bandwidth_Hz: 0.5, phase_resistance_ohm: 2, phase_inductance_H: 0.001}"),
+                                            std::string("drive.current_loop.bandwidth_Hz")},
+                                  std::pair{std::string("{bandwidth_Hz: 1500, phase_resistance_ohm: 0, phase_inductance_H: 0.001}"),
+                                            std::string("drive.current_loop.phase_resistance_ohm")},
+                                  std::pair{std::string("{bandwidth_Hz: 1500, phase_resistance_ohm: 2, phase_inductance_H: 11}"),
+                                            std::string("drive.current_loop.phase_inductance_H")},
+                                  std::pair{std::string("{bandwidth_Hz: 1500, phase_resistance_ohm: 2, inductance: 0.001}"),
+                                            std::string("inductance")}}) {
+    INFO(loop);
+    REQUIRE_THROWS_WITH(read_motor_description(yaml::Node::load_string(motor_text(loop), "m.yaml")),
+                        Catch::StartsWith("m.yaml:4: ") && Catch::Contains(key));
+  }
 }
