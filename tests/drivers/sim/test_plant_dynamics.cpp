@@ -41,6 +41,17 @@ MotorParameters bare_motor(double pole_pitch_m = 0.032) {
   return motor;
 }
 
+/// bare_motor() held still (1e6 kg) under a disturbance of 0.5 N RMS in [low_Hz, high_Hz].
+MotorParameters disturbed_motor(double low_Hz, double high_Hz) {
+  MotorParameters parameters = bare_motor();
+  parameters.mechanics.translator_mass_kg = 1e6;
+  auto& d = parameters.mechanics.force_disturbance;
+  d.rms_N = 0.5;
+  d.low_Hz = low_Hz;
+  d.high_Hz = high_Hz;
+  return parameters;
+}
+
 }  // namespace
 
 TEST_CASE("The flexible mode's relative motion follows the analytic step response", "[sim][plant]") {
@@ -190,13 +201,7 @@ TEST_CASE("The encoder's interpolation error has its amplitudes at the scale pit
 }
 
 TEST_CASE("The force disturbance has its RMS and no power outside its band", "[sim][plant]") {
-  MotorParameters parameters = bare_motor();
-  parameters.mechanics.translator_mass_kg = 1e6;
-  auto& d = parameters.mechanics.force_disturbance;
-  d.rms_N = 0.5;
-  d.low_Hz = 5.0;
-  d.high_Hz = 50.0;
-  SimulatedMotor motor(parameters);
+  SimulatedMotor motor(disturbed_motor(5.0, 50.0));
   std::vector<double> force;
   for (int k = 0; k < 40000; ++k) {  // 40 s at 1 kHz
     REQUIRE(motor.step(1e-3) == StepResult::kOk);
@@ -224,13 +229,7 @@ TEST_CASE("The force disturbance has its RMS and no power outside its band", "[s
 }
 
 TEST_CASE("A restarted disturbance repeats its first stretch, and one that runs on does not", "[sim][plant]") {
-  MotorParameters parameters = bare_motor();
-  parameters.mechanics.translator_mass_kg = 1e6;
-  auto& d = parameters.mechanics.force_disturbance;
-  d.rms_N = 0.5;
-  d.low_Hz = 1.0;
-  d.high_Hz = 50.0;
-  SimulatedMotor motor(parameters);
+  SimulatedMotor motor(disturbed_motor(1.0, 50.0));
   const auto stretch = [&motor] {
     std::vector<double> force;
     for (int k = 0; k < 2000; ++k) {
