@@ -4,7 +4,7 @@
 # scope_pty_check.py: a single-shot trigger on program_running catches a
 # move's following error within 10 s of the scope's start, the screen shows
 # every state of the exported window, and the same capture is made from an
-# LCM log of that move. About 20 s.
+# LCM log of that move. About 15 s, a minute on a loaded host.
 #
 #   scope_live_test.sh CLM_SERVOD CLM SOURCE_DIR WORK_DIR
 set -euo pipefail

@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <set>
 #include <string>
@@ -20,12 +21,18 @@ namespace {
 
 constexpr double kPeriod_s = 0.001;
 
+/// The sample's sequence number at `t_s`: one a period.
+std::int64_t sequence_at(double t_s) { return std::llround(t_s / kPeriod_s); }
+
 /// Pushes a sine of `frequency_Hz` and amplitude 1 on channel 0 and t on
-/// channel 1, from t = `from_s` for `duration_s`.
-void push_sine(Acquisition& a, double frequency_Hz, double from_s, double duration_s) {
+/// channel 1, from t = `from_s` for `duration_s`, leaving out the samples
+/// `lost` says are lost.
+void push_sine(Acquisition& a, double frequency_Hz, double from_s, double duration_s,
+               const std::function<bool(double)>& lost = [](double) { return false; }) {
   for (double t = from_s; t < from_s + duration_s - 1e-12; t += kPeriod_s) {
+    if (lost(t)) continue;
     const double values[] = {std::sin(2.0 * std::numbers::pi * frequency_Hz * t), t};
-    a.push(t, values);
+    a.push(t, sequence_at(t), values);
   }
 }
 
@@ -90,6 +97,45 @@ TEST_CASE("A rising trigger sits at the sine's analytic crossing, with the pre-t
   CHECK(a.captures() == 2);
 }
 
+TEST_CASE("Armed, the scope says it is filling until the part before a trigger is recorded", "[scope]") {
+  Trigger trigger{.channel = 0, .level = 2.0, .mode = TriggerMode::kSingle, .pre_trigger = 0.25};  // never reached
+  Acquisition a(2, 0.1, trigger);
+  CHECK(a.phase() == Phase::kFilling);
+  push_sine(a, 5.0, 0.0, 0.020);  // 20 of the 25 ms before a trigger
+  CHECK(a.phase() == Phase::kFilling);
+  push_sine(a, 5.0, 0.020, 0.010);
+  CHECK(a.phase() == Phase::kArmed);
+  a.arm();  // rearming starts the part before a trigger afresh
+  CHECK(a.phase() == Phase::kFilling);
+}
+
+TEST_CASE("A window counts the states lost in transit within it, by the gaps in their sequence", "[scope]") {
+  Trigger trigger{.channel = 0, .level = 0.5, .edge = TriggerEdge::kRising, .mode = TriggerMode::kSingle, .pre_trigger = 0.25};
+  // The same capture as above (trigger at 216.7 ms, window from 191.7 ms to
+  // 291.7 ms), but samples lost: 3 at the window's very start (192, 193,
+  // 194 ms), 5 within it (250..254 ms), 4 before it (100..103 ms) and 2
+  // after it (300, 301 ms).
+  const auto lost = [](double t) {
+    const std::int64_t k = sequence_at(t);
+    return (k >= 192 && k <= 194) || (k >= 250 && k <= 254) || (k >= 100 && k <= 103) || k == 300 || k == 301;
+  };
+  Acquisition a(2, 0.1, trigger);
+  push_sine(a, 5.0, 0.0, 0.4, lost);
+  REQUIRE(a.captures() == 1);
+  const Window& w = a.shown();
+  CHECK(w.start_s == Approx(std::asin(0.5) / (2.0 * std::numbers::pi * 5.0) + 0.2 - 0.025).margin(1e-4));
+  CHECK(w.missing == 8);
+  CHECK(w.t_s.front() == Approx(0.195).margin(1e-9));  // the first that arrived
+  CHECK(w.t_s.size() + 8 == 100);
+  // Every 2nd sample arriving (a decimation of 2) is not a loss.
+  Acquisition b(2, 0.1, trigger);
+  push_sine(b, 5.0, 0.0, 0.4, [](double t) { return sequence_at(t) % 2 == 1; });
+  REQUIRE(b.captures() == 1);
+  CHECK(b.shown().missing == 0);
+  CHECK(missing_note(a.shown()) == ", 8 missing (lost in transit)");
+  CHECK(missing_note(b.shown()).empty());
+}
+
 TEST_CASE("Normal mode captures every crossing whose window does not overlap the last one's", "[scope]") {
   Trigger trigger{.channel = 0, .level = 0.0, .edge = TriggerEdge::kFalling, .mode = TriggerMode::kNormal, .pre_trigger = 0.5};
   Acquisition a(2, 0.1, trigger);
@@ -108,7 +154,7 @@ TEST_CASE("Either edge triggers on both, NaN never triggers", "[scope]") {
   Acquisition b(2, 0.1, Trigger{.channel = 0, .level = 0.0, .edge = TriggerEdge::kEither, .mode = TriggerMode::kNormal});
   for (double t = 0.0; t < 1.0; t += kPeriod_s) {
     const double values[] = {std::nan(""), t};
-    b.push(t, values);
+    b.push(t, sequence_at(t), values);
   }
   CHECK(b.captures() == 0);
 }

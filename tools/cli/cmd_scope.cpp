@@ -101,7 +101,7 @@ std::string export_window(const scope::Window& window, const std::vector<lcmlog:
   }
   const bool png = run_share_script("plot_capture.py", arguments);
   return (window.triggered() ? "capture " + std::to_string(window.number) : std::string("rolling window")) + ", " +
-         std::to_string(window.t_s.size()) + " states: " + base + ".csv" +
+         std::to_string(window.t_s.size()) + " states" + scope::missing_note(window) + ": " + base + ".csv" +
          (png ? ", " + base + ".png" : " (no PNG: plot_capture.py or python3-matplotlib missing)");
 }
 
@@ -111,7 +111,7 @@ void push_all(std::vector<servo::CycleRecord>& states, const std::vector<lcmlog:
   for (const auto& state : states) {
     for (std::size_t c = 0; c < fields.size(); ++c) values[c] = fields[c].value(state);
     const auto before = acquisition.captures();
-    acquisition.push(state.t_s, values);
+    acquisition.push(state.t_s, state.cycle, values);
     if (acquisition.captures() != before) on_capture();
   }
   states.clear();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace clm::scope {
@@ -40,6 +41,7 @@ const char* name(TriggerMode mode) noexcept {
 
 const char* name(Phase phase) noexcept {
   switch (phase) {
+    case Phase::kFilling: return "filling";
     case Phase::kArmed: return "armed";
     case Phase::kCollecting: return "triggered";
     case Phase::kHeld: return "captured";
@@ -63,16 +65,16 @@ Acquisition::Acquisition(std::size_t channels, double window_s, Trigger trigger)
   }
 }
 
-void Acquisition::push(double t_s, std::span<const double> values) {
+void Acquisition::push(double t_s, std::int64_t sequence, std::span<const double> values) {
   if (phase_ == Phase::kPaused || !std::isfinite(t_s) || values.size() != channels_) return;
-  if (!history_.empty() && !(t_s > history_.back().t_s)) {
+  if (!history_.empty() && (!(t_s > history_.back().t_s) || sequence <= history_.back().sequence)) {
     // Time went back: another run of the daemon, or the next one in a log.
     history_.clear();
     if (phase_ == Phase::kCollecting) phase_ = Phase::kArmed;
     armed_at_s_ = std::numeric_limits<double>::quiet_NaN();
     next_allowed_s_ = -std::numeric_limits<double>::infinity();
   }
-  history_.push_back(Sample{t_s, std::vector<double>(values.begin(), values.end())});
+  history_.push_back(Sample{t_s, sequence, std::vector<double>(values.begin(), values.end())});
   if (std::isnan(armed_at_s_)) armed_at_s_ = t_s;
   if (phase_ == Phase::kArmed) look_for_trigger();
   if (phase_ == Phase::kCollecting && t_s >= trigger_t_s_ + post_s()) {
@@ -86,6 +88,11 @@ void Acquisition::push(double t_s, std::span<const double> values) {
   const double since_s = t_s - std::max(armed_at_s_, next_allowed_s_);
   if (phase_ == Phase::kArmed && trigger_.mode == TriggerMode::kAuto && since_s >= window_s_) roll_due_ = true;
   trim();
+}
+
+Phase Acquisition::phase() const {
+  if (phase_ != Phase::kArmed) return phase_;
+  return !history_.empty() && may_trigger_at(history_.back().t_s) ? Phase::kArmed : Phase::kFilling;
 }
 
 const Window& Acquisition::shown() const {
@@ -111,7 +118,7 @@ void Acquisition::look_for_trigger() {
   const double t_s = before.t_s + (level - a) / (b - a) * (now.t_s - before.t_s);
   // The part before the trigger must have been recorded since arming, and
   // a window never starts inside the previous one's part after its trigger.
-  if (t_s - pre_s() < armed_at_s_ || t_s < next_allowed_s_) return;
+  if (!may_trigger_at(t_s)) return;
   trigger_t_s_ = t_s;
   phase_ = Phase::kCollecting;
 }
@@ -123,7 +130,26 @@ Window Acquisition::cut(double start_s, double trigger_t_s) const {
   w.trigger_t_s = trigger_t_s;
   w.values.resize(channels_);
   const double end_s = start_s + window_s_;
-  for (const Sample& s : history_) {
+  // Sequence steps in double: a hostile cycle number cannot overflow them.
+  double step = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 1; k < history_.size(); ++k) {
+    step = std::min(step, static_cast<double>(history_[k].sequence) - static_cast<double>(history_[k - 1].sequence));
+  }
+  for (std::size_t k = 0; k < history_.size(); ++k) {
+    const Sample& s = history_[k];
+    if (k > 0) {
+      // The n states missing between this sample and the one before, spread
+      // evenly in time (the j-th at before + j·dt/(n+1)): those within the window.
+      const Sample& before = history_[k - 1];
+      const double n =
+          std::round((static_cast<double>(s.sequence) - static_cast<double>(before.sequence)) / step) - 1.0;
+      const double dt = s.t_s - before.t_s;
+      if (step > 0.0 && n >= 1.0 && std::isfinite(n)) {
+        const double first = std::max(1.0, std::ceil((start_s - before.t_s) / dt * (n + 1.0)));
+        const double last = std::min(n, std::floor((end_s - before.t_s) / dt * (n + 1.0)));
+        if (last >= first) w.missing += static_cast<std::int64_t>(std::min(last - first + 1.0, 1e15));
+      }
+    }
     if (s.t_s < start_s || s.t_s > end_s) continue;
     w.t_s.push_back(s.t_s);
     for (std::size_t c = 0; c < channels_; ++c) w.values[c].push_back(s.values[c]);

@@ -47,13 +47,18 @@ struct Window {
   /// level) [s]; NaN for a rolling window.
   double trigger_t_s = std::numeric_limits<double>::quiet_NaN();
   std::int64_t number = 0;  ///< 1, 2, ... for triggered windows; 0 for a rolling one
+  /// States that belong in the window but never arrived: gaps in the
+  /// samples' sequence numbers (the daemon's cycle) beyond the smallest step
+  /// seen, those of the missing ones whose time falls within the window.
+  std::int64_t missing = 0;
   bool triggered() const { return number > 0; }
   bool empty() const { return t_s.empty(); }
 };
 
 /// Where the acquisition is.
 enum class Phase {
-  kArmed,       ///< waiting for a trigger (or for enough samples before it)
+  kFilling,     ///< armed, but the part before a trigger is not yet recorded: no trigger counts
+  kArmed,       ///< waiting for a trigger
   kCollecting,  ///< triggered, filling the part after the trigger
   kHeld,        ///< single: a window captured, not rearmed
   kPaused,      ///< samples ignored; the shown window stays
@@ -67,15 +72,18 @@ class Acquisition {
   /// pre_trigger outside 0..1 or a window not above 0.
   Acquisition(std::size_t channels, double window_s, Trigger trigger);
 
-  /// One sample at time `t_s` (values.size() == channels). A time not above
-  /// the last one (a daemon restarted, a log of several runs) starts the
-  /// history afresh. NaN values never trigger.
-  void push(double t_s, std::span<const double> values);
+  /// One sample at time `t_s` with sequence number `sequence` (the daemon's
+  /// cycle; values.size() == channels). A time or a sequence number not
+  /// above the last one (a daemon restarted, a log of several runs) starts
+  /// the history afresh. NaN values never trigger.
+  void push(double t_s, std::int64_t sequence, std::span<const double> values);
 
   /// The window to show: the latest triggered one, or rolling (auto; cut
   /// from the history when asked for, not at every sample).
   const Window& shown() const;
-  Phase phase() const { return phase_; }
+  /// kFilling while armed and the pre-trigger part since arming (or the
+  /// last capture's hold-off) is not yet recorded.
+  Phase phase() const;
   const Trigger& trigger() const { return trigger_; }
   double window_s() const { return window_s_; }
   std::int64_t captures() const { return captures_; }
@@ -93,10 +101,14 @@ class Acquisition {
  private:
   struct Sample {
     double t_s;
+    std::int64_t sequence;
     std::vector<double> values;
   };
   double pre_s() const { return trigger_.pre_trigger * window_s_; }
   double post_s() const { return window_s_ - pre_s(); }
+  /// A trigger at `t_s` has its pre-trigger part recorded since arming and
+  /// lies after the hold-off.
+  bool may_trigger_at(double t_s) const { return t_s - pre_s() >= armed_at_s_ && t_s >= next_allowed_s_; }
   Window cut(double start_s, double trigger_t_s) const;
   void look_for_trigger();
   void trim();

@@ -115,6 +115,10 @@ constexpr const char* kColours[] = {"\x1b[33m", "\x1b[36m", "\x1b[35m", "\x1b[32
 
 }  // namespace
 
+std::string missing_note(const Window& window) {
+  return window.missing > 0 ? ", " + std::to_string(window.missing) + " missing (lost in transit)" : "";
+}
+
 std::vector<std::string> render_screen(const Acquisition& acquisition, const ScreenText& text, int columns, int rows) {
   const Window& window = acquisition.shown();
   const Trigger& trigger = acquisition.trigger();
@@ -129,13 +133,16 @@ std::vector<std::string> render_screen(const Acquisition& acquisition, const Scr
   lines.push_back(fit(std::string("clm scope  [") + name(acquisition.phase()) + "]  " + name(trigger.mode) + ", " +
                           trig + "  |  " + format_seconds(acquisition.window_s() / 10.0) + "/div  |  " + text.source,
                       columns));
-  std::string about = "waiting for a trigger";
+  std::string about = acquisition.phase() == Phase::kFilling
+                          ? "recording the " + format_seconds(trigger.pre_trigger * acquisition.window_s()) +
+                                " before a trigger: none counts yet"
+                          : "waiting for a trigger";
   if (window.triggered()) {
     about = "capture " + std::to_string(window.number) + ": trigger at t_s = " + number(window.trigger_t_s) + ", " +
-            std::to_string(window.t_s.size()) + " states";
+            std::to_string(window.t_s.size()) + " states" + missing_note(window);
   } else if (!window.empty()) {
     about = "rolling (no trigger): the latest " + format_seconds(window.length_s) + ", " +
-            std::to_string(window.t_s.size()) + " states";
+            std::to_string(window.t_s.size()) + " states" + missing_note(window);
   }
   lines.push_back(fit(about, columns));
 

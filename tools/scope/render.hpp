@@ -46,6 +46,9 @@ struct ScreenText {
 /// colour codes). A terminal too small for the channels gets one line saying so.
 std::vector<std::string> render_screen(const Acquisition& acquisition, const ScreenText& text, int columns, int rows);
 
+/// ", 3 missing (lost in transit)" for a window with states missing; "" without.
+std::string missing_note(const Window& window);
+
 /// "0.05 s" style: the time with 3 significant digits and its unit.
 std::string format_seconds(double t_s);
 
