@@ -51,14 +51,21 @@ reply=$(ctl enable) || fail "enable refused: $reply"
 ctl_refused move-to --target-m 0.05 --velocity-m-per-s 1000000
 [[ "$reply" == *"velocity_m_per_s 1e+06 m/s exceeds the limit 0.5 m/s"* ]] || fail "move-to at 1e6 m/s: '$reply'"
 
+# The faults that say the host held the loop back, not what the case tests:
+# 210 (no cycle for faults.stall_limit_s, 0.1 s here) and 205 (overruns).
+# A loaded CI host has frozen the SCHED_FIFO loop for longer than 0.1 s.
+held_back() { case "$(field fault "$status")" in 205 | 210) return 0 ;; *) return 1 ;; esac; }
+
 # Waits until the move has ended (program_running false), at most 10 s (the
 # moves take less than a second; the rest is room for a loaded host's `clm
-# ctl`); no fault meanwhile.
+# ctl`); no fault meanwhile. With WHAT HELD: returns 4 on a fault of
+# held_back instead of failing.
 wait_idle() {
   local start
   start=$(date +%s)
   while :; do
     status=$(ctl status) || fail "no status"
+    [ "${2:-}" = held ] && held_back && return 4
     [ "$(field fault "$status")" = 0 ] || fail "$1: fault $(field fault "$status") ($(field fault_reason "$status"))"
     [ "$(field state "$status")" = enabled ] || fail "$1: state $(field state "$status")"
     [ "$(field program_running "$status")" = false ] && return 0
@@ -92,7 +99,9 @@ stop_logger() {
 # stop's limits, the measured position stays inside the soft limits, no
 # fault, and the reference is at rest within the time of the jerk-limited
 # stop from the state it started in. A case whose stop came after the move
-# had ended (a stalled host) is repeated, at most twice.
+# had ended (a stalled host), or in which the host held the loop back long
+# enough for fault 210 or 205 (held_back), is repeated, at most twice; the
+# latter after clear-fault and enable.
 soft_min=$(config_value "$work/servod.yaml" "  soft_limit_min_m")
 soft_max=$(config_value "$work/servod.yaml" "  soft_limit_max_m")
 limits() { config_value "$work/servod.yaml" "  ${1}_deceleration_m_per_s2"; config_value "$work/servod.yaml" "  ${1}_jerk_m_per_s3"; }
@@ -103,6 +112,25 @@ period=0.001
 ctl move-to --target-m -0.1 --velocity-m-per-s 0.25 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 > /dev/null ||
     fail "move-to -0.1 refused"
 wait_idle "to the start"
+# recover WHAT: after a fault of held_back in attempt `attempt` (of 3):
+# says so, clears it, enables and moves back to the start.
+recover() {
+  [ "$attempt" -lt 3 ] || fail "$1: fault $(field fault "$status") ($(field fault_reason "$status")) in every attempt"
+  echo "$1: the host held the loop back: fault $(field fault "$status") ($(field fault_reason "$status")); cleared, once more"
+  kill -INT $logger; wait $logger || true
+  ctl clear-fault > /dev/null || fail "$1: clear-fault refused"
+  local start
+  start=$(date +%s)
+  until status=$(ctl status) && [ "$(field fault "$status")" = 0 ]; do
+    [ $(( $(date +%s) - start )) -lt 10 ] || fail "$1: fault $(field fault "$status") still latched 10 s after clear-fault"
+    sleep 0.05
+  done
+  ctl enable > /dev/null || fail "$1: enable refused after clear-fault"
+  ctl move-to --target-m -0.1 --velocity-m-per-s 0.25 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 > /dev/null ||
+      fail "$1: move-to back refused after clear-fault"
+  wait_idle "$1: back to the start"
+}
+
 cases=0
 for velocity in 0.25 0.5; do
   for kind in stop quick-stop; do
@@ -117,7 +145,12 @@ for velocity in 0.25 0.5; do
         sleep "$delay"
         reply=$(ctl "$kind") || fail "$name: refused: $reply"
         [ "$reply" = accepted ] || fail "$name: '$reply'"
-        wait_idle "$name"
+        rc=0
+        wait_idle "$name" held || rc=$?
+        if [ $rc = 4 ]; then
+          recover "$name: attempt $attempt"
+          continue
+        fi
         stop_logger "$name" "$log"
         "$clm" log2csv --log "$log" --format full --output "$log.csv" > /dev/null || fail "$name: log2csv"
         set +e
@@ -162,6 +195,11 @@ CHECK
 )
         rc=$?
         set -e
+        status=$(ctl status) || fail "no status"
+        if held_back; then
+          recover "$name: attempt $attempt"
+          continue
+        fi
         ctl move-to --target-m -0.1 --velocity-m-per-s 0.25 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 \
             > /dev/null || fail "$name: move-to back refused"
         wait_idle "$name: back to the start"
