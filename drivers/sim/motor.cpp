@@ -75,6 +75,8 @@ void SimulatedMotor::reset(double position_m, double velocity_m_per_s) {
   last_impact_speed_m_per_s_ = 0.0;
   current_limited_substeps_ = 0;
   currents_A_.setZero(2 * coil_sets());
+  step_mean_currents_A_.setZero(2 * coil_sets());
+  step_mean_position_m_ = position_m;
   update_outputs();
 }
 
@@ -243,6 +245,8 @@ StepResult SimulatedMotor::step(double period_s) noexcept {
   const double deadline_s = parameters_.drive.watchdog_timeout_s - kWatchdogTolerance_s;
   const double start_s = time_s_;
   limited_in_last_step_ = false;
+  step_mean_currents_A_.setZero(currents_A_.size());
+  double position_sum_m = 0.0;
 
   for (int k = 0; k < count; ++k) {
     const double t = start_s + k * h;
@@ -253,6 +257,8 @@ StepResult SimulatedMotor::step(double period_s) noexcept {
       ++current_limited_substeps_;
     }
     drive_windings(reference_A_, h);
+    step_mean_currents_A_ += currents_A_;
+    position_sum_m += position_m_;
     // The direction-dependent force's tanh and the friction's in one call:
     // two lanes of one vector cost what one does, with the bits of two calls.
     const double ratio[2] = {truth_.direction_ratio(velocity_m_per_s_),
@@ -306,6 +312,8 @@ StepResult SimulatedMotor::step(double period_s) noexcept {
     history_count_ = std::min(history_count_ + 1, kEncoderHistory);
   }
   time_s_ = start_s + period_s;
+  step_mean_currents_A_ /= static_cast<double>(count);
+  step_mean_position_m_ = position_sum_m / count;
   update_outputs();
   return StepResult::kOk;
 }
@@ -433,6 +441,7 @@ TruthState SimulatedMotor::truth() const noexcept {
   state.disturbance_N = disturbance_.force_N();
   state.currents_A = currents_A_;
   state.wrench = wrench_;
+  state.step_wrench = truth_.wrench(step_mean_position_m_, 0.0, step_mean_currents_A_);
   state.friction_N = friction_N(velocity_m_per_s_);
   state.end_stop_collisions = end_stop_collisions_;
   state.last_impact_speed_m_per_s = last_impact_speed_m_per_s_;

@@ -91,6 +91,14 @@ struct TruthState {
   CurrentVector currents_A;
   /// Electromagnetic wrench produced now, without sensor bias and noise [N, N, N·m].
   Wrench wrench = Wrench::Zero();
+  /// What the setpoints in effect during the last step() made over it: the
+  /// wrench of the windings' mean currents at the translator's mean
+  /// position over its substeps, without the direction-dependent force
+  /// (what the commutation acts on). The step's mean wrench to second order
+  /// in the motion within it; with a current loop or a setpoint delay, the
+  /// force a cycle's setpoints made, where `wrench` is the force at its end
+  /// [N, N, N·m]. Before any step: `wrench` without the direction-dependent force.
+  Wrench step_wrench = Wrench::Zero();
   /// Bearing friction acting now (not seen by the force sensor) [N].
   double friction_N = 0.0;
   /// Number of impacts on an end stop since reset(), and the speed of the last [m/s].
@@ -255,6 +263,9 @@ class SimulatedMotor {
   // Outputs of the present state.
   CurrentVector currents_A_;
   Wrench wrench_ = Wrench::Zero();
+  // The last step()'s means over its substeps (TruthState::step_wrench).
+  CurrentVector step_mean_currents_A_;
+  double step_mean_position_m_ = 0.0;
 
   // The last position_terms(); valid once computed (the truth is fixed).
   ElectromagneticTruth::PositionTerms terms_;

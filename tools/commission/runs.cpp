@@ -21,17 +21,31 @@ void Recorder::start(const std::string& name) {
 }
 
 void Recorder::on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming& timing) noexcept {
+  // The force the last recorded cycle's setpoints made is known once the
+  // simulated motor has stepped through the period they were in effect.
+  if (truth_ != nullptr && awaiting_force_) recording_.true_wrench.push_back(truth_->truth().step_wrench);
+  awaiting_force_ = false;
   const auto& record = cycle.record();
   if (!active_ || !record.program_running || record.state != servo::ServoState::kEnabled) return;
   if (truth_ != nullptr) {
-    const sim::TruthState truth = truth_->truth();
-    recording_.y_true_m.push_back(truth.position_m);
-    recording_.true_wrench.push_back(truth.wrench - truth_->direction_dependent(truth.velocity_m_per_s));
+    recording_.y_true_m.push_back(truth_->truth().position_m);
+    awaiting_force_ = true;
   }
   if (record.damping_engaged) ++recording_.damping_cycles;
   if (record.force_limited) ++recording_.force_limited_cycles;
   recording_.samples.push_back(record);  // offline tool: the vectors were reserved
   if (forward_ != nullptr) forward_->on_cycle(cycle, timing);
+}
+
+Recording Recorder::finish() {
+  active_ = false;
+  if (awaiting_force_) {
+    // The last cycle's period never ran: its force is unknown, so it is not kept.
+    recording_.samples.pop_back();
+    recording_.y_true_m.pop_back();
+    awaiting_force_ = false;
+  }
+  return std::move(recording_);
 }
 
 namespace {
@@ -95,7 +109,7 @@ Recording run_program(servod::ServoDaemon& daemon, sim::SimulatedMotor* motor, c
   if (daemon.cycle().status().state != servo::ServoState::kEnabled) {
     throw std::runtime_error("run '" + name + "' ended in fault: " + servo::describe(daemon.cycle().status().fault));
   }
-  return std::move(recorder.recording());
+  return recorder.finish();
 }
 
 Recording run_program(servod::WiredAxis& axis, const servod::ProgramFile& program, const std::string& name,

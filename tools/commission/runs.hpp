@@ -24,10 +24,11 @@ struct Recording {
   /// y_true_m[k]: the simulated motor's true position at samples[k] [m];
   /// empty without a simulator in this process (live runs).
   std::vector<double> y_true_m;
-  /// true_wrench[k]: the electromagnetic wrench the simulated motor produced
-  /// at samples[k] without the direction-dependent force and the sensor's
-  /// bias and noise, i.e. what the commutation acts on [N, N, N·m]; empty
-  /// without a simulator in this process.
+  /// true_wrench[k]: the electromagnetic wrench samples[k]'s setpoints made
+  /// over the period they were in effect (sim::TruthState::step_wrench of
+  /// the step after the cycle), without the direction-dependent force and
+  /// the sensor's bias and noise, i.e. what the commutation acts on
+  /// [N, N, N·m]; empty without a simulator in this process.
   std::vector<Wrench> true_wrench;
   std::int64_t damping_cycles = 0;
   std::int64_t force_limited_cycles = 0;
@@ -40,8 +41,10 @@ class Recorder final : public servod::CycleObserver {
  public:
   explicit Recorder(const sim::SimulatedMotor* truth) : truth_(truth) {}
   void on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming& timing) noexcept override;
-  Recording& recording() noexcept { return recording_; }
   void start(const std::string& name);
+  /// The recording, ended: without its last cycle if the period after it
+  /// never ran (its force unknown), so that every vector has one entry per sample.
+  Recording finish();
   /// Also hands every recorded cycle to `observer` (e.g. a telemetry bridge
   /// writing an LCM log), or to nobody with nullptr.
   void forward_to(servod::CycleObserver* observer) noexcept { forward_ = observer; }
@@ -51,6 +54,7 @@ class Recorder final : public servod::CycleObserver {
   servod::CycleObserver* forward_ = nullptr;
   Recording recording_;
   bool active_ = false;
+  bool awaiting_force_ = false;  ///< the last recorded cycle's true_wrench comes with the next cycle
 };
 
 /// Throws std::runtime_error with the daemon's reply text when a command is refused.

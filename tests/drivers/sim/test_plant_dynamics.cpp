@@ -108,6 +108,43 @@ TEST_CASE("The current loop follows a step as ω_c/(s + ω_c)", "[sim][plant]") 
   }
 }
 
+TEST_CASE("A step's wrench is that of its mean currents: a current loop's rise counts, its end does not", "[sim][plant]") {
+  MotorParameters parameters = bare_motor();
+  parameters.mechanics.translator_mass_kg = 1e6;  // at rest: no back-EMF, one position
+  auto& loop = parameters.drive.current_loop;
+  loop.bandwidth_Hz = 300.0;  // ω_c·T = 1.9 over a 1 ms period: the rise is a third of the mean
+  loop.phase_resistance_ohm = 2.0;
+  loop.phase_inductance_H = 1e-3;
+  loop.voltage_limit_V = 150.0;
+  SimulatedMotor motor(parameters);
+  const double y = motor.truth().position_m;
+  const double period_s = 1e-3;
+  const int n = motor.substeps(period_s);
+  REQUIRE(n >= 10);
+  const PhaseCurrentSetpoint step[] = {{2.0, -1.5}};
+  REQUIRE(motor.command_currents(step, true) == CommandResult::kAccepted);
+  REQUIRE(motor.step(period_s) == StepResult::kOk);
+  // The loop follows ω_c/(s + ω_c) (the case above): at the substeps' ends
+  // the currents are I·(1 − exp(−ω_c·j·h)), j = 1..n.
+  const double omega = 2.0 * kPiRad * loop.bandwidth_Hz, h = period_s / n;
+  double mean_fraction = 0.0;
+  for (int j = 1; j <= n; ++j) mean_fraction += (1.0 - std::exp(-omega * j * h)) / n;
+  CurrentVector mean(2);
+  mean << 2.0 * mean_fraction, -1.5 * mean_fraction;
+  const Wrench expected = motor.electromagnetics().wrench(y, 0.0, mean);
+  const TruthState truth = motor.truth();
+  INFO("mean fraction " << mean_fraction << ", at the end " << 1.0 - std::exp(-omega * period_s));
+  CHECK((truth.step_wrench - expected).cwiseAbs().maxCoeff() < 1e-6 * (1.0 + expected.norm()));  // the loop's own accuracy, above
+  // At the step's end the current is near its setpoint: that wrench is larger by a third.
+  CHECK(std::abs(truth.wrench.x()) > 1.2 * std::abs(truth.step_wrench.x()));
+  // A second step, the current nearly settled: the two differ by the rest of
+  // the rise, 1 − exp(−ω_c·T)·(1 − exp(−ω_c·T))/(ω_c·T) = 0.93 against 0.98 at the end.
+  REQUIRE(motor.step(period_s) == StepResult::kOk);
+  const TruthState settled = motor.truth();
+  CHECK(settled.step_wrench.x() == Approx(settled.wrench.x()).epsilon(0.1));
+  CHECK(std::abs(settled.step_wrench.x()) < std::abs(settled.wrench.x()));
+}
+
 TEST_CASE("At the voltage limit the winding's current rises as (V − e)/R·(1 − exp(−R·t/L)), with the back-EMF", "[sim][plant]") {
   // A pole pitch of 100 m keeps the force constant (and so the back-EMF per
   // m/s) the same over the millimetres moved.
