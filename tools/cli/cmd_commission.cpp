@@ -196,7 +196,7 @@ void add_commission(CLI::App& app) {
                   cell(r.tracking_mse_m2).c_str(),
                   oracle ? cell(r.tracking_mse_m2 / oracle->tracking_mse_m2).c_str() : "        -");
     }
-    std::printf("(MSE of the measured force - F*, filtered; true y: the simulator's electromagnetic force - F*)\n");
+    std::printf("(MSE of the measured force - F*, filtered; true y: the simulator's electromagnetic force over each cycle's period - its F*)\n");
     const commission::CommutationResult* classical = nullptr;
     const commission::CommutationResult* pgnn = nullptr;
     for (const auto& r : report.results) {
