@@ -2,7 +2,8 @@
 """tools/commission/plant_terms.py edits the motor file as it says: for each
 term, and for all together, the edited file parses as YAML and holds exactly
 the term's keys at their place under `simulation:`, with the rest of the
-file unchanged; an unknown variant is refused with exit status 2.
+file unchanged; the variants none, all, a term and all-TERM name their
+terms; an unknown variant is refused with exit status 2.
 
     plant_terms_test.py PLANT_TERMS_PY MOTOR_YAML
 """
@@ -56,10 +57,20 @@ def main():
           "an additive plant's budget: the parts (the loop, each term, the commutation) sum to the whole:\n" +
           "\n".join(lines))
     check(module.error_budget(rows, "spline", ["none", "all"]) == [], "no budget without every term's run")
+    # Variants: none, all, a term, all but a term.
+    terms = list(module.TERMS)
+    check(module.variant_terms("none") == [] and module.variant_terms("all") == terms and
+          module.variant_terms(terms[0]) == [terms[0]] and module.variant_terms("all-" + terms[0]) == terms[1:],
+          f"variants: none, all, {terms[0]}, all-{terms[0]} give {module.variant_terms('none')}, "
+          f"{module.variant_terms('all')}, {module.variant_terms(terms[0])}, {module.variant_terms('all-' + terms[0])}")
     result = subprocess.run([sys.executable, script, "--terms", "none,stiffness"], capture_output=True, text=True,
                             check=False)
     check(result.returncode == 2 and "unknown variant 'stiffness'" in result.stderr,
           f"an unknown variant: exit {result.returncode}, stderr '{result.stderr.strip()}'")
+    result = subprocess.run([sys.executable, script, "--terms", "all-stiffness"], capture_output=True, text=True,
+                            check=False)
+    check(result.returncode == 2 and "unknown variant 'all-stiffness'" in result.stderr,
+          f"all-TERM of an unknown term: exit {result.returncode}, stderr '{result.stderr.strip()}'")
     print(f"plant_terms_test: {len(variants)} edits of {motor_path} as expected; an unknown variant refused (exit 2)")
 
 

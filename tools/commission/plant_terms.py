@@ -8,8 +8,10 @@ to every law's true driving-force error and tracking (docs/simulator.md,
     tools/commission/plant_terms.py [--clm build/bin/clm] [--config config/servod.yaml]
                                     [--out out/plant-terms] [--terms none,all,flexible_mode,...]
 
-Each variant is `clm commission --no-plots` on a copy of the configuration
-and its motor file with the term's keys added; nothing outside --out is
+A variant is none, all, one term, or all-TERM (every term but that one:
+what a term adds to the others). Each variant is `clm commission
+--no-plots` on a copy of the configuration and its motor file with its
+terms' keys added; nothing outside --out is
 written. Exit status 2 for bad usage or a configuration it cannot edit,
 1 when a commissioning fails.
 """
@@ -46,6 +48,19 @@ DRIVE_KEYS = {
 
 class UsageError(Exception):
     pass
+
+
+def variant_terms(variant):
+    """The terms of a variant: none, all, a term, or all-TERM (all but TERM)."""
+    if variant == "none":
+        return []
+    if variant == "all":
+        return list(TERMS)
+    if variant in TERMS:
+        return [variant]
+    if variant.startswith("all-") and variant[4:] in TERMS:
+        return [term for term in TERMS if term != variant[4:]]
+    raise UsageError(f"--terms: unknown variant '{variant}' (none, all, a term or all-TERM; terms: {', '.join(TERMS)})")
 
 
 def motor_with(text, terms, motor_path):
@@ -117,16 +132,15 @@ def main():
     parser.add_argument("--config", default="config/servod.yaml")
     parser.add_argument("--out", default="out/plant-terms")
     parser.add_argument("--terms", default="none," + ",".join(TERMS) + ",all",
-                        help="comma-separated variants: none, all, or a term (" + ", ".join(TERMS) + ")")
+                        help="comma-separated variants: none, all, a term (" + ", ".join(TERMS) +
+                        ") or all-TERM (every term but that one)")
     args = parser.parse_args()
     variants = args.terms.split(",")
-    for variant in variants:
-        if variant not in ("none", "all") and variant not in TERMS:
-            raise UsageError(f"--terms: unknown variant '{variant}' (none, all, {', '.join(TERMS)})")
+    terms_of = {variant: variant_terms(variant) for variant in variants}
     rows = []
     recommended = {}
     for variant in variants:
-        terms = [] if variant == "none" else list(TERMS) if variant == "all" else [variant]
+        terms = terms_of[variant]
         report = commission(args.clm, args.config, os.path.join(args.out, variant), terms)
         recommended[variant] = report["recommended"]["law"]
         laws = report["commutations"]
@@ -138,9 +152,10 @@ def main():
             rows.append((variant, name, law["true_electromagnetic_mse"]["filtered"][0], tracking,
                          tracking / oracle if oracle else float("nan")))
         print(f"plant_terms: {variant} done", file=sys.stderr)
-    print(f"{'plant':18} {'law':16} {'true y [N^2]':>13} {'tracking [m^2]':>15} {'/oracle':>8}")
+    width = max(18, *(len(variant) for variant in variants))
+    print(f"{'plant':{width}} {'law':16} {'true y [N^2]':>13} {'tracking [m^2]':>15} {'/oracle':>8}")
     for variant, name, true_y, tracking, ratio in rows:
-        print(f"{variant:18} {name:16} {true_y:13.3g} {tracking:15.3g} {ratio:8.3g}")
+        print(f"{variant:{width}} {name:16} {true_y:13.3g} {tracking:15.3g} {ratio:8.3g}")
     for line in error_budget(rows, recommended.get("all"), variants):
         print(line)
 
