@@ -109,9 +109,14 @@ read -r -d '' stop_dec stop_jerk < <(limits stop; printf '\0') || true
 read -r -d '' quick_dec quick_jerk < <(limits quick_stop; printf '\0') || true
 period=0.001
 
-ctl move-to --target-m -0.1 --velocity-m-per-s 0.25 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 > /dev/null ||
-    fail "move-to -0.1 refused"
-wait_idle "to the start"
+# to_start WHAT: back to the start, -0.1 m, at 0.25 m/s, and wait until there.
+to_start() {
+  ctl move-to --target-m -0.1 --velocity-m-per-s 0.25 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 > /dev/null ||
+      fail "$1: move-to the start refused"
+  wait_idle "$1: to the start"
+}
+
+to_start "the first move"
 # recover WHAT: after a fault of held_back in attempt `attempt` (of 3):
 # says so, clears it, enables and moves back to the start.
 recover() {
@@ -126,9 +131,7 @@ recover() {
     sleep 0.05
   done
   ctl enable > /dev/null || fail "$1: enable refused after clear-fault"
-  ctl move-to --target-m -0.1 --velocity-m-per-s 0.25 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 > /dev/null ||
-      fail "$1: move-to back refused after clear-fault"
-  wait_idle "$1: back to the start"
+  to_start "$1: after clear-fault"
 }
 
 cases=0
@@ -200,9 +203,7 @@ CHECK
           recover "$name: attempt $attempt"
           continue
         fi
-        ctl move-to --target-m -0.1 --velocity-m-per-s 0.25 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 \
-            > /dev/null || fail "$name: move-to back refused"
-        wait_idle "$name: back to the start"
+        to_start "$name"
         [ $rc = 3 ] && [ $attempt -lt 3 ] && { echo "$name: attempt $attempt: $verdict; once more"; continue; }
         [ $rc = 0 ] || fail "$name: $verdict"
         echo "$name: $verdict"
@@ -254,9 +255,7 @@ echo "jog: $verdict"
 # moves for less than half the 10 s asked (the freeze comes once the status
 # shows the jog running, within a few seconds even on a loaded host) and
 # comes to rest along the stop limits.
-ctl move-to --target-m -0.1 --velocity-m-per-s 0.25 --acceleration-m-per-s2 10 --jerk-m-per-s3 2000 > /dev/null ||
-    fail "frozen jog: move-to the start refused"
-wait_idle "frozen jog: to the start"
+to_start "frozen jog"
 log="$work/jog-frozen.lcmlog"
 start_logger "$log"
 # clm itself in the background, not the ctl function: $! must be the process

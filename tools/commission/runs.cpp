@@ -23,12 +23,14 @@ void Recorder::start(const std::string& name) {
 void Recorder::on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming& timing) noexcept {
   // The force the last recorded cycle's setpoints made is known once the
   // simulated motor has stepped through the period they were in effect.
-  if (truth_ != nullptr && awaiting_force_) recording_.true_wrench.push_back(truth_->truth().step_wrench);
+  const bool truth_wanted = truth_ != nullptr && (awaiting_force_ || active_);
+  const sim::TruthState truth = truth_wanted ? truth_->truth() : sim::TruthState{};
+  if (truth_ != nullptr && awaiting_force_) recording_.true_wrench.push_back(truth.step_wrench);
   awaiting_force_ = false;
   const auto& record = cycle.record();
   if (!active_ || !record.program_running || record.state != servo::ServoState::kEnabled) return;
   if (truth_ != nullptr) {
-    recording_.y_true_m.push_back(truth_->truth().position_m);
+    recording_.y_true_m.push_back(truth.position_m);
     awaiting_force_ = true;
   }
   if (record.damping_engaged) ++recording_.damping_cycles;
