@@ -134,6 +134,12 @@ MotorDescription read_motor_description(const yaml::Node& root) {
   if (const auto watchdog = root["drive"].optional("watchdog_timeout_s")) {
     motor.drive_watchdog_timeout_s = watchdog->as_positive();
   }
+  if (const auto delay = root["drive"].optional("setpoint_delay_s")) {
+    motor.setpoint_delay_s = delay->as_double_in(0.0, MotorDescription::kMaxDelay_s);
+  }
+  if (const auto delay = root["drive"].optional("position_delay_s")) {
+    motor.position_delay_s = delay->as_double_in(0.0, MotorDescription::kMaxDelay_s);
+  }
   if (const auto loop = root["drive"].optional("current_loop")) {
     loop->expect_map();
     loop->expect_keys({"bandwidth_Hz", "phase_resistance_ohm", "phase_inductance_H"});

@@ -36,6 +36,15 @@ struct MotorDescription {
   /// drive.current_loop: the drive's current loop as its manual gives it;
   /// absent, the currents are taken to follow their references at once.
   CurrentLoopModel current_loop;
+  /// drive.setpoint_delay_s: from a setpoint's arrival at the drive to its
+  /// current reference (bus, the drive's cycle and PWM update) [s];
+  /// drive.position_delay_s: the age of the position the drive reports, at
+  /// its sample (the encoder's and the drive's latency) [s]. 0 when the file
+  /// does not say. The fit from positions pairs forces and positions with them.
+  double setpoint_delay_s = 0.0;
+  double position_delay_s = 0.0;
+  /// What the reader accepts for either delay [s].
+  static constexpr double kMaxDelay_s = 0.1;
 };
 
 /// Reads `motor:` and `drive.commutation:` of a YAML document; other top-level

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "commutation/classical.hpp"
@@ -14,20 +15,35 @@ namespace clm::identification {
 namespace {
 
 /// One row of the balance as (index, value) pairs; an index may repeat, the
-/// row being their sum. 2 periods × (4 physics + 3 × 4 spline) + 2 friction.
+/// row being their sum, until compact() merges them. Two positions per
+/// setpoint paired × (4 physics + 3 × 4 spline) + 2 friction.
 struct SparseRow {
-  static constexpr int kCapacity = 34;
-  std::array<int, kCapacity> index{};
-  std::array<double, kCapacity> value{};
+  static constexpr int kCapacity = 2 * PairingWeights::kMaxSetpoints * 16 + 2;
+  struct Entry {
+    int index;
+    double value;
+  };
+  std::array<Entry, kCapacity> entries{};
   int size = 0;
-  void add(int i, double v) {
-    index[static_cast<std::size_t>(size)] = i;
-    value[static_cast<std::size_t>(size)] = v;
-    ++size;
+  void add(int i, double v) { entries[static_cast<std::size_t>(size++)] = {i, v}; }
+  /// Sorts by index and merges repeats: the normal equations then cost the
+  /// square of the distinct unknowns, not of the entries.
+  void compact() {
+    const auto end = entries.begin() + size;
+    std::sort(entries.begin(), end, [](const Entry& a, const Entry& b) { return a.index < b.index; });
+    int out = 0;
+    for (auto it = entries.begin(); it != end; ++it) {
+      if (out > 0 && entries[static_cast<std::size_t>(out - 1)].index == it->index) {
+        entries[static_cast<std::size_t>(out - 1)].value += it->value;
+      } else {
+        entries[static_cast<std::size_t>(out++)] = *it;
+      }
+    }
+    size = out;
   }
   double dot(const Eigen::VectorXd& x) const {
     double sum = 0.0;
-    for (int k = 0; k < size; ++k) sum += value[static_cast<std::size_t>(k)] * x[index[static_cast<std::size_t>(k)]];
+    for (int k = 0; k < size; ++k) sum += entries[static_cast<std::size_t>(k)].value * x[entries[static_cast<std::size_t>(k)].index];
     return sum;
   }
 };
@@ -53,18 +69,38 @@ void add_force_regressor(double position_m, const Eigen::Vector2d& i, double pol
   }
 }
 
+/// ∫_lo^hi (α + β·x)·g(x − a) dx with g(u) = 1 − e^(−ω·u) for u ≥ 0 and 0
+/// before: the hat's piece α + β·x times the share of a setpoint's force a
+/// step at `a` has brought; ω infinite: the unit step. Every exponent is ≤ 0.
+double hat_times_step(double lo, double hi, double alpha, double beta, double omega, double a) {
+  lo = std::max(lo, a);
+  if (!(hi > lo)) return 0.0;
+  const double u0 = lo - a, u1 = hi - a, c0 = alpha + beta * a;
+  double integral = c0 * (u1 - u0) + 0.5 * beta * (u1 * u1 - u0 * u0);
+  if (std::isfinite(omega)) {
+    // ∫ (c0 + β·u)·e^(−ω·u) du = −e^(−ω·u)·((c0 + β·u)/ω + β/ω²)
+    const auto primitive = [&](double u) {
+      return -std::exp(-omega * u) * ((c0 + beta * u) / omega + beta / (omega * omega));
+    };
+    integral -= primitive(u1) - primitive(u0);
+  }
+  return integral;
+}
+
 /// Calls `use(acceleration)` for every row of `runs` the fit uses, with
-/// `row` set to its regressor: the model's y-row parameters over m, then
-/// −v and −tanh(v/v_d) (the header's balance).
+/// `row` set to its regressor (compacted): the model's y-row parameters over
+/// m, then −v and −tanh(v/v_d) (the header's balance).
 template <typename Use>
 void for_each_balance(const std::vector<MotionRun>& runs, double pole_pitch_m, const UniformCubicBasis& basis,
                       const MotionFitOptions& options, SparseRow& row, Use&& use) {
   const int model = 4 + 3 * basis.size();
   for (const MotionRun& run : runs) {
     const Eigen::Index samples = run.position_m.size();
-    if (run.time_s.size() != samples || run.currents_A.cols() != samples) {
+    if (run.time_s.size() != samples || run.currents_A.cols() != samples ||
+        (run.currents_next_A.size() != 0 && run.currents_next_A.cols() != samples)) {
       throw std::invalid_argument("motion fit: a run's times, positions and currents have different lengths");
     }
+    const auto& currents_next = run.currents_next_A.size() != 0 ? run.currents_next_A : run.currents_A;
     if (samples < 3) continue;
     const double period_s = (run.time_s[samples - 1] - run.time_s[0]) / static_cast<double>(samples - 1);
     for (Eigen::Index k = 1; k < samples; ++k) {
@@ -73,19 +109,29 @@ void for_each_balance(const std::vector<MotionRun>& runs, double pole_pitch_m, c
         throw std::invalid_argument("motion fit: a run's time steps are not equal");
       }
     }
-    for (Eigen::Index k = 1; k + 1 < samples; ++k) {
+    const PairingWeights weights = pairing_weights(options.current_loop, options.delay_s, period_s);
+    const auto middle_m = [&](Eigen::Index j) { return 0.5 * (run.position_m[j] + run.position_m[j + 1]); };
+    for (Eigen::Index k = std::max<Eigen::Index>(1, weights.count - 1); k + 1 < samples; ++k) {
       const double acceleration = (run.position_m[k + 1] - 2.0 * run.position_m[k] + run.position_m[k - 1]) /
                                   (period_s * period_s);
       const double velocity = (run.position_m[k + 1] - run.position_m[k - 1]) / (2.0 * period_s);
       if (std::abs(velocity) < options.min_speed_m_per_s) continue;
       row.size = 0;
-      // The forces of the two periods around row k, each at its middle position.
-      for (const Eigen::Index j : {k - 1, k}) {
-        const double middle_m = 0.5 * (run.position_m[j] + run.position_m[j + 1]);
-        add_force_regressor(middle_m, run.currents_A.col(j), pole_pitch_m, basis, 0.5, row);
+      // Each setpoint's force inside its own period, at that period's middle
+      // position, and in the periods after it, at the next period's.
+      for (int n = 0; n < weights.count; ++n) {
+        const Eigen::Index j = k - n;
+        const auto u = static_cast<std::size_t>(n);
+        if (weights.own[u] != 0.0) {
+          add_force_regressor(middle_m(j), run.currents_A.col(j), pole_pitch_m, basis, weights.own[u], row);
+        }
+        if (weights.later[u] != 0.0) {
+          add_force_regressor(middle_m(j + 1), currents_next.col(j), pole_pitch_m, basis, weights.later[u], row);
+        }
       }
       row.add(model, -velocity);
       row.add(model + 1, -elementary::tanh(velocity / options.direction_smoothing_m_per_s));
+      row.compact();
       use(acceleration);
     }
   }
@@ -98,7 +144,80 @@ Eigen::Vector4d nominal_physics(const DriveCommutation& drive) {
   return {a(0, 0), a(0, 1), b(0, 0), b(0, 1)};
 }
 
+/// The balance's normal equations (per kilogram): Σ rowᵀrow, Σ rowᵀ·acceleration, Σ acceleration².
+struct NormalEquations {
+  Eigen::MatrixXd gram;
+  Eigen::VectorXd rhs;
+  double rhs_square_sum = 0.0;
+  Eigen::Index rows = 0;
+};
+
+NormalEquations accumulate(const std::vector<MotionRun>& runs, double pole_pitch_m, const UniformCubicBasis& basis,
+                           const MotionFitOptions& options) {
+  // The balance divided by the mass: the measured acceleration is the
+  // target, so the positions' noise stays out of the regressors (a mass
+  // fitted beside a noisy acceleration would be biased towards zero).
+  // Unknowns: the model's y-row over m, then f_v/m and f_d/m.
+  const int p = 4 + 3 * basis.size() + 2;
+  NormalEquations eq{Eigen::MatrixXd::Zero(p, p), Eigen::VectorXd::Zero(p), 0.0, 0};
+  SparseRow row;
+  for_each_balance(runs, pole_pitch_m, basis, options, row, [&](double acceleration) {
+    for (int a = 0; a < row.size; ++a) {
+      const auto& ea = row.entries[static_cast<std::size_t>(a)];
+      eq.rhs[ea.index] += ea.value * acceleration;
+      for (int b = 0; b < row.size; ++b) {
+        const auto& eb = row.entries[static_cast<std::size_t>(b)];
+        eq.gram(ea.index, eb.index) += ea.value * eb.value;
+      }
+    }
+    eq.rhs_square_sum += acceleration * acceleration;
+    ++eq.rows;
+  });
+  return eq;
+}
+
+Eigen::VectorXd solve(NormalEquations eq, const MotionFitOptions& options, int n) {
+  const int model = 4 + 3 * n;
+  // Roughness of each coefficient row, relative to the largest diagonal of
+  // the data's normal matrix (the unknowns are per kilogram here).
+  add_roughness_penalty(eq.gram, 4, n, 3, options.smoothing * eq.gram.diagonal().head(model).maxCoeff());
+  for (Eigen::Index k = 0; k < eq.gram.rows(); ++k) eq.gram(k, k) += 1e-12 * (1.0 + eq.gram(k, k));
+  Eigen::VectorXd x = eq.gram.ldlt().solve(eq.rhs);
+  if (!x.allFinite()) throw std::invalid_argument("motion fit: singular problem");
+  return x;
+}
+
 }  // namespace
+
+PairingWeights pairing_weights(const CurrentLoopModel& loop, double delay_s, double period_s) {
+  if (!(period_s > 0.0) || !std::isfinite(period_s) || !(delay_s >= 0.0) || !std::isfinite(delay_s)) {
+    throw std::invalid_argument("pairing weights: a period not positive or a delay negative or not finite");
+  }
+  loop.validate();
+  const double omega = loop.ideal() ? std::numeric_limits<double>::infinity() : kTwoPi * loop.bandwidth_Hz;
+  const double t = period_s;
+  // The hat around row k (time 0): (T + x)/T² over the period before, (T − x)/T² over the one after.
+  const auto before = [&](double a) { return hat_times_step(-t, 0.0, 1.0 / t, 1.0 / (t * t), omega, a); };
+  const auto after = [&](double a) { return hat_times_step(0.0, t, 1.0 / t, -1.0 / (t * t), omega, a); };
+  // A force share below this (10⁻⁴ N of a 100 N force) is left to the oldest
+  // setpoint kept: each setpoint more costs the fit a block of its rows.
+  constexpr double kNegligibleWeight = 1e-6;
+  PairingWeights weights;
+  double total = 0.0;
+  for (int n = 0; n < PairingWeights::kMaxSetpoints; ++n) {
+    // Setpoint k − n takes effect at −n·T + delay and gives way at −(n − 1)·T + delay.
+    const double on = -n * t + delay_s, off = on + t;
+    const double in_before = before(on) - before(off), in_after = after(on) - after(off);
+    const auto u = static_cast<std::size_t>(n);
+    weights.own[u] = n == 0 ? in_after : n == 1 ? in_before : 0.0;
+    weights.later[u] = in_before + in_after - weights.own[u];
+    total += in_before + in_after;
+    weights.count = n + 1;
+    if (1.0 - total < kNegligibleWeight) break;
+  }
+  weights.later[static_cast<std::size_t>(weights.count - 1)] += 1.0 - total;
+  return weights;
+}
 
 MotionFit MotionFit::scaled_to_mass(double new_mass_kg) const {
   const double s = new_mass_kg / mass_kg;
@@ -190,39 +309,11 @@ MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, 
   }
   const int n = basis.size();
   const int model = 4 + 3 * n;
-  // The balance divided by the mass: the measured acceleration is the
-  // target, so the positions' noise stays out of the regressors (a mass
-  // fitted beside a noisy acceleration would be biased towards zero).
-  // Unknowns: the model's y-row over m, then f_v/m and f_d/m.
-  const int p = model + 2;
-  Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(p, p);
-  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(p);
-  SparseRow row;
-  Eigen::Index rows = 0;
-  double rhs_square_sum = 0.0;
-  for_each_balance(runs, pole_pitch_m, basis, options, row, [&](double acceleration) {
-    for (int a = 0; a < row.size; ++a) {
-      const auto ia = static_cast<std::size_t>(a);
-      rhs[row.index[ia]] += row.value[ia] * acceleration;
-      for (int b = 0; b < row.size; ++b) {
-        const auto ib = static_cast<std::size_t>(b);
-        gram(row.index[ia], row.index[ib]) += row.value[ia] * row.value[ib];
-      }
-    }
-    rhs_square_sum += acceleration * acceleration;
-    ++rows;
-  });
-  if (rows < 10) {
+  const NormalEquations eq = accumulate(runs, pole_pitch_m, basis, options);
+  if (eq.rows < 10) {
     throw std::invalid_argument("motion fit: fewer than 10 rows of three consecutive positions in motion");
   }
-  const Eigen::MatrixXd data_gram = gram;
-  const Eigen::VectorXd data_rhs = rhs;
-  // Roughness of each coefficient row, relative to the largest diagonal of
-  // the data's normal matrix (the unknowns are per kilogram here).
-  add_roughness_penalty(gram, 4, n, 3, options.smoothing * gram.diagonal().head(model).maxCoeff());
-  for (int k = 0; k < p; ++k) gram(k, k) += 1e-12 * (1.0 + gram(k, k));
-  const Eigen::VectorXd x = gram.ldlt().solve(rhs);
-  if (!x.allFinite()) throw std::invalid_argument("motion fit: singular problem");
+  const Eigen::VectorXd x = solve(eq, options, n);
   // The scale (MotionFitOptions): the mass given, or the one that brings the
   // per-kilogram friction or A_y, B_y closest to those given or nominal.
   MotionFit per_kg;
@@ -248,9 +339,9 @@ MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, 
   fit.direction_N = scaled[model + 1];
   fit.mass_kg = mass_kg;
   // Σ (row·x − acceleration)² from the data's normal equations, as a force.
-  const double square_sum = x.dot(data_gram * x) - 2.0 * x.dot(data_rhs) + rhs_square_sum;
-  fit.residual_rms_N = mass_kg * std::sqrt(std::max(0.0, square_sum) / static_cast<double>(rows));
-  fit.rows = rows;
+  const double square_sum = x.dot(eq.gram * x) - 2.0 * x.dot(eq.rhs) + eq.rhs_square_sum;
+  fit.residual_rms_N = mass_kg * std::sqrt(std::max(0.0, square_sum) / static_cast<double>(eq.rows));
+  fit.rows = eq.rows;
   return fit;
 }
 

@@ -9,7 +9,11 @@
 // piecewise-constant forces the second difference of three positions is
 //   (y_{k+1} − 2 y_k + y_{k−1}) / T² = [½ (F_{k−1} + F_k) − f_v v_k − f_d tanh(v_k/v_d)] / m,
 // F_j the electromagnetic driving force of setpoint j over the period after
-// row j, v_k = (y_{k+1} − y_{k−1}) / 2T. Linear in every unknown over m, with
+// row j, v_k = (y_{k+1} − y_{k−1}) / 2T. The second difference weighs the
+// acceleration over the two periods as a hat peaking at row k; a drive's
+// current loop and a delay from setpoint to force move part of each
+// setpoint's force into later periods, and the ½, ½ become the hat's weights
+// of each setpoint's force over the periods it acts in (PairingWeights). Linear in every unknown over m, with
 // the measured acceleration as the target (so that the positions' noise
 // stays out of the regressors). Bearing Coulomb friction and the
 // direction-dependent force C·tanh(ẏ/v_c) act alike on the motion and are
@@ -18,9 +22,11 @@
 // A_y, B_y closest to the drive's nominal commutation (k̂_d, ζ̂_d) does. No I/O.
 
 #include <Eigen/Core>
+#include <array>
 #include <vector>
 
 #include "commutation/bspline.hpp"
+#include "commutation/current_loop_compensation.hpp"
 #include "commutation/types.hpp"
 
 namespace clm::identification {
@@ -33,7 +39,35 @@ struct MotionRun {
   /// period after it, at that period's middle position (a magnitude/phase
   /// drive commutates with the true position as the translator moves).
   Eigen::Matrix<double, 2, Eigen::Dynamic> currents_A;
+  /// The same setpoint's [i_a; i_b] at the middle position of the period
+  /// after its own, where a current loop's lag or a delay carries part of its
+  /// force (a magnitude/phase drive commutates it there). Empty: the
+  /// currents do not depend on the position (a phase-current drive), the
+  /// same as currents_A.
+  Eigen::Matrix<double, 2, Eigen::Dynamic> currents_next_A;
 };
+
+/// How the second difference of positions at row k weighs the force of the
+/// setpoints of rows k, k − 1, …, k − count + 1 (docs/commutation.md,
+/// "Without a force sensor"): the integral of the hat over the two periods
+/// around row k times the share of each setpoint's force at each instant. A
+/// drive's current loop, compensated so that the currents follow the law
+/// along the motion (CurrentLoopCompensation), passes each change of setpoint
+/// through its first-order lag 1 − e^(−ω_c t); `delay_s` (setpoint to force,
+/// plus the encoder's measurement delay) shifts the changes against the
+/// samples. `own[n]` is setpoint k − n's weight inside its own period,
+/// `later[n]` inside the periods after it. The weights add up to one; an ideal
+/// undelayed drive gives own = {½, ½}, later = 0. A tail of less than 10⁻⁶,
+/// or beyond kMaxSetpoints periods (a loop slower than the cycle), is added
+/// to the oldest setpoint's weight.
+struct PairingWeights {
+  static constexpr int kMaxSetpoints = 6;
+  std::array<double, kMaxSetpoints> own{}, later{};
+  int count = 0;  ///< setpoints with a weight, newest first
+};
+/// Throws std::invalid_argument for a period not positive, a negative or
+/// non-finite delay, or a loop CurrentLoopModel::validate() refuses.
+PairingWeights pairing_weights(const CurrentLoopModel& loop, double delay_s, double period_s);
 
 struct MotionFitOptions {
   /// The force scale, which positions do not determine, comes from the
@@ -50,6 +84,11 @@ struct MotionFitOptions {
   double min_speed_m_per_s = 5e-3;
   double viscous_N_s_per_m = 0.0;  ///< > 0: the viscous friction f_v, known
   double direction_N = 0.0;        ///< > 0: f_d (Coulomb friction and the direction-dependent force), known
+  /// The drive's current loop (the motor file's drive.current_loop) and the
+  /// delay from setpoint to force plus the encoder's: how each setpoint's
+  /// force spreads over the periods (PairingWeights).
+  CurrentLoopModel current_loop;
+  double delay_s = 0.0;
 };
 
 struct MotionFit {

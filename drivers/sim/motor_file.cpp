@@ -185,7 +185,8 @@ MotorParameters read_motor_parameters(const yaml::Node& root, bool allow_other_s
   motor.stroke_max_m = description.stroke_max_m;
 
   const Node drive = root["drive"];
-  drive.expect_keys({"commutation", "profile", "phase_current_limit_A", "watchdog_timeout_s", "current_loop"});
+  drive.expect_keys({"commutation", "profile", "phase_current_limit_A", "watchdog_timeout_s", "current_loop",
+                     "setpoint_delay_s", "position_delay_s"});
   motor.drive.commutation = description.drive;
   motor.drive.profile = description.drive_profile;
   motor.drive.phase_current_limit_A = optional_positive(drive, "phase_current_limit_A", motor.drive.phase_current_limit_A);

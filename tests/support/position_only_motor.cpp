@@ -1,5 +1,6 @@
 #include "support/position_only_motor.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "commutation/classical.hpp"
@@ -31,6 +32,8 @@ identification::MotionRun PositionOnlyMotor::run(double delta_rad, double second
   out.currents_A.resize(2, samples);
   std::vector<double> magnitude(static_cast<std::size_t>(samples));
   double y = 0.0, v = 0.0, previous_measured = 0.0;
+  double applied = 0.0;  // the magnitude the current loop has reached
+  const double h = kPeriod_s / kSubsteps;
   const auto reference = [&](double t, int derivative) {
     const double w1 = 2.0 * kPi * 0.7, w2 = 2.0 * kPi * 2.3;
     const double a1 = 0.05, a2 = 0.006;
@@ -50,19 +53,33 @@ identification::MotionRun PositionOnlyMotor::run(double delta_rad, double second
     const double demand =
         10.0 * reference(t, 2) + 2e5 * (reference(t, 0) - measured) + 2e3 * (reference(t, 1) - velocity);
     magnitude[static_cast<std::size_t>(k)] = demand;
-    for (int step = 0; step < 20; ++step) {
-      const Eigen::Vector2d i = drive_phase_currents(drive, {demand, delta_rad}, y, kPolePitch_m);
+    for (int step = 0; step < kSubsteps; ++step) {
+      // The setpoint in effect after the delay, and the lag's mean over the substep.
+      const Eigen::Index in_effect = step >= delay_substeps ? k : std::max<Eigen::Index>(k - 1, 0);
+      const double target = magnitude[static_cast<std::size_t>(in_effect)];
+      double mean = target;
+      if (current_loop_Hz > 0.0) {
+        const double decay = std::exp(-2.0 * kPi * current_loop_Hz * h);
+        mean = target + (applied - target) * (1.0 - decay) / (2.0 * kPi * current_loop_Hz * h);
+        applied = target + (applied - target) * decay;
+      }
+      const Eigen::Vector2d i = drive_phase_currents(drive, {mean, delta_rad}, y, kPolePitch_m);
       const double force =
           force_N(y, i) - viscous_N_s_per_m * v - direction_N * std::tanh(v / smoothing_m_per_s);
-      v += force / mass_kg * (kPeriod_s / 20);
-      y += v * (kPeriod_s / 20);
+      v += force / mass_kg * h;
+      y += v * h;
     }
   }
-  // What the tools give the fit: each setpoint's currents at the middle of its period.
+  // What the tools give the fit: each setpoint's currents at the middle of
+  // its period and of the period after it.
+  out.currents_next_A.resize(2, samples);
+  const auto middle = [&](Eigen::Index k) {
+    return k + 1 < samples ? 0.5 * (out.position_m[k] + out.position_m[k + 1]) : out.position_m[samples - 1];
+  };
   for (Eigen::Index k = 0; k < samples; ++k) {
-    const double middle = k + 1 < samples ? 0.5 * (out.position_m[k] + out.position_m[k + 1]) : out.position_m[k];
-    out.currents_A.col(k) =
-        drive_phase_currents(drive, {magnitude[static_cast<std::size_t>(k)], delta_rad}, middle, kPolePitch_m);
+    const double m = magnitude[static_cast<std::size_t>(k)];
+    out.currents_A.col(k) = drive_phase_currents(drive, {m, delta_rad}, middle(k), kPolePitch_m);
+    out.currents_next_A.col(k) = drive_phase_currents(drive, {m, delta_rad}, middle(k + 1), kPolePitch_m);
   }
   if (magnitude_N != nullptr) *magnitude_N = std::move(magnitude);
   return out;

@@ -5,7 +5,10 @@
 // basis. A PD loop with feedforward tracks two superposed sines; the mechanics
 // are integrated in 20 substeps per period, the setpoint held over the period
 // after it, the currents commutated from the true position at every substep;
-// positions quantised to 0.1 µm.
+// positions quantised to 0.1 µm. Optionally the drive's compensated current
+// loop: the magnitude a setpoint asks for is reached through a first-order
+// lag (the substep's exact mean), after a delay of whole substeps, while the
+// drive commutates from the true position.
 
 #include <random>
 #include <vector>
@@ -19,6 +22,7 @@ namespace clm::test {
 struct PositionOnlyMotor {
   static constexpr double kPolePitch_m = 0.03;
   static constexpr double kPeriod_s = 1e-3;
+  static constexpr int kSubsteps = 20;
   /// The drive's nominal commutation (k̂_d, ζ̂_d).
   static DriveCommutation nominal_drive() { return {60.0, -0.5}; }
   DriveCommutation drive = nominal_drive();
@@ -27,6 +31,8 @@ struct PositionOnlyMotor {
   double viscous_N_s_per_m = 30.0;
   double direction_N = 6.0;
   double smoothing_m_per_s = 1e-3;
+  double current_loop_Hz = 0.0;  ///< 0: the magnitude follows the setpoint at once
+  int delay_substeps = 0;        ///< of kPeriod_s / kSubsteps each
   identification::MotionFit model;  ///< the y-row on `basis`, the form the fit identifies
 
   /// Random columns (±3 N/A) and cogging (±2 N) on a physics part of k, ζ.

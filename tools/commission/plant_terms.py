@@ -43,6 +43,8 @@ TERMS = {
 # section), as a drive's manual gives it: 10 % off the truth above.
 DRIVE_KEYS = {
     "current_loop": ["current_loop: {bandwidth_Hz: 1350.0, phase_resistance_ohm: 2.2, phase_inductance_H: 0.0011}"],
+    "setpoint_delay": ["setpoint_delay_s: 1.8e-4"],
+    "encoder": ["position_delay_s: 9.0e-5"],
 }
 
 

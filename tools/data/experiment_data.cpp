@@ -116,7 +116,9 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
   };
   // Runs of consecutive cycles for the position-based identification: the
   // setpoint of each row drives the period after it, whose middle position
-  // its currents are taken at (the last row of a run: its own position).
+  // its currents are taken at (the last row of a run: its own position), and
+  // through a current loop's lag part of the next period, whose middle
+  // position its currents are taken at too (motion_fit.hpp, PairingWeights).
   for (std::size_t first = 0; first < table.rows();) {
     std::size_t end = first + 1;
     while (end < table.rows() && follows[end]) ++end;
@@ -125,11 +127,16 @@ ExperimentData read_experiment_data(const CsvTable& table, const MotorDescriptio
     run.time_s.resize(n);
     run.position_m.resize(n);
     run.currents_A.resize(2, n);
+    if (!measured) run.currents_next_A.resize(2, n);
+    const auto middle_of_period_after = [&](std::size_t r) {
+      return r + 1 < end ? 0.5 * (position[r] + position[r + 1]) : position[std::min(r, end - 1)];
+    };
     for (Eigen::Index k = 0; k < n; ++k) {
       const std::size_t r = first + static_cast<std::size_t>(k);
       run.time_s[k] = time[r];
       run.position_m[k] = position[r];
-      run.currents_A.col(k) = currents_of(r, r + 1 < end ? 0.5 * (position[r] + position[r + 1]) : position[r]);
+      run.currents_A.col(k) = currents_of(r, middle_of_period_after(r));
+      if (!measured) run.currents_next_A.col(k) = currents_of(r, middle_of_period_after(r + 1));
     }
     data.coil_sets[static_cast<std::size_t>(coil_set[first]) - 1].runs.push_back(std::move(run));
     first = end;

@@ -21,8 +21,10 @@ struct SplitRuns {
 };
 
 identification::MotionRun slice(const identification::MotionRun& run, Eigen::Index first, Eigen::Index count) {
-  return {run.time_s.segment(first, count), run.position_m.segment(first, count),
-          run.currents_A.middleCols(first, count)};
+  identification::MotionRun part{run.time_s.segment(first, count), run.position_m.segment(first, count),
+                                  run.currents_A.middleCols(first, count), {}};
+  if (run.currents_next_A.size() != 0) part.currents_next_A = run.currents_next_A.middleCols(first, count);
+  return part;
 }
 
 SplitRuns split_runs(const std::vector<identification::MotionRun>& runs, double fraction) {
@@ -74,6 +76,8 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
                                               const PositionIdentifyOptions& options) {
   identification::MotionFitOptions fit = options.motion;
   fit.drive = motor.drive;
+  fit.current_loop = motor.current_loop;
+  fit.delay_s = motor.setpoint_delay_s + motor.position_delay_s;
   if (!(fit.mass_kg >= 0.0) || !(options.knot_spacing_m >= 0.0) || !(options.validation_fraction >= 0.0) ||
       !(options.validation_fraction < 1.0) || !(fit.viscous_N_s_per_m >= 0.0) || !(fit.direction_N >= 0.0)) {
     throw std::invalid_argument("position identification: negative mass, friction or knot spacing, or a held-out "

@@ -346,6 +346,37 @@ TEST_CASE("The motor file sets every plant term, and refuses an unknown key in t
                     Catch::Contains("damping_ration"));
 }
 
+TEST_CASE("The motor file tells the tools the drive's delays, and the simulator leaves them to its truth",
+          "[sim][plant]") {
+  std::ifstream in(fixtures::source_path("config/motor-sim.yaml"));
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string original = buffer.str();
+  const auto with_drive_lines = [&](const std::string& lines) {
+    std::string text = original;
+    const std::string anchor = "\ndrive:\n";
+    const auto at = text.find(anchor);
+    REQUIRE(at != std::string::npos);
+    return text.insert(at + anchor.size(), lines);
+  };
+  const std::string text = with_drive_lines("  setpoint_delay_s: 1.8e-4\n  position_delay_s: 9.0e-5\n");
+  const MotorDescription description = read_motor_description(yaml::Node::load_string(text, "motor.yaml"));
+  CHECK(description.setpoint_delay_s == 1.8e-4);
+  CHECK(description.position_delay_s == 9.0e-5);
+  // What the daemon is told is not the simulator's truth, which stays as its section says.
+  const MotorParameters truth = read_motor_parameters(yaml::Node::load_string(text, "motor.yaml"));
+  CHECK(truth.drive.setpoint_delay_s == 0.0);
+  CHECK(truth.sensors.encoder_delay_s == 0.0);
+  const MotorDescription plain = read_motor_description(yaml::Node::load_string(original, "motor.yaml"));
+  CHECK(plain.setpoint_delay_s == 0.0);
+  CHECK(plain.position_delay_s == 0.0);
+  for (const char* bad : {"  setpoint_delay_s: -1.0e-4\n", "  position_delay_s: 0.5\n", "  position_delay_s: .nan\n"}) {
+    INFO(bad);
+    CHECK_THROWS_WITH(read_motor_description(yaml::Node::load_string(with_drive_lines(bad), "motor.yaml")),
+                      Catch::Contains("delay_s"));
+  }
+}
+
 namespace {
 
 /// The RMS error of a drive's current loop against the currents a classical
