@@ -15,6 +15,11 @@
 pids=()
 created_iface=""
 
+# A command that fails outside an `if` or a `||` ends a `set -e` script
+# without a word of its own; this names the script, the line and the status,
+# so that a failed test never has an empty output.
+trap 'echo "${BASH_SOURCE[0]##*/}: line $LINENO: a command exited with status $? (set -e); the test stops here" >&2' ERR
+
 # The operators' key of the test's daemons and clients (config/command_key.hpp,
 # read from $CLM_SERVO_KEY_FILE by both): a fresh one, unless the caller names one.
 if [ -z "${CLM_SERVO_KEY_FILE:-}" ]; then
