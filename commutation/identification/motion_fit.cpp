@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 #include "commutation/classical.hpp"
 #include "commutation/elementary.hpp"
@@ -275,6 +276,37 @@ double common_mass_kg(const std::vector<MotionFit>& fits, const MotionFitOptions
     }
   }
   return numerator / denominator;
+}
+
+PayloadMass mass_from_payload(const std::vector<MotionFit>& without, const std::vector<MotionFit>& with,
+                              double payload_kg, const Eigen::VectorXd& positions_m, double pole_pitch_m,
+                              const UniformCubicBasis& basis) {
+  if (without.size() != with.size() || without.empty() || positions_m.size() == 0) {
+    throw std::invalid_argument("payload mass: the fits without and with the payload differ in coil sets, or no "
+                                "positions to compare them at");
+  }
+  if (!(payload_kg > 0.0) || !std::isfinite(payload_kg)) {
+    throw std::invalid_argument("payload mass: the payload must be positive and finite");
+  }
+  double numerator = 0.0, denominator = 0.0;
+  for (std::size_t l = 0; l < without.size(); ++l) {
+    for (const double y : positions_m) {
+      // [K_a, K_b, F_cog] per kilogram of each fit at y.
+      const auto per_kg = [&](const MotionFit& fit) -> Eigen::Vector3d {
+        const Eigen::Matrix<double, 1, 2> k = fit.gain(y, pole_pitch_m, basis);
+        return Eigen::Vector3d(k[0], k[1], fit.cogging_N(y, basis)) / fit.mass_kg;
+      };
+      const Eigen::Vector3d a = per_kg(without[l]), b = per_kg(with[l]);
+      numerator += a.dot(b);
+      denominator += b.dot(b);
+    }
+  }
+  const double ratio = numerator / denominator;
+  if (!(ratio > 1.0 + 1e-3) || !std::isfinite(ratio)) {
+    throw std::invalid_argument("payload mass: the response with the payload is not slower than without (ratio " +
+                                std::to_string(ratio) + "): no mass follows");
+  }
+  return {payload_kg / (ratio - 1.0), ratio};
 }
 
 Eigen::Matrix<double, 1, 2> MotionFit::gain(double position_m, double pole_pitch_m,

@@ -121,6 +121,27 @@ MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, 
 double motion_residual_rms_N(const MotionFit& fit, const std::vector<MotionRun>& runs, double pole_pitch_m,
                              const UniformCubicBasis& basis, const MotionFitOptions& options);
 
+/// The translator's mass from the same experiments identified without and
+/// with a known payload mounted (docs/commissioning.md, "The force scale
+/// from a known payload"). Per kilogram (each fit's terms over its mass_kg:
+/// fits made with a given mass, on `basis`) the gains K(y) and the cogging
+/// F_cog(y) are K/m without and K/(m + payload) with it, the same motor;
+/// their least-squares ratio r at `positions_m` (where the experiments ran)
+/// over every coil set gives m = payload/(r − 1). The functions are
+/// compared, not the coefficients: a spline column can take up part of
+/// the sinusoid A_y, B_y describe. The friction is left out: a payload's
+/// weight on the bearing changes it. Throws std::invalid_argument for lists
+/// of different lengths, no positions, a payload not positive and finite,
+/// or a ratio that is not above 1 + 10⁻³ (the payload made no difference the
+/// fits resolve).
+struct PayloadMass {
+  double mass_kg = 0.0;  ///< m, the translator without the payload
+  double ratio = 0.0;    ///< r = (m + payload)/m as identified
+};
+PayloadMass mass_from_payload(const std::vector<MotionFit>& without, const std::vector<MotionFit>& with,
+                              double payload_kg, const Eigen::VectorXd& positions_m, double pole_pitch_m,
+                              const UniformCubicBasis& basis);
+
 /// One mass for several coil sets (one translator) when options.mass_kg is
 /// not given: the one that brings their per-kilogram friction together
 /// closest to the friction given, else their per-kilogram A_y, B_y closest

@@ -92,9 +92,19 @@ void SimulatedMotor::latch_fault(std::uint32_t bits) noexcept {
 
 double SimulatedMotor::motor_side_mass_kg() const noexcept {
   const auto& mechanics = parameters_.mechanics;
-  return mechanics.flexible_mode.rigid()
-             ? mechanics.translator_mass_kg
-             : mechanics.translator_mass_kg * (1.0 - mechanics.flexible_mode.encoder_mass_fraction);
+  return payload_kg_ + (mechanics.flexible_mode.rigid()
+                            ? mechanics.translator_mass_kg
+                            : mechanics.translator_mass_kg * (1.0 - mechanics.flexible_mode.encoder_mass_fraction));
+}
+
+void SimulatedMotor::set_payload_kg(double payload_kg) {
+  const double limit_kg = kMaxPayloadRatio * parameters_.mechanics.translator_mass_kg;
+  if (!(payload_kg >= 0.0 && payload_kg <= limit_kg)) {
+    throw ParameterError("payload_kg: " + std::to_string(payload_kg) + " kg is not in [0, " +
+                         std::to_string(limit_kg) + "] kg (" + std::to_string(kMaxPayloadRatio) +
+                         " times the translator's mass)");
+  }
+  payload_kg_ = payload_kg;
 }
 
 void SimulatedMotor::take_pending() noexcept {

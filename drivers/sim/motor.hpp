@@ -156,6 +156,18 @@ class SimulatedMotor {
     disturbance_force_N_ = std::isfinite(force_N) ? force_N : 0.0;
   }
 
+  /// A payload mounted on the translator, on the motor's side of a flexible
+  /// mode (a tool, a sample, a test mass) [kg], from now on and across
+  /// reset(), until set again; 0 removes it. Not seen by the force sensor
+  /// (it measures the coils' wrench); what a known payload changes in the
+  /// motion gives the translator's mass without one (docs/commissioning.md,
+  /// "The force scale from a known payload"). Throws ParameterError for a
+  /// payload negative, not finite, or above kMaxPayloadRatio times the
+  /// translator's mass.
+  void set_payload_kg(double payload_kg);
+  double payload_kg() const noexcept { return payload_kg_; }
+  static constexpr double kMaxPayloadRatio = 10.0;
+
   /// Restarts at time 0 at `position_m` with `velocity_m_per_s`, drive
   /// disabled, faults and counters cleared. The measurement noise stream is
   /// not rewound (a new SimulatedMotor reproduces a run bit for bit). Throws
@@ -223,6 +235,7 @@ class SimulatedMotor {
   double position_m_ = 0.0;
   double velocity_m_per_s_ = 0.0;
   double disturbance_force_N_ = 0.0;
+  double payload_kg_ = 0.0;
   bool in_contact_ = false;
 
   // The read head's side of the flexible mode (the motor side's when rigid).

@@ -181,3 +181,32 @@ TEST_CASE("the motion fit pairs positions with a current loop's lagged force", "
   CHECK(rms_cogging_error(paired, truth) < 0.3);
   CHECK(rms_gain_error(paired, truth) < 0.5 * rms_gain_error(naive, truth));
 }
+
+TEST_CASE("a known payload gives the translator's mass from positions alone", "[motion-fit]") {
+  // The same synthetic motor run without and with a payload of a third of
+  // its mass; fitted per kilogram (mass 1 given) on the same grid, the ratio
+  // of the two fits' force terms is (m + payload)/m.
+  std::mt19937_64 rng(19);
+  PositionOnlyMotor truth(rng, 55.0, -0.45);
+  const double payload_kg = truth.mass_kg / 3.0;
+  PositionOnlyMotor loaded = truth;
+  loaded.mass_kg += payload_kg;
+  MotionFitOptions options;
+  options.drive = truth.drive;
+  options.mass_kg = 1.0;
+  const auto fit = [&](const PositionOnlyMotor& motor) {
+    const std::vector<MotionRun> runs{motor.run(-kPi / 4, 12.0, 0.0), motor.run(kPi / 4, 12.0, 1.0)};
+    return fit_driving_direction_from_motion(runs, kPolePitch, truth.basis, options);
+  };
+  const std::vector<MotionFit> without{fit(truth)}, with{fit(loaded)};
+  const Eigen::VectorXd grid = Eigen::VectorXd::LinSpaced(401, -0.05, 0.05);  // the runs' range
+  const PayloadMass found = mass_from_payload(without, with, payload_kg, grid, kPolePitch, truth.basis);
+  INFO("ratio " << found.ratio << ", mass " << found.mass_kg << " kg of " << truth.mass_kg << " kg");
+  CHECK(found.ratio == Approx(loaded.mass_kg / truth.mass_kg).epsilon(2e-3));
+  CHECK(found.mass_kg == Approx(truth.mass_kg).epsilon(0.01));
+  // No payload seen, a payload not positive, or lists that do not match: refused.
+  CHECK_THROWS_WITH(mass_from_payload(without, without, payload_kg, grid, kPolePitch, truth.basis),
+                    Catch::Contains("not slower"));
+  CHECK_THROWS_AS(mass_from_payload(without, with, 0.0, grid, kPolePitch, truth.basis), std::invalid_argument);
+  CHECK_THROWS_AS(mass_from_payload(without, {}, payload_kg, grid, kPolePitch, truth.basis), std::invalid_argument);
+}

@@ -130,21 +130,32 @@ void add_commission(CLI::App& app) {
                                "--no-force-sensor: the translator's mass, which fixes the force scale (default: "
                                "control.mass_kg of --config; 0: the drive's nominal commutation sets the scale)")
                    ->check(clm::non_negative_number());
+  auto* payload = sub->add_option("--payload-kg", options->run.payload_kg,
+                                  "--no-force-sensor: a known payload [kg] mounted for a second run of the "
+                                  "experiments; the two responses give the translator's mass, which sets the force "
+                                  "scale (in process it is added to the simulated motor; --live asks the operator to "
+                                  "mount it, with the axis disabled)")
+                      ->check(clm::positive_number());
   sub->add_flag("!--no-plots", options->plots, "skip the PNG plots");
   sub->add_flag("--save", options->save,
                 "keep the result: the calibration, both models, and the recommended law as the commutation mode with its "
                 "feedforward go into --config (the previous file stays as FILE.bak)");
   add_friction_options(*sub, options->run.position.motion.viscous_N_s_per_m,
                        options->run.position.motion.direction_N);
-  sub->callback([options, mass, out, resume] {
+  sub->callback([options, mass, payload, out, resume] {
     if (out->count() == 0 && resume->count() == 0) throw CLI::RequiredError("--out");
     options->run.resume = resume->count() > 0;
     if (options->run.resume && !options->run.live) {
       throw std::runtime_error("--resume: only a live commissioning resumes: give --live");
     }
-    // A friction given sets the scale instead of the configuration's mass.
+    // A friction given, or a payload, sets the scale instead of the configuration's mass.
     const auto& motion = options->run.position.motion;
-    options->run.mass_from_config = mass->count() == 0 && motion.viscous_N_s_per_m == 0.0 && motion.direction_N == 0.0;
+    const bool friction = motion.viscous_N_s_per_m > 0.0 || motion.direction_N > 0.0;
+    if (payload->count() > 0 && (!options->run.no_force_sensor || mass->count() > 0 || friction)) {
+      throw CLI::ValidationError("--payload-kg", "gives the mass of the commissioning from positions: it needs "
+                                                 "--no-force-sensor, and neither --mass-kg nor a friction");
+    }
+    options->run.mass_from_config = mass->count() == 0 && !friction && payload->count() == 0;
     if (options->run.validation_program_path != "none" && !options->run.validation_program_path.empty() &&
         !std::filesystem::is_regular_file(options->run.validation_program_path)) {
       throw std::runtime_error("--validation-program: " + options->run.validation_program_path + ": no such file");

@@ -211,10 +211,12 @@ data::ExperimentData identify_from_forces(const Options& options, const MotorDes
 // Algorithm 1 on the force it reconstructs. Beside the force models
 // (`force_spline`) the mass that sets the scale is their mechanics fit's and
 // the F_x and T_z rows are the force spline's, on its knot grid; else the
-// mass is the configuration's or --mass-kg and those rows are zero.
+// mass is the configuration's or --mass-kg, or the payload experiments'
+// (`payload_experiments` not empty), and those rows are zero.
 void identify_from_positions(const Options& options, const servod::ServodConfig& config,
-                             const std::vector<Recording>& experiments, const WrittenFile& written, const Tell& tell,
-                             const ModelFile* force_spline, Report& report) {
+                             const std::vector<Recording>& experiments,
+                             const std::vector<Recording>& payload_experiments, const WrittenFile& written,
+                             const Tell& tell, const ModelFile* force_spline, Report& report) {
   const MotorDescription& motor = config.motor;
   auto step_start = Clock::now();
   tell("identify from positions", 0.0, "");
@@ -228,6 +230,19 @@ void identify_from_positions(const Options& options, const servod::ServodConfig&
     position.motion.viscous_N_s_per_m = position.motion.direction_N = 0.0;
     position.basis = force_spline->model.spline_basis;
     report.position_mass_source = "the force sensor's mechanics fit";
+  } else if (!payload_experiments.empty()) {
+    const std::string payload_csv = written("experiments-payload.csv");
+    write_experiment_csv(payload_csv, payload_experiments, motor.drive_profile, false);
+    const data::ExperimentData payload_data = data::read_experiment_data(data::CsvTable::load(payload_csv), motor);
+    const identification::PayloadMass found =
+        data::mass_from_payload(position_data, payload_data, motor, position, options.payload_kg);
+    position.motion.mass_kg = found.mass_kg;
+    position.motion.viscous_N_s_per_m = position.motion.direction_N = 0.0;
+    report.payload_kg = options.payload_kg;
+    report.payload_ratio = found.ratio;
+    char source[96];
+    std::snprintf(source, sizeof(source), "the experiments with a payload of %.6g kg", options.payload_kg);
+    report.position_mass_source = source;
   } else {
     if (options.mass_from_config) position.motion.mass_kg = config.control_mass_kg;
     const bool friction = position.motion.viscous_N_s_per_m > 0.0 || position.motion.direction_N > 0.0;
@@ -465,6 +480,11 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   const servod::ServodConfig config = servod::load_servod_config(options.config_path);
   const MotorDescription motor = config.motor;
   report.coil_sets = motor.coil_sets;
+  if (options.payload_kg != 0.0 && (!options.no_force_sensor || !(options.payload_kg > 0.0))) {
+    throw std::runtime_error("a payload (" + std::to_string(options.payload_kg) +
+                             " kg) gives the mass of commissioning from positions: it needs --no-force-sensor and a "
+                             "positive mass");
+  }
   // Without a force sensor only the laws from positions are commissioned.
   const bool sensor = can::has_force_sensor(config.servo.protocol);
   if (!sensor && !options.no_force_sensor) {
@@ -576,6 +596,30 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   tell("experiments", 1.0, "done");
   report.steps.push_back({"experiments", seconds_since(step_start)});
 
+  // 1b. The same experiments with a known payload mounted, for the mass
+  // without a force sensor (docs/commissioning.md, "The force scale from a
+  // known payload"). Live they are not resumable: a resumed commissioning
+  // runs them again.
+  std::vector<Recording> payload_experiments;
+  if (options.payload_kg > 0.0) {
+    step_start = Clock::now();
+    runner.set_payload(options.payload_kg);
+    open_log("experiments-payload.lcm");
+    for (int l = 1; l <= motor.coil_sets; ++l) {
+      for (double delta : {-kPi / 4, kPi / 4}) {
+        tell("experiments with the payload", static_cast<double>(payload_experiments.size()) / runs,
+             "coil set " + std::to_string(l) + ", delta " + (delta < 0 ? "-pi/4" : "+pi/4"));
+        runner.set_experiment(l, delta);
+        payload_experiments.push_back(runner.run_program(
+            experiment_program, experiment_path, "payload experiment coil set " + std::to_string(l), Disturbance::kRunsOn));
+      }
+    }
+    runner.close_log();
+    runner.set_payload(0.0);
+    tell("experiments with the payload", 1.0, "done");
+    report.steps.push_back({"experiments with the payload", seconds_since(step_start)});
+  }
+
   // 2. Calibration and identification, through the same code as the offline tools.
   ModelFile models[2];
   bool paper_is_chosen = true;
@@ -587,7 +631,8 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   // beside the force models when their mechanics fit gives the mass.
   if (options.no_force_sensor || report.spline_selection.nuisance) {
     const bool beside_forces = sensor && !options.no_force_sensor;
-    identify_from_positions(options, config, experiments, written, tell, beside_forces ? &models[1] : nullptr, report);
+    identify_from_positions(options, config, experiments, payload_experiments, written, tell,
+                            beside_forces ? &models[1] : nullptr, report);
   }
   if (force_data && report.from_position && !options.no_force_sensor) {
     report.position_validation_score =

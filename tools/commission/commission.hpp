@@ -58,6 +58,11 @@ struct Options {
   /// configuration's control.mass_kg (the mass the loop is tuned for), not
   /// position.motion.mass_kg (whose 0 lets the drive's nominal commutation set the scale).
   bool mass_from_config = true;
+  /// With no_force_sensor: a known payload [kg] (> 0) mounted for a second
+  /// run of the experiments; the two responses give the translator's mass,
+  /// which sets the force scale instead of the configuration's
+  /// (docs/commissioning.md, "The force scale from a known payload").
+  double payload_kg = 0.0;
 };
 
 struct CommutationResult {
@@ -115,6 +120,10 @@ struct Report {
   bool from_position = false;
   data::PositionIdentification position;
   std::string position_mass_source;  ///< where the mass came from, or why there is none
+  /// The payload experiments (Options::payload_kg): the payload and the
+  /// identified ratio (m + payload)/m; 0 without them.
+  double payload_kg = 0.0;
+  double payload_ratio = 0.0;
   /// The model from positions scored as the force models' capacity trials
   /// (data::position_validation_score); NaN without force data.
   double position_validation_score = std::numeric_limits<double>::quiet_NaN();

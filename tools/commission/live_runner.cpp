@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <iostream>
 #include <limits>
 #include <stdexcept>
 
@@ -24,6 +25,7 @@ using servod_client::make_command;
 using servod_client::seconds;
 
 constexpr std::int8_t kStateEnabled = servo_status_t::STATE_ENABLED;
+constexpr std::int8_t kStateDisabled = servo_status_t::STATE_DISABLED;
 
 /// `options`, or std::invalid_argument naming the one out of range.
 LiveOptions checked(LiveOptions options) {
@@ -189,6 +191,30 @@ void LcmRunner::set_experiment(int coil_set, double delta_rad) {
   client_.wait_for_state(std::string("experiment mode after ") + what, 5.0, [&](const servo_state_t& s) {
     return s.commutation == servo_state_t::COMMUTATION_EXPERIMENT && s.coil_set == coil_set && s.delta_rad == delta_rad;
   });
+}
+
+void LcmRunner::set_payload(double payload_kg) {
+  // The operator reaches into the machine: the axis is disabled first, and
+  // enabled again only after the confirmation.
+  command("DISABLE", make_command(Kind::kDisable));
+  client_.wait_for_state("CLM_SERVO_STATE of the disabled axis", 5.0,
+                         [](const servo_state_t& s) { return s.state == kStateDisabled; });
+  if (payload_kg > 0.0) {
+    std::fprintf(stderr,
+                 "commission: the axis is disabled. Mount the payload of %.6g kg on the translator, fixed as a tool "
+                 "would be (the experiments move it), then press Enter; end of input aborts.\n",
+                 payload_kg);
+  } else {
+    std::fprintf(stderr, "commission: the axis is disabled. Remove the payload, then press Enter; end of input "
+                         "aborts.\n");
+  }
+  std::string line;
+  if (!std::getline(std::cin, line)) {
+    throw RunTimeFailure("the payload experiments need an operator: no confirmation on stdin (end of input)");
+  }
+  command("ENABLE", make_command(Kind::kEnable));
+  client_.wait_for_state("CLM_SERVO_STATE of the enabled axis", 2.0,
+                         [](const servo_state_t& s) { return s.state == kStateEnabled; });
 }
 
 void LcmRunner::set_commutation(servo::CommutationMode mode) {

@@ -61,6 +61,9 @@ class LcmRunner final : public ExperimentRunner {
   /// configuration's period and coil-set count.
   void enable() override;
   void set_experiment(int coil_set, double delta_rad) override;
+  /// Asks the operator on stderr to mount (or remove) the payload with the
+  /// axis disabled, then reads a line from stdin; end of input refuses.
+  void set_payload(double payload_kg) override;
   void set_commutation(servo::CommutationMode mode) override;
   void load_calibration(const std::string& path) override;
   void load_model(servo::CommutationMode mode, const std::string& path) override;

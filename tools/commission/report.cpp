@@ -211,7 +211,11 @@ std::string position_summary(const Report& report) {
   if (!position) return "";
   const auto ratio = [](double value) { return fixed(value, "%.2f") + "x"; };
   std::string text = "from positions (mass " + fixed(report.position.mass_kg, "%.4g") + " kg from " +
-                     report.position_mass_source + "):";
+                     report.position_mass_source +
+                     (report.payload_kg > 0.0 ? ", whose response was " + fixed(report.payload_ratio, "%.4f") +
+                                                    "x as slow"
+                                              : std::string()) +
+                     "):";
   // Beside the force-sensor law of the same run, when there is one.
   if (const auto* forces = find(report, report.force_recommended)) {
     const std::string law = report.force_recommended;
@@ -391,6 +395,7 @@ std::string report_json(const Report& report) {
     out << "  \"from_position\": {\"mass_kg\": " << number(position.mass_kg)
         << ", \"validation_score\": " << number(report.position_validation_score)
         << ", \"mass_source\": " << yaml::quoted(report.position_mass_source)
+        << ", \"payload_kg\": " << number(report.payload_kg) << ", \"payload_ratio\": " << number(report.payload_ratio)
         << ", \"knot_spacing_m\": " << number(position.knot_spacing_m) << ", \"spacing_scores\": [";
     for (std::size_t k = 0; k < position.spacing_scores.size(); ++k) {
       out << (k ? ", " : "") << "{\"knot_spacing_m\": " << number(position.spacing_scores[k].first)

@@ -75,6 +75,13 @@ class ExperimentRunner {
   virtual void enable() = 0;
   /// Experiment mode: coil set `coil_set` (1-based) alone, phase offset `delta_rad` [rad].
   virtual void set_experiment(int coil_set, double delta_rad) = 0;
+  /// The payload mounted on the translator from now on [kg] (0: none), for
+  /// the experiments that give the mass without a force sensor
+  /// (docs/commissioning.md, "The force scale from a known payload"): in
+  /// process the simulated motor's; live the operator mounts or removes it
+  /// when asked and confirms. Throws std::runtime_error when it cannot be
+  /// done (live: no confirmation).
+  virtual void set_payload(double payload_kg) = 0;
   /// Switches the commutation law; returns once the law is in use.
   virtual void set_commutation(servo::CommutationMode mode) = 0;
   /// Loads a calibration file (absolute path) into the classical law; returns once it is in use.

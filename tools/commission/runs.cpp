@@ -175,6 +175,11 @@ void InProcessRunner::set_experiment(int coil_set, double delta_rad) {
   execute(*daemon_, command);
 }
 
+void InProcessRunner::set_payload(double payload_kg) {
+  if (axis_->wiring.motor == nullptr) throw std::runtime_error("payload: the axis has no simulated motor");
+  axis_->wiring.motor->set_payload_kg(payload_kg);
+}
+
 void InProcessRunner::set_commutation(servo::CommutationMode mode) {
   auto command = make(servo::CommandKind::kSetCommutation);
   command.commutation = mode;

@@ -87,6 +87,7 @@ class InProcessRunner final : public ExperimentRunner {
 
   void enable() override;
   void set_experiment(int coil_set, double delta_rad) override;
+  void set_payload(double payload_kg) override;
   void set_commutation(servo::CommutationMode mode) override;
   void load_calibration(const std::string& path) override;
   void load_model(servo::CommutationMode mode, const std::string& path) override;

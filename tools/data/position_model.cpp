@@ -172,6 +172,51 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
   return result;
 }
 
+identification::PayloadMass mass_from_payload(const ExperimentData& without, const ExperimentData& with,
+                                              const MotorDescription& motor, const PositionIdentifyOptions& options,
+                                              double payload_kg) {
+  if (without.coil_sets.size() != with.coil_sets.size()) {
+    throw std::runtime_error(with.origin + ": " + std::to_string(with.coil_sets.size()) + " coil sets, " +
+                             without.origin + ": " + std::to_string(without.coil_sets.size()));
+  }
+  std::vector<double> positions;
+  for (const ExperimentData* data : {&without, &with}) {
+    for (const auto& experiment : data->coil_sets) {
+      for (const auto& run : experiment.runs) positions.insert(positions.end(), run.position_m.begin(), run.position_m.end());
+    }
+  }
+  identification::SplineOptions grid;
+  grid.knot_spacing_m = motor.pole_pitch_m / 8.0;
+  const UniformCubicBasis basis = identification::spline_basis_for(
+      Eigen::Map<const Eigen::VectorXd>(positions.data(), static_cast<Eigen::Index>(positions.size())),
+      motor.pole_pitch_m, grid);
+  // Per kilogram: the mass given as 1, no friction prior.
+  identification::MotionFitOptions per_kg = options.motion;
+  per_kg.drive = motor.drive;
+  per_kg.current_loop = motor.current_loop;
+  per_kg.delay_s = motor.setpoint_delay_s + motor.position_delay_s;
+  per_kg.mass_kg = 1.0;
+  per_kg.viscous_N_s_per_m = per_kg.direction_N = 0.0;
+  const auto fits_of = [&](const ExperimentData& data) {
+    std::vector<std::vector<identification::MotionRun>> runs;
+    for (const auto& experiment : data.coil_sets) runs.push_back(experiment.runs);
+    return fit_all(runs, data, motor, basis, per_kg);
+  };
+  const auto fits_without = fits_of(without), fits_with = fits_of(with);
+  std::vector<double> compared;
+  for (const auto& experiment : without.coil_sets) {
+    for (const auto& run : experiment.runs) compared.insert(compared.end(), run.position_m.begin(), run.position_m.end());
+  }
+  try {
+    return identification::mass_from_payload(
+        fits_without, fits_with, payload_kg,
+        Eigen::Map<const Eigen::VectorXd>(compared.data(), static_cast<Eigen::Index>(compared.size())),
+        motor.pole_pitch_m, basis);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(without.origin + " and " + with.origin + ": " + e.what());
+  }
+}
+
 void take_off_axis_rows(ModelFile& position_model, const ModelFile& force_model) {
   ElectromagneticModel& into = position_model.model;
   const ElectromagneticModel& from = force_model.model;

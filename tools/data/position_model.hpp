@@ -53,6 +53,16 @@ struct PositionIdentification {
 PositionIdentification identify_from_position(const ExperimentData& data, const MotorDescription& motor,
                                               const PositionIdentifyOptions& options);
 
+/// The translator's mass from the same experiments without and with a known
+/// payload of `payload_kg` (identification::mass_from_payload): every coil
+/// set of both fitted per kilogram on one knot grid (pole pitch / 8 over both
+/// data's positions; options.motion's smoothing, v_d and slowest rows), and
+/// compared at the positions of `without`. Throws std::runtime_error naming
+/// the data when a fit fails or the payload made no difference.
+identification::PayloadMass mass_from_payload(const ExperimentData& without, const ExperimentData& with,
+                                              const MotorDescription& motor, const PositionIdentifyOptions& options,
+                                              double payload_kg);
+
 /// The F_x and T_z rows of `force_model` (a spline model from the force
 /// sensor on the same knot grid) into `position_model`, whose rows_from says
 /// so. Throws std::invalid_argument naming what differs.

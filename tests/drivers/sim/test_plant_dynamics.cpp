@@ -515,3 +515,37 @@ TEST_CASE("drive.current_loop of the motor file is read, and refused out of rang
                         Catch::StartsWith("m.yaml:4: ") && Catch::Contains(key));
   }
 }
+
+TEST_CASE("A payload adds its mass to the translator's, also with a flexible mode, and is refused out of range",
+          "[sim][plant]") {
+  // A constant external force F on the bare motor at rest (no friction, drive
+  // off): after t the velocity is F·t/(m + payload) exactly (semi-implicit
+  // Euler integrates a constant acceleration exactly in velocity). With a
+  // flexible mode the two sides' momentum is still F·t.
+  for (const bool flexible : {false, true}) {
+    INFO((flexible ? "flexible mode at 300 Hz" : "rigid translator"));
+    MotorParameters parameters = bare_motor();
+    if (flexible) parameters.mechanics.flexible_mode = {300.0, 0.02, 0.3};
+    SimulatedMotor motor(parameters);
+    const double mass_kg = parameters.mechanics.translator_mass_kg;
+    const double payload_kg = 0.4 * mass_kg, force_N = 12.0, seconds = 0.2;
+    motor.set_payload_kg(payload_kg);
+    motor.reset(0.0);
+    CHECK(motor.payload_kg() == payload_kg);  // kept across reset()
+    motor.set_disturbance_force_N(force_N);
+    for (int k = 0; k < 200; ++k) motor.step(seconds / 200);
+    const TruthState truth = motor.truth();
+    const double momentum_N_s =
+        flexible ? (payload_kg + 0.7 * mass_kg) * truth.velocity_m_per_s + 0.3 * mass_kg * truth.encoder_side_velocity_m_per_s
+                 : (payload_kg + mass_kg) * truth.velocity_m_per_s;
+    CHECK(momentum_N_s == Approx(force_N * seconds).epsilon(1e-9));
+    if (!flexible) CHECK(truth.velocity_m_per_s == Approx(force_N * seconds / (mass_kg + payload_kg)).epsilon(1e-12));
+  }
+  SimulatedMotor motor(bare_motor());
+  const double limit_kg = SimulatedMotor::kMaxPayloadRatio * bare_motor().mechanics.translator_mass_kg;
+  for (const double bad : {-1e-3, 1.01 * limit_kg, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    INFO("payload " << bad << " kg");
+    CHECK_THROWS_WITH(motor.set_payload_kg(bad), Catch::Contains("payload_kg"));
+  }
+  CHECK(motor.payload_kg() == 0.0);
+}
