@@ -81,7 +81,7 @@ double hat_times_step(double lo, double hi, double alpha, double beta, double om
   if (std::isfinite(omega)) {
     // ∫ (c0 + β·u)·e^(−ω·u) du = −e^(−ω·u)·((c0 + β·u)/ω + β/ω²)
     const auto primitive = [&](double u) {
-      return -std::exp(-omega * u) * ((c0 + beta * u) / omega + beta / (omega * omega));
+      return -elementary::exp(-omega * u) * ((c0 + beta * u) / omega + beta / (omega * omega));
     };
     integral -= primitive(u1) - primitive(u0);
   }

@@ -2,8 +2,10 @@
 """tools/commission/plant_terms.py edits the motor file as it says: for each
 term, and for all together, the edited file parses as YAML and holds exactly
 the term's keys at their place under `simulation:`, with the rest of the
-file unchanged; the variants none, all, a term and all-TERM name their
-terms; an unknown variant is refused with exit status 2.
+file unchanged; the variants none, all, a term, all-TERM, dynamics and
+dynamics+SOURCE name their terms; the error budget's parts add up to the
+whole for sources that add, and name the interaction when they do not; an
+unknown variant is refused with exit status 2.
 
     plant_terms_test.py PLANT_TERMS_PY MOTOR_YAML
 """
@@ -44,21 +46,37 @@ def main():
                                   f"(differs in {[k for k in expected['simulation'] if edited['simulation'].get(k) != expected['simulation'][k]]})")
         check(edited["motor"] == original["motor"] and edited["drive"] == expected["drive"],
               f"{'+'.join(terms)}: motor: changed, or drive: is not the original with the term's drive keys")
-    # The budget of a plant whose terms add: its parts sum to the whole.
-    base, law_excess = 1e-15, 3e-15
-    increase = {term: (k + 1) * 1e-14 for k, term in enumerate(module.TERMS)}
-    rows = [("none", "oracle", 0, base, 1), ("none", "spline", 0, base + law_excess, 1)]
-    rows += [(term, "oracle", 0, base + increase[term], 1) for term in module.TERMS]
+    # The budget of a loop whose sources add: its parts sum to the whole.
+    check(set(module.SOURCES) | set(module.DYNAMICS) == set(module.TERMS) and
+          not set(module.SOURCES) & set(module.DYNAMICS), "every term is a source or a dynamics, not both")
+    base, law_excess, ideal = 1e-15, 3e-15, 4e-16
+    increase = {source: (k + 1) * 1e-14 for k, source in enumerate(module.SOURCES)}
+    rows = [("none", "oracle", 0, ideal, 1), ("dynamics", "oracle", 0, base, 1)]
+    rows += [(f"dynamics+{source}", "oracle", 0, base + increase[source], 1) for source in module.SOURCES]
     all_oracle = base + sum(increase.values())
     rows += [("all", "oracle", 0, all_oracle, 1), ("all", "spline", 0, all_oracle + law_excess, 1)]
-    lines = module.error_budget(rows, "spline", ["none", "all", *module.TERMS])
-    check(len(lines) == len(module.TERMS) + 4 and "100.0 % (interaction of the terms: 0.0 %)" in lines[-1]
-          and "the commutation" in lines[-2] and f"{law_excess:.3g}" in lines[-2],
-          "an additive plant's budget: the parts (the loop, each term, the commutation) sum to the whole:\n" +
-          "\n".join(lines))
-    check(module.error_budget(rows, "spline", ["none", "all"]) == [], "no budget without every term's run")
-    # Variants: none, all, a term, all but a term.
+    default = module.default_variants()
+    lines = module.error_budget(rows, "spline", default)
+    check(len(lines) == len(module.SOURCES) + 5 and "100.0 % (interaction of the sources: 0.0 %)" in lines[-2]
+          and "the commutation" in lines[-3] and f"{law_excess:.3g}" in lines[-3] and f"{base - ideal:.3g}" in lines[-1],
+          "an additive loop's budget: the parts (the loop through the dynamics, each source, the commutation) sum "
+          "to the whole:\n" + "\n".join(lines))
+    # A source that interacts (the whole 2e-15 above the parts) is reported as such.
+    rows_interacting = [row if row[0] != "all" else (row[0], row[1], 0, row[3] + 2e-15, 1) for row in rows]
+    lines = module.error_budget(rows_interacting, "spline", default)
+    whole = all_oracle + 2e-15 + law_excess
+    check(f"(interaction of the sources: {100 * 2e-15 / whole:.1f} %)" in lines[-2],
+          "an interacting loop's budget names the interaction:\n" + "\n".join(lines))
+    check(module.error_budget(rows, "spline", ["none", "all"]) == [], "no budget without the dynamics' runs")
+    # Variants: none, all, a term, all but a term, the dynamics with or without a source.
     terms = list(module.TERMS)
+    source = module.SOURCES[0]
+    check(module.variant_terms("dynamics") == list(module.DYNAMICS) and
+          set(module.variant_terms("dynamics+" + source)) == set(module.DYNAMICS) | {source},
+          f"variants: dynamics gives {module.variant_terms('dynamics')}, dynamics+{source} "
+          f"{module.variant_terms('dynamics+' + source)}")
+    for variant in module.default_variants():
+        module.variant_terms(variant)  # every default variant is one the script knows
     check(module.variant_terms("none") == [] and module.variant_terms("all") == terms and
           module.variant_terms(terms[0]) == [terms[0]] and module.variant_terms("all-" + terms[0]) == terms[1:],
           f"variants: none, all, {terms[0]}, all-{terms[0]} give {module.variant_terms('none')}, "
@@ -67,6 +85,10 @@ def main():
                             check=False)
     check(result.returncode == 2 and "unknown variant 'stiffness'" in result.stderr,
           f"an unknown variant: exit {result.returncode}, stderr '{result.stderr.strip()}'")
+    result = subprocess.run([sys.executable, script, "--terms", f"dynamics+{module.DYNAMICS[0]}"],
+                            capture_output=True, text=True, check=False)
+    check(result.returncode == 2 and "unknown variant" in result.stderr,
+          f"dynamics+ a term that is not a source: exit {result.returncode}, stderr '{result.stderr.strip()}'")
     result = subprocess.run([sys.executable, script, "--terms", "all-stiffness"], capture_output=True, text=True,
                             check=False)
     check(result.returncode == 2 and "unknown variant 'all-stiffness'" in result.stderr,

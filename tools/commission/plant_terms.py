@@ -8,8 +8,11 @@ to every law's true driving-force error and tracking (docs/simulator.md,
     tools/commission/plant_terms.py [--clm build/bin/clm] [--config config/servod.yaml]
                                     [--out out/plant-terms] [--terms none,all,flexible_mode,...]
 
-A variant is none, all, one term, or all-TERM (every term but that one:
-what a term adds to the others). Each variant is `clm commission
+A variant is none, all, one term, all-TERM (every term but that one:
+what a term adds to the others), dynamics (the terms that shape how errors
+travel: DYNAMICS) or dynamics+SOURCE (those and one of the SOURCES, the
+terms that inject an error). The error budget needs dynamics, each
+dynamics+SOURCE and all. Each variant is `clm commission
 --no-plots` on a copy of the configuration and its motor file with its
 terms' keys added; nothing outside --out is
 written. Exit status 2 for bad usage or a configuration it cannot edit,
@@ -39,6 +42,12 @@ TERMS = {
                             "encoder_interpolation_second_m: 2.0e-9"]),
 }
 
+# The terms that inject an error into the loop, and those that shape how
+# errors travel through it (the error budget propagates each source through
+# all of them, docs/simulator.md, "A realistic plant: sizes and what it does").
+SOURCES = ("force_disturbance", "encoder")
+DYNAMICS = tuple(term for term in TERMS if term not in SOURCES)
+
 # What the daemon is told of a term (the motor file's top-level drive:
 # section), as a drive's manual gives it: 10 % off the truth above.
 DRIVE_KEYS = {
@@ -53,7 +62,8 @@ class UsageError(Exception):
 
 
 def variant_terms(variant):
-    """The terms of a variant: none, all, a term, or all-TERM (all but TERM)."""
+    """The terms of a variant: none, all, a term, all-TERM (all but TERM),
+    dynamics (DYNAMICS) or dynamics+SOURCE (DYNAMICS and one of SOURCES)."""
     if variant == "none":
         return []
     if variant == "all":
@@ -62,7 +72,17 @@ def variant_terms(variant):
         return [variant]
     if variant.startswith("all-") and variant[4:] in TERMS:
         return [term for term in TERMS if term != variant[4:]]
-    raise UsageError(f"--terms: unknown variant '{variant}' (none, all, a term or all-TERM; terms: {', '.join(TERMS)})")
+    if variant == "dynamics":
+        return list(DYNAMICS)
+    if variant.startswith("dynamics+") and variant[9:] in SOURCES:
+        return [term for term in TERMS if term in DYNAMICS or term == variant[9:]]
+    raise UsageError(f"--terms: unknown variant '{variant}' (none, all, a term, all-TERM, dynamics or "
+                     f"dynamics+SOURCE; terms: {', '.join(TERMS)}; sources: {', '.join(SOURCES)})")
+
+
+def default_variants():
+    """No term, each alone, all, and what the error budget needs."""
+    return ["none", *TERMS, "all", "dynamics", *(f"dynamics+{source}" for source in SOURCES)]
 
 
 def motor_with(text, terms, motor_path):
@@ -133,9 +153,10 @@ def main():
     parser.add_argument("--clm", default="build/bin/clm")
     parser.add_argument("--config", default="config/servod.yaml")
     parser.add_argument("--out", default="out/plant-terms")
-    parser.add_argument("--terms", default="none," + ",".join(TERMS) + ",all",
+    parser.add_argument("--terms", default=",".join(default_variants()),
                         help="comma-separated variants: none, all, a term (" + ", ".join(TERMS) +
-                        ") or all-TERM (every term but that one)")
+                        "), all-TERM (every term but that one), dynamics (" + ", ".join(DYNAMICS) +
+                        ") or dynamics+SOURCE (" + ", ".join(SOURCES) + ")")
     args = parser.parse_args()
     variants = args.terms.split(",")
     terms_of = {variant: variant_terms(variant) for variant in variants}
@@ -163,25 +184,33 @@ def main():
 
 
 def error_budget(rows, law, variants):
-    """The tracking MSE of `law` with every term on, split by source: the
-    oracle on the ideal plant (what the loop leaves with exact commutation),
-    each term's increase of the oracle's MSE when on alone, and the law's
-    commutation (its MSE over the oracle's, both with every term on, meeting
-    the same disturbance). What the parts do not add up to is the terms'
-    interaction. Empty unless none, all and every term were run."""
-    if law is None or not all(v in variants for v in ["none", "all", *TERMS]):
+    """The tracking MSE of `law` with every term on, split by source as a
+    dynamic error budget does: each source (SOURCES) propagated alone through
+    the whole loop with the plant's dynamics (DYNAMICS) on, as the increase of
+    the oracle's MSE it causes; the loop with the oracle's commutation
+    through those dynamics, without a source; and the law's commutation (its
+    MSE over the oracle's, both with every term on, meeting the same
+    disturbance). Uncorrelated sources through a linear loop add in MSE;
+    what the parts do not add up to is their interaction. Empty unless
+    dynamics, each dynamics+SOURCE and all were run."""
+    needed = ["dynamics", "all", *(f"dynamics+{source}" for source in SOURCES)]
+    if law is None or not all(v in variants for v in needed):
         return []
     tracking = {(variant, name): value for variant, name, _, value, _ in rows}
     whole = tracking[("all", law)]
-    base = tracking[("none", "oracle")]
-    parts = [("the loop with exact commutation, ideal plant", base)]
-    parts += [(term, tracking[(term, "oracle")] - base) for term in TERMS]
+    base = tracking[("dynamics", "oracle")]
+    parts = [("the loop with the oracle's commutation, through " + ", ".join(DYNAMICS), base)]
+    parts += [(f"{source} through the loop", tracking[(f"dynamics+{source}", "oracle")] - base) for source in SOURCES]
     parts.append((f"the commutation ({law} over the oracle)", whole - tracking[("all", "oracle")]))
     total = sum(value for _, value in parts)
     lines = [f"error budget of the recommended law ({law}), tracking MSE with every term on: {whole:.3g} m^2"]
-    lines += [f"  {name:48} {value:11.3g} m^2 {100 * value / whole:6.1f} %" for name, value in parts]
-    lines.append(f"  {'sum of the parts':48} {total:11.3g} m^2 {100 * total / whole:6.1f} % "
-                 f"(interaction of the terms: {100 * (whole - total) / whole:.1f} %)")
+    lines += [f"  {name:68} {value:11.3g} m^2 {100 * value / whole:6.1f} %" for name, value in parts]
+    lines.append(f"  {'sum of the parts':68} {total:11.3g} m^2 {100 * total / whole:6.1f} % "
+                 f"(interaction of the sources: {100 * (whole - total) / whole:.1f} %)")
+    if ("none", "oracle") in tracking:
+        ideal = tracking[("none", "oracle")]
+        lines.append(f"  (the oracle on the ideal plant: {ideal:.3g} m^2; the dynamics add "
+                     f"{base - ideal:.3g} m^2 to it)")
     return lines
 
 
