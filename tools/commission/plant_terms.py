@@ -203,9 +203,10 @@ def error_budget(rows, law, variants):
     parts += [(f"{source} through the loop", tracking[(f"dynamics+{source}", "oracle")] - base) for source in SOURCES]
     parts.append((f"the commutation ({law} over the oracle)", whole - tracking[("all", "oracle")]))
     total = sum(value for _, value in parts)
+    width = max(len(name) for name, _ in parts)
     lines = [f"error budget of the recommended law ({law}), tracking MSE with every term on: {whole:.3g} m^2"]
-    lines += [f"  {name:68} {value:11.3g} m^2 {100 * value / whole:6.1f} %" for name, value in parts]
-    lines.append(f"  {'sum of the parts':68} {total:11.3g} m^2 {100 * total / whole:6.1f} % "
+    lines += [f"  {name:{width}} {value:11.3g} m^2 {100 * value / whole:6.1f} %" for name, value in parts]
+    lines.append(f"  {'sum of the parts':{width}} {total:11.3g} m^2 {100 * total / whole:6.1f} % "
                  f"(interaction of the sources: {100 * (whole - total) / whole:.1f} %)")
     if ("none", "oracle") in tracking:
         ideal = tracking[("none", "oracle")]
