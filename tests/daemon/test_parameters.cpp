@@ -60,7 +60,7 @@ TEST_CASE("get answers every run-time parameter with the value of the configurat
   auto& daemon = axis.daemon;
   const auto answer = [&](const std::string& key) { return daemon.submit(get(key)).text(); };
   CHECK(answer("control.bandwidth_hz") == "control.bandwidth_hz = 40 Hz");  // config/servod.yaml
-  CHECK(answer("control.mass_kg") == "control.mass_kg = 15 kg");
+  CHECK(answer("control.mass_kg") == "control.mass_kg = 15.45 kg");  // config/servod.yaml
   CHECK(answer("motion.velocity_m_per_s") == "motion.velocity_m_per_s = 0.5 m/s");
   CHECK(answer("motion.quick_stop_deceleration_m_per_s2") == "motion.quick_stop_deceleration_m_per_s2 = 20 m/s^2");
   CHECK(answer("control.force_limit_N") == "control.force_limit_N = 600 N");

@@ -440,8 +440,8 @@ if grep -q "error" "$work/servod.log"; then fail "an error line in clm-servod's 
 
 if [ "$mode" = no-sensor ]; then
   # The report: the laws from positions alone, no force anywhere, no state missing.
-  verdict=$(py_check "$out/report.json" <<'CHECK'
-import json, sys
+  verdict=$(py_check "$out/report.json" "$work/servod.yaml" <<'CHECK'
+import json, re, sys
 report = json.load(open(sys.argv[1]))
 c = report["commutations"]
 assert sorted(c) == ["classical-position", "oracle", "original", "spline-position"], f"the laws in the report: {sorted(c)}"
@@ -451,8 +451,9 @@ for name in ("original", "classical-position", "spline-position"):
         f"{name}: a commutation MSE without a force sensor: {c[name]['commutation_mse']}"
 assert report["recommended"]["law"] == "spline-position", f"recommended {report['recommended']}, expected spline-position"
 position = report["from_position"]
-assert position["mass_source"] == "control.mass_kg of the configuration" and position["mass_kg"] == 15, \
-    f"the mass from positions: {position}, expected 15 kg from control.mass_kg"
+configured = float(re.search(r"^  mass_kg: *([0-9.eE+-]+)", open(sys.argv[2]).read(), re.MULTILINE).group(1))
+assert position["mass_source"] == "control.mass_kg of the configuration" and position["mass_kg"] == configured, \
+    f"the mass from positions: {position}, expected {configured} kg from control.mass_kg"
 tracking = c["original"]["tracking_mse_m2"] / c["spline-position"]["tracking_mse_m2"]
 assert tracking >= 2.0, f"spline-position tracks only {tracking:.2f}x better than the drive's own law, expected 2x"
 live = report["live"]
