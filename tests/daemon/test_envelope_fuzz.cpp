@@ -32,6 +32,7 @@
 #include <tuple>
 #include <utility>
 
+#include "daemon/control/stop_profile.hpp"
 #include "daemon/control/trajectory.hpp"
 #include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/parameters.hpp"
@@ -48,7 +49,7 @@ constexpr int kSeeds = 10;
 constexpr int kSequencesPerSeed = 1000;          // 10 000 sequences in all
 constexpr int kMaxSetAttempts = 2000;            // per accepted set; about one in eight is accepted
 constexpr std::int64_t kMaxMoveCycles = 1000;    // a move still running after 1 s is stopped
-constexpr std::int64_t kMaxStopCycles = 120000;  // 2 min: a stop at a stop jerk set to almost nothing
+constexpr std::int64_t kStopMarginCycles = 2000;  // beyond a stop's own profile: the loop settling at rest
 constexpr double kMinTravelTime_s = 0.02;        // a run-up gives at least this much travel at full speed
 constexpr double kAnywhereTravelTime_s = 0.3;    // an "anywhere" move goes at most this far at full speed
 constexpr double kMoveTime_s = 0.25;             // no move is planned longer than this at its limits
@@ -182,13 +183,26 @@ struct Walk {
       // stopped. A stop's own limits may make it take long (a stop jerk of
       // 1e-5 m/s³ takes minutes to end an acceleration): it is let run, and
       // quick-stopped if it runs on.
+      // Each stop is given its own profile's time from the worst state a
+      // move within these limits can be in (full speed, full acceleration
+      // onwards), plus a margin: accepted limits may make it minutes long (a
+      // stop deceleration of 1e-6 m/s² takes 324 s from 0.32 mm/s).
+      const servo::Tuning& tuning = daemon.runtime_values().tuning;
+      const auto stop_cycles = [&](const control::StopLimits& stop) {
+        const control::ReferenceSample worst{0.0, limits.velocity_m_per_s, limits.acceleration_m_per_s2, 0.0};
+        const double seconds = control::StopProfile::plan(worst, stop).duration_s();
+        return static_cast<std::int64_t>(std::ceil(seconds * daemon.config().loop.rate_hz)) + kStopMarginCycles;
+      };
+      const std::int64_t stop_limit = stop_cycles(tuning.stop_limits);
       test::command(daemon, CommandKind::kStop, 1);
-      if (daemon.run_until_idle(kMaxStopCycles) == kMaxStopCycles) {
+      if (daemon.run_until_idle(stop_limit) == stop_limit) {
+        const std::int64_t quick_limit = stop_cycles(tuning.quick_stop_limits);
         test::command(daemon, CommandKind::kQuickStop, 1);
-        if (daemon.run_until_idle(kMaxStopCycles) == kMaxStopCycles) {
-          FAIL("seed " << seed_label << ", sequence " << sequence << ": a stop and a quick stop did not end in "
-                       << kMaxStopCycles << " cycles each; last move: " << move_log << "\nsettings in force:"
-                       << settings());
+        if (daemon.run_until_idle(quick_limit) == quick_limit) {
+          FAIL("seed " << seed_label << ", sequence " << sequence << ": a stop and a quick stop did not end within "
+                       << stop_limit << " and " << quick_limit << " cycles (their profiles' time from full speed "
+                       << "and acceleration, and " << kStopMarginCycles << " more); last move: " << move_log
+                       << "\nsettings in force:" << settings());
         }
       }
     }

@@ -78,7 +78,8 @@ TEST_CASE("get answers every run-time parameter with the value of the configurat
 
 TEST_CASE("set is applied by the cycle at standstill, and moves are checked against the new limits",
           "[daemon][parameters]") {
-  servod::WiredAxis axis(test::virtual_config());
+  const auto config = test::virtual_config();
+  servod::WiredAxis axis(config);
   auto& daemon = axis.daemon;
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 10);
@@ -101,7 +102,7 @@ TEST_CASE("set is applied by the cycle at standstill, and moves are checked agai
 
   // The loop's gains are those tune_pid gives for the configured mass.
   REQUIRE(set_and_apply(daemon, "control.bandwidth_hz", 20.0).accepted());
-  const control::PidGains expected = control::tune_pid(15.0, 20.0);
+  const control::PidGains expected = control::tune_pid(config.control_mass_kg, 20.0);
   CHECK(daemon.cycle().settings().pid.proportional_N_per_m == expected.proportional_N_per_m);
   CHECK(daemon.cycle().settings().pid.derivative_N_s_per_m == expected.derivative_N_s_per_m);
   daemon.run_cycles(200);

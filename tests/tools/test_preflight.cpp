@@ -2,6 +2,7 @@
 // (tools/commission/preflight.hpp), on a daemon's status and state made here:
 // each wrong setting gives one refusal naming it and the fix; a good one none.
 #include <catch2/catch.hpp>
+#include <cstdio>
 
 #include <filesystem>
 #include <fstream>
@@ -102,12 +103,15 @@ TEST_CASE("preflight: a program beyond the motion limits or the soft limits is r
 TEST_CASE("preflight: the force a program's acceleration takes beyond force_limit_N is refused",
           "[commission][preflight]") {
   Preflight p;
-  // 15 kg x 1 m/s^2 = 15 N: a 10 N limit is below it.
+  // control.mass_kg (15.45 kg) x 1 m/s^2 = 15.45 N: a 10 N limit is below it.
   p.config.servo.force_limit_N = 10.0;
   const auto refusals = p.run();
   INFO(commission::describe_refusals(refusals));
   REQUIRE(refusals.size() == 2);  // the experiment and the evaluation program
-  CHECK_THAT(refusals[0], Catch::Contains("15 N") && Catch::Contains("control.force_limit_N 10 N"));
+  char force[64];
+  std::snprintf(force, sizeof(force), "takes %g N at control.mass_kg %g kg", p.config.control_mass_kg,
+                p.config.control_mass_kg);
+  CHECK_THAT(refusals[0], Catch::Contains(force) && Catch::Contains("control.force_limit_N 10 N"));
 }
 
 TEST_CASE("preflight: another drive profile on the daemon is refused", "[commission][preflight]") {
