@@ -46,6 +46,27 @@ SplitRuns split_runs(const std::vector<identification::MotionRun>& runs, double 
   return split;
 }
 
+// The fit's options with what the motor description says of the drive: its
+// nominal commutation (the scale without a mass), its current loop and the
+// delays from setpoint to force and of the position (the pairing).
+identification::MotionFitOptions with_drive(identification::MotionFitOptions options, const MotorDescription& motor) {
+  options.drive = motor.drive;
+  options.current_loop = motor.current_loop;
+  options.delay_s = motor.setpoint_delay_s + motor.position_delay_s;
+  return options;
+}
+
+// Every position of every run of `data`, appended to `positions`.
+void append_positions(const ExperimentData& data, std::vector<double>& positions) {
+  for (const auto& experiment : data.coil_sets) {
+    for (const auto& run : experiment.runs) positions.insert(positions.end(), run.position_m.begin(), run.position_m.end());
+  }
+}
+
+Eigen::Map<const Eigen::VectorXd> as_vector(const std::vector<double>& values) {
+  return {values.data(), static_cast<Eigen::Index>(values.size())};
+}
+
 // Every coil set on `basis`, at one mass: the given one, or the common one.
 std::vector<identification::MotionFit> fit_all(const std::vector<std::vector<identification::MotionRun>>& runs,
                                                const ExperimentData& data, const MotorDescription& motor,
@@ -74,10 +95,7 @@ std::vector<identification::MotionFit> fit_all(const std::vector<std::vector<ide
 
 PositionIdentification identify_from_position(const ExperimentData& data, const MotorDescription& motor,
                                               const PositionIdentifyOptions& options) {
-  identification::MotionFitOptions fit = options.motion;
-  fit.drive = motor.drive;
-  fit.current_loop = motor.current_loop;
-  fit.delay_s = motor.setpoint_delay_s + motor.position_delay_s;
+  const identification::MotionFitOptions fit = with_drive(options.motion, motor);
   if (!(fit.mass_kg >= 0.0) || !(options.knot_spacing_m >= 0.0) || !(options.validation_fraction >= 0.0) ||
       !(options.validation_fraction < 1.0) || !(fit.viscous_N_s_per_m >= 0.0) || !(fit.direction_N >= 0.0)) {
     throw std::invalid_argument("position identification: negative mass, friction or knot spacing, or a held-out "
@@ -179,22 +197,15 @@ identification::PayloadMass mass_from_payload(const ExperimentData& without, con
     throw std::runtime_error(with.origin + ": " + std::to_string(with.coil_sets.size()) + " coil sets, " +
                              without.origin + ": " + std::to_string(without.coil_sets.size()));
   }
-  std::vector<double> positions;
-  for (const ExperimentData* data : {&without, &with}) {
-    for (const auto& experiment : data->coil_sets) {
-      for (const auto& run : experiment.runs) positions.insert(positions.end(), run.position_m.begin(), run.position_m.end());
-    }
-  }
+  std::vector<double> compared, positions;
+  append_positions(without, compared);
+  positions = compared;
+  append_positions(with, positions);
   identification::SplineOptions grid;
   grid.knot_spacing_m = motor.pole_pitch_m / 8.0;
-  const UniformCubicBasis basis = identification::spline_basis_for(
-      Eigen::Map<const Eigen::VectorXd>(positions.data(), static_cast<Eigen::Index>(positions.size())),
-      motor.pole_pitch_m, grid);
+  const UniformCubicBasis basis = identification::spline_basis_for(as_vector(positions), motor.pole_pitch_m, grid);
   // Per kilogram: the mass given as 1, no friction prior.
-  identification::MotionFitOptions per_kg = options.motion;
-  per_kg.drive = motor.drive;
-  per_kg.current_loop = motor.current_loop;
-  per_kg.delay_s = motor.setpoint_delay_s + motor.position_delay_s;
+  identification::MotionFitOptions per_kg = with_drive(options.motion, motor);
   per_kg.mass_kg = 1.0;
   per_kg.viscous_N_s_per_m = per_kg.direction_N = 0.0;
   const auto fits_of = [&](const ExperimentData& data) {
@@ -203,15 +214,9 @@ identification::PayloadMass mass_from_payload(const ExperimentData& without, con
     return fit_all(runs, data, motor, basis, per_kg);
   };
   const auto fits_without = fits_of(without), fits_with = fits_of(with);
-  std::vector<double> compared;
-  for (const auto& experiment : without.coil_sets) {
-    for (const auto& run : experiment.runs) compared.insert(compared.end(), run.position_m.begin(), run.position_m.end());
-  }
   try {
-    return identification::mass_from_payload(
-        fits_without, fits_with, payload_kg,
-        Eigen::Map<const Eigen::VectorXd>(compared.data(), static_cast<Eigen::Index>(compared.size())),
-        motor.pole_pitch_m, basis);
+    return identification::mass_from_payload(fits_without, fits_with, payload_kg, as_vector(compared),
+                                             motor.pole_pitch_m, basis);
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error(without.origin + " and " + with.origin + ": " + e.what());
   }
