@@ -135,9 +135,7 @@ void LcmRunner::enable() {
                                std::to_string(status->force_sensor_warning) + "); commissioning measures forces");
     }
   }
-  command("ENABLE", make_command(Kind::kEnable));
-  client_.wait_for_state("CLM_SERVO_STATE of the enabled axis", 2.0,
-                 [](const servo_state_t& s) { return s.state == kStateEnabled; });
+  enable_axis();
   // The daemon must be the one this configuration describes, publishing every cycle.
   std::vector<std::int64_t> cycles;
   std::vector<double> times_s;
@@ -212,6 +210,10 @@ void LcmRunner::set_payload(double payload_kg) {
   if (!std::getline(std::cin, line)) {
     throw RunTimeFailure("the payload experiments need an operator: no confirmation on stdin (end of input)");
   }
+  enable_axis();
+}
+
+void LcmRunner::enable_axis() {
   command("ENABLE", make_command(Kind::kEnable));
   client_.wait_for_state("CLM_SERVO_STATE of the enabled axis", 2.0,
                          [](const servo_state_t& s) { return s.state == kStateEnabled; });

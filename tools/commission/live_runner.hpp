@@ -78,6 +78,8 @@ class LcmRunner final : public ExperimentRunner {
   std::vector<std::string> notes() const override;
 
  private:
+  /// ENABLE, and the state of the enabled axis back within 2 s.
+  void enable_axis();
   /// Publishes a command and waits for its ack; throws on a timeout or a
   /// refusal, naming `what`.
   std::string command(const std::string& what, servo::Command message);
