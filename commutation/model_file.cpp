@@ -108,14 +108,22 @@ MotorDescription read_motor_description(const yaml::Node& root) {
   const yaml::Node section = root["motor"];
   section.expect_map();
   // The motor: section is this reader's alone (the simulator reads the same
-  // four keys), so a misspelt key is an error rather than a silent default.
-  section.expect_keys({"pole_pitch_m", "coil_sets", "stroke_min_m", "stroke_max_m"});
+  // keys), so a misspelt key is an error rather than a silent default.
+  section.expect_keys({"pole_pitch_m", "coil_sets", "stroke_min_m", "stroke_max_m", "flexible_mode"});
   motor.pole_pitch_m = section["pole_pitch_m"].as_positive();
   motor.coil_sets = static_cast<int>(section["coil_sets"].as_integer_in(1, kMaxCoilSets));
   if (const auto low = section.optional("stroke_min_m")) motor.stroke_min_m = low->as_double();
   if (const auto high = section.optional("stroke_max_m")) motor.stroke_max_m = high->as_double();
   if (!(motor.stroke_max_m > motor.stroke_min_m)) {
     section.fail("stroke_max_m must be above stroke_min_m");
+  }
+  if (const auto mode = section.optional("flexible_mode")) {
+    mode->expect_map();
+    mode->expect_keys({"frequency_Hz", "damping_ratio"});
+    motor.flexible_mode_Hz = (*mode)["frequency_Hz"].as_double_in(1.0, 1e5);
+    if (const auto damping = mode->optional("damping_ratio")) {
+      motor.flexible_mode_damping_ratio = damping->as_double_in(1e-4, 1.0);
+    }
   }
   const yaml::Node commutation = root["drive"]["commutation"];
   commutation.expect_keys({"motor_constant_N_per_A", "phase_offset_rad"});

@@ -24,6 +24,12 @@ struct MotorDescription {
   int coil_sets = 0;                ///< motor.coil_sets, L
   double stroke_min_m = -0.1;       ///< motor.stroke_min_m: lower end of travel
   double stroke_max_m = 0.1;        ///< motor.stroke_max_m: upper end of travel
+  /// motor.flexible_mode: the translator's first mode between the coils and
+  /// the encoder, as a measured frequency response gives it (frequency_Hz,
+  /// damping_ratio); 0 Hz when the file does not say (the position loop's
+  /// margins then take the translator as rigid).
+  double flexible_mode_Hz = 0.0;
+  double flexible_mode_damping_ratio = 0.02;
   DriveCommutation drive;           ///< drive.commutation.*
   /// drive.profile: magnitude_phase (default) or phase_current. With
   /// phase_current the drive has no commutation of its own: drive.commutation

@@ -10,10 +10,15 @@ namespace {
 
 using detail::format_number;
 
-/// Where a quick stop from `velocity_m_per_s` at rest at 0 comes to rest [m].
-double stopping_distance_m(double velocity_m_per_s, const StopLimits& limits) {
+/// Where a stop within `limits` from 0 comes to rest [m] when it starts at
+/// `velocity_m_per_s` still accelerating at `acceleration_m_per_s2` the same
+/// way: the worst state a move within the motion limits can be in. The stop
+/// first has to take the acceleration away at its jerk, and gains a²/(2j) of
+/// velocity meanwhile.
+double stopping_distance_m(double velocity_m_per_s, double acceleration_m_per_s2, const StopLimits& limits) {
   ReferenceSample moving{};
   moving.velocity_m_per_s = velocity_m_per_s;
+  moving.acceleration_m_per_s2 = acceleration_m_per_s2;
   return stopping_position_m(moving, limits);
 }
 
@@ -53,10 +58,15 @@ std::string check_envelope(const Machine& machine, const EnvelopeSettings& s) {
   }
   // 3. velocity
   const double half_span_m = 0.5 * (s.soft_limit_max_m - s.soft_limit_min_m);
-  const double stop_m = stopping_distance_m(s.motion_limits.velocity_m_per_s, s.quick_stop_limits);
+  const double stop_m =
+      stopping_distance_m(s.motion_limits.velocity_m_per_s, s.motion_limits.acceleration_m_per_s2, s.quick_stop_limits);
   if (stop_m > half_span_m) {
-    return "motion.velocity_m_per_s " + format_number(s.motion_limits.velocity_m_per_s) + " m/s: a quick stop from it takes " +
-           format_number(stop_m) + " m, more than half the span between the soft limits (" + format_number(half_span_m) + " m)";
+    return "motion.velocity_m_per_s " + format_number(s.motion_limits.velocity_m_per_s) +
+           " m/s with motion.acceleration_m_per_s2 " + format_number(s.motion_limits.acceleration_m_per_s2) +
+           " m/s^2: a quick stop from them (motion.quick_stop_deceleration_m_per_s2 " +
+           format_number(s.quick_stop_limits.deceleration_m_per_s2) + " m/s^2, motion.quick_stop_jerk_m_per_s3 " +
+           format_number(s.quick_stop_limits.jerk_m_per_s3) + " m/s^3) takes " + format_number(stop_m) +
+           " m, more than half the span between the soft limits (" + format_number(half_span_m) + " m)";
   }
   // 4. feedforward
   const FeedforwardParameters& ff = s.feedforward;

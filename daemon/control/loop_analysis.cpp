@@ -1,6 +1,7 @@
 #include "daemon/control/loop_analysis.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "commutation/elementary.hpp"
@@ -95,6 +96,8 @@ LoopMargins loop_margins(const PidGains& gains, double period_s, const PlantMode
         const double target = (std::max(std::floor(a), std::floor(b))) * kTwoPi - kPi;
         const double t = (target - previous_phase) / (phase - previous_phase);
         const double log_gain = elementary::log(previous_gain) + t * (elementary::log(gain) - elementary::log(previous_gain));
+        // Left of −1: a crossing of the negative real axis (stable()).
+        if (log_gain > 0.0) margins.real_axis_crossings += phase > previous_phase ? 1 : -1;
         // Only above the first gain crossover: below it the integrator and
         // the mass together pass −180° with |L| ≫ 1, which bounds how far the
         // gain may fall, not rise.
@@ -110,6 +113,39 @@ LoopMargins loop_margins(const PidGains& gains, double period_s, const PlantMode
     previous_phase = phase;
   }
   return margins;
+}
+
+PlantModel described_plant(const MotorDescription& motor, double mass_kg) {
+  return {.mass_kg = mass_kg,
+          .mode_frequency_Hz = motor.flexible_mode_Hz,
+          .mode_damping_ratio = motor.flexible_mode_damping_ratio,
+          .current_loop_bandwidth_Hz = motor.current_loop.bandwidth_Hz,
+          .delay_s = motor.setpoint_delay_s + motor.position_delay_s};
+}
+
+std::string margin_shortfall(const PidGains& gains, double period_s, const PlantModel& plant) {
+  const LoopMargins m = loop_margins(gains, period_s, plant);
+  if (!m.stable()) {
+    char text[160];
+    std::snprintf(text, sizeof text,
+                  "unstable (where |L| > 1 its phase passes -180 deg, mod 360, a net %d times counted +1 rising; a "
+                  "stable loop once)",
+                  m.real_axis_crossings);
+    return text;
+  }
+  const bool gain_short = m.gain_margin_Hz > 0.0 && m.gain_margin_dB < kMinGainMargin_dB;
+  if (m.phase_margin_deg >= kMinPhaseMargin_deg && !gain_short) return "";
+  char text[160];
+  std::snprintf(text, sizeof text, "short of the least margins (phase margin %.1f deg at %.0f Hz, at least %.0f; gain margin ", m.phase_margin_deg,
+                m.crossover_Hz, kMinPhaseMargin_deg);
+  std::string out = text;
+  if (m.gain_margin_Hz > 0.0) {
+    std::snprintf(text, sizeof text, "%.1f dB at %.0f Hz, at least %.0f)", m.gain_margin_dB, m.gain_margin_Hz,
+                  kMinGainMargin_dB);
+  } else {
+    std::snprintf(text, sizeof text, "unbounded, at least %.0f dB)", kMinGainMargin_dB);
+  }
+  return out + text;
 }
 
 }  // namespace clm::control

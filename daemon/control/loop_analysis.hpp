@@ -7,7 +7,9 @@
 // encoder. Pure: no I/O, no allocation in the responses.
 
 #include <complex>
+#include <string>
 
+#include "commutation/model_file.hpp"
 #include "daemon/control/position_controller.hpp"
 
 namespace clm::control {
@@ -55,8 +57,35 @@ struct LoopMargins {
   double gain_margin_Hz = 0.0;      ///< where it is (0: none)
   double peak_sensitivity = 0.0;    ///< max |1/(1 + L)| on the grid (the modulus margin's inverse)
   int gain_crossovers = 0;          ///< how many times |L| crosses 1 (a resonance can add crossings)
+  /// The crossings of the negative real axis left of −1 (the phase passing
+  /// an odd multiple of −180° where |L| > 1), +1 where the phase rises, −1
+  /// where it falls. The PID's integral action on the mass starts L at
+  /// −270°: a stable loop rises through −180° once with |L| ≫ 1 and crosses
+  /// nowhere else left of −1 (Nyquist: the same count as the rigid loop the
+  /// rule was made for, whose closed loop is stable). A mode below the
+  /// crossover, or too much delay, adds a falling crossing: unstable, and the
+  /// margins above do not apply.
+  int real_axis_crossings = 0;
+  bool stable() const { return real_axis_crossings == 1; }
 };
 /// Throws std::invalid_argument for a period or mass not positive and finite.
 LoopMargins loop_margins(const PidGains& gains, double period_s, const PlantModel& plant);
+
+/// The least margins a tuning of the position loop may leave: clm-servod
+/// refuses a configuration, and a run-time `set`, whose loop keeps less on
+/// the plant its motor file describes.
+inline constexpr double kMinPhaseMargin_deg = 30.0;
+inline constexpr double kMinGainMargin_dB = 6.0;
+
+/// The plant a motor file describes (motor.flexible_mode, drive.current_loop,
+/// drive.setpoint_delay_s and drive.position_delay_s, the two delays summed)
+/// for a translator of `mass_kg`.
+PlantModel described_plant(const MotorDescription& motor, double mass_kg);
+
+/// Empty when the loop is stable on `plant` and keeps both least margins;
+/// else what it is: "unstable (...)" or "short of the least margins (phase
+/// margin 24.0 deg at 41 Hz, at least 30; gain margin 9.1 dB at 150 Hz, at
+/// least 6)". Throws as loop_margins does.
+std::string margin_shortfall(const PidGains& gains, double period_s, const PlantModel& plant);
 
 }  // namespace clm::control

@@ -32,7 +32,7 @@ ParameterStore::Answer ParameterStore::set(std::string_view key, double value, s
                                            const std::function<servo::CommandResult(const servo::Tuning&)>& queue) {
   std::lock_guard lock(mutex_);
   if (pending_) return {servo::CommandResult::kRejectedParameterPending, ""};
-  ParameterChange change = change_parameter(values_, base_, rate_hz_, key, value);
+  ParameterChange change = change_parameter(values_, base_, rate_hz_, plant_, key, value);
   if (!change.values) return {servo::CommandResult::kRejectedInvalid, change.refusal};
   const servo::CommandResult queued = queue(change.values->tuning);
   if (servo::is_accepted(queued)) {

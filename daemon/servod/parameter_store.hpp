@@ -23,9 +23,11 @@ namespace clm::servod {
 
 class ParameterStore {
  public:
-  /// `base`: the configuration's settings; `rate_hz`: the loop rate.
-  ParameterStore(const servo::ServoSettings& base, double rate_hz, const RuntimeValues& initial)
-      : base_(base), rate_hz_(rate_hz), values_(initial) {}
+  /// `base`: the configuration's settings; `rate_hz`: the loop rate;
+  /// `plant`: what the motor file describes (ServodConfig::plant).
+  ParameterStore(const servo::ServoSettings& base, double rate_hz, const control::PlantModel& plant,
+                 const RuntimeValues& initial)
+      : base_(base), rate_hz_(rate_hz), plant_(plant), values_(initial) {}
 
   /// The values the cycle uses now.
   RuntimeValues values() const;
@@ -56,6 +58,7 @@ class ParameterStore {
  private:
   const servo::ServoSettings base_;
   const double rate_hz_;
+  const control::PlantModel plant_;
   mutable std::mutex mutex_;  // guards the three below
   RuntimeValues values_;                  // what the cycle uses
   std::optional<RuntimeValues> pending_;  // handed to the cycle, not yet answered

@@ -76,7 +76,7 @@ double parameter_value(const RuntimeValues& values, const RuntimeParameter& para
 }
 
 ParameterChange change_parameter(const RuntimeValues& values, const servo::ServoSettings& base, double rate_hz,
-                                 std::string_view key, double value) {
+                                 const control::PlantModel& plant, std::string_view key, double value) {
   const RuntimeParameter* parameter = find_runtime_parameter(key);
   if (parameter == nullptr) return {std::nullopt, "unknown parameter '" + std::string(key) + "' (clm ctl get lists them)"};
   const auto index = static_cast<std::size_t>(parameter - kParameters.data());
@@ -94,6 +94,14 @@ ParameterChange change_parameter(const RuntimeValues& values, const servo::Servo
     servo::ServoSettings settings = base;
     settings.apply(changed.tuning);
     settings.validate();
+    // Only the bandwidth moves the gains at run time (control.mass_kg is fixed).
+    if (changed.bandwidth_hz != values.bandwidth_hz) {
+      if (const std::string shortfall = control::margin_shortfall(changed.tuning.pid, 1.0 / rate_hz, plant);
+          !shortfall.empty()) {
+        return {std::nullopt, std::string(key) + " = " + shortest(value) + ": the position loop would be " + shortfall +
+                                  " on the plant the motor file describes"};
+      }
+    }
   } catch (const std::invalid_argument& e) {
     return {std::nullopt, std::string(key) + " = " + shortest(value) + ": " + e.what()};
   }

@@ -11,6 +11,7 @@
 #include <string>
 #include <string_view>
 
+#include "daemon/control/loop_analysis.hpp"
 #include "daemon/servo/servo_cycle.hpp"
 
 namespace clm::servod {
@@ -39,15 +40,17 @@ struct RuntimeValues {
 double parameter_value(const RuntimeValues& values, const RuntimeParameter& parameter) noexcept;
 
 /// `values` with `key` set to `value`, or the reason it is refused (unknown
-/// key, outside the range, not finite, or settings that ServoSettings::validate
-/// refuses, e.g. a quick-stop deceleration below the stop's). `base` is the
-/// rest of the settings, `rate_hz` the loop rate.
+/// key, outside the range, not finite, settings that ServoSettings::validate
+/// refuses, e.g. a quick-stop deceleration below the stop's, or a bandwidth
+/// whose loop keeps less than the least margins on `plant`). `base` is the
+/// rest of the settings, `rate_hz` the loop rate, `plant` what the motor file
+/// describes (ServodConfig::plant).
 struct ParameterChange {
   std::optional<RuntimeValues> values;
   std::string refusal;
 };
 ParameterChange change_parameter(const RuntimeValues& values, const servo::ServoSettings& base, double rate_hz,
-                                 std::string_view key, double value);
+                                 const control::PlantModel& plant, std::string_view key, double value);
 
 /// "control.bandwidth_hz = 40 Hz"-style text of a value, shortest round-trip digits.
 std::string describe_parameter(const RuntimeParameter& parameter, double value);

@@ -23,7 +23,7 @@ ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drive
     : config_(config), bus_(&bus), clock_(&clock), extra_laws_(std::move(extra_laws)) {
   cycle_ = std::make_unique<servo::ServoCycle>(config_.servo);
   parameters_ = std::make_unique<ParameterStore>(
-      config_.servo, config_.loop.rate_hz,
+      config_.servo, config_.loop.rate_hz, config_.plant,
       RuntimeValues{config_.servo.tuning(), config_.control_mass_kg, config_.control_bandwidth_hz});
 
   // The drive's own law, always available.

@@ -212,6 +212,15 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     mass_node.fail("value " + mass_node.scalar_text() + " kg gives non-finite PID gains at control.bandwidth_hz " +
                    bandwidth + " Hz (k_p grows with mass_kg * bandwidth_hz^2, k_i with mass_kg * bandwidth_hz^3)");
   }
+  config.plant = control::described_plant(config.motor, mass_kg);
+  if (const std::string shortfall = control::margin_shortfall(config.servo.pid, config.servo.period_s, config.plant);
+      !shortfall.empty()) {
+    const auto bandwidth = root["control"].optional("bandwidth_hz");
+    (bandwidth ? *bandwidth : root["control"])
+        .fail("the position loop tuned for " + yaml::format_double(config.control_bandwidth_hz) + " Hz is " + shortfall +
+              " on the plant " + config.motor_file +
+              " describes (motor.flexible_mode, drive.current_loop, drive.setpoint_delay_s + position_delay_s)");
+  }
 
   if (const auto commutation = root.optional("commutation")) {
     commutation->expect_keys({"mode", "calibration_file", "pgnn_model_file", "spline_model_file", "power",

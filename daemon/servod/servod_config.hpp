@@ -9,6 +9,7 @@
 
 #include "commutation/commutator.hpp"
 #include "commutation/model_file.hpp"
+#include "daemon/control/loop_analysis.hpp"
 #include "daemon/servo/servo_cycle.hpp"
 #include "drivers/sim/in_process_bus.hpp"
 
@@ -97,6 +98,9 @@ struct ServodConfig {
   servo::ServoSettings servo;         ///< period, protocol, gains, limits
   double control_bandwidth_hz = 40.0;
   double control_mass_kg = 0.0;
+  /// The plant the motor file describes, for control.mass_kg: every tuning of
+  /// the loop, at start-up and by `set`, keeps the least margins on it.
+  control::PlantModel plant;
   std::string feedforward_file;
 };
 

@@ -178,7 +178,7 @@ MotorParameters read_motor_parameters(const yaml::Node& root, bool allow_other_s
   if (!allow_other_sections) root.expect_keys({"motor", "drive", "simulation"});
   const MotorDescription description = read_motor_description(root);
   const Node motor_section = root["motor"];
-  motor_section.expect_keys({"pole_pitch_m", "coil_sets", "stroke_min_m", "stroke_max_m"});
+  motor_section.expect_keys({"pole_pitch_m", "coil_sets", "stroke_min_m", "stroke_max_m", "flexible_mode"});
 
   MotorParameters motor;
   motor.stroke_min_m = description.stroke_min_m;

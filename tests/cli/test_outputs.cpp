@@ -13,6 +13,7 @@
 #include "commutation/classical.hpp"
 #include "commutation/model_file.hpp"
 #include "config/sha256.hpp"
+#include "config/yaml_reader.hpp"
 #include "daemon/servod/feedforward_file.hpp"
 #include "tools/data/csv_table.hpp"
 
@@ -340,4 +341,27 @@ TEST_CASE("calibrate and identify on experiments without force columns work from
       {"identify", "--motor", kMotor, "--data", forces_head, "--output", joined + ".x", "--off-axis-model", force_model});
   CHECK(misplaced.exit_code == 2);
   CHECK(misplaced.err.find("--off-axis-model") != std::string::npos);
+}
+
+TEST_CASE("margins --config gives the configured loop's margins on the described plant, as the options give them",
+          "[cli]") {
+  // config/servod.yaml: 40 Hz for control.mass_kg at 1 kHz, on the plant its
+  // motor file describes; the same numbers from the explicit options.
+  const std::string config = source_path("config/servod.yaml");
+  const auto from_config = run_clm({"margins", "--config", config});
+  INFO(from_config.out << from_config.err);
+  REQUIRE(from_config.exit_code == 0);
+  CHECK(from_config.out.find("plant: described by ") == 0);
+  CHECK(from_config.out.find("stable: yes") != std::string::npos);
+  const auto tail = [](const std::string& text) { return text.substr(text.find("gains:")); };
+  const yaml::Node control = yaml::Node::load_file(config)["control"];
+  const std::string mass = control["mass_kg"].scalar_text(), bandwidth = control["bandwidth_hz"].scalar_text();
+  const auto explicit_options = run_clm(
+      {"margins", "--mass-kg", mass, "--plant-mass-kg", mass, "--bandwidth-hz", bandwidth, "--period-s", "0.001"});
+  REQUIRE(explicit_options.exit_code == 0);
+  CHECK(tail(from_config.out) == tail(explicit_options.out));
+  const auto both = run_clm({"margins", "--config", config, "--mode-hz", "300"});
+  CHECK(both.exit_code == 2);
+  CHECK(both.err_lines().size() == 1);
+  CHECK(both.err.find("excludes") != std::string::npos);
 }

@@ -118,6 +118,24 @@ TEST_CASE("each relation's bound, from its formula: just past is refused, just i
     INFO("inside: " << reason);
     CHECK(reason.empty());
   }
+  SECTION("3. a quick stop from full speed and full acceleration: the acceleration it must take away counts") {
+    // The settings that walked the axis into its end stop: a quick stop at
+    // 3.9e-4 m/s^2 and 0.00216 m/s^3 from 4.6 mm/s looks short (v^2/(2d),
+    // 27 mm), but a move may be accelerating at 0.009 m/s^2 when it starts:
+    // the stop gains a^2/(2j) = 18.8 mm/s before it can brake, and then needs
+    // more than (v + a^2/(2j))^2/(2d) of travel.
+    EnvelopeSettings s = default_settings();
+    s.motion_limits = {0.0046, 0.009, 17920.0};
+    s.stop_limits = {7.2e-6, 3.5e-6};
+    s.quick_stop_limits = {3.9e-4, 0.00216};
+    const double v = 0.0046, a = 0.009, d = 3.9e-4, j = 0.00216;
+    CHECK(v * v / (2 * d) < 0.11);                                  // from the velocity alone: inside
+    CHECK(std::pow(v + a * a / (2 * j), 2) / (2 * d) > 0.11);      // with the acceleration: far outside
+    check_refused(s, "motion.acceleration_m_per_s2 0.009 m/s^2: a quick stop from them");
+    s.motion_limits.acceleration_m_per_s2 = 1e-5;  // a^2/(2j) = 2.3e-8 m/s: the velocity's bound again
+    s.motion_limits.jerk_m_per_s3 = 1.0;
+    check_accepted(s);
+  }
   SECTION("4. feedforward mass 0 or within a factor 2, friction within half the force") {
     EnvelopeSettings s = default_settings();
     for (const double mass : {7.5, 15.0, 30.0, 0.0}) {

@@ -3,6 +3,8 @@
 // changes one line of a small valid configuration written to a temporary
 // directory; the line numbers below are those of that text.
 #include <catch2/catch.hpp>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -252,4 +254,46 @@ TEST_CASE("commutation files for another motor or of the wrong kind are refused 
     test::write_text(corrupt, text.substr(0, text.size() / 2));
     CHECK_THAT(refused("  mode: pgnn\n  pgnn_model_file: " + corrupt), Catch::StartsWith(corrupt + ":"));
   }
+}
+
+TEST_CASE("a bandwidth that keeps less than the least margins on the described plant is refused at start-up",
+          "[daemon][config]") {
+  // The motor file describes a 270 Hz mode, a 1.35 kHz current loop and
+  // 0.27 ms of delays (docs/servod.md, "The position loop's margins"): 40 Hz
+  // keeps about 33° and 10 dB, 130 Hz below 10° (the hold's ωT/2 and the
+  // delays' 360·f·τ take 36° of the rule's 45.6°).
+  test::TemporaryDirectory dir("clm-servod-config");
+  std::ifstream in(test::source_path("config/motor-sim.yaml"));
+  std::stringstream motor;
+  motor << in.rdbuf();
+  std::string text = motor.str();
+  const std::string drive = "\ndrive:\n", stroke = "  stroke_max_m: 0.12\n";
+  REQUIRE(text.find(drive) != std::string::npos);
+  text.insert(text.find(drive) + drive.size(),
+              "  setpoint_delay_s: 1.8e-4\n  position_delay_s: 9.0e-5\n"
+              "  current_loop: {bandwidth_Hz: 1350.0, phase_resistance_ohm: 2.2, phase_inductance_H: 0.0011}\n");
+  REQUIRE(text.find(stroke) != std::string::npos);
+  text.insert(text.find(stroke) + stroke.size(), "  flexible_mode: {frequency_Hz: 270.0, damping_ratio: 0.02}\n");
+  test::write_text(dir.file("motor.yaml"), text);
+  auto lines = valid_lines();
+  lines[0] = "motor_file: " + dir.file("motor.yaml");
+  REQUIRE(load_error(dir, lines).empty());
+  const servod::ServodConfig config = servod::load_servod_config(dir.file("servod.yaml"));
+  CHECK(config.plant.mode_frequency_Hz == 270.0);
+  CHECK(config.plant.delay_s == Approx(2.7e-4));
+  CHECK(config.plant.current_loop_bandwidth_Hz == 1350.0);
+  CHECK(config.plant.mass_kg == 15.0);
+  lines[9] = "  bandwidth_hz: 130.0";
+  CHECK_THAT(load_error(dir, lines),
+             Catch::StartsWith(dir.file("servod.yaml") + ":10: control.bandwidth_hz: the position loop tuned for 130 Hz "
+                                                         "is unstable ("));
+  lines[9] = "  bandwidth_hz: 55.0";  // stable, 28 deg of phase margin
+  CHECK_THAT(load_error(dir, lines), Catch::Contains(":10: control.bandwidth_hz: the position loop tuned for 55 Hz is "
+                                                     "short of the least margins (phase margin "));
+  // The mode's own keys are checked as every key is.
+  std::string bad = text;
+  bad.replace(bad.find("frequency_Hz: 270.0"), 19, "frequency_Hz: -5.0");
+  test::write_text(dir.file("motor.yaml"), bad);
+  lines[9] = "  bandwidth_hz: 40.0";
+  CHECK_THAT(load_error(dir, lines), Catch::Contains("motor.flexible_mode.frequency_Hz"));
 }

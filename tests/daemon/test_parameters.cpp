@@ -153,12 +153,13 @@ TEST_CASE("a bandwidth whose PID gains overflow with the configured mass is refu
   const servod::ServodConfig config = test::virtual_config();
   // k_i ≈ 0.111·m·(2π·f)³ (tune_pid): for 1e301 kg about 2e306 N/(m*s) at 20 Hz, above 1.8e308 at 160 Hz.
   const servod::RuntimeValues values{config.servo.tuning(), 1e301, 20.0};
-  const auto change = servod::change_parameter(values, config.servo, 1000.0, "control.bandwidth_hz", 160.0);
+  const control::PlantModel plant{.mass_kg = 1e301};
+  const auto change = servod::change_parameter(values, config.servo, 1000.0, plant, "control.bandwidth_hz", 160.0);
   CHECK_FALSE(change.values.has_value());
   CHECK(change.refusal.rfind("control.bandwidth_hz = 160: tune_pid: mass_kg 1e+301 kg at bandwidth_hz 160 Hz gives "
                              "non-finite gains",
                              0) == 0);
-  CHECK(servod::change_parameter(values, config.servo, 1000.0, "control.bandwidth_hz", 30.0).values.has_value());
+  CHECK(servod::change_parameter(values, config.servo, 1000.0, plant, "control.bandwidth_hz", 30.0).values.has_value());
 }
 
 TEST_CASE("a feedforward parameter set after a feedforward file is loaded takes the file's name out of the status",
@@ -190,4 +191,29 @@ TEST_CASE("a feedforward parameter set after a feedforward file is loaded takes 
   CHECK(daemon.cycle().settings().feedforward.mass_kg == 15.5);  // the file's, kept
   daemon.loaded_file(servod::LoadedFileSlot::kFeedforward, file);
   CHECK(file.path.view().empty());
+}
+
+TEST_CASE("a bandwidth whose loop keeps less than the least margins on the described plant is refused, nothing changed",
+          "[daemon][parameters]") {
+  // The plant a motor file would describe: a 270 Hz mode, a 1.35 kHz current
+  // loop and 0.27 ms of delays. At 130 Hz the rule's 45.6° lose the hold's
+  // ωT/2 (23°) and the delays' 360·f·τ (13°): below 30°. At 40 Hz about 33° stay.
+  auto config = test::virtual_config();
+  config.plant = control::PlantModel{.mass_kg = config.control_mass_kg,
+                                     .mode_frequency_Hz = 270.0,
+                                     .mode_damping_ratio = 0.02,
+                                     .current_loop_bandwidth_Hz = 1350.0,
+                                     .delay_s = 2.7e-4};
+  servod::WiredAxis axis(config);
+  auto& daemon = axis.daemon;
+  daemon.run_cycles(10);
+  const auto refused = daemon.submit(set("control.bandwidth_hz", 130.0));
+  CHECK_FALSE(refused.accepted());
+  CHECK_THAT(refused.text(), Catch::StartsWith("rejected: control.bandwidth_hz = 130: the position loop would be "
+                                               "unstable ("));
+  CHECK_THAT(refused.text(), Catch::Contains("on the plant the motor file describes"));
+  CHECK(daemon.submit(get("control.bandwidth_hz")).text() == "control.bandwidth_hz = 40 Hz");
+  CHECK(daemon.cycle().settings().pid.proportional_N_per_m ==
+        control::tune_pid(config.control_mass_kg, 40.0).proportional_N_per_m);
+  CHECK(set_and_apply(daemon, "control.bandwidth_hz", 35.0).accepted());
 }
