@@ -208,3 +208,18 @@ TEST_CASE("clm ctl with a missing or unsafe key file: exit 2 and one line naming
     CHECK(lines[0].find(words) != std::string::npos);
   }
 }
+
+TEST_CASE("clm commission refuses a payload it cannot use: exit 2 and the one rule's line", "[cli][exit_status]") {
+  // commission::payload_refusal, the rule the library applies too: a
+  // payload needs --no-force-sensor and no other source of the force scale.
+  const clm::test::TemporaryDirectory directory("clm_cli_payload");
+  const std::string config = source_path("config/servod.yaml"), out = directory.file("out");
+  const std::string rule = ": a payload gives the mass of the commissioning from positions; it needs "
+                           "--no-force-sensor, a positive finite mass, and neither --mass-kg nor a friction";
+  check_one_line(run_clm({"commission", "--config", config, "--out", out, "--payload-kg", "5"}), 2,
+                 "clm commission: error: --payload-kg 5" + rule);
+  check_one_line(run_clm({"commission", "--config", config, "--out", out, "--no-force-sensor", "--mass-kg", "15",
+                          "--payload-kg", "5"}),
+                 2, "clm commission: error: --payload-kg 5" + rule);
+  CHECK_FALSE(fs::exists(out));
+}

@@ -151,9 +151,8 @@ void add_commission(CLI::App& app) {
     // A friction given, or a payload, sets the scale instead of the configuration's mass.
     const auto& motion = options->run.position.motion;
     const bool friction = motion.viscous_N_s_per_m > 0.0 || motion.direction_N > 0.0;
-    if (payload->count() > 0 && (!options->run.no_force_sensor || mass->count() > 0 || friction)) {
-      throw CLI::ValidationError("--payload-kg", "gives the mass of the commissioning from positions: it needs "
-                                                 "--no-force-sensor, and neither --mass-kg nor a friction");
+    if (const std::string refusal = commission::payload_refusal(options->run); !refusal.empty()) {
+      throw CLI::ValidationError(refusal);
     }
     options->run.mass_from_config = mass->count() == 0 && !friction && payload->count() == 0;
     if (options->run.validation_program_path != "none" && !options->run.validation_program_path.empty() &&
@@ -228,9 +227,9 @@ void add_commission(CLI::App& app) {
         if (r.evaluated && &r != oracle) std::printf(" %s %.2fx", r.name.c_str(), r.tracking_mse_m2 / oracle->tracking_mse_m2);
       }
       std::printf("\n");
-      if (const std::string line = commission::commutation_share_summary(report); !line.empty()) {
-        std::printf("%s\n", line.c_str());
-      }
+    }
+    if (const std::string line = commission::commutation_share_summary(report); !line.empty()) {
+      std::printf("%s\n", line.c_str());
     }
     for (const CalibrationFile* file : {&report.calibration_paper, &report.calibration_robust}) {
       for (std::size_t l = 0; l < file->coil_sets.size(); ++l) {

@@ -281,6 +281,21 @@ control::FeedforwardParameters identify_ff(const Recording& run) {
   return control::identify_feedforward(reference, force);
 }
 
+control::TrackingSplit split_tracking(const Recording& run, const servod::ServodConfig& config) {
+  std::vector<double> position, force_demand, tracking_error;
+  for (const auto& s : run.samples) {
+    position.push_back(s.y_m);
+    force_demand.push_back(s.F_star_N);
+    tracking_error.push_back(s.r_m - s.y_m);
+  }
+  try {
+    return control::split_tracking_error(position, force_demand, tracking_error, config.motor.pole_pitch_m,
+                                         config.servo.pid, config.control_mass_kg, config.servo.period_s);
+  } catch (const std::invalid_argument&) {
+    return {};  // too short a run: fewer than four samples per regressor
+  }
+}
+
 CommutationResult evaluate(const Recording& run, double period_s) {
   CommutationResult result;
   std::vector<Eigen::Vector3d> measured, desired;
@@ -423,6 +438,18 @@ std::string runner_up_margin(const data::Verdict& verdict) {
   return margin;
 }
 
+std::string payload_refusal(const Options& options) {
+  if (options.payload_kg == 0.0) return "";
+  const auto& motion = options.position.motion;
+  if (options.no_force_sensor && options.payload_kg > 0.0 && std::isfinite(options.payload_kg) &&
+      motion.mass_kg == 0.0 && motion.viscous_N_s_per_m == 0.0 && motion.direction_N == 0.0) {
+    return "";
+  }
+  return "--payload-kg " + yaml::format_double(options.payload_kg) +
+         ": a payload gives the mass of the commissioning from positions; it needs --no-force-sensor, a positive "
+         "finite mass, and neither --mass-kg nor a friction";
+}
+
 Report run(const Options& options, const std::function<void(const Progress&)>& progress) {
   const servod::ServodConfig config = servod::load_servod_config(options.config_path);
   // Calibration and identification measure forces (docs/bring-up.md:
@@ -480,11 +507,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   const servod::ServodConfig config = servod::load_servod_config(options.config_path);
   const MotorDescription motor = config.motor;
   report.coil_sets = motor.coil_sets;
-  if (options.payload_kg != 0.0 && (!options.no_force_sensor || !(options.payload_kg > 0.0))) {
-    throw std::runtime_error("a payload (" + std::to_string(options.payload_kg) +
-                             " kg) gives the mass of commissioning from positions: it needs --no-force-sensor and a "
-                             "positive mass");
-  }
+  if (const std::string refusal = payload_refusal(options); !refusal.empty()) throw std::runtime_error(refusal);
   // Without a force sensor only the laws from positions are commissioned.
   const bool sensor = can::has_force_sensor(config.servo.protocol);
   if (!sensor && !options.no_force_sensor) {
@@ -762,6 +785,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     on.close_log();
     write_evaluation_csv(law_file(std::string("evaluation-") + name + ".csv"), evaluation, timeline);
     CommutationResult result = evaluate(evaluation, config.servo.period_s);
+    result.tracking_split = split_tracking(evaluation, config);
     result.name = name;
     result.feedforward = ff_file.parameters;
     outcome.result = result;

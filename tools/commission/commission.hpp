@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "daemon/control/metrics.hpp"
+#include "daemon/control/tracking_split.hpp"
 #include "tools/commission/progress.hpp"
 #include "tools/commission/runner.hpp"
 #include "tools/commission/runs.hpp"
@@ -65,6 +66,12 @@ struct Options {
   double payload_kg = 0.0;
 };
 
+/// Why `options`' payload cannot be used, "" when it can or when there is
+/// none: the payload gives the mass of the commissioning from positions, so
+/// it needs no_force_sensor, a positive finite payload_kg, and neither a
+/// mass (position.motion.mass_kg) nor a friction that would set the scale.
+std::string payload_refusal(const Options& options);
+
 struct CommutationResult {
   std::string name;
   bool evaluated = false;
@@ -77,6 +84,10 @@ struct CommutationResult {
   bool truth_known = false;
   control::DirectionMse true_mse{};
   double tracking_mse_m2 = 0.0;
+  /// The tracking error split by the commutation's own frequencies
+  /// (control::split_tracking_error): what a live axis can tell without a
+  /// simulator's oracle (docs/commissioning.md, "The error budget").
+  control::TrackingSplit tracking_split{};
   double mean_current_square_A2 = 0.0;
   std::int64_t damping_cycles = 0;
   std::int64_t force_limited_cycles = 0;
@@ -222,5 +233,11 @@ std::string runner_up_margin(const data::Verdict& verdict);
 /// Commutation MSE (filtered and unfiltered, y/x/z), tracking MSE and mean
 /// current square of an evaluation run.
 CommutationResult evaluate(const Recording& run, double period_s);
+
+/// The tracking error of `run` split by the commutation's frequencies
+/// (control::split_tracking_error) on the loop `config` describes (its
+/// period, pole pitch, PID and control.mass_kg); all zero for a run too
+/// short to split.
+control::TrackingSplit split_tracking(const Recording& run, const servod::ServodConfig& config);
 
 }  // namespace clm::commission

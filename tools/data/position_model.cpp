@@ -105,18 +105,10 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
     throw std::invalid_argument("position identification: a mass and a friction given; each fixes the force scale, "
                                 "give one");
   }
-  Eigen::Index total = 0;
-  for (const auto& experiment : data.coil_sets) {
-    for (const auto& run : experiment.runs) total += run.position_m.size();
-  }
-  Eigen::VectorXd all_positions(total);
-  Eigen::Index at = 0;
+  std::vector<double> all_positions;
+  append_positions(data, all_positions);
   std::vector<std::vector<identification::MotionRun>> training, validation, all;
   for (const auto& experiment : data.coil_sets) {
-    for (const auto& run : experiment.runs) {
-      all_positions.segment(at, run.position_m.size()) = run.position_m;
-      at += run.position_m.size();
-    }
     SplitRuns split = split_runs(experiment.runs, options.validation_fraction);
     training.push_back(std::move(split.training));
     validation.push_back(std::move(split.validation));
@@ -125,7 +117,7 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
   const auto basis_for = [&](double spacing) {
     identification::SplineOptions grid;
     grid.knot_spacing_m = spacing;
-    return identification::spline_basis_for(all_positions, motor.pole_pitch_m, grid);
+    return identification::spline_basis_for(as_vector(all_positions), motor.pole_pitch_m, grid);
   };
 
   PositionIdentification result;
@@ -170,7 +162,7 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
   ElectromagneticModel& model = result.model.model;
   model.kind = ModelKind::kSpline;
   model.pole_pitch_m = motor.pole_pitch_m;
-  model.normalisation = identification::normalisation_for(all_positions);
+  model.normalisation = identification::normalisation_for(as_vector(all_positions));
   model.spline_basis = basis;
   for (const auto& motion : result.fits) {
     CoilSetModel coil_set;
