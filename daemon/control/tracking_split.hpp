@@ -10,10 +10,12 @@
 // error to a force at the motor (the mass 1/(m s²) closed by the PID as it
 // runs, the force held over each period). c and g are written in cos and
 // sin(2πn·y/d_m), n = 1..N, and a uniform cubic B-spline over the recorded
-// positions with knots an eighth of the pitch apart; each shape, and each
-// shape times F*, passed through G is a regressor. The least-squares fit of the recorded
-// tracking error on them is the part the commutation causes, the residual
-// the rest (disturbance, noise, a direction-dependent force, the loop's own
+// positions with knots an eighth of the pitch apart. Each shape, and each
+// shape times the feedforward part of F* (eq. 40), passed through G is a
+// regressor: g times the feedback's part is left out, a second-order term
+// that would also make the feedback's reaction to any disturbance look like
+// a gain error. The least-squares fit of the recorded tracking error on
+// them is the part the commutation causes, the residual the rest (disturbance, noise, a direction-dependent force, the loop's own
 // following of the reference). It needs no truth, so it runs on a live
 // recording. Numerical only: no I/O.
 
@@ -37,13 +39,15 @@ struct TrackingSplit {
 inline constexpr int kTrackingSplitHarmonics = 8;
 /// The B-spline's knot spacing, in pole pitches.
 inline constexpr double kTrackingSplitKnotPitches = 0.125;
+/// The fit's ridge, relative to each column's sum of squares over the run.
+inline constexpr double kTrackingSplitRidge = 1e-6;
 
 /// The split of `tracking_error_m` (r − y per cycle) recorded at
-/// `position_m` with the force demand `force_demand_N` (F*), on a loop of
+/// `position_m` with the feedforward part `feedforward_N` of the force demand, on a loop of
 /// `gains` at `period_s` around a translator of `mass_kg`. Throws std::invalid_argument when the spans' sizes differ,
 /// when there are fewer than four samples per regressor, or when the pitch,
 /// the mass, the period or `harmonics` is not positive, or a position is not finite.
-TrackingSplit split_tracking_error(std::span<const double> position_m, std::span<const double> force_demand_N,
+TrackingSplit split_tracking_error(std::span<const double> position_m, std::span<const double> feedforward_N,
                                    std::span<const double> tracking_error_m, double pole_pitch_m, const PidGains& gains, double mass_kg, double period_s,
                                    int harmonics = kTrackingSplitHarmonics);
 

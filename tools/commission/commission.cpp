@@ -282,17 +282,17 @@ control::FeedforwardParameters identify_ff(const Recording& run) {
 }
 
 control::TrackingSplit split_tracking(const Recording& run, const servod::ServodConfig& config) {
-  std::vector<double> position, force_demand, tracking_error;
+  std::vector<double> position, feedforward, tracking_error;
   for (const auto& s : run.samples) {
     position.push_back(s.y_m);
-    force_demand.push_back(s.F_star_N);
+    feedforward.push_back(s.u_ff_N);
     tracking_error.push_back(s.r_m - s.y_m);
   }
   try {
-    return control::split_tracking_error(position, force_demand, tracking_error, config.motor.pole_pitch_m,
+    return control::split_tracking_error(position, feedforward, tracking_error, config.motor.pole_pitch_m,
                                          config.servo.pid, config.control_mass_kg, config.servo.period_s);
   } catch (const std::invalid_argument&) {
-    return {};  // too short a run: fewer than four samples per regressor
+    return {};  // too short a run: fewer than four samples per regressor, or than five blocks
   }
 }
 
@@ -438,6 +438,20 @@ std::string runner_up_margin(const data::Verdict& verdict) {
   return margin;
 }
 
+namespace {
+
+/// Calibration and identification measure forces (docs/bring-up.md:
+/// commissioning with a borrowed sensor), or positions alone when asked.
+void check_force_sensor(const servod::ServodConfig& config, const Options& options) {
+  if (!can::has_force_sensor(config.servo.protocol) && !options.no_force_sensor) {
+    throw std::runtime_error(options.config_path + ": can.force_sensor_node_id: absent, so the axis has no force "
+                             "sensor; commissioning measures forces: mount one and name its node, or commission from "
+                             "positions alone with --no-force-sensor");
+  }
+}
+
+}  // namespace
+
 std::string payload_refusal(const Options& options) {
   if (options.payload_kg == 0.0) return "";
   const auto& motion = options.position.motion;
@@ -452,13 +466,7 @@ std::string payload_refusal(const Options& options) {
 
 Report run(const Options& options, const std::function<void(const Progress&)>& progress) {
   const servod::ServodConfig config = servod::load_servod_config(options.config_path);
-  // Calibration and identification measure forces (docs/bring-up.md:
-  // commissioning with a borrowed sensor), or positions alone when asked.
-  if (!can::has_force_sensor(config.servo.protocol) && !options.no_force_sensor) {
-    throw std::runtime_error(options.config_path + ": can.force_sensor_node_id: absent, so the axis has no force "
-                             "sensor; commissioning measures forces: mount one and name its node, or commission from "
-                             "positions alone with --no-force-sensor");
-  }
+  check_force_sensor(config, options);  // before anything live is touched
   if (options.live) {
     // Everything that could fail late is checked now, before the first
     // experiment (preflight.hpp): --out, the programs, the daemon, timing.
@@ -509,11 +517,8 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   report.coil_sets = motor.coil_sets;
   if (const std::string refusal = payload_refusal(options); !refusal.empty()) throw std::runtime_error(refusal);
   // Without a force sensor only the laws from positions are commissioned.
+  check_force_sensor(config, options);
   const bool sensor = can::has_force_sensor(config.servo.protocol);
-  if (!sensor && !options.no_force_sensor) {
-    throw std::runtime_error(options.config_path + ": can.force_sensor_node_id: absent; commission from positions "
-                             "alone with --no-force-sensor");
-  }
   // The reference must fit this motor's soft limits; a program made for a
   // longer stroke is scaled about the stroke centre (and the report says so).
   // A running daemon reads the program file itself, so live it must fit as it is.
