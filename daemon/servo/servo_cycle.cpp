@@ -216,8 +216,7 @@ void ServoCycle::commutate(double position_m, double velocity_m_per_s, double fo
   commanded_.setpoints.fill({});
   commanded_.currents.fill({});
   if (status_.mode == CommutationMode::kExperiment) {
-    // Algorithms 1 and 2: the whole demand through one coil set at Δ. The
-    // back-EMF is the drive's nominal law's (nothing is calibrated yet).
+    // Algorithms 1 and 2: the whole demand through one coil set at Δ.
     const auto l = static_cast<std::size_t>(experiment_coil_set_ - 1);
     const DriveSetpoint setpoint{force_N, experiment_delta_rad_};
     const Eigen::Vector2d i = drive_phase_currents(settings_.drive, setpoint, position_m, settings_.pole_pitch_m);
@@ -226,13 +225,22 @@ void ServoCycle::commutate(double position_m, double velocity_m_per_s, double fo
     record_.damping_engaged = false;
     record_.current_square_sum_A2 = i.squaredNorm() + (i.x() + i.y()) * (i.x() + i.y());
     if (compensation_.active()) {
+      // The back-EMF of every coil set, driven or not, with the gains of
+      // the law in service (its currents are replaced below): the drive's
+      // nominal law's before anything is calibrated; commissioning
+      // identifies on experiments run with a law of its first pass
+      // (docs/commutation.md, "The drive's current loop").
+      if (const CommutationLaw* service = laws_[static_cast<std::size_t>(service_mode_)]) {
+        service->commutate(lead_position_m, desired, commutation_);
+      } else {
+        const ClassicalCoilSet nominal{settings_.drive.motor_constant_N_per_A, settings_.drive.phase_offset_rad, 0.0, 0.0};
+        const Eigen::Vector2d gain = classical_gain(nominal, lead_position_m, settings_.pole_pitch_m).row(0).transpose();
+        commutation_.driving_gain_N_per_A.resize(2 * coil_sets);
+        for (int k = 0; k < coil_sets; ++k) commutation_.driving_gain_N_per_A.segment<2>(2 * k) = gain;
+      }
       commutation_.currents_A.setZero();
       commutation_.currents_A.segment<2>(2 * static_cast<Eigen::Index>(l)) =
           drive_phase_currents(settings_.drive, setpoint, lead_position_m, settings_.pole_pitch_m);
-      const ClassicalCoilSet nominal{settings_.drive.motor_constant_N_per_A, settings_.drive.phase_offset_rad, 0.0, 0.0};
-      const Eigen::Vector2d gain = classical_gain(nominal, lead_position_m, settings_.pole_pitch_m).row(0).transpose();
-      commutation_.driving_gain_N_per_A.resize(2 * coil_sets);
-      for (int k = 0; k < coil_sets; ++k) commutation_.driving_gain_N_per_A.segment<2>(2 * k) = gain;
     }
   } else {
     const CommutationLaw* law = laws_[static_cast<std::size_t>(status_.mode)];

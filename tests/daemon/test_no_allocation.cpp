@@ -23,14 +23,16 @@ namespace {
 
 /// 10^5 cycles of `mode` with a program running on the axis of `servod_file`,
 /// counted; with `current_loop`, the cycle also compensates a drive's current
-/// loop (the simulated drive's own stays as the motor file has it).
+/// loop (the simulated drive's own stays as the motor file has it), and an
+/// experiment takes the back-EMF's gains from the law `service`.
 void check_cycles_allocate_nothing(CommutationMode mode, const std::string& servod_file,
-                                   const std::string& motor_file, const CurrentLoopModel& current_loop = {}) {
+                                   const std::string& motor_file, const CurrentLoopModel& current_loop = {},
+                                   CommutationMode service = CommutationMode::kOriginal) {
   constexpr std::int64_t kCycles = 100'000;
   test::TemporaryDirectory dir("clm-daemon-allocations");
   const auto files = test::write_truth_laws(dir, test::source_path(motor_file));
-  INFO("mode " << servo::name(mode) << ", " << servod_file);
-  servod::ServodConfig config = test::config_with_laws(files, CommutationMode::kOriginal, servod_file);
+  INFO("mode " << servo::name(mode) << " (in service " << servo::name(service) << "), " << servod_file);
+  servod::ServodConfig config = test::config_with_laws(files, service, servod_file);
   config.motor.current_loop = config.servo.current_loop = current_loop;
   servod::WiredAxis axis(config);
   servod::ServoDaemon& daemon = axis.daemon;
@@ -102,6 +104,11 @@ TEST_CASE("10^5 cycles with a program running allocate nothing, in every commuta
 TEST_CASE("10^5 cycles allocate nothing while compensating a drive's current loop", "[daemon][allocation]") {
   const auto mode = GENERATE(CommutationMode::kClassical, CommutationMode::kPgnn, CommutationMode::kExperiment);
   check_cycles_allocate_nothing(mode, "config/servod.yaml", "config/motor-sim.yaml", {1500.0, 2.0, 1e-3});
+}
+
+TEST_CASE("10^5 cycles of an experiment allocate nothing with a model law's back-EMF gains", "[daemon][allocation]") {
+  check_cycles_allocate_nothing(CommutationMode::kExperiment, "config/servod.yaml", "config/motor-sim.yaml",
+                                {1500.0, 2.0, 1e-3}, CommutationMode::kPgnn);
 }
 
 TEST_CASE("10^5 cycles allocate nothing with a phase-current drive either", "[daemon][allocation][phase_current]") {

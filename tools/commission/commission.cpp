@@ -566,8 +566,52 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     report.files.push_back("logs/" + name);
     runner.open_log(dir + "/logs/" + name);
   };
-  std::vector<Recording> experiments;
   const int runs = 2 * motor.coil_sets;
+  // 1a. Where the motor file describes the drive's current loop, the cycle
+  // compensates the back-EMF of every coil set, driven or not, with the
+  // gains of the law in service (servo_cycle.cpp): before anything is
+  // identified the drive's nominal law, whose constant and offset are a
+  // tenth off on a real motor and the same for every coil set. The
+  // compensation's error is then a force of velocity and acceleration that
+  // no law of position fits. So a first pass of the experiments gives a
+  // spline model, put in service, and the experiments calibrated and
+  // identified on run with its gains (docs/commutation.md, "The drive's
+  // current loop"). Live it is not resumable: a resumed commissioning runs
+  // it again.
+  if (sensor && !motor.current_loop.ideal()) {
+    open_log("experiments-nominal.lcm");
+    std::vector<Recording> nominal;
+    for (int l = 1; l <= motor.coil_sets; ++l) {
+      for (double delta : {-kPi / 4, kPi / 4}) {
+        tell("experiments on the drive's law", static_cast<double>(nominal.size()) / runs,
+             "coil set " + std::to_string(l) + ", delta " + (delta < 0 ? "-pi/4" : "+pi/4"));
+        runner.set_experiment(l, delta);
+        nominal.push_back(runner.run_program(experiment_program, experiment_path,
+                                             "nominal experiment coil set " + std::to_string(l), Disturbance::kRunsOn));
+      }
+    }
+    runner.close_log();
+    const std::string csv = written("experiments-nominal.csv");
+    write_experiment_csv(csv, nominal, motor.drive_profile, true);
+    data::IdentifyOptions identify = options.identify;
+    identify.kind = ModelKind::kSpline;
+    identify.select_capacity = false;  // its gains are needed to a few per cent, not its best knot spacing
+    std::vector<data::CoilSetIdentification> reports;
+    ModelFile first = data::identify_motor(data::read_experiment_data(data::CsvTable::load(csv), motor), motor,
+                                           identify, reports, [&](const data::IdentifyProgress& p) {
+                                             tell("experiments on the drive's law", 1.0, "identifying: " + p.what);
+                                           });
+    first.provenance.data_sha256 = sha256_file(csv);
+    first.provenance.generator = "clm commission";
+    const std::string model = written("model-spline-nominal.yaml");
+    write_file_atomically(model, format_model_file(first));
+    runner.load_model(servo::CommutationMode::kSpline, model);
+    runner.set_commutation(servo::CommutationMode::kSpline);
+    tell("experiments on the drive's law", 1.0, "done; the spline identified from them in service");
+    report.steps.push_back({"experiments on the drive's law", seconds_since(step_start)});
+    step_start = Clock::now();
+  }
+  std::vector<Recording> experiments;
   // Live, each experiment has a log of its own and is listed in the progress
   // file once complete, so that --resume can reuse it (progress.hpp); the
   // logs are joined into experiments.lcm at the end.
