@@ -567,6 +567,23 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     runner.open_log(dir + "/logs/" + name);
   };
   const int runs = 2 * motor.coil_sets;
+  // Every coil set at Δ = ∓π/4 in turn, in one log, not resumable (the
+  // first pass and the payload's below; the main pass has a log per run).
+  const auto run_experiments = [&](const std::string& log, const std::string& step, const std::string& name) {
+    open_log(log);
+    std::vector<Recording> recordings;
+    for (int l = 1; l <= motor.coil_sets; ++l) {
+      for (double delta : {-kPi / 4, kPi / 4}) {
+        tell(step, static_cast<double>(recordings.size()) / runs,
+             "coil set " + std::to_string(l) + ", delta " + (delta < 0 ? "-pi/4" : "+pi/4"));
+        runner.set_experiment(l, delta);
+        recordings.push_back(runner.run_program(experiment_program, experiment_path,
+                                                name + " coil set " + std::to_string(l), Disturbance::kRunsOn));
+      }
+    }
+    runner.close_log();
+    return recordings;
+  };
   // 1a. Where the motor file describes the drive's current loop, the cycle
   // compensates the back-EMF of every coil set, driven or not, with the
   // gains of the law in service (servo_cycle.cpp): before anything is
@@ -575,22 +592,12 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   // compensation's error is then a force of velocity and acceleration that
   // no law of position fits. So a first pass of the experiments gives a
   // spline model, put in service, and the experiments calibrated and
-  // identified on run with its gains (docs/commutation.md, "The drive's
-  // current loop"). Live it is not resumable: a resumed commissioning runs
-  // it again.
+  // identified on run with its gains (docs/commutation.md, "The
+  // experiments' back-EMF"). Live it is not resumable: a resumed
+  // commissioning runs it again.
   if (sensor && !motor.current_loop.ideal()) {
-    open_log("experiments-nominal.lcm");
-    std::vector<Recording> nominal;
-    for (int l = 1; l <= motor.coil_sets; ++l) {
-      for (double delta : {-kPi / 4, kPi / 4}) {
-        tell("experiments on the drive's law", static_cast<double>(nominal.size()) / runs,
-             "coil set " + std::to_string(l) + ", delta " + (delta < 0 ? "-pi/4" : "+pi/4"));
-        runner.set_experiment(l, delta);
-        nominal.push_back(runner.run_program(experiment_program, experiment_path,
-                                             "nominal experiment coil set " + std::to_string(l), Disturbance::kRunsOn));
-      }
-    }
-    runner.close_log();
+    const std::vector<Recording> nominal =
+        run_experiments("experiments-nominal.lcm", "experiments on the drive's law", "nominal experiment");
     const std::string csv = written("experiments-nominal.csv");
     write_experiment_csv(csv, nominal, motor.drive_profile, true);
     data::IdentifyOptions identify = options.identify;
@@ -676,17 +683,8 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   if (options.payload_kg > 0.0) {
     step_start = Clock::now();
     runner.set_payload(options.payload_kg);
-    open_log("experiments-payload.lcm");
-    for (int l = 1; l <= motor.coil_sets; ++l) {
-      for (double delta : {-kPi / 4, kPi / 4}) {
-        tell("experiments with the payload", static_cast<double>(payload_experiments.size()) / runs,
-             "coil set " + std::to_string(l) + ", delta " + (delta < 0 ? "-pi/4" : "+pi/4"));
-        runner.set_experiment(l, delta);
-        payload_experiments.push_back(runner.run_program(
-            experiment_program, experiment_path, "payload experiment coil set " + std::to_string(l), Disturbance::kRunsOn));
-      }
-    }
-    runner.close_log();
+    payload_experiments =
+        run_experiments("experiments-payload.lcm", "experiments with the payload", "payload experiment");
     runner.set_payload(0.0);
     tell("experiments with the payload", 1.0, "done");
     report.steps.push_back({"experiments with the payload", seconds_since(step_start)});
