@@ -591,23 +591,38 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   // tenth off on a real motor and the same for every coil set. The
   // compensation's error is then a force of velocity and acceleration that
   // no law of position fits. So a first pass of the experiments gives a
-  // spline model, put in service, and the experiments calibrated and
-  // identified on run with its gains (docs/commutation.md, "The
+  // spline model (from forces, or from positions for an axis commissioned
+  // without a force sensor), put in service, and the experiments calibrated
+  // and identified on run with its gains (docs/commutation.md, "The
   // experiments' back-EMF"). Live it is not resumable: a resumed
   // commissioning runs it again.
-  if (sensor && !motor.current_loop.ideal()) {
+  if (!motor.current_loop.ideal() && (sensor || options.no_force_sensor)) {
     const std::vector<Recording> nominal =
         run_experiments("experiments-nominal.lcm", "experiments on the drive's law", "nominal experiment");
     const std::string csv = written("experiments-nominal.csv");
-    write_experiment_csv(csv, nominal, motor.drive_profile, true);
-    data::IdentifyOptions identify = options.identify;
-    identify.kind = ModelKind::kSpline;
-    identify.select_capacity = false;  // its gains are needed to a few per cent, not its best knot spacing
-    std::vector<data::CoilSetIdentification> reports;
-    ModelFile first = data::identify_motor(data::read_experiment_data(data::CsvTable::load(csv), motor), motor,
-                                           identify, reports, [&](const data::IdentifyProgress& p) {
-                                             tell("experiments on the drive's law", 1.0, "identifying: " + p.what);
-                                           });
+    // Commissioned as an axis without a force sensor, no force is used here
+    // either: the spline from positions at the scale given (--mass-kg, a
+    // friction), else at control.mass_kg (a payload's mass comes later),
+    // whose few per cent off are the gains' error.
+    write_experiment_csv(csv, nominal, motor.drive_profile, !options.no_force_sensor);
+    const data::ExperimentData data = data::read_experiment_data(data::CsvTable::load(csv), motor);
+    ModelFile first;
+    if (options.no_force_sensor) {
+      data::PositionIdentifyOptions position = options.position;
+      const auto& motion = position.motion;
+      if (motion.mass_kg == 0.0 && motion.viscous_N_s_per_m == 0.0 && motion.direction_N == 0.0) {
+        position.motion.mass_kg = config.control_mass_kg;  // no scale given: the configured mass
+      }
+      first = data::identify_from_position(data, motor, position).model;
+    } else {
+      data::IdentifyOptions identify = options.identify;
+      identify.kind = ModelKind::kSpline;
+      identify.select_capacity = false;  // its gains are needed to a few per cent, not its best knot spacing
+      std::vector<data::CoilSetIdentification> reports;
+      first = data::identify_motor(data, motor, identify, reports, [&](const data::IdentifyProgress& p) {
+        tell("experiments on the drive's law", 1.0, "identifying: " + p.what);
+      });
+    }
     first.provenance.data_sha256 = sha256_file(csv);
     first.provenance.generator = "clm commission";
     const std::string model = written("model-spline-nominal.yaml");
