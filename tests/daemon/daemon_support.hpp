@@ -56,6 +56,16 @@ inline servod::CommandReply cycle_answer(servod::ServoDaemon& daemon, std::int64
   return found[0];
 }
 
+/// Submits SET_EXPERIMENT for `coil_set` at `delta_rad` (Algorithms 1 and
+/// 2) and requires the daemon to take it into its queue.
+inline void submit_experiment(servod::ServoDaemon& daemon, int coil_set, double delta_rad) {
+  servo::Command experiment;
+  experiment.kind = servo::CommandKind::kSetExperiment;
+  experiment.coil_set = coil_set;
+  experiment.delta_rad = delta_rad;
+  REQUIRE(daemon.submit(experiment).accepted());
+}
+
 /// Submits SET_EXPERIMENT (coil set 1) and runs a cycle: the cycle must refuse
 /// it because the axis has lost its force sensor.
 inline void require_experiment_refused_for_the_sensor(servod::ServoDaemon& daemon) {

@@ -42,11 +42,7 @@ double experiment_current_error_A(CommutationMode service, bool compensated = tr
     daemon.run_cycles(2);
     REQUIRE(daemon.cycle().status().mode == service);
   }
-  servo::Command experiment;
-  experiment.kind = Kind::kSetExperiment;
-  experiment.coil_set = 2;
-  experiment.delta_rad = kPi / 4;
-  REQUIRE(daemon.submit(experiment).accepted());
+  test::submit_experiment(daemon, 2, kPi / 4);
   test::command(daemon, Kind::kEnable, 10);
   REQUIRE(daemon.cycle().status().mode == CommutationMode::kExperiment);
   REQUIRE(daemon.submit_program(servod::load_program_file(test::source_path("config/programs/identification.yaml"))).accepted());

@@ -39,11 +39,7 @@ void check_cycles_allocate_nothing(CommutationMode mode, const std::string& serv
   daemon.run_cycles(10);
   if (mode == CommutationMode::kExperiment) {
     // Algorithms 1 and 2: the whole demand through coil set 2 at Δ = π/4.
-    servo::Command experiment;
-    experiment.kind = Kind::kSetExperiment;
-    experiment.coil_set = 2;
-    experiment.delta_rad = kPi / 4;
-    REQUIRE(daemon.submit(experiment).accepted());
+    test::submit_experiment(daemon, 2, kPi / 4);
   } else {
     servo::Command set;
     set.kind = Kind::kSetCommutation;

@@ -98,11 +98,7 @@ TEST_CASE("with phase_current the experiments send the drive's nominal law throu
   servod::WiredAxis axis(config);
   servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
-  servo::Command experiment;
-  experiment.kind = Kind::kSetExperiment;
-  experiment.coil_set = 2;
-  experiment.delta_rad = kPi / 4;
-  REQUIRE(daemon.submit(experiment).accepted());
+  test::submit_experiment(daemon, 2, kPi / 4);
   test::command(daemon, Kind::kEnable, 10);
   REQUIRE(daemon.submit(fig8()).accepted());
   for (int k = 0; k < 2000; ++k) {
