@@ -253,11 +253,26 @@ double motion_residual_rms_N(const MotionFit& fit, const std::vector<MotionRun>&
   return rows > 0 ? std::sqrt(square_sum / static_cast<double>(rows)) : std::nan("");
 }
 
+void MotionFitOptions::validate(const char* what) const {
+  const auto finite = [](double x) { return std::isfinite(x); };
+  if (!(mass_kg >= 0.0) || !(smoothing >= 0.0) || !(direction_smoothing_m_per_s > 0.0) ||
+      !(min_speed_m_per_s >= 0.0) || !(viscous_N_s_per_m >= 0.0) || !(direction_N >= 0.0) || !finite(mass_kg) ||
+      !finite(smoothing) || !finite(direction_smoothing_m_per_s) || !finite(min_speed_m_per_s) ||
+      !finite(viscous_N_s_per_m) || !finite(direction_N)) {
+    throw std::invalid_argument(std::string(what) +
+                                ": negative or non-finite mass, smoothing, minimum speed or friction, or v_d not "
+                                "positive");
+  }
+  if (mass_kg > 0.0 && friction_given()) {
+    throw std::invalid_argument(std::string(what) + ": a mass and a friction given; each fixes the force scale, give one");
+  }
+}
+
 double common_mass_kg(const std::vector<MotionFit>& fits, const MotionFitOptions& options) {
-  if (options.mass_kg > 0.0) return options.mass_kg;
+  if (options.scale() == MotionFitOptions::Scale::kMass) return options.mass_kg;
   // Least squares of mass·(per-kilogram figures) against the reference: the
   // friction given, else the nominal commutation's A_y, B_y.
-  const bool friction = options.viscous_N_s_per_m > 0.0 || options.direction_N > 0.0;
+  const bool friction = options.scale() == MotionFitOptions::Scale::kFriction;
   const Eigen::Vector4d nominal = nominal_physics(options.drive);
   double numerator = 0.0, denominator = 0.0;
   for (const MotionFit& fit : fits) {
@@ -332,13 +347,7 @@ double MotionFit::cogging_N(double position_m, const UniformCubicBasis& basis) c
 
 MotionFit fit_driving_direction_from_motion(const std::vector<MotionRun>& runs, double pole_pitch_m,
                                             const UniformCubicBasis& basis, const MotionFitOptions& options) {
-  if (!(options.mass_kg >= 0.0) || !(options.smoothing >= 0.0) || !(options.direction_smoothing_m_per_s > 0.0) ||
-      !(options.min_speed_m_per_s >= 0.0) || !(options.viscous_N_s_per_m >= 0.0) || !(options.direction_N >= 0.0)) {
-    throw std::invalid_argument("motion fit: negative mass, smoothing, minimum speed or friction, or v_d not positive");
-  }
-  if (options.mass_kg > 0.0 && (options.viscous_N_s_per_m > 0.0 || options.direction_N > 0.0)) {
-    throw std::invalid_argument("motion fit: a mass and a friction given; each fixes the force scale, give one");
-  }
+  options.validate("motion fit");
   const int n = basis.size();
   const int model = 4 + 3 * n;
   const NormalEquations eq = accumulate(runs, pole_pitch_m, basis, options);

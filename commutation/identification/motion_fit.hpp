@@ -89,6 +89,17 @@ struct MotionFitOptions {
   /// force spreads over the periods (PairingWeights).
   CurrentLoopModel current_loop;
   double delay_s = 0.0;
+
+  /// Where the force scale comes from: the one place that reads the rule.
+  enum class Scale { kMass, kFriction, kNominal };
+  bool friction_given() const noexcept { return viscous_N_s_per_m > 0.0 || direction_N > 0.0; }
+  Scale scale() const noexcept {
+    return mass_kg > 0.0 ? Scale::kMass : friction_given() ? Scale::kFriction : Scale::kNominal;
+  }
+  /// Throws std::invalid_argument "<what>: ..." for a negative or non-finite
+  /// mass, smoothing, minimum speed or friction, v_d not positive, or a mass
+  /// and a friction given together (each fixes the scale).
+  void validate(const char* what) const;
 };
 
 struct MotionFit {

@@ -19,7 +19,7 @@ TrackingSplit split_tracking_error(std::span<const double> position_m, std::span
   const auto n = static_cast<Eigen::Index>(position_m.size());
   if (position_m.size() != tracking_error_m.size() || position_m.size() != feedforward_N.size()) {
     throw std::invalid_argument("split_tracking_error: " + std::to_string(position_m.size()) + " positions, " +
-                                std::to_string(feedforward_N.size()) + " force demands and " +
+                                std::to_string(feedforward_N.size()) + " feedforward forces and " +
                                 std::to_string(tracking_error_m.size()) + " tracking errors");
   }
   if (!(pole_pitch_m > 0.0) || !(mass_kg > 0.0) || !(period_s > 0.0) || !(harmonics > 0)) {

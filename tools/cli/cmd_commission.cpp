@@ -149,8 +149,7 @@ void add_commission(CLI::App& app) {
       throw std::runtime_error("--resume: only a live commissioning resumes: give --live");
     }
     // A friction given, or a payload, sets the scale instead of the configuration's mass.
-    const auto& motion = options->run.position.motion;
-    const bool friction = motion.viscous_N_s_per_m > 0.0 || motion.direction_N > 0.0;
+    const bool friction = options->run.position.motion.friction_given();
     if (const std::string refusal = commission::payload_refusal(options->run); !refusal.empty()) {
       throw CLI::ValidationError(refusal);
     }

@@ -245,12 +245,13 @@ void identify_from_positions(const Options& options, const servod::ServodConfig&
     report.position_mass_source = source;
   } else {
     if (options.mass_from_config) position.motion.mass_kg = config.control_mass_kg;
-    const bool friction = position.motion.viscous_N_s_per_m > 0.0 || position.motion.direction_N > 0.0;
-    report.position_mass_source = position.motion.mass_kg > 0.0 ? (options.mass_from_config
-                                                                 ? "control.mass_kg of the configuration"
-                                                                 : "--mass-kg")
-                                  : friction ? "the friction given"
-                                             : "none: the scale of the drive's nominal commutation";
+    using Scale = identification::MotionFitOptions::Scale;
+    const Scale scale = position.motion.scale();
+    report.position_mass_source = scale == Scale::kMass       ? (options.mass_from_config
+                                                                   ? "control.mass_kg of the configuration"
+                                                                   : "--mass-kg")
+                                  : scale == Scale::kFriction ? "the friction given"
+                                                              : "none: the scale of the drive's nominal commutation";
   }
   report.position = data::identify_from_position(position_data, motor, position);
   ModelFile& model = report.position.model;
@@ -292,7 +293,7 @@ control::TrackingSplit split_tracking(const Recording& run, const servod::Servod
     return control::split_tracking_error(position, feedforward, tracking_error, config.motor.pole_pitch_m,
                                          config.servo.pid, config.control_mass_kg, config.servo.period_s);
   } catch (const std::invalid_argument&) {
-    return {};  // too short a run: fewer than four samples per regressor, or than five blocks
+    return {};  // too short a run: fewer than four samples per regressor
   }
 }
 
@@ -456,7 +457,7 @@ std::string payload_refusal(const Options& options) {
   if (options.payload_kg == 0.0) return "";
   const auto& motion = options.position.motion;
   if (options.no_force_sensor && options.payload_kg > 0.0 && std::isfinite(options.payload_kg) &&
-      motion.mass_kg == 0.0 && motion.viscous_N_s_per_m == 0.0 && motion.direction_N == 0.0) {
+      motion.scale() == identification::MotionFitOptions::Scale::kNominal) {
     return "";
   }
   return "--payload-kg " + yaml::format_double(options.payload_kg) +
@@ -609,8 +610,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     ModelFile first;
     if (options.no_force_sensor) {
       data::PositionIdentifyOptions position = options.position;
-      const auto& motion = position.motion;
-      if (motion.mass_kg == 0.0 && motion.viscous_N_s_per_m == 0.0 && motion.direction_N == 0.0) {
+      if (position.motion.scale() == identification::MotionFitOptions::Scale::kNominal) {
         position.motion.mass_kg = config.control_mass_kg;  // no scale given: the configured mass
       }
       first = data::identify_from_position(data, motor, position).model;

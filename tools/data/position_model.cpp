@@ -96,14 +96,10 @@ std::vector<identification::MotionFit> fit_all(const std::vector<std::vector<ide
 PositionIdentification identify_from_position(const ExperimentData& data, const MotorDescription& motor,
                                               const PositionIdentifyOptions& options) {
   const identification::MotionFitOptions fit = with_drive(options.motion, motor);
-  if (!(fit.mass_kg >= 0.0) || !(options.knot_spacing_m >= 0.0) || !(options.validation_fraction >= 0.0) ||
-      !(options.validation_fraction < 1.0) || !(fit.viscous_N_s_per_m >= 0.0) || !(fit.direction_N >= 0.0)) {
-    throw std::invalid_argument("position identification: negative mass, friction or knot spacing, or a held-out "
-                                "share outside [0, 1)");
-  }
-  if (fit.mass_kg > 0.0 && (fit.viscous_N_s_per_m > 0.0 || fit.direction_N > 0.0)) {
-    throw std::invalid_argument("position identification: a mass and a friction given; each fixes the force scale, "
-                                "give one");
+  fit.validate("position identification");
+  if (!(options.knot_spacing_m >= 0.0) || !(options.validation_fraction >= 0.0) ||
+      !(options.validation_fraction < 1.0)) {
+    throw std::invalid_argument("position identification: a negative knot spacing, or a held-out share outside [0, 1)");
   }
   std::vector<double> all_positions;
   append_positions(data, all_positions);
@@ -121,8 +117,8 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
   };
 
   PositionIdentification result;
-  result.mass_given = fit.mass_kg > 0.0;
-  result.friction_given = !result.mass_given && (fit.viscous_N_s_per_m > 0.0 || fit.direction_N > 0.0);
+  result.mass_given = fit.scale() == identification::MotionFitOptions::Scale::kMass;
+  result.friction_given = fit.scale() == identification::MotionFitOptions::Scale::kFriction;
   result.knot_spacing_m = options.basis ? options.basis->spacing_m() : options.knot_spacing_m;
   // Nothing held out, nothing to choose by: the force-sensor spline's default.
   if (result.knot_spacing_m == 0.0 && options.validation_fraction == 0.0) {
