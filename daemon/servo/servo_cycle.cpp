@@ -51,12 +51,6 @@ void ServoCycle::install_law(CommutationMode mode, const CommutationLaw* law) no
   mailbox_.laws_[index].set_current(law);
 }
 
-double ServoCycle::velocity_now_m_per_s(const control::ReferenceSample& now) const noexcept {
-  // The filtered velocity lags by the filter's time constant: corrected with
-  // the reference's acceleration.
-  return velocity_estimate_m_per_s_ + now.acceleration_m_per_s2 * kVelocityFilter_s;
-}
-
 bool ServoCycle::at_standstill() const noexcept {
   return running_ == nullptr && !status_.stopping && std::abs(velocity_estimate_m_per_s_) < settings_.standstill_velocity_m_per_s;
 }
@@ -375,7 +369,7 @@ void ServoCycle::drive() noexcept {
   }
   record_.F_star_N = force;
   if (status_.state == ServoState::kEnabled || status_.fault_reaction_running) {
-    commutate(position_m_, velocity_now_m_per_s(now), force);
+    commutate(position_m_, velocity_estimate_m_per_s_, force);
   }
 }
 
@@ -398,7 +392,7 @@ void ServoCycle::approach_guard(const control::ReferenceSample& now, const contr
                             reference_stop_m < settings_.soft_limit_min_m + band_m;
     // Within the following-error limit the deviation is the loop's to
     // correct (and kFollowingError's to catch).
-    const control::ReferenceSample measured{position_m_, velocity_now_m_per_s(now), now.acceleration_m_per_s2, 0.0};
+    const control::ReferenceSample measured{position_m_, velocity_estimate_m_per_s_, now.acceleration_m_per_s2, 0.0};
     const double axis_stop_m = control::stopping_position_m(measured, settings_.quick_stop_limits);
     const double axis_margin_m = settings_.following_error_limit_m;
     if (reference_stop_m < settings_.soft_limit_min_m - kStopTolerance_m ||

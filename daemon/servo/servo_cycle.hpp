@@ -236,8 +236,6 @@ class ServoCycle {
   std::size_t encode_setpoints(bool driving) noexcept;
   void fill_record(double time_s) noexcept;
   void commutate(double position_m, double velocity_m_per_s, double force_N) noexcept;
-  /// The axis's velocity now: the filtered estimate, its lag corrected with `now`'s acceleration.
-  double velocity_now_m_per_s(const control::ReferenceSample& now) const noexcept;
   void zero_setpoints() noexcept;
   /// Plans a stop from the present reference and follows it from the next sample.
   void begin_stop(const control::StopLimits& limits, bool quick) noexcept;
@@ -257,8 +255,10 @@ class ServoCycle {
   CycleMailbox mailbox_;
   const control::MoveProgram* running_ = nullptr;
   std::int64_t program_start_cycle_ = 0;
-  // Velocity estimate: first-order filter on the position difference with this
-  // time constant [s], enough to tell standstill from motion through encoder noise.
+  // Velocity observer (account_feedback): the reference's acceleration
+  // predicts, the position difference corrects through a first-order filter
+  // with this time constant [s], enough to tell standstill from motion
+  // through encoder noise.
   static constexpr double kVelocityFilter_s = 0.01;
   std::int64_t jog_token_seen_ = 0, jog_renewed_cycle_ = 0;
 

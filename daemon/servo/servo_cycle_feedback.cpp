@@ -60,9 +60,19 @@ void ServoCycle::account_feedback() noexcept {
     previous_position_m_ = have_position_ ? position_m_ : drive_.position_m;
     position_m_ = drive_.position_m;
     have_position_ = true;
-    const double raw_velocity = (position_m_ - previous_position_m_) / settings_.period_s;
-    const double alpha = settings_.period_s / (kVelocityFilter_s + settings_.period_s);
-    velocity_estimate_m_per_s_ += alpha * (raw_velocity - velocity_estimate_m_per_s_);
+    // The velocity observer: the reference's acceleration over the last
+    // period (what the loop asked the axis to do) predicts the change; the
+    // position difference, the mean velocity over that period and so the
+    // velocity at its middle, corrects it through a first-order filter of
+    // time constant kVelocityFilter_s. Following the reference, the estimate
+    // has no lag; a step of the reference's acceleration moves it by no more
+    // than the axis moves.
+    const double period_s = settings_.period_s;
+    const double acceleration_m_per_s2 = reference_.acceleration_m_per_s2;
+    const double raw_velocity = (position_m_ - previous_position_m_) / period_s;
+    const double alpha = period_s / (kVelocityFilter_s + period_s);
+    const double middle_m_per_s = velocity_estimate_m_per_s_ + 0.5 * period_s * acceleration_m_per_s2;
+    velocity_estimate_m_per_s_ += period_s * acceleration_m_per_s2 + alpha * (raw_velocity - middle_m_per_s);
     // The feedback of the cycle that carries the clear request predates it.
     if ((drive_.status_word & can::kStatusFault) && !clear_drive_fault_) latch(Fault::kDriveFault);
   }
