@@ -354,10 +354,16 @@ TEST_CASE("margins --config gives the configured loop's margins on the described
   CHECK(from_config.out.find("plant: described by ") == 0);
   CHECK(from_config.out.find("stable: yes") != std::string::npos);
   const auto tail = [](const std::string& text) { return text.substr(text.find("gains:")); };
+  // The plant as the motor file describes it: its mode, current loop and delays.
   const yaml::Node control = yaml::Node::load_file(config)["control"];
   const std::string mass = control["mass_kg"].scalar_text(), bandwidth = control["bandwidth_hz"].scalar_text();
+  const yaml::Node motor = yaml::Node::load_file(source_path("config/motor-sim.yaml"));
+  const double delay_s = motor["drive"]["setpoint_delay_s"].as_double() + motor["drive"]["position_delay_s"].as_double();
   const auto explicit_options = run_clm(
-      {"margins", "--mass-kg", mass, "--plant-mass-kg", mass, "--bandwidth-hz", bandwidth, "--period-s", "0.001"});
+      {"margins", "--mass-kg", mass, "--plant-mass-kg", mass, "--bandwidth-hz", bandwidth, "--period-s", "0.001",
+       "--mode-hz", motor["motor"]["flexible_mode"]["frequency_Hz"].scalar_text(), "--mode-damping",
+       motor["motor"]["flexible_mode"]["damping_ratio"].scalar_text(), "--current-loop-hz",
+       motor["drive"]["current_loop"]["bandwidth_Hz"].scalar_text(), "--delay-s", std::to_string(delay_s)});
   REQUIRE(explicit_options.exit_code == 0);
   CHECK(tail(from_config.out) == tail(explicit_options.out));
   const auto both = run_clm({"margins", "--config", config, "--mode-hz", "300"});

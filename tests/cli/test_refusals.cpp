@@ -9,6 +9,7 @@
 #include <random>
 
 #include "cli/cli_support.hpp"
+#include "support/ideal_plant.hpp"
 #include "commutation/model_file.hpp"
 #include "support/random_model.hpp"
 #include "tools/data/csv_table.hpp"
@@ -212,7 +213,7 @@ TEST_CASE("calibrate, identify and commutate refuse unknown and missing keys of 
   const std::string input = dir.file("forces.csv");
   write_file(input, join_lines(desired_force_lines()));
   const std::string motor = dir.file("motor.yaml");
-  const std::string original = read_file(kMotor);
+  const std::string original = read_file(clm::test::ideal_plant_file("motor-sim.yaml"));  // without its plant terms
 
   struct Variant {
     std::string text;

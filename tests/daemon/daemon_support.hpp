@@ -20,18 +20,36 @@
 #include "drivers/sim/in_process_bus.hpp"
 #include "drivers/sim/motor.hpp"
 #include "drivers/sim/motor_file.hpp"
+#include "support/ideal_plant.hpp"
 #include "support/temporary_directory.hpp"
 
 namespace clm::test {
 
 inline std::string source_path(const std::string& relative) { return std::string(CLM_SOURCE_DIR) + "/" + relative; }
 
-/// config/servod.yaml with the virtual clock and no telemetry.
-inline servod::ServodConfig virtual_config(const std::string& file = "config/servod.yaml") {
-  auto config = servod::load_servod_config(source_path(file));
+/// The configuration at `path` with the virtual clock and no telemetry.
+inline servod::ServodConfig virtual_config_at(const std::string& path) {
+  auto config = servod::load_servod_config(path);
   config.loop.clock = servod::ClockMode::kVirtual;
   config.telemetry.enabled = false;
   return config;
+}
+
+/// config/servod.yaml (or `file`) with the virtual clock and no telemetry.
+inline servod::ServodConfig virtual_config(const std::string& file = "config/servod.yaml") {
+  return virtual_config_at(source_path(file));
+}
+
+/// A program of config/programs/ as the ideal plant's copy of `file` holds
+/// it: beside its configuration, where the daemon's file policy lets it be read.
+inline std::string ideal_plant_program(const std::string& name, const std::string& file = "config/servod.yaml") {
+  return ideal_plant_file("programs/" + name, file);
+}
+
+/// virtual_config on the ideal plant: for the tests of the cycle's own
+/// mechanics, which a current loop, delays or a disturbance would blur.
+inline servod::ServodConfig ideal_plant_config(const std::string& file = "config/servod.yaml") {
+  return virtual_config_at(ideal_plant_path(file));
 }
 
 inline servod::CommandReply command(servod::ServoDaemon& daemon, servo::CommandKind kind,
@@ -272,15 +290,19 @@ inline LawFiles write_truth_laws(const TemporaryDirectory& dir, const std::strin
   return files;
 }
 
-/// The default configuration (or `servod_file`) with every law available and `mode` selected.
-inline servod::ServodConfig config_with_laws(const LawFiles& files, servo::CommutationMode mode,
-                                             const std::string& servod_file = "config/servod.yaml") {
-  auto config = virtual_config(servod_file);
+/// `config` with every law available and `mode` selected.
+inline servod::ServodConfig with_laws(servod::ServodConfig config, const LawFiles& files, servo::CommutationMode mode) {
   config.commutation.calibration_file = files.calibration;
   config.commutation.pgnn_model_file = files.pgnn;
   config.commutation.spline_model_file = files.spline;
   config.commutation.mode = mode;
   return config;
+}
+
+/// The default configuration (or `servod_file`) with every law available and `mode` selected.
+inline servod::ServodConfig config_with_laws(const LawFiles& files, servo::CommutationMode mode,
+                                             const std::string& servod_file = "config/servod.yaml") {
+  return with_laws(virtual_config(servod_file), files, mode);
 }
 
 }  // namespace clm::test

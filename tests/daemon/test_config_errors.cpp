@@ -263,7 +263,7 @@ TEST_CASE("a bandwidth that keeps less than the least margins on the described p
   // keeps about 33° and 10 dB, 130 Hz below 10° (the hold's ωT/2 and the
   // delays' 360·f·τ take 36° of the rule's 45.6°).
   test::TemporaryDirectory dir("clm-servod-config");
-  std::ifstream in(test::source_path("config/motor-sim.yaml"));
+  std::ifstream in(test::ideal_plant_file("motor-sim.yaml"));  // the shipped motor without its plant terms
   std::stringstream motor;
   motor << in.rdbuf();
   std::string text = motor.str();

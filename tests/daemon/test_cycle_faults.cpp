@@ -93,7 +93,7 @@ void require_faulted_and_safe(BareCycle& bare, const test::SentSetpoints& sent, 
 
 TEST_CASE("a setpoint outside the CAN signal range latches kSetpointOutOfRange with zero in the same cycle",
           "[daemon][faults]") {
-  const auto settings = test::virtual_config().servo;
+  const auto settings = test::ideal_plant_config().servo;
   BareCycle bare(settings);
   const FixedLaw law(settings.protocol.coil_sets, {1000.0, 0.1});  // the signal ends at ±819.2 N
   bare.cycle.install_law(servo::CommutationMode::kOriginal, &law);
@@ -107,7 +107,7 @@ TEST_CASE("a setpoint outside the CAN signal range latches kSetpointOutOfRange w
 
 TEST_CASE("a law that produces a non-finite setpoint latches kCommutationNotFinite with zero in the same cycle",
           "[daemon][faults]") {
-  const auto settings = test::virtual_config().servo;
+  const auto settings = test::ideal_plant_config().servo;
   BareCycle bare(settings);
   const FixedLaw law(settings.protocol.coil_sets, {std::numeric_limits<double>::quiet_NaN(), 0.0});
   bare.cycle.install_law(servo::CommutationMode::kOriginal, &law);
@@ -118,7 +118,7 @@ TEST_CASE("a law that produces a non-finite setpoint latches kCommutationNotFini
 }
 
 TEST_CASE("a law whose setpoints fit drives the axis through the bare cycle", "[daemon][faults]") {
-  const auto settings = test::virtual_config().servo;
+  const auto settings = test::ideal_plant_config().servo;
   BareCycle bare(settings);
   const FixedLaw law(settings.protocol.coil_sets, {12.5, -0.25});
   bare.cycle.install_law(servo::CommutationMode::kOriginal, &law);

@@ -25,9 +25,10 @@ namespace {
 /// missed.
 double experiment_current_error_A(CommutationMode service, bool compensated = true) {
   test::TemporaryDirectory dir("clm-experiment-back-emf");
-  const std::string motor_file = test::source_path("config/motor-sim.yaml");
+  // The shipped motor without its plant terms, this loop alone added.
+  const std::string motor_file = test::ideal_plant_file("motor-sim.yaml");
   const auto files = test::write_truth_laws(dir, motor_file);
-  servod::ServodConfig config = test::config_with_laws(files, CommutationMode::kOriginal);
+  servod::ServodConfig config = test::with_laws(test::ideal_plant_config(), files, CommutationMode::kOriginal);
   sim::MotorParameters parameters = sim::load_motor_parameters(motor_file);
   parameters.drive.current_loop = {1500.0, 2.0, 1e-3, 150.0};
   if (compensated) config.motor.current_loop = config.servo.current_loop = {1500.0, 2.0, 1e-3};

@@ -29,7 +29,7 @@ namespace {
 /// The default daemon (or `config`) with the axis enabled, holding at the
 /// centre of the stroke.
 struct EnabledAxis {
-  explicit EnabledAxis(const servod::ServodConfig& config = test::virtual_config()) : wired(config), daemon(wired.daemon) {
+  explicit EnabledAxis(const servod::ServodConfig& config = test::ideal_plant_config()) : wired(config), daemon(wired.daemon) {
     daemon.run_cycles(10);
     test::command(daemon, Kind::kEnable, 20);
     REQUIRE(daemon.cycle().status().state == ServoState::kEnabled);
@@ -336,7 +336,7 @@ TEST_CASE("a following error above the configured limit latches kFollowingError 
           "[daemon][faults]") {
   // 150 N of acceleration force over k_p ≈ 0.557·m·ω_c² = 5.3e5 N/m: the
   // brisk move lags by ~0.3 mm, six times this limit; holding lags by far less.
-  auto config = test::virtual_config();
+  auto config = test::ideal_plant_config();
   config.servo.following_error_limit_m = 50e-6;
   EnabledAxis axis(config);
   axis.move_to(0.05, kBrisk);
@@ -389,7 +389,7 @@ TEST_CASE("a force demand saturated longer than the limit latches kForceSaturate
   // loop saturates. Inside the safe envelope, so that only the saturation trips: a
   // following-error limit of 20 mm (wider than the push makes in the 50 ms of
   // saturation_time_limit_s), the soft limits 40 mm inside the stroke.
-  auto config = test::virtual_config();
+  auto config = test::ideal_plant_config();
   config.servo.following_error_limit_m = 0.02;
   config.servo.soft_limit_min_m = config.servo.machine.stroke_min_m + 0.04;
   config.servo.soft_limit_max_m = config.servo.machine.stroke_max_m - 0.04;

@@ -81,7 +81,7 @@ servo::Command load_model(const std::string& path) {
 servo::Command fig8() {
   servo::Command run;
   run.kind = Kind::kRunProgram;
-  run.program.assign(test::source_path("config/programs/fig8.yaml"));
+  run.program.assign(test::ideal_plant_program("fig8.yaml"));
   return run;
 }
 
@@ -94,7 +94,7 @@ struct PgnnRig {
     second_path = dir.file("pgnn-second.yaml");
     test::write_text(first_path, format_model_file(test::truth_pgnn(motor)));
     test::write_text(second_path, format_model_file(test::truth_pgnn(motor, 1.1, 0.05)));
-    config = test::virtual_config();
+    config = test::ideal_plant_config();
     config.commutation.pgnn_model_file = first_path;
     config.commutation.mode = CommutationMode::kPgnn;
     // Commands load files only from the configured directories.
@@ -216,7 +216,7 @@ TEST_CASE("a model file that does not load leaves the running law untouched and 
   CHECK(refused(other_motor) == why + "key motor.coil_sets): '" + other_motor + "'");
   REQUIRE(log.size() == 2);
   CHECK(log[1] == "refused model file '" + other_motor + "': " + other_motor +
-                      ": motor.coil_sets: model has 2 coil sets, " + test::source_path("config/motor-sim.yaml") +
+                      ": motor.coil_sets: model has 2 coil sets, " + test::ideal_plant_file("motor-sim.yaml") +
                       " has 3");
   CHECK(refused(spline) == why + "key kind): '" + spline + "'");
   REQUIRE(log.size() == 3);

@@ -22,10 +22,11 @@ namespace {
 
 constexpr const char* kPhaseCurrentConfig = "config/servod-phase-current.yaml";
 
-servo::Command fig8() {
+/// Fig. 8 as the ideal plant's copy of `config` holds it.
+servo::Command fig8(const char* config = kPhaseCurrentConfig) {
   servo::Command run;
   run.kind = Kind::kRunProgram;
-  run.program.assign(test::source_path("config/programs/fig8.yaml"));
+  run.program.assign(test::ideal_plant_program("fig8.yaml", config));
   return run;
 }
 
@@ -33,7 +34,7 @@ servo::Command fig8() {
 
 TEST_CASE("the phase-current configuration gives the protocol and the simulated drive profile phase_current",
           "[daemon][phase_current]") {
-  const auto config = test::virtual_config(kPhaseCurrentConfig);
+  const auto config = test::ideal_plant_config(kPhaseCurrentConfig);
   CHECK(config.motor.drive_profile == DriveProfile::kPhaseCurrent);
   CHECK(config.servo.protocol.drive_profile == DriveProfile::kPhaseCurrent);
   servod::WiredAxis axis(config);
@@ -46,7 +47,7 @@ TEST_CASE("with phase_current every cycle sends the PGNN law's currents, which t
           "[daemon][phase_current]") {
   test::TemporaryDirectory dir("clm-daemon-phase-current");
   const auto files = test::write_truth_laws(dir, test::source_path("config/motor-sim-phase-current.yaml"));
-  const auto config = test::config_with_laws(files, CommutationMode::kPgnn, kPhaseCurrentConfig);
+  const auto config = test::with_laws(test::ideal_plant_config(kPhaseCurrentConfig), files, CommutationMode::kPgnn);
   servod::WiredAxis axis(config);
   servod::ServoDaemon& daemon = axis.daemon;
   const ModelFile model = load_model_file(files.pgnn);
@@ -94,7 +95,7 @@ TEST_CASE("with phase_current every cycle sends the PGNN law's currents, which t
 
 TEST_CASE("with phase_current the experiments send the drive's nominal law through one coil set",
           "[daemon][phase_current]") {
-  const auto config = test::virtual_config(kPhaseCurrentConfig);
+  const auto config = test::ideal_plant_config(kPhaseCurrentConfig);
   servod::WiredAxis axis(config);
   servod::ServoDaemon& daemon = axis.daemon;
   daemon.run_cycles(10);
@@ -127,14 +128,14 @@ TEST_CASE("with phase_current the axis tracks Fig. 8 with the PGNN law as closel
   const char* configs[2] = {"config/servod.yaml", kPhaseCurrentConfig};
   for (int c = 0; c < 2; ++c) {
     INFO(configs[c]);
-    const auto config = test::config_with_laws(files, CommutationMode::kPgnn, configs[c]);
+    const auto config = test::with_laws(test::ideal_plant_config(configs[c]), files, CommutationMode::kPgnn);
     servod::WiredAxis axis(config);
     servod::ServoDaemon& daemon = axis.daemon;
     daemon.run_cycles(10);
     test::command(daemon, Kind::kEnable, 10);
     const control::MoveProgram expected = servod::program_from(
-        servod::load_program_file(test::source_path("config/programs/fig8.yaml")), daemon.cycle().mailbox().hold_position_m());
-    REQUIRE(daemon.submit(fig8()).accepted());
+        servod::load_program_file(test::ideal_plant_program("fig8.yaml", configs[c])), daemon.cycle().mailbox().hold_position_m());
+    REQUIRE(daemon.submit(fig8(configs[c])).accepted());
     double sum_sq = 0.0;
     std::int64_t cycles = 0;
     for (double t_s = 0.0; t_s <= expected.duration_s(); t_s = static_cast<double>(cycles) * config.servo.period_s) {

@@ -28,7 +28,7 @@ namespace {
 
 /// config/servod.yaml on the virtual clock, enabled at the centre.
 struct Axis {
-  explicit Axis(const servod::ServodConfig& config = test::virtual_config()) : wired(config), daemon(wired.daemon) {
+  explicit Axis(const servod::ServodConfig& config = test::ideal_plant_config()) : wired(config), daemon(wired.daemon) {
     daemon.run_cycles(10);
     test::command(daemon, Kind::kEnable, 20);
     REQUIRE(daemon.cycle().status().state == ServoState::kEnabled);
@@ -154,7 +154,7 @@ TEST_CASE("move-to beyond the motion limits, or whose stop from some cycle would
   }
   // A move whose stop from some cycle would rest beyond the soft limit: with
   // gentle stop limits, a move that brakes harder than a stop can is refused.
-  auto config = test::virtual_config();
+  auto config = test::ideal_plant_config();
   config.servo.stop_limits = {1.0, 1000.0};
   config.servo.quick_stop_limits = {1.0, 1000.0};
   // Inside the safe envelope: a quick stop from the largest velocity within half the soft span.
@@ -199,7 +199,7 @@ TEST_CASE("the approach guard quick-stops a move whose reference could not stop 
   // into the cycle's handover, to a target beyond the soft limit: the guard
   // stops its reference at the limit. The feedforward of the simulated
   // translator keeps the axis on the reference while it brakes.
-  auto config = test::virtual_config();
+  auto config = test::ideal_plant_config();
   config.servo.feedforward = {15.0, 40.0, 15.0};
   Axis axis(config);
   const auto& s = axis.settings();
@@ -238,7 +238,7 @@ TEST_CASE("every fault injected at full speed gets the reaction of the table and
                            How::kWrongDlc, How::kBusOff, How::kErrorPassive, How::kFailSends, How::kFollowingError,
                            How::kForceSaturated, How::kOverruns, How::kDriveFault, How::kSoftLimit);
   INFO("injection " << static_cast<int>(how));
-  auto config = test::virtual_config();
+  auto config = test::ideal_plant_config();
   // A push the loop cannot hold at its force limit trips the following error
   // first at the default 2 mm; for fault 204 alone the limit is 20 mm, and
   // the soft limits then lie 40 mm inside the stroke (the safe envelope).
@@ -569,7 +569,7 @@ TEST_CASE("after fault 202 the axis is enabled in restricted mode and only a slo
 }
 
 TEST_CASE("restricted mode: moving farther out latches 202 again, far outside it is not offered", "[daemon][stops][faults]") {
-  auto config = test::virtual_config();
+  auto config = test::ideal_plant_config();
   config.servo.recovery_margin_m = 0.01;  // the end stop is 20 mm beyond the soft limit
   Axis axis(config);
   const auto& s = axis.settings();

@@ -1,8 +1,8 @@
 #!/usr/bin/python3
 """tools/commission/plant_terms.py edits the motor file as it says: for each
-term, and for all together, the edited file parses as YAML and holds exactly
-the term's keys at their place under `simulation:`, with the rest of the
-file unchanged; the variants none, all, a term, all-TERM, dynamics and
+term, for all together and for none, the edited file parses as YAML and
+holds exactly those terms' keys at their place under `simulation:` (the
+others' removed), with the rest of the file unchanged; the variants none, all, a term, all-TERM, dynamics and
 dynamics+SOURCE name their terms; the error budget's parts add up to the
 whole for sources that add, and name the interaction when they do not; an
 unknown variant is refused with exit status 2.
@@ -31,21 +31,31 @@ def main():
     with open(motor_path, encoding="utf-8") as f:
         text = f.read()
     original = yaml.safe_load(text)
-    variants = [[term] for term in module.TERMS] + [list(module.TERMS)]
+    variants = [[]] + [[term] for term in module.TERMS] + [list(module.TERMS)]
     for terms in variants:
         edited = yaml.safe_load(module.motor_with(text, terms, motor_path))
         expected = yaml.safe_load(text)
+        for term, (section, keys) in module.TERMS.items():  # every term off: its keys absent
+            for key in keys:
+                expected["simulation"].get(section, {}).pop(key.split(":", 1)[0], None)
+            top, described = module.DESCRIPTION_KEYS.get(term, ("drive", []))
+            for key in described:
+                expected[top].pop(key.split(":", 1)[0], None)
+        if not expected["simulation"].get("drive", True):
+            del expected["simulation"]["drive"]
         for term in terms:
             section, keys = module.TERMS[term]
             target = expected["simulation"].setdefault(section, {})
             for key in keys:
                 target.update(yaml.safe_load(key))
-            for key in module.DRIVE_KEYS.get(term, []):
-                expected["drive"].update(yaml.safe_load(key))
-        check(edited == expected, f"{'+'.join(terms)}: the edited motor file is not the original with the term's keys "
-                                  f"(differs in {[k for k in expected['simulation'] if edited['simulation'].get(k) != expected['simulation'][k]]})")
-        check(edited["motor"] == original["motor"] and edited["drive"] == expected["drive"],
-              f"{'+'.join(terms)}: motor: changed, or drive: is not the original with the term's drive keys")
+            top, described = module.DESCRIPTION_KEYS.get(term, ("drive", []))
+            for key in described:
+                expected[top].update(yaml.safe_load(key))
+        name = "+".join(terms) or "none"
+        check(edited == expected, f"{name}: the edited motor file is not the original with exactly the variant's term "
+                                  f"keys (differs in {[k for k in expected['simulation'] if edited['simulation'].get(k) != expected['simulation'][k]]})")
+        check(edited["motor"] == expected["motor"] and edited["drive"] == expected["drive"],
+              f"{name}: motor: or drive: is not the original with exactly the variant's description keys")
     # The budget of a loop whose sources add: its parts sum to the whole.
     check(set(module.SOURCES) | set(module.DYNAMICS) == set(module.TERMS) and
           not set(module.SOURCES) & set(module.DYNAMICS), "every term is a source or a dynamics, not both")

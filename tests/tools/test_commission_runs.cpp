@@ -91,8 +91,8 @@ Run run_on_daemon(servod::WiredAxis& axis, const control::MoveProgram& program, 
 TEST_CASE("a commissioning run records the daemon's cycles: each measured force is the previous cycle's setpoints "
           "at the true position",
           "[commission][runs]") {
-  const servod::ServodConfig config = test::virtual_config("config/servod.yaml");
-  MotorParameters parameters = fixtures::default_motor();
+  const servod::ServodConfig config = test::ideal_plant_config("config/servod.yaml");
+  MotorParameters parameters = load_motor_parameters(config.motor_file);
   fixtures::ideal_sensors(parameters);
   // Without the direction-dependent force the wrench depends on the position
   // and the currents alone, which the test recomputes.
@@ -144,8 +144,8 @@ TEST_CASE("a commissioning run records the daemon's cycles: each measured force 
 TEST_CASE("in experiment mode the daemon's cycle drives one coil set alone with magnitude F* and a constant offset",
           "[commission][runs]") {
   for (const bool two_coil : {false, true}) {
-    const servod::ServodConfig config = test::virtual_config(two_coil ? "config/servod-2coil.yaml" : "config/servod.yaml");
-    const MotorParameters parameters = two_coil ? fixtures::two_coil_motor() : fixtures::default_motor();
+    const servod::ServodConfig config = test::ideal_plant_config(two_coil ? "config/servod-2coil.yaml" : "config/servod.yaml");
+    const MotorParameters parameters = load_motor_parameters(config.motor_file);
     servod::WiredAxis axis(config);
     const int coil_sets = config.motor.coil_sets;
     REQUIRE(coil_sets == (two_coil ? 2 : 3));
@@ -183,8 +183,8 @@ TEST_CASE("in experiment mode the daemon's cycle drives one coil set alone with 
 TEST_CASE("on the daemon's cycle the oracle's commutation error is the direction-dependent force",
           "[commission][runs][oracle]") {
   for (const bool two_coil : {false, true}) {
-    const servod::ServodConfig config = test::virtual_config(two_coil ? "config/servod-2coil.yaml" : "config/servod.yaml");
-    MotorParameters parameters = two_coil ? fixtures::two_coil_motor() : fixtures::default_motor();
+    const servod::ServodConfig config = test::ideal_plant_config(two_coil ? "config/servod-2coil.yaml" : "config/servod.yaml");
+    MotorParameters parameters = load_motor_parameters(config.motor_file);
     fixtures::ideal_sensors(parameters);
     servod::WiredAxis axis(config, servod::wire_simulated_axis(config, parameters));
     const SimulatedMotor& motor = *axis.simulated_motor();
@@ -245,7 +245,7 @@ TEST_CASE("on the daemon's cycle the oracle's commutation error is the direction
 }
 
 TEST_CASE("the daemon's cycle refuses an experiment on a coil set the motor does not have", "[commission][runs]") {
-  const servod::ServodConfig config = test::virtual_config("config/servod-2coil.yaml");
+  const servod::ServodConfig config = test::ideal_plant_config("config/servod-2coil.yaml");
   commission::InProcessRunner runner(config);
   runner.enable();
   CHECK_THROWS_WITH(runner.set_experiment(3, 0.0), Catch::Contains("refused"));

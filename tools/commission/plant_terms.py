@@ -13,8 +13,9 @@ what a term adds to the others), dynamics (the terms that shape how errors
 travel: DYNAMICS) or dynamics+SOURCE (those and one of the SOURCES, the
 terms that inject an error). The error budget needs dynamics, each
 dynamics+SOURCE and all. Each variant is `clm commission
---no-plots` on a copy of the configuration and its motor file with its
-terms' keys added; nothing outside --out is
+--no-plots` on a copy of the configuration and its motor file with
+exactly its terms' keys (the others' removed: the shipped motors carry
+every term); nothing outside --out is
 written. Exit status 2 for bad usage or a configuration it cannot edit,
 1 when a commissioning fails.
 """
@@ -48,12 +49,15 @@ TERMS = {
 SOURCES = ("force_disturbance", "encoder")
 DYNAMICS = tuple(term for term in TERMS if term not in SOURCES)
 
-# What the daemon is told of a term (the motor file's top-level drive:
-# section), as a drive's manual gives it: 10 % off the truth above.
-DRIVE_KEYS = {
-    "current_loop": ["current_loop: {bandwidth_Hz: 1350.0, phase_resistance_ohm: 2.2, phase_inductance_H: 0.0011}"],
-    "setpoint_delay": ["setpoint_delay_s: 1.8e-4"],
-    "encoder": ["position_delay_s: 9.0e-5"],
+# What the daemon is told of a term, as a drive's manual or a measured
+# frequency response gives it: 10 % off the truth above. Each term: its
+# top-level section of the motor file (motor: or drive:) and its keys there.
+DESCRIPTION_KEYS = {
+    "flexible_mode": ("motor", ["flexible_mode: {frequency_Hz: 270.0, damping_ratio: 0.02}"]),
+    "current_loop": ("drive", ["current_loop: {bandwidth_Hz: 1350.0, phase_resistance_ohm: 2.2, "
+                               "phase_inductance_H: 0.0011}"]),
+    "setpoint_delay": ("drive", ["setpoint_delay_s: 1.8e-4"]),
+    "encoder": ("drive", ["position_delay_s: 9.0e-5"]),
 }
 
 
@@ -86,9 +90,14 @@ def default_variants():
 
 
 def motor_with(text, terms, motor_path):
-    """The motor file's text with `terms` added: each key replaces the line of
-    the same key in its section, or is added at the section's start; the
-    daemon's side of a term (DRIVE_KEYS) goes into the top-level drive:."""
+    """The motor file's text with exactly `terms` on: each of their keys
+    replaces the line of the same key in its section, or is added at the
+    section's end, and the daemon's side of a term (DESCRIPTION_KEYS) goes
+    into its top-level section; every other term's keys, both sides, are removed
+    (a term's keys absent: the term is off, docs/simulator.md)."""
+    for term in TERMS:
+        if term not in terms:
+            text = without_term(text, term)
     for term in terms:
         section, keys = TERMS[term]
         for key in keys:
@@ -102,24 +111,56 @@ def motor_with(text, terms, motor_path):
                 top = re.search(r"^simulation:\n", text, re.MULTILINE)
                 if top is None:
                     raise UsageError(f"{motor_path}: no 'simulation:' section to add the term {term} to")
-                text = text[:top.end()] + "  drive:\n" + text[top.end():]
-                header = re.search(r"^  drive:\n", text[top.start():], re.MULTILINE)
-                header_end = top.start() + header.end()
+                at = section_end(text, top.end(), "  ")  # a new subsection goes last
+                text = text[:at] + "  drive:\n" + text[at:]
+                header_end = at + len("  drive:\n")
             elif header is None:
                 raise UsageError(f"{motor_path}: no 'simulation.{section}:' section to add the term {term} to")
             else:
                 header_end = header.end()
-            text = text[:header_end] + "    " + key + "\n" + text[header_end:]
-        for key in DRIVE_KEYS.get(term, []):
-            header = re.search(r"^drive:\n", text, re.MULTILINE)
+            end = section_end(text, header_end, "    ")
+            text = text[:end] + "    " + key + "\n" + text[end:]
+        top, described = DESCRIPTION_KEYS.get(term, ("drive", []))
+        for key in described:
+            name = key.split(":", 1)[0]
+            existing = re.search(r"^  " + re.escape(name) + r":.*\n", text, re.MULTILINE)
+            if existing is not None:
+                text = text[:existing.start()] + "  " + key + "\n" + text[existing.end():]
+                continue
+            header = re.search(r"^" + top + r":\n", text, re.MULTILINE)
             if header is None:
-                raise UsageError(f"{motor_path}: no 'drive:' section to add the term {term} to")
-            text = text[:header.end()] + "  " + key + "\n" + text[header.end():]
+                raise UsageError(f"{motor_path}: no '{top}:' section to add the term {term} to")
+            end = section_end(text, header.end(), "  ")
+            text = text[:end] + "  " + key + "\n" + text[end:]
     return text
 
 
-def commission(clm, config, out, terms):
-    """Runs clm commission on a copy of `config` with `terms`; the report's JSON."""
+def section_end(text, start, indent):
+    """Where the section whose first line starts at `start` ends: after its
+    last line indented by at least `indent` (a new key goes there, so the
+    lines before it keep their numbers)."""
+    end = start
+    while end < len(text) and text.startswith(indent, end):
+        newline = text.find("\n", end)
+        end = len(text) if newline < 0 else newline + 1
+    return end
+
+
+def without_term(text, term):
+    """`text` without `term`'s keys: its lines under simulation: (indented
+    four spaces) and its DESCRIPTION_KEYS at the top level (two), and a
+    simulation.drive: section left empty by that."""
+    names = [key.split(":", 1)[0] for key in TERMS[term][1]]
+    for name in names:
+        text = re.sub(r"^    " + re.escape(name) + r":.*\n", "", text, flags=re.MULTILINE)
+    for key in DESCRIPTION_KEYS.get(term, ("drive", []))[1]:
+        text = re.sub(r"^  " + re.escape(key.split(":", 1)[0]) + r":.*\n", "", text, flags=re.MULTILINE)
+    return re.sub(r"^  drive:\n(?!    )", "", text, flags=re.MULTILINE)
+
+
+def write_variant(config, out, terms):
+    """A copy of `config`, its programs and its motor file with exactly
+    `terms` in `out` (emptied first); the copied configuration's path."""
     source_dir = os.path.dirname(os.path.abspath(config))
     with open(config, encoding="utf-8") as f:
         config_text = f.read()
@@ -138,9 +179,14 @@ def commission(clm, config, out, terms):
         shutil.copytree(programs, os.path.join(out, "programs"))
     with open(os.path.join(out, match.group(1)), "w", encoding="utf-8") as f:
         f.write(motor_with(motor_text, terms, motor_path))
-    result = subprocess.run([clm, "commission", "--config", os.path.join(out, os.path.basename(config)),
-                             "--out", os.path.join(out, "commission"), "--no-plots"],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, check=False)
+    return os.path.join(out, os.path.basename(config))
+
+
+def commission(clm, config, out, terms):
+    """Runs clm commission on a copy of `config` with `terms`; the report's JSON."""
+    copied = write_variant(config, out, terms)
+    result = subprocess.run([clm, "commission", "--config", copied, "--out", os.path.join(out, "commission"),
+                             "--no-plots"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, check=False)
     if result.returncode != 0:
         tail = result.stdout.strip().splitlines()[-1:] or ["(no output)"]
         raise RuntimeError(f"clm commission with {'+'.join(terms) or 'no terms'} failed: {tail[0]}")
@@ -157,7 +203,13 @@ def main():
                         help="comma-separated variants: none, all, a term (" + ", ".join(TERMS) +
                         "), all-TERM (every term but that one), dynamics (" + ", ".join(DYNAMICS) +
                         ") or dynamics+SOURCE (" + ", ".join(SOURCES) + ")")
+    parser.add_argument("--write", metavar="VARIANT",
+                        help="only write the configuration, its programs and its motor file with VARIANT's terms "
+                        "into --out (no commissioning): e.g. none, the ideal plant the cycle's tests run on")
     args = parser.parse_args()
+    if args.write is not None:
+        print(write_variant(args.config, args.out, variant_terms(args.write)))
+        return
     variants = args.terms.split(",")
     terms_of = {variant: variant_terms(variant) for variant in variants}
     rows = []

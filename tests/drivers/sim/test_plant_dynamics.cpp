@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "config/yaml_reader.hpp"
+#include "support/ideal_plant.hpp"
 #include "commutation/classical.hpp"
 #include "commutation/current_loop_compensation.hpp"
 #include "commutation/model_file.hpp"
@@ -305,7 +306,7 @@ TEST_CASE("Plant settings out of range are refused by name", "[sim][plant]") {
 }
 
 TEST_CASE("The motor file sets every plant term, and refuses an unknown key in them", "[sim][plant]") {
-  std::ifstream in(fixtures::source_path("config/motor-sim.yaml"));
+  std::ifstream in(clm::test::ideal_plant_file("motor-sim.yaml"));  // the shipped motor without its plant terms
   std::stringstream buffer;
   buffer << in.rdbuf();
   std::string text = buffer.str();
@@ -348,7 +349,7 @@ TEST_CASE("The motor file sets every plant term, and refuses an unknown key in t
 
 TEST_CASE("The motor file tells the tools the drive's delays, and the simulator leaves them to its truth",
           "[sim][plant]") {
-  std::ifstream in(fixtures::source_path("config/motor-sim.yaml"));
+  std::ifstream in(clm::test::ideal_plant_file("motor-sim.yaml"));  // the shipped motor without its plant terms
   std::stringstream buffer;
   buffer << in.rdbuf();
   const std::string original = buffer.str();
