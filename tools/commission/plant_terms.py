@@ -89,6 +89,16 @@ def default_variants():
     return ["none", *TERMS, "all", "dynamics", *(f"dynamics+{source}" for source in SOURCES)]
 
 
+def with_key_replaced(text, indent, key):
+    """`text` with its line of `key`'s name at `indent` replaced by `key`
+    (a comment on it goes too), or None when there is no such line."""
+    name = key.split(":", 1)[0]
+    existing = re.search(r"^" + indent + re.escape(name) + r":.*\n", text, re.MULTILINE)
+    if existing is None:
+        return None
+    return text[:existing.start()] + indent + key + "\n" + text[existing.end():]
+
+
 def motor_with(text, terms, motor_path):
     """The motor file's text with exactly `terms` on: each of their keys
     replaces the line of the same key in its section, or is added at the
@@ -101,10 +111,9 @@ def motor_with(text, terms, motor_path):
     for term in terms:
         section, keys = TERMS[term]
         for key in keys:
-            name = key.split(":", 1)[0]
-            existing = re.search(r"^    " + re.escape(name) + r":.*\n", text, re.MULTILINE)
-            if existing is not None:
-                text = text[:existing.start()] + "    " + key + "\n" + text[existing.end():]
+            replaced = with_key_replaced(text, "    ", key)
+            if replaced is not None:
+                text = replaced
                 continue
             header = re.search(r"^  " + section + r":\n", text, re.MULTILINE)
             if header is None and section == "drive":
@@ -122,10 +131,9 @@ def motor_with(text, terms, motor_path):
             text = text[:end] + "    " + key + "\n" + text[end:]
         top, described = DESCRIPTION_KEYS.get(term, ("drive", []))
         for key in described:
-            name = key.split(":", 1)[0]
-            existing = re.search(r"^  " + re.escape(name) + r":.*\n", text, re.MULTILINE)
-            if existing is not None:
-                text = text[:existing.start()] + "  " + key + "\n" + text[existing.end():]
+            replaced = with_key_replaced(text, "  ", key)
+            if replaced is not None:
+                text = replaced
                 continue
             header = re.search(r"^" + top + r":\n", text, re.MULTILINE)
             if header is None:
