@@ -28,7 +28,7 @@ CurrentLoopCompensation::CurrentLoopCompensation(const CurrentLoopModel& model, 
   derivative_V_per_s_.setZero(kMaxCurrents);
   if (!active()) return;
   const double omega_rad_per_s = kTwoPi * model.bandwidth_Hz;
-  lead_s_ = 1.0 / omega_rad_per_s;
+  lead_s_ = model.lag_s();
   gain_s_per_ohm_ = 1.0 / (model.phase_resistance_ohm * omega_rad_per_s);
   // The difference of the back-EMF 1/ω_c ahead over the last period is its
   // derivative at lead − T/2 from now; the correction needs it at −L/R (the

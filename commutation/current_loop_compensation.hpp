@@ -23,6 +23,8 @@ struct CurrentLoopModel {
   double phase_resistance_ohm = 0.0;  ///< R of one phase winding [Ω]
   double phase_inductance_H = 0.0;    ///< L of one phase winding [H]
   bool ideal() const noexcept { return bandwidth_Hz == 0.0; }
+  /// The loop's lag 1/ω_c, the time constant of its first-order response [s]; 0 when ideal.
+  double lag_s() const noexcept { return ideal() ? 0.0 : 1.0 / (kTwoPi * bandwidth_Hz); }
   /// Throws std::invalid_argument naming the value that is out of range.
   void validate() const;
 

@@ -311,11 +311,11 @@ PositionController::PositionController(const PidGains& gains, const FeedforwardP
   detail::require_finite(kContext, "feedforward coulomb_N", feedforward.coulomb_N);
 }
 
-double PositionController::update(const ReferenceSample& now, const ReferenceSample& next,
-                                  double measured_position_m) noexcept {
+double PositionController::update(const ReferenceSample& now, double measured_position_m,
+                                  const ReferenceSample& ahead, const ReferenceSample& ahead_next) noexcept {
   last_error_m_ = now.position_m - measured_position_m;
   last_feedback_N_ = pid_.update(last_error_m_);
-  last_feedforward_N_ = feedforward_force_N(feedforward_, now, next);
+  last_feedforward_N_ = feedforward_force_N(feedforward_, ahead, ahead_next);
   return last_feedback_N_ + last_feedforward_N_;
 }
 

@@ -178,15 +178,20 @@ std::vector<std::string> unexcited_parameters(const FeedforwardFit& fit, double 
 std::vector<ReferenceSample> reference_from_positions(std::span<const double> time_s,
                                                       std::span<const double> reference_m);
 
-/// Feedback plus feedforward: F*_y = PID(r_k − y_k) + u_ff(r_k, r_{k+1}) [N].
+/// Feedback plus feedforward: F*_y = PID(r_k − y_k) + u_ff(r(t_k + τ), r(t_{k+1} + τ)) [N],
+/// τ the drive's lag from setpoint to force (0 for none).
 class PositionController {
  public:
   /// Throws as PidController; also if a feedforward parameter is not finite.
   PositionController(const PidGains& gains, const FeedforwardParameters& feedforward, double period_s);
 
-  /// One cycle: reference now, one-sample preview `next`, measured position
-  /// y_k [m]; returns the force demand F*_y [N].
-  double update(const ReferenceSample& now, const ReferenceSample& next, double measured_position_m) noexcept;
+  /// One cycle: the feedback on the reference `now` and the measured
+  /// position y_k [m]; the feedforward (eq. 40) on `ahead` and its
+  /// one-sample preview `ahead_next`: the reference sampled the drive's lag
+  /// after now, so that its force arrives on time (now and the next sample
+  /// for a drive without lag). Returns the force demand F*_y [N].
+  double update(const ReferenceSample& now, double measured_position_m, const ReferenceSample& ahead,
+                const ReferenceSample& ahead_next) noexcept;
   /// Replaces the feedforward parameters (from the next update on). The
   /// caller guarantees finite values (check offline, e.g. with the
   /// constructor or identify_feedforward).

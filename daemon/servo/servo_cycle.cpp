@@ -309,6 +309,9 @@ void ServoCycle::check_soft_limits() noexcept {
 void ServoCycle::drive() noexcept {
   control::ReferenceSample now{hold_m_, 0.0, 0.0, 0.0};
   control::ReferenceSample next = now;
+  // The feedforward's samples, the drive's lag ahead (force_lag_s).
+  const double lag_s = settings_.force_lag_s();
+  control::ReferenceSample ahead = now, ahead_next = now;
   if (running_ != nullptr && mailbox_.jogging_.load(std::memory_order_relaxed)) {
     // A jog without renewal for jog_timeout_s stops; a renewal that comes
     // while the cycle decides wins (the exchange fails) and is seen next cycle.
@@ -325,7 +328,9 @@ void ServoCycle::drive() noexcept {
   if (running_ != nullptr) {
     const double t = static_cast<double>(cycle_ - program_start_cycle_) * settings_.period_s;
     now = running_->sample(t);
-    next = running_->sample(t + settings_.period_s);  // one-sample preview for eq. (40)
+    next = running_->sample(t + settings_.period_s);  // one-sample preview
+    ahead = running_->sample(t + lag_s);
+    ahead_next = running_->sample(t + settings_.period_s + lag_s);
     record_.program_time_s = t;
     if (t >= running_->duration_s()) {
       hold_m_ = running_->end_m();
@@ -337,6 +342,8 @@ void ServoCycle::drive() noexcept {
     const double t = static_cast<double>(cycle_ - stop_start_cycle_) * settings_.period_s;
     now = stop_profile_.sample(t);
     next = stop_profile_.sample(t + settings_.period_s);
+    ahead = stop_profile_.sample(t + lag_s);
+    ahead_next = stop_profile_.sample(t + settings_.period_s + lag_s);
     if (t >= stop_profile_.duration_s()) {
       // At rest: hold there; a fault reaction ends with zero setpoints.
       hold_m_ = stop_profile_.rest_position_m();
@@ -349,7 +356,7 @@ void ServoCycle::drive() noexcept {
   reference_ = now;
   reference_cycle_ = cycle_;
   approach_guard(now, next);
-  double force = controller_.update(now, next, position_m_);
+  double force = controller_.update(now, position_m_, ahead, ahead_next);
   record_.r_m = now.position_m;
   record_.r_dot_m_per_s = now.velocity_m_per_s;
   record_.r_ddot_m_per_s2 = now.acceleration_m_per_s2;

@@ -36,6 +36,13 @@ struct ServoSettings {
   /// The drive's current loop (drive.current_loop of the motor file): the
   /// cycle sends the references that make it deliver the law's currents.
   CurrentLoopModel current_loop;
+  /// The drive's delay from setpoint to force (drive.setpoint_delay_s of the motor file) [s].
+  double setpoint_delay_s = 0.0;
+  /// How long after a cycle its force demand reaches the translator, the
+  /// delay plus the current loop's lag τ_s + 1/ω_c: the feedforward is
+  /// taken from the reference this far ahead (docs/servod.md, "The
+  /// feedforward's lead") [s].
+  double force_lag_s() const noexcept { return setpoint_delay_s + current_loop.lag_s(); }
   /// The sign convention of the setpoints the cycle derives itself (commutation.phase_convention).
   PhaseConvention phase_convention = PhaseConvention::kSignedMagnitude;
   can::ProtocolConfig protocol;

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "commutation/model_file.hpp"
 #include "daemon/servo/servo_cycle.hpp"
 
 namespace clm::servo {
@@ -28,6 +29,8 @@ void ServoSettings::validate() const {
   require(drive.motor_constant_N_per_A > 0.0, "drive motor constant must be positive");
   protocol.validate();
   current_loop.validate();
+  require(setpoint_delay_s >= 0.0 && setpoint_delay_s <= MotorDescription::kMaxDelay_s,
+          "setpoint_delay_s must lie in 0.." + std::to_string(MotorDescription::kMaxDelay_s) + " s");
   require(soft_limit_max_m > soft_limit_min_m, "soft_limit_max_m must be above soft_limit_min_m");
   require(following_error_limit_m > 0.0, "following_error_limit_m must be positive");
   require(force_limit_N > 0.0, "force_limit_N must be positive");

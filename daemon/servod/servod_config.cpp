@@ -122,6 +122,7 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
   config.servo.pole_pitch_m = config.motor.pole_pitch_m;
   config.servo.drive = config.motor.drive;
   config.servo.current_loop = config.motor.current_loop;  // drive.current_loop of the motor file
+  config.servo.setpoint_delay_s = config.motor.setpoint_delay_s;
   config.servo.protocol.coil_sets = config.motor.coil_sets;
   config.servo.protocol.drive_profile = config.motor.drive_profile;  // drive.profile of the motor file
 

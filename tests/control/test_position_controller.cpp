@@ -447,33 +447,36 @@ TEST_CASE("reference_from_positions rejects bad input by index", "[reference]") 
 // ---------------------------------------------------------------------------
 // Position controller
 
-TEST_CASE("PositionController output is PID(r - y) plus the eq. (40) feedforward", "[position_controller]") {
+TEST_CASE("PositionController output is PID(r - y) plus the eq. (40) feedforward of the reference ahead",
+          "[position_controller]") {
   const PidGains gains = tune_pid(8.0, 40.0);
   const FeedforwardParameters ff{8.0, 20.0, 3.0};
-  const double period_s = 2e-4;
+  const double period_s = 2e-4, lead_s = 3e-4;
   PositionController controller(gains, ff, period_s);
   PidController pid(gains, period_s);
   const MoveProgram program = fig8_program_at(0.075);
   for (int k = 0; k < 5000; ++k) {
     const ReferenceSample now = program.sample(k * period_s);
-    const ReferenceSample next = program.sample((k + 1) * period_s);
+    const ReferenceSample ahead = program.sample(k * period_s + lead_s);
+    const ReferenceSample ahead_next = program.sample((k + 1) * period_s + lead_s);
     const double measured_m = now.position_m - 1e-5 * std::sin(0.01 * k);
-    const double demand_N = controller.update(now, next, measured_m);
+    const double demand_N = controller.update(now, measured_m, ahead, ahead_next);
     const double feedback_N = pid.update(now.position_m - measured_m);
-    const double feedforward_N = feedforward_force_N(ff, now, next);
+    const double feedforward_N = feedforward_force_N(ff, ahead, ahead_next);
     REQUIRE(controller.last_feedback_N() == feedback_N);
     REQUIRE(controller.last_feedforward_N() == feedforward_N);
     REQUIRE(demand_N == feedback_N + feedforward_N);
     REQUIRE(controller.last_error_m() == now.position_m - measured_m);
   }
   controller.set_feedforward({0.0, 0.0, 0.0});
-  const double demand_N = controller.update(program.sample(1.0), program.sample(1.0 + period_s), 0.0);
+  const double demand_N =
+      controller.update(program.sample(1.0), 0.0, program.sample(1.0), program.sample(1.0 + period_s));
   CHECK(demand_N == controller.last_feedback_N());
   CHECK(controller.last_feedforward_N() == 0.0);
 
   controller.reset();
   PidController fresh(gains, period_s);
-  CHECK(controller.update({0.01, 0, 0, 0}, {0.01, 0, 0, 0}, 0.0) == fresh.update(0.01));
+  CHECK(controller.update({0.01, 0, 0, 0}, 0.0, {0.01, 0, 0, 0}, {0.01, 0, 0, 0}) == fresh.update(0.01));
   REQUIRE_THROWS_WITH(PositionController(gains, {std::numeric_limits<double>::infinity(), 0, 0}, period_s),
                       Contains("mass_kg"));
 }
@@ -489,7 +492,8 @@ TEST_CASE("feedforward with the true mass cuts the tracking error on a simulated
     double worst_m = 0.0;
     const int samples = static_cast<int>(program.duration_s() / period_s) + 100;
     for (int k = 0; k < samples; ++k) {
-      plant.step(controller.update(program.sample(k * period_s), program.sample((k + 1) * period_s), plant.position_m));
+      const ReferenceSample now = program.sample(k * period_s);
+      plant.step(controller.update(now, plant.position_m, now, program.sample((k + 1) * period_s)));
       worst_m = std::max(worst_m, std::abs(program.sample((k + 1) * period_s).position_m - plant.position_m));
     }
     return worst_m;
@@ -515,8 +519,8 @@ TEST_CASE("PositionController::update and PidController::update do not allocate 
   double sum = 0.0;
   clm::test::AllocationScope scope;
   for (int k = 0; k < 100000; ++k) {
-    const double force_N =
-        controller.update(program.sample(k * period_s), program.sample((k + 1) * period_s), plant.position_m);
+    const ReferenceSample now = program.sample(k * period_s);
+    const double force_N = controller.update(now, plant.position_m, now, program.sample((k + 1) * period_s));
     plant.step(force_N);
     sum += pid.update(1e-6 * (k % 7));
   }
