@@ -310,8 +310,15 @@ void ServoCycle::drive() noexcept {
   control::ReferenceSample now{hold_m_, 0.0, 0.0, 0.0};
   control::ReferenceSample next = now;
   // The feedforward's samples, the drive's lag ahead (force_lag_s).
-  const double lag_s = settings_.force_lag_s();
   control::ReferenceSample ahead = now, ahead_next = now;
+  // Now, the one-sample preview, and both the lag ahead, from a program or a stop.
+  const auto sample = [&](const auto& profile, double t) {
+    const double lag_s = settings_.force_lag_s();
+    now = profile.sample(t);
+    next = profile.sample(t + settings_.period_s);
+    ahead = profile.sample(t + lag_s);
+    ahead_next = profile.sample(t + settings_.period_s + lag_s);
+  };
   if (running_ != nullptr && mailbox_.jogging_.load(std::memory_order_relaxed)) {
     // A jog without renewal for jog_timeout_s stops; a renewal that comes
     // while the cycle decides wins (the exchange fails) and is seen next cycle.
@@ -327,10 +334,7 @@ void ServoCycle::drive() noexcept {
   }
   if (running_ != nullptr) {
     const double t = static_cast<double>(cycle_ - program_start_cycle_) * settings_.period_s;
-    now = running_->sample(t);
-    next = running_->sample(t + settings_.period_s);  // one-sample preview
-    ahead = running_->sample(t + lag_s);
-    ahead_next = running_->sample(t + settings_.period_s + lag_s);
+    sample(*running_, t);
     record_.program_time_s = t;
     if (t >= running_->duration_s()) {
       hold_m_ = running_->end_m();
@@ -340,10 +344,7 @@ void ServoCycle::drive() noexcept {
     }
   } else if (status_.stopping) {
     const double t = static_cast<double>(cycle_ - stop_start_cycle_) * settings_.period_s;
-    now = stop_profile_.sample(t);
-    next = stop_profile_.sample(t + settings_.period_s);
-    ahead = stop_profile_.sample(t + lag_s);
-    ahead_next = stop_profile_.sample(t + settings_.period_s + lag_s);
+    sample(stop_profile_, t);
     if (t >= stop_profile_.duration_s()) {
       // At rest: hold there; a fault reaction ends with zero setpoints.
       hold_m_ = stop_profile_.rest_position_m();
