@@ -191,20 +191,31 @@ CommandResult SimulatedMotor::command_currents(std::span<const PhaseCurrentSetpo
 }
 
 bool SimulatedMotor::drive_currents(double position_m, CurrentVector& currents_A) const noexcept {
+  if (!drive_active()) {
+    currents_A.setZero(2 * coil_sets());
+    return false;
+  }
+  return phase_currents(position_m, setpoints_, commanded_currents_, currents_A);
+}
+
+bool SimulatedMotor::phase_currents(double position_m, std::span<const DriveSetpoint> setpoints,
+                                    std::span<const PhaseCurrentSetpoint> currents,
+                                    CurrentVector& currents_A) const noexcept {
   const int count = coil_sets();
   currents_A.setZero(2 * count);
-  if (!drive_active()) return false;
+  const bool phase_current = parameters_.drive.profile == DriveProfile::kPhaseCurrent;
+  if (static_cast<int>(phase_current ? currents.size() : setpoints.size()) < count) return false;
   const double limit = parameters_.drive.phase_current_limit_A;
   bool limited = false;
   for (int l = 0; l < count; ++l) {
     const auto s = static_cast<std::size_t>(l);
     Eigen::Vector2d phase;
-    if (parameters_.drive.profile == DriveProfile::kPhaseCurrent) {
+    if (phase_current) {
       // The commanded currents as they are (ideal current loop).
-      phase << commanded_currents_[s].ia_A, commanded_currents_[s].ib_A;
+      phase << currents[s].ia_A, currents[s].ib_A;
     } else {
       // The drive's own fixed law, eq. (18)/(19), at the true position.
-      phase = drive_phase_currents(parameters_.drive.commutation, setpoints_[s], position_m, truth_.pole_pitch_m());
+      phase = drive_phase_currents(parameters_.drive.commutation, setpoints[s], position_m, truth_.pole_pitch_m());
     }
     const double peak = std::max({std::abs(phase.x()), std::abs(phase.y()), std::abs(phase.x() + phase.y())});
     if (peak > limit) {
@@ -217,6 +228,13 @@ bool SimulatedMotor::drive_currents(double position_m, CurrentVector& currents_A
     currents_A.segment<2>(2 * l) = phase;
   }
   return limited;
+}
+
+Wrench SimulatedMotor::ideal_drive_wrench(double position_m, std::span<const DriveSetpoint> setpoints,
+                                          std::span<const PhaseCurrentSetpoint> currents) const noexcept {
+  CurrentVector phase;
+  phase_currents(position_m, setpoints, currents, phase);
+  return truth_.wrench(position_m, 0.0, phase);
 }
 
 double SimulatedMotor::friction_N(double velocity_m_per_s) const noexcept {

@@ -187,6 +187,15 @@ class SimulatedMotor {
     return truth_.direction_dependent(velocity_m_per_s);
   }
   const ElectromagneticTruth& electromagnetics() const noexcept { return truth_; }
+  /// The wrench `setpoints` (magnitude/phase drive) or `currents` (phase-current
+  /// drive; the one of the drive's profile is used, the other may be empty)
+  /// make at `position_m` through an ideal drive: the drive's own
+  /// commutation and current limit, its currents equal to their references,
+  /// no delay, whether enabled or not; without the direction-dependent force
+  /// [N, N, N·m]. The static map a commutation law inverts
+  /// (docs/simulator.md, "Oracle commutation"). One entry per coil set.
+  Wrench ideal_drive_wrench(double position_m, std::span<const DriveSetpoint> setpoints,
+                            std::span<const PhaseCurrentSetpoint> currents) const noexcept;
   const MotorParameters& parameters() const noexcept { return parameters_; }
   int coil_sets() const noexcept { return truth_.coil_sets(); }
 
@@ -204,6 +213,9 @@ class SimulatedMotor {
   /// Phase current setpoints of the drive at `position_m`, after its current
   /// limit (zero when not active); true if limited.
   bool drive_currents(double position_m, CurrentVector& currents_A) const noexcept;
+  /// The same for given setpoints (the profile's), whether active or not.
+  bool phase_currents(double position_m, std::span<const DriveSetpoint> setpoints,
+                      std::span<const PhaseCurrentSetpoint> currents, CurrentVector& currents_A) const noexcept;
   /// The windings' currents after a substep of `h_s` towards `reference_A`
   /// (the current loop, or the reference itself when ideal) into currents_A_.
   void drive_windings(const CurrentVector& reference_A, double h_s) noexcept;

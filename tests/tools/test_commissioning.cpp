@@ -153,6 +153,9 @@ void check_against_truth(const commission::Report& report, const std::string& mo
   // Every law meets the same drive, whose lag the oracle's true error
   // measures (below): the bound is on what a law adds to it.
   CHECK(recommended.true_mse.filtered[0] - oracle.true_mse.filtered[0] <= true_y_mse_N2);
+  // Its static error (the law alone on the static truth) within the same bound.
+  INFO("recommended static y-MSE " << recommended.static_mse.filtered[0] << " N²");
+  CHECK(recommended.static_mse.filtered[0] <= true_y_mse_N2);
   // The PGNN kept, too (with the field harmonics in its physics part when
   // the validation chose them; docs/commutation.md).
   const auto& pgnn = find(report.results, "pgnn");
@@ -168,6 +171,11 @@ void check_against_truth(const commission::Report& report, const std::string& mo
   const double floor_N2 = drive_lag_floor_N2(commission_dir, truth);
   INFO("oracle true y " << oracle.true_mse.filtered[0] << " N², the drive's lag floor " << floor_N2 << " N²");
   CHECK(oracle.true_mse.filtered[0] < 1.5 * floor_N2 + 1e-3);
+  // Its static error is zero up to rounding: the exact inverse of the same
+  // static truth at the same position, through an ideal drive (forces of
+  // about 10² N, so 10⁻⁶ N² is a millionth of a newton's square).
+  INFO("oracle static y " << oracle.static_mse.filtered[0] << " N²");
+  CHECK(oracle.static_mse.filtered[0] < 1e-6);
   CHECK(oracle.tracking_mse_m2 < recommended.tracking_mse_m2);
 }
 

@@ -193,19 +193,21 @@ void add_commission(CLI::App& app) {
     for (const auto& r : report.results) {
       if (r.name == "oracle" && r.evaluated) oracle = &r;
     }
-    std::printf("\ncommutation         MSE y [N^2]  MSE x [N^2]  MSE z [N^2m^2]  true y [N^2]  tracking [m^2]  /oracle\n");
+    std::printf("\ncommutation         MSE y [N^2]  MSE x [N^2]  MSE z [N^2m^2]  true y [N^2]  static y [N^2]  tracking [m^2]  /oracle\n");
     for (const auto& r : report.results) {
       if (!r.evaluated) {
         std::printf("%-18s  not evaluated: %s\n", r.name.c_str(), r.skipped_reason.c_str());
         continue;
       }
-      std::printf("%-18s  %s    %s    %s     %s     %s  %s\n", r.name.c_str(), cell(r.mse.filtered[0]).c_str(),
+      std::printf("%-18s  %s    %s    %s     %s       %s     %s  %s\n", r.name.c_str(), cell(r.mse.filtered[0]).c_str(),
                   cell(r.mse.filtered[1]).c_str(), cell(r.mse.filtered[2]).c_str(),
                   r.truth_known ? cell(r.true_mse.filtered[0]).c_str() : "        -",
+                  r.truth_known ? cell(r.static_mse.filtered[0]).c_str() : "        -",
                   cell(r.tracking_mse_m2).c_str(),
                   oracle ? cell(r.tracking_mse_m2 / oracle->tracking_mse_m2).c_str() : "        -");
     }
-    std::printf("(MSE of the measured force - F*, filtered; true y: the simulator's electromagnetic force over each cycle's period - its F*)\n");
+    std::printf("(MSE of the measured force - F*, filtered; true y: the simulator's electromagnetic force over each cycle's period - its F*; "
+                "static y: the law's force for F* on the static truth at the true position through an ideal drive - F*)\n");
     const commission::CommutationResult* classical = nullptr;
     const commission::CommutationResult* pgnn = nullptr;
     for (const auto& r : report.results) {

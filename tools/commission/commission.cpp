@@ -316,8 +316,10 @@ CommutationResult evaluate(const Recording& run, double period_s) {
     constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
     result.mse.filtered = result.mse.unfiltered = {kNone, kNone, kNone};
   }
-  if (!run.samples.empty() && run.true_wrench.size() == run.samples.size()) {
+  if (!run.samples.empty() && run.true_wrench.size() == run.samples.size() &&
+      run.static_wrench.size() == run.samples.size()) {
     result.true_mse = control::commutation_error_mse(run.true_wrench, desired, period_s);
+    result.static_mse = control::commutation_error_mse(run.static_wrench, desired, period_s);
     result.truth_known = true;
   }
   result.tracking_mse_m2 = tracking / n;

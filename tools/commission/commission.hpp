@@ -78,11 +78,17 @@ struct CommutationResult {
   std::string skipped_reason;
   control::FeedforwardParameters feedforward{};
   control::DirectionMse mse{};  ///< measured wrench − F*
-  /// The simulator's true electromagnetic wrench, without the
-  /// direction-dependent force and the sensor's bias and noise, − F*: the
-  /// error the commutation itself makes. Only with a simulator in this process.
+  /// The simulator's true electromagnetic wrench over each cycle's period,
+  /// without the direction-dependent force and the sensor's bias and noise,
+  /// − F*: the force the axis got against the one asked for, the drive's
+  /// lag included. Only with a simulator in this process.
   bool truth_known = false;
   control::DirectionMse true_mse{};
+  /// The law's static error: Recording::static_wrench − F*, the law's model
+  /// against the static truth at the operating points of the run, without
+  /// the drive, the encoder or the cycle's timing (an exact inverse scores
+  /// zero). With truth_known.
+  control::DirectionMse static_mse{};
   double tracking_mse_m2 = 0.0;
   /// The tracking error split by the commutation's own frequencies
   /// (control::split_tracking_error): what a live axis can tell without a

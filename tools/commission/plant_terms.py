@@ -232,13 +232,15 @@ def main():
             if not law.get("evaluated"):
                 continue
             tracking = law["tracking_mse_m2"]
-            rows.append((variant, name, law["true_electromagnetic_mse"]["filtered"][0], tracking,
+            rows.append((variant, name, law["true_electromagnetic_mse"]["filtered"][0],
+                         law["static_electromagnetic_mse"]["filtered"][0], tracking,
                          tracking / oracle if oracle else float("nan")))
         print(f"plant_terms: {variant} done", file=sys.stderr)
     width = max(18, *(len(variant) for variant in variants))
-    print(f"{'plant':{width}} {'law':16} {'true y [N^2]':>13} {'tracking [m^2]':>15} {'/oracle':>8}")
-    for variant, name, true_y, tracking, ratio in rows:
-        print(f"{variant:{width}} {name:16} {true_y:13.3g} {tracking:15.3g} {ratio:8.3g}")
+    print(f"{'plant':{width}} {'law':16} {'true y [N^2]':>13} {'static y [N^2]':>15} {'tracking [m^2]':>15} "
+          f"{'/oracle':>8}")
+    for variant, name, true_y, static_y, tracking, ratio in rows:
+        print(f"{variant:{width}} {name:16} {true_y:13.3g} {static_y:15.3g} {tracking:15.3g} {ratio:8.3g}")
     for line in error_budget(rows, recommended.get("all"), variants):
         print(line)
 
@@ -256,7 +258,7 @@ def error_budget(rows, law, variants):
     needed = ["dynamics", "all", *(f"dynamics+{source}" for source in SOURCES)]
     if law is None or not all(v in variants for v in needed):
         return []
-    tracking = {(variant, name): value for variant, name, _, value, _ in rows}
+    tracking = {(variant, name): value for variant, name, _, _, value, _ in rows}
     whole = tracking[("all", law)]
     base = tracking[("dynamics", "oracle")]
     parts = [("the loop with the oracle's commutation, through " + ", ".join(DYNAMICS), base)]

@@ -12,7 +12,8 @@ run against the table the README holds.
         saying when, on which commit and machine, with which command)
     readme_figures.py check --readme README.md --report DIR/report.json [--tolerance 0.10]
         every figure of the README's table within the tolerance (relative) of
-        the run's, and the same law recommended; prints each figure compared,
+        the run's (figures of rounding size, COLUMNS, count as zero), and the
+        same law recommended; prints each figure compared,
         exits 1 naming every one outside, 2 on bad input
 
 Standard library only.
@@ -27,8 +28,12 @@ import subprocess
 import sys
 import textwrap
 
-HEADER = "commutation         MSE y [N^2]  MSE x [N^2]  MSE z [N^2m^2]  true y [N^2]  tracking [m^2]  /oracle"
-COLUMNS = ["MSE y", "MSE x", "MSE z", "true y", "tracking", "/oracle"]
+HEADER = ("commutation         MSE y [N^2]  MSE x [N^2]  MSE z [N^2m^2]  true y [N^2]  static y [N^2]  tracking [m^2]  "
+          "/oracle")
+# Each column with the size below which a figure is rounding, zero for the
+# check (the oracle's static error, the exact inverse's, is about 1e-27 N²).
+COLUMNS = [("MSE y", 1e-12), ("MSE x", 1e-12), ("MSE z", 1e-12), ("true y", 1e-12), ("static y", 1e-12),
+           ("tracking", 1e-24), ("/oracle", 0.0)]
 BEGIN = "<!-- commissioning figures: made by tools/commission/readme_figures.py print -->"
 END = "<!-- end of commissioning figures -->"
 
@@ -43,7 +48,7 @@ def cell(value):
 
 
 def run_figures(report):
-    """{law: [six figures]} and the recommended law, from a report.json."""
+    """{law: [the COLUMNS' figures]} and the recommended law, from a report.json."""
     try:
         results = report["commutations"]
         over_oracle = report["ratios"]["tracking_mse_over_oracle"]
@@ -52,15 +57,16 @@ def run_figures(report):
             if not r.get("evaluated"):
                 continue
             filtered = r["commutation_mse"]["filtered"]
-            true_y = r["true_electromagnetic_mse"]["filtered"][0] if "true_electromagnetic_mse" in r else None
-            figures[law] = [filtered[0], filtered[1], filtered[2], true_y, r["tracking_mse_m2"], over_oracle.get(law)]
+            truth = [r[key]["filtered"][0] if key in r else None
+                     for key in ("true_electromagnetic_mse", "static_electromagnetic_mse")]
+            figures[law] = [filtered[0], filtered[1], filtered[2], *truth, r["tracking_mse_m2"], over_oracle.get(law)]
         return figures, report["recommended"]["law"]
     except (KeyError, IndexError, TypeError) as e:
         raise BadInput(f"report.json lacks {e}")
 
 
 def readme_figures(text):
-    """{law: [six figures]} and the recommended law, from the README's table."""
+    """{law: [the COLUMNS' figures]} and the recommended law, from the README's table."""
     lines = text.splitlines()
     try:
         start = next(i for i, line in enumerate(lines) if line.strip() == HEADER)
@@ -121,7 +127,8 @@ def print_block(report_path, repository):
     print("    " + HEADER)
     for law, values in figures.items():
         cells = ["-" if v is None else cell(v) for v in values]
-        print("    " + f"{law:<18}" + "".join(f"{c:>13}" for c in cells))
+        widths = [len(name) for name in HEADER.split("  ")[1:] if name]
+        print("    " + f"{law:<18}" + "".join(f"{c:>{w + 2}}" for c, w in zip(cells, widths)))
     print(f"    recommended for service: {recommended}")
     print()
     print(END)
@@ -137,13 +144,16 @@ def check(readme_path, report_path, tolerance):
         if law not in measured:
             failures.append(f"{law}: in the README, not evaluated by the run")
             continue
-        for column, want, got in zip(COLUMNS, values, measured[law]):
+        for (column, rounding), want, got in zip(COLUMNS, values, measured[law]):
             if want is None or got is None:
                 if (want is None) != (got is None):
                     failures.append(f"{law} {column}: README {want}, run {got}")
                 continue
             # The README holds three significant digits: their rounding is inside the tolerance too.
-            deviation = abs(got - want) / abs(want) if want != 0 else abs(got)
+            if max(abs(want), abs(got)) < rounding:
+                deviation = 0.0
+            else:
+                deviation = abs(got - want) / abs(want) if want != 0 else abs(got)
             ok = deviation <= tolerance
             print(f"{'ok:  ' if ok else 'FAIL:'} {law:<16} {column:<9} README {cell(want):>9}  run {cell(got):>9}  "
                   f"{100 * deviation:5.1f} % (bound {100 * tolerance:.0f} %)")

@@ -277,7 +277,9 @@ std::string report_json(const Report& report) {
         << ", \"unfiltered\": " << triple(r.mse.unfiltered) << "}";
     if (r.truth_known) {
       out << ", \"true_electromagnetic_mse\": {\"filtered\": " << triple(r.true_mse.filtered)
-          << ", \"unfiltered\": " << triple(r.true_mse.unfiltered) << "}";
+          << ", \"unfiltered\": " << triple(r.true_mse.unfiltered) << "}"
+          << ", \"static_electromagnetic_mse\": {\"filtered\": " << triple(r.static_mse.filtered)
+          << ", \"unfiltered\": " << triple(r.static_mse.unfiltered) << "}";
     }
     out << ", \"tracking_mse_m2\": " << number(r.tracking_mse_m2)
         << ", \"tracking_split\": {\"commutation_m2\": " << number(r.tracking_split.commutation_m2)
@@ -548,16 +550,22 @@ std::string report_markdown(const Report& report) {
   const auto* oracle = find(report, "oracle");
   if (!report.results.empty() && report.results.front().truth_known) {
     out << "\n## True electromagnetic commutation error (simulation)\n\n"
-           "MSE of the simulator's true electromagnetic wrench − F*, without the direction-dependent force and the "
-           "sensor's bias and noise: the error the commutation itself makes, filtered (unfiltered). The oracle, the "
-           "exact minimum-power inverse of the simulator's static truth, is exact here up to the motion within one "
-           "control period; the ratio to it in tracking is the room a law leaves.\n\n"
-           "| commutation | y [N²] | x [N²] | z [N²m²] | tracking [m²] | tracking / oracle |\n|---|---|---|---|---|---|\n";
+           "True: MSE of the simulator's true electromagnetic wrench over each cycle's period − that cycle's F*, "
+           "without the direction-dependent force and the sensor's bias and noise, filtered (unfiltered): the force "
+           "the axis got against the one asked for, the drive's current loop and delay included. Static: what the "
+           "law makes of each cycle's F* on the simulator's static truth at the true position, through an ideal "
+           "drive, − F*: the law's own error, without the drive, the encoder and the cycle's timing. The oracle, "
+           "the exact minimum-power inverse of the static truth, scores zero there up to rounding and the current "
+           "limit; the ratio to it in tracking is the room a law leaves.\n\n"
+           "| commutation | true y [N²] | true x [N²] | true z [N²m²] | static y [N²] | static x [N²] | static z [N²m²] "
+           "| tracking [m²] | tracking / oracle |\n|---|---|---|---|---|---|---|---|---|\n";
     for (const auto& r : report.results) {
       if (!r.evaluated || !r.truth_known) continue;
       out << "| " << r.name;
-      for (std::size_t q = 0; q < 3; ++q) {
-        out << " | " << fixed(r.true_mse.filtered[q]) << " (" << fixed(r.true_mse.unfiltered[q]) << ")";
+      for (const control::DirectionMse* mse : {&r.true_mse, &r.static_mse}) {
+        for (std::size_t q = 0; q < 3; ++q) {
+          out << " | " << fixed(mse->filtered[q]) << " (" << fixed(mse->unfiltered[q]) << ")";
+        }
       }
       out << " | " << fixed(r.tracking_mse_m2) << " | "
           << (oracle ? fixed(r.tracking_mse_m2 / oracle->tracking_mse_m2, "%.2f") + "×" : std::string("–")) << " |\n";

@@ -1,5 +1,6 @@
 #include "tools/commission/runs.hpp"
 
+#include <limits>
 #include <stdexcept>
 #include <utility>
 
@@ -16,6 +17,7 @@ void Recorder::start(const std::string& name) {
   if (truth_ != nullptr) {
     recording_.y_true_m.reserve(40000);
     recording_.true_wrench.reserve(40000);
+    recording_.static_wrench.reserve(40000);
   }
   active_ = true;
 }
@@ -31,6 +33,7 @@ void Recorder::on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming
   if (!active_ || !record.program_running || record.state != servo::ServoState::kEnabled) return;
   if (truth_ != nullptr) {
     recording_.y_true_m.push_back(truth.position_m);
+    recording_.static_wrench.push_back(static_wrench(cycle, record, truth.position_m));
     awaiting_force_ = true;
   }
   if (record.damping_engaged) ++recording_.damping_cycles;
@@ -39,12 +42,29 @@ void Recorder::on_cycle(const servo::ServoCycle& cycle, const servod::LoopTiming
   if (forward_ != nullptr) forward_->on_cycle(cycle, timing);
 }
 
+Wrench Recorder::static_wrench(const servo::ServoCycle& cycle, const servo::CycleRecord& record,
+                               double position_m) noexcept {
+  const CommutationLaw* law =
+      record.commutation == servo::CommutationMode::kExperiment ? nullptr : cycle.law(record.commutation);
+  if (law == nullptr) return Wrench::Constant(std::numeric_limits<double>::quiet_NaN());
+  law->commutate(position_m, Wrench(record.Fy_star_N, record.Fx_star_N, record.Tz_star_Nm), law_output_);
+  const auto count = static_cast<std::size_t>(law_output_.coil_sets);
+  std::array<PhaseCurrentSetpoint, kMaxCoilSets> currents{};
+  for (std::size_t l = 0; l < count; ++l) {
+    const auto i = static_cast<Eigen::Index>(2 * l);
+    currents[l] = {law_output_.currents_A[i], law_output_.currents_A[i + 1]};
+  }
+  return truth_->ideal_drive_wrench(position_m, std::span(law_output_.setpoints).first(count),
+                                    std::span(currents).first(count));
+}
+
 Recording Recorder::finish() {
   active_ = false;
   if (awaiting_force_) {
     // The last cycle's period never ran: its force is unknown, so it is not kept.
     recording_.samples.pop_back();
     recording_.y_true_m.pop_back();
+    recording_.static_wrench.pop_back();
     awaiting_force_ = false;
   }
   return std::move(recording_);

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "commutation/commutator.hpp"
 #include "daemon/servod/axis_wiring.hpp"
 #include "daemon/servod/servo_daemon.hpp"
 #include "tools/commission/runner.hpp"
@@ -30,6 +31,13 @@ struct Recording {
   /// the sensor's bias and noise, i.e. what the commutation acts on
   /// [N, N, N·m]; empty without a simulator in this process.
   std::vector<Wrench> true_wrench;
+  /// static_wrench[k]: what the law in service makes of samples[k]'s F* on
+  /// the static truth at the true position y_true_m[k], through an ideal
+  /// drive (sim::SimulatedMotor::ideal_drive_wrench): the law's own error,
+  /// without the drive's dynamics, the encoder and the timing of the cycle;
+  /// NaN where no law was in service (an experiment). Empty without a
+  /// simulator in this process [N, N, N·m].
+  std::vector<Wrench> static_wrench;
   std::int64_t damping_cycles = 0;
   std::int64_t force_limited_cycles = 0;
 };
@@ -50,7 +58,10 @@ class Recorder final : public servod::CycleObserver {
   void forward_to(servod::CycleObserver* observer) noexcept { forward_ = observer; }
 
  private:
+  /// Recording::static_wrench of one cycle.
+  Wrench static_wrench(const servo::ServoCycle& cycle, const servo::CycleRecord& record, double position_m) noexcept;
   const sim::SimulatedMotor* truth_;
+  CommutationOutput law_output_;  ///< static_wrench's scratch
   servod::CycleObserver* forward_ = nullptr;
   Recording recording_;
   bool active_ = false;

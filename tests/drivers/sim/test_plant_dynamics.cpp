@@ -550,3 +550,48 @@ TEST_CASE("A payload adds its mass to the translator's, also with a flexible mod
   }
   CHECK(motor.payload_kg() == 0.0);
 }
+
+TEST_CASE("The ideal drive's wrench is what a drive without loop or delay makes of the same setpoints", "[sim][plant]") {
+  // Magnitude/phase: the drive's own commutation at the position, then its
+  // current limit. The ideal drive's one step at rest is the reference; a
+  // drive with a current loop and a delay gives the same ideal-drive wrench
+  // (it does not depend on the drive's state) but another step.
+  MotorParameters ideal = bare_motor();
+  ideal.drive.profile = DriveProfile::kMagnitudePhase;
+  ideal.mechanics.translator_mass_kg = 1e6;  // at rest: one position over the step
+  MotorParameters slow = ideal;
+  slow.drive.setpoint_delay_s = 4e-4;
+  slow.drive.current_loop.bandwidth_Hz = 300.0;
+  slow.drive.current_loop.phase_resistance_ohm = 2.0;
+  slow.drive.current_loop.phase_inductance_H = 1e-3;
+  slow.drive.current_loop.voltage_limit_V = 150.0;
+  for (const double magnitude_N : {40.0, -25.0, 1e4}) {  // 1e4 N: far beyond the current limit
+    INFO("magnitude " << magnitude_N << " N");
+    const DriveSetpoint setpoint[] = {{magnitude_N, 0.3}};
+    SimulatedMotor motor(ideal), lagging(slow);
+    const double y = motor.truth().position_m;
+    const Wrench expected = motor.ideal_drive_wrench(y, setpoint, {});
+    REQUIRE(motor.command(setpoint, true) == CommandResult::kAccepted);
+    REQUIRE(motor.step(1e-3) == StepResult::kOk);
+    const Wrench made = motor.truth().step_wrench;
+    // At 1e6 kg the step moves the translator by under 1 nm, 10⁻⁷ of the pitch in angle.
+    CHECK((made - expected).cwiseAbs().maxCoeff() < 1e-6 * (1.0 + expected.norm()));
+    CHECK(std::abs(expected.x()) > 1.0);
+    REQUIRE(lagging.command(setpoint, true) == CommandResult::kAccepted);
+    REQUIRE(lagging.step(1e-3) == StepResult::kOk);
+    CHECK(lagging.ideal_drive_wrench(y, setpoint, {}) == expected);
+    CHECK(std::abs(lagging.truth().step_wrench.x()) < 0.8 * std::abs(expected.x()));
+  }
+  // Phase currents: the currents as given, limited.
+  MotorParameters currents_drive = ideal;
+  currents_drive.drive.profile = DriveProfile::kPhaseCurrent;
+  SimulatedMotor motor(currents_drive);
+  const double y = motor.truth().position_m;
+  const PhaseCurrentSetpoint currents[] = {{2.0, -1.5}};
+  CurrentVector phase(2);
+  phase << 2.0, -1.5;
+  const Wrench expected = motor.electromagnetics().wrench(y, 0.0, phase);
+  CHECK((motor.ideal_drive_wrench(y, {}, currents) - expected).cwiseAbs().maxCoeff() < 1e-12 * (1.0 + expected.norm()));
+  // Too few entries for the coil sets: no currents, no force.
+  CHECK(motor.ideal_drive_wrench(y, {}, {}) == Wrench::Zero());
+}
