@@ -207,4 +207,17 @@ void switch_off_parasitics(ElectromagneticParameters& parameters) {
   for (auto& coil_set : parameters.coil_sets) coil_set.driving_force_lever_arm_m = 0.0;
 }
 
+MotorParameters with_error_sources(MotorParameters parameters, ErrorSources kept) {
+  if (!kept.force_disturbance) parameters.mechanics.force_disturbance.rms_N = 0.0;
+  if (!kept.encoder) {
+    SensorParameters& sensors = parameters.sensors;
+    sensors.encoder_resolution_m = 0.0;
+    sensors.encoder_noise_m = 0.0;
+    sensors.encoder_delay_s = 0.0;
+    sensors.encoder_interpolation_error_m = 0.0;
+    sensors.encoder_interpolation_second_m = 0.0;
+  }
+  return parameters;
+}
+
 }  // namespace clm::sim

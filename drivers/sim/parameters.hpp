@@ -223,4 +223,17 @@ struct MotorParameters {
 /// sensors are kept.
 void switch_off_parasitics(ElectromagneticParameters& parameters);
 
+/// The terms that inject an error into the loop, as a dynamic error budget
+/// separates them from the plant's dynamics (docs/simulator.md, "A realistic
+/// plant: sizes and what it does"): the force disturbance floor, and the
+/// encoder's quantisation, noise, delay and interpolation error.
+struct ErrorSources {
+  bool force_disturbance = true;
+  bool encoder = true;
+};
+/// `parameters` with only the sources in `kept`: a source left out is
+/// switched off (no disturbance; an ideal encoder: no quantisation, noise,
+/// delay or interpolation error); everything else, the dynamics included, as given.
+MotorParameters with_error_sources(MotorParameters parameters, ErrorSources kept);
+
 }  // namespace clm::sim

@@ -3,8 +3,7 @@
 term, for all together and for none, the edited file parses as YAML and
 holds exactly those terms' keys at their place under `simulation:` (the
 others' removed), with the rest of the file unchanged; the variants none, all, a term, all-TERM, dynamics and
-dynamics+SOURCE name their terms; the error budget's parts add up to the
-whole for sources that add, and name the interaction when they do not; an
+dynamics+SOURCE name their terms, every term a source or a dynamics; an
 unknown variant is refused with exit status 2.
 
     plant_terms_test.py PLANT_TERMS_PY MOTOR_YAML
@@ -56,28 +55,9 @@ def main():
                                   f"keys (differs in {[k for k in expected['simulation'] if edited['simulation'].get(k) != expected['simulation'][k]]})")
         check(edited["motor"] == expected["motor"] and edited["drive"] == expected["drive"],
               f"{name}: motor: or drive: is not the original with exactly the variant's description keys")
-    # The budget of a loop whose sources add: its parts sum to the whole.
+    # The sources and the dynamics (sim::ErrorSources are the same sources).
     check(set(module.SOURCES) | set(module.DYNAMICS) == set(module.TERMS) and
           not set(module.SOURCES) & set(module.DYNAMICS), "every term is a source or a dynamics, not both")
-    base, law_excess, ideal = 1e-15, 3e-15, 4e-16
-    increase = {source: (k + 1) * 1e-14 for k, source in enumerate(module.SOURCES)}
-    rows = [("none", "oracle", 0, ideal, 1), ("dynamics", "oracle", 0, base, 1)]
-    rows += [(f"dynamics+{source}", "oracle", 0, base + increase[source], 1) for source in module.SOURCES]
-    all_oracle = base + sum(increase.values())
-    rows += [("all", "oracle", 0, all_oracle, 1), ("all", "spline", 0, all_oracle + law_excess, 1)]
-    default = module.default_variants()
-    lines = module.error_budget(rows, "spline", default)
-    check(len(lines) == len(module.SOURCES) + 5 and "100.0 % (interaction of the sources: 0.0 %)" in lines[-2]
-          and "the commutation" in lines[-3] and f"{law_excess:.3g}" in lines[-3] and f"{base - ideal:.3g}" in lines[-1],
-          "an additive loop's budget: the parts (the loop through the dynamics, each source, the commutation) sum "
-          "to the whole:\n" + "\n".join(lines))
-    # A source that interacts (the whole 2e-15 above the parts) is reported as such.
-    rows_interacting = [row if row[0] != "all" else (row[0], row[1], 0, row[3] + 2e-15, 1) for row in rows]
-    lines = module.error_budget(rows_interacting, "spline", default)
-    whole = all_oracle + 2e-15 + law_excess
-    check(f"(interaction of the sources: {100 * 2e-15 / whole:.1f} %)" in lines[-2],
-          "an interacting loop's budget names the interaction:\n" + "\n".join(lines))
-    check(module.error_budget(rows, "spline", ["none", "all"]) == [], "no budget without the dynamics' runs")
     # Variants: none, all, a term, all but a term, the dynamics with or without a source.
     terms = list(module.TERMS)
     source = module.SOURCES[0]

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include "daemon/control/metrics.hpp"
@@ -249,6 +250,22 @@ TEST_CASE("commissioning the default motor meets the paper's improvements on Fig
   check_ratios(report, report.results, 10.0, 4.0, "pgnn-paper");  // the paper's 2/16 PGNN too
   check_against_truth(report, "config/motor-sim.yaml", 0.05, directory.file("commission"));
   check_from_position(report, "config/motor-sim.yaml");
+  // The error budget: for the recommended law its parts, each from runs of
+  // their own, add up to its tracking MSE within 10 % (the realistic plant's
+  // target; uncorrelated sources through a linear loop add in MSE), and the
+  // disturbance floor the shipped motor carries is a part of it. The
+  // oracle's commutation part is zero, but its loop and sources come from
+  // three other runs, so its parts too must add up within the same 10 %.
+  INFO(commission::error_budget_summary(report));
+  REQUIRE(report.budget.computed);
+  CHECK(report.budget.disturbance_m2 > 0.0);
+  CHECK(report.budget.loop_m2 > 0.0);
+  for (const std::string& law : {report.recommended, std::string("oracle")}) {
+    const std::optional<commission::LawBudget> budget = commission::law_budget(report, law);
+    REQUIRE(budget);
+    INFO(law << ": the parts " << budget->sum_m2 << " m², the whole " << budget->whole_m2 << " m²");
+    CHECK(std::abs(budget->whole_m2 - budget->sum_m2) <= 0.1 * budget->whole_m2);
+  }
   // The live split (no truth) against the simulator's (1 − the oracle's
   // tracking MSE over the law's, every law meeting the same run): calibrated
   // classical commutation, whose error is nearly all its tracking error

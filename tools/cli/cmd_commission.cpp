@@ -232,6 +232,9 @@ void add_commission(CLI::App& app) {
     if (const std::string line = commission::commutation_share_summary(report); !line.empty()) {
       std::printf("%s\n", line.c_str());
     }
+    if (const std::string line = commission::error_budget_summary(report); !line.empty()) {
+      std::printf("%s\n", line.c_str());
+    }
     for (const CalibrationFile* file : {&report.calibration_paper, &report.calibration_robust}) {
       for (std::size_t l = 0; l < file->coil_sets.size(); ++l) {
         const auto& c = file->coil_sets[l];

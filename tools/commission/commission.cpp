@@ -15,6 +15,7 @@
 #include <memory>
 
 #include "config/atomic_file.hpp"
+#include "drivers/sim/parameters.hpp"
 #include "config/sha256.hpp"
 #include "daemon/servod/feedforward_file.hpp"
 #include "daemon/servod/file_policy.hpp"
@@ -330,6 +331,21 @@ CommutationResult evaluate(const Recording& run, double period_s) {
   return result;
 }
 
+std::optional<LawBudget> law_budget(const Report& report, const std::string& law) {
+  if (!report.budget.computed) return std::nullopt;
+  const CommutationResult *result = nullptr, *oracle = nullptr;
+  for (const auto& r : report.results) {
+    if (!r.evaluated) continue;
+    if (r.name == law) result = &r;
+    if (r.name == "oracle") oracle = &r;
+  }
+  if (result == nullptr || oracle == nullptr) return std::nullopt;
+  const ErrorBudget& b = report.budget;
+  LawBudget budget{law, result->tracking_mse_m2, result->tracking_mse_m2 - oracle->tracking_mse_m2, 0.0};
+  budget.sum_m2 = b.loop_m2 + b.disturbance_m2 + b.encoder_m2 + budget.commutation_m2;
+  return budget;
+}
+
 namespace {
 
 // "0.119 ± 0.0021" with the precision of the figures it is compared with.
@@ -503,6 +519,39 @@ Report run(const Options& options, const std::function<void(const Progress&)>& p
   InProcessRunner runner(offline);
   return run(options, runner, progress);
 }
+
+namespace {
+
+/// The error budget (ErrorBudget): three runs of the oracle on runners that
+/// keep no source, the disturbance alone and the encoder alone; none without
+/// such runners (live) or without the oracle's evaluation.
+template <typename Tell>
+ErrorBudget error_budget(const Report& report, const ExperimentRunner& runner, const servod::ProgramFile& program,
+                         const std::string& program_path, double period_s, const Tell& tell) {
+  const auto oracle = std::find_if(report.results.begin(), report.results.end(),
+                                   [](const auto& r) { return r.name == "oracle" && r.evaluated; });
+  if (oracle == report.results.end() || runner.simulated_motor() == nullptr) return {};
+  const auto oracle_tracking_m2 = [&](sim::ErrorSources kept, const char* what) {
+    tell("error budget", 0.0, what);
+    const std::unique_ptr<ExperimentRunner> on = runner.runner_with_sources(kept);
+    if (!on) throw std::logic_error("error budget: a runner on a simulated motor offers no runner with other sources");
+    on->enable();
+    on->set_commutation(servo::CommutationMode::kOracle);
+    on->load_feedforward(oracle->feedforward, "");
+    return evaluate(on->run_program(program, program_path, std::string("oracle, ") + what, Disturbance::kRestarts),
+                    period_s)
+        .tracking_mse_m2;
+  };
+  ErrorBudget budget;
+  budget.loop_m2 = oracle_tracking_m2({false, false}, "no error source");
+  budget.disturbance_m2 = oracle_tracking_m2({true, false}, "the force disturbance alone") - budget.loop_m2;
+  budget.encoder_m2 = oracle_tracking_m2({false, true}, "the encoder alone") - budget.loop_m2;
+  budget.computed = true;
+  tell("error budget", 1.0, "done");
+  return budget;
+}
+
+}  // namespace
 
 Report run(const Options& options, ExperimentRunner& runner, const std::function<void(const Progress&)>& progress) {
   const auto start = Clock::now();
@@ -918,6 +967,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   };
   copy_chosen(report.results);
   copy_chosen(report.validation);
+  report.budget = error_budget(report, runner, program, program_path, config.servo.period_s, tell);
   report.live = runner.live_summary();
   for (const auto& note : runner.notes()) report.notes.push_back(note);
   report.total_wall_s = seconds_since(start);

@@ -9,6 +9,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -99,6 +100,28 @@ struct CommutationResult {
   std::int64_t force_limited_cycles = 0;
 };
 
+/// The dynamic error budget of the laws' tracking MSE on the evaluation
+/// program, in simulation (docs/commissioning.md, "The error budget"): the
+/// oracle run again on the same plant with each error source alone
+/// (sim::ErrorSources), its feedforward and the daemon as commissioned. The
+/// sources' parts are every law's; each law adds its commutation's
+/// (LawBudget). Uncorrelated sources through a linear loop add in MSE; what
+/// the parts do not add up to is their interaction.
+struct ErrorBudget {
+  bool computed = false;        ///< false: live, or the oracle not evaluated
+  double loop_m2 = 0.0;         ///< the oracle's with no source: the loop through the plant's dynamics [m²]
+  double disturbance_m2 = 0.0;  ///< the oracle's with the force disturbance alone, − loop_m2 [m²]
+  double encoder_m2 = 0.0;      ///< the oracle's with the encoder alone, − loop_m2 [m²]
+};
+
+/// One law's budget: its tracking MSE with every source on, its
+/// commutation's part (its MSE − the oracle's), and the sum of the parts.
+struct LawBudget {
+  std::string law;
+  double whole_m2 = 0.0;
+  double commutation_m2 = 0.0;
+  double sum_m2 = 0.0;
+};
 struct StepTime {
   std::string step;
   double wall_s = 0.0;
@@ -156,6 +179,7 @@ struct Report {
   /// force_recommended's, and `verdict` has no runner-up).
   data::Verdict verdict;
   std::string decided_by;
+  ErrorBudget budget;  ///< in simulation (budget.computed)
 };
 
 /// The file a run keeps in its output directory from the directory's
@@ -209,6 +233,14 @@ std::string position_summary(const Report& report);
 /// every law meets the same disturbance and the oracle commutes exactly);
 /// "" without the oracle or a recommendation.
 std::string commutation_share_summary(const Report& report);
+
+/// The budget of `law` in `report`; nullopt without a budget or without the
+/// law's and the oracle's evaluation.
+std::optional<LawBudget> law_budget(const Report& report, const std::string& law);
+
+/// One line: the recommended law's error budget, each part's share of its
+/// tracking MSE and their sum; "" without one (law_budget).
+std::string error_budget_summary(const Report& report);
 
 /// The laws in their order of preference when their validation scores tie
 /// (docs/commutation.md, "The recommendation"): the calibrated classical law

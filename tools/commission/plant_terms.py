@@ -11,8 +11,7 @@ to every law's true driving-force error and tracking (docs/simulator.md,
 A variant is none, all, one term, all-TERM (every term but that one:
 what a term adds to the others), dynamics (the terms that shape how errors
 travel: DYNAMICS) or dynamics+SOURCE (those and one of the SOURCES, the
-terms that inject an error). The error budget needs dynamics, each
-dynamics+SOURCE and all. Each variant is `clm commission
+terms that inject an error). Each variant is `clm commission
 --no-plots` on a copy of the configuration and its motor file with
 exactly its terms' keys (the others' removed: the shipped motors carry
 every term); nothing outside --out is
@@ -44,8 +43,8 @@ TERMS = {
 }
 
 # The terms that inject an error into the loop, and those that shape how
-# errors travel through it (the error budget propagates each source through
-# all of them, docs/simulator.md, "A realistic plant: sizes and what it does").
+# errors travel through it (sim::ErrorSources, whose split the report's error
+# budget makes, docs/commissioning.md "The error budget").
 SOURCES = ("force_disturbance", "encoder")
 DYNAMICS = tuple(term for term in TERMS if term not in SOURCES)
 
@@ -85,8 +84,8 @@ def variant_terms(variant):
 
 
 def default_variants():
-    """No term, each alone, all, and what the error budget needs."""
-    return ["none", *TERMS, "all", "dynamics", *(f"dynamics+{source}" for source in SOURCES)]
+    """No term, each alone, all, and the dynamics without the sources."""
+    return ["none", *TERMS, "all", "dynamics"]
 
 
 def with_key_replaced(text, indent, key):
@@ -221,11 +220,9 @@ def main():
     variants = args.terms.split(",")
     terms_of = {variant: variant_terms(variant) for variant in variants}
     rows = []
-    recommended = {}
     for variant in variants:
         terms = terms_of[variant]
         report = commission(args.clm, args.config, os.path.join(args.out, variant), terms)
-        recommended[variant] = report["recommended"]["law"]
         laws = report["commutations"]
         oracle = laws.get("oracle", {}).get("tracking_mse_m2")
         for name, law in laws.items():
@@ -241,40 +238,6 @@ def main():
           f"{'/oracle':>8}")
     for variant, name, true_y, static_y, tracking, ratio in rows:
         print(f"{variant:{width}} {name:16} {true_y:13.3g} {static_y:15.3g} {tracking:15.3g} {ratio:8.3g}")
-    for line in error_budget(rows, recommended.get("all"), variants):
-        print(line)
-
-
-def error_budget(rows, law, variants):
-    """The tracking MSE of `law` with every term on, split by source as a
-    dynamic error budget does: each source (SOURCES) propagated alone through
-    the whole loop with the plant's dynamics (DYNAMICS) on, as the increase of
-    the oracle's MSE it causes; the loop with the oracle's commutation
-    through those dynamics, without a source; and the law's commutation (its
-    MSE over the oracle's, both with every term on, meeting the same
-    disturbance). Uncorrelated sources through a linear loop add in MSE;
-    what the parts do not add up to is their interaction. Empty unless
-    dynamics, each dynamics+SOURCE and all were run."""
-    needed = ["dynamics", "all", *(f"dynamics+{source}" for source in SOURCES)]
-    if law is None or not all(v in variants for v in needed):
-        return []
-    tracking = {(variant, name): value for variant, name, _, _, value, _ in rows}
-    whole = tracking[("all", law)]
-    base = tracking[("dynamics", "oracle")]
-    parts = [("the loop with the oracle's commutation, through " + ", ".join(DYNAMICS), base)]
-    parts += [(f"{source} through the loop", tracking[(f"dynamics+{source}", "oracle")] - base) for source in SOURCES]
-    parts.append((f"the commutation ({law} over the oracle)", whole - tracking[("all", "oracle")]))
-    total = sum(value for _, value in parts)
-    width = max(len(name) for name, _ in parts)
-    lines = [f"error budget of the recommended law ({law}), tracking MSE with every term on: {whole:.3g} m^2"]
-    lines += [f"  {name:{width}} {value:11.3g} m^2 {100 * value / whole:6.1f} %" for name, value in parts]
-    lines.append(f"  {'sum of the parts':{width}} {total:11.3g} m^2 {100 * total / whole:6.1f} % "
-                 f"(interaction of the sources: {100 * (whole - total) / whole:.1f} %)")
-    if ("none", "oracle") in tracking:
-        ideal = tracking[("none", "oracle")]
-        lines.append(f"  (the oracle on the ideal plant: {ideal:.3g} m^2; the dynamics add "
-                     f"{base - ideal:.3g} m^2 to it)")
-    return lines
 
 
 if __name__ == "__main__":

@@ -215,6 +215,33 @@ std::string commutation_share_summary(const Report& report) {
          (live.empty() ? "" : "; the " + live);
 }
 
+namespace {
+
+/// A law's budget, its parts named, in order.
+std::vector<std::pair<std::string, double>> budget_parts(const ErrorBudget& b, const LawBudget& law) {
+  return {{"the loop with the oracle, through the plant's dynamics", b.loop_m2},
+          {"the force disturbance", b.disturbance_m2},
+          {"the encoder", b.encoder_m2},
+          {"the commutation (" + law.law + " over the oracle)", law.commutation_m2}};
+}
+
+std::string percent_of(double part, double whole) { return fixed(100.0 * part / whole, "%.1f") + " %"; }
+
+}  // namespace
+
+std::string error_budget_summary(const Report& report) {
+  const std::optional<LawBudget> law = law_budget(report, report.recommended);
+  if (!law || !(law->whole_m2 > 0.0)) return "";
+  std::string text =
+      "error budget of the recommended law (" + law->law + "), tracking MSE " + fixed(law->whole_m2) + " m^2:";
+  for (const auto& [name, value] : budget_parts(report.budget, *law)) {
+    text += " " + name + " " + percent_of(value, law->whole_m2) + ",";
+  }
+  text.pop_back();
+  return text + "; together " + percent_of(law->sum_m2, law->whole_m2) + " (the sources' interaction " +
+         percent_of(law->whole_m2 - law->sum_m2, law->whole_m2) + ")";
+}
+
 std::string position_summary(const Report& report) {
   if (!report.from_position) return "";
   const auto* position = find(report, "spline-position");
@@ -348,6 +375,22 @@ std::string report_json(const Report& report) {
   out << "},\n";
   out << "  \"recommended\": {\"law\": " << yaml::quoted(report.recommended) << ", \"why\": " << yaml::quoted(report.recommendation)
       << ", \"force_sensor_law\": " << yaml::quoted(report.force_recommended) << "},\n";
+  if (const ErrorBudget& b = report.budget; b.computed) {
+    out << "  \"error_budget\": {\"loop_m2\": " << number(b.loop_m2) << ", \"disturbance_m2\": "
+        << number(b.disturbance_m2) << ", \"encoder_m2\": " << number(b.encoder_m2) << ", \"laws\": {";
+    const char* between = "";
+    for (const auto& r : report.results) {
+      const std::optional<LawBudget> law = law_budget(report, r.name);
+      if (!law) continue;
+      out << between << yaml::quoted(law->law) << ": {\"whole_m2\": " << number(law->whole_m2)
+          << ", \"commutation_m2\": " << number(law->commutation_m2) << ", \"sum_m2\": " << number(law->sum_m2)
+          << "}";
+      between = ", ";
+    }
+    out << "}},\n";
+  } else {
+    out << "  \"error_budget\": null,\n";
+  }
   out << "  \"validation_scores\": {";
   for (std::size_t k = 0; k < report.law_scores.size(); ++k) {
     const auto& entry = report.law_scores[k];
@@ -598,6 +641,23 @@ std::string report_markdown(const Report& report) {
     }
     out << "\n";
     if (const std::string line = commutation_share_summary(report); !line.empty()) out << "\nThe " << line << ".\n";
+  }
+  if (const ErrorBudget& b = report.budget; b.computed) {
+    out << "\n## Error budget (simulation)\n\nEach law's tracking MSE on the evaluation program, split by source "
+           "as a dynamic error budget does: the oracle run again on the same plant with no error source (the loop "
+           "through the plant's dynamics), with the force disturbance alone and with the encoder alone (its "
+           "feedforward and the daemon as commissioned), each source as the oracle's increase; the commutation is "
+           "the law's MSE over the oracle's, both with every source on. Uncorrelated sources through a linear loop "
+           "add in MSE; what the parts do not add up to is their interaction. Shares of each law's tracking MSE:\n\n"
+           "| commutation | tracking MSE [m²] | loop | force disturbance | encoder | commutation | sum of the parts "
+           "|\n|---|---|---|---|---|---|---|\n";
+    for (const auto& r : report.results) {
+      const std::optional<LawBudget> law = law_budget(report, r.name);
+      if (!law || !(law->whole_m2 > 0.0)) continue;
+      out << "| " << law->law << " | " << fixed(law->whole_m2);
+      for (const auto& [name, value] : budget_parts(b, *law)) out << " | " << percent_of(value, law->whole_m2);
+      out << " | " << percent_of(law->sum_m2, law->whole_m2) << " |\n";
+    }
   }
   if (!report.validation.empty()) {
     out << "\n## Held-out trajectory\n\nThe same commutations and feedforwards on `" << report.validation_program

@@ -20,6 +20,7 @@
 
 namespace clm::sim {
 class SimulatedMotor;
+struct ErrorSources;
 }
 
 namespace clm::commission {
@@ -113,6 +114,11 @@ class ExperimentRunner {
   /// as this one was; nullptr when there is none (the default: live, there is
   /// one daemon).
   virtual std::unique_ptr<ExperimentRunner> side_runner() const { return nullptr; }
+  /// Another runner on the same configuration whose simulated motor keeps
+  /// only the error sources `kept`, its dynamics as this one's (the error
+  /// budget's runs, docs/commissioning.md "The error budget"); nullptr
+  /// without a simulator in this process (the default: live).
+  virtual std::unique_ptr<ExperimentRunner> runner_with_sources(sim::ErrorSources /*kept*/) const { return nullptr; }
 };
 
 }  // namespace clm::commission

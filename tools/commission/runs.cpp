@@ -7,6 +7,7 @@
 #include "daemon/servod/telemetry_bridge.hpp"
 #include "daemon/telemetry/telemetry.hpp"
 #include "drivers/sim/motor.hpp"
+#include "drivers/sim/parameters.hpp"
 
 namespace clm::commission {
 
@@ -180,7 +181,9 @@ InProcessRunner::InProcessRunner(const servod::ServodConfig& config) : InProcess
 }
 
 InProcessRunner::InProcessRunner(const servod::ServodConfig& config, servod::AxisWiring wiring)
-    : axis_(std::make_unique<servod::WiredAxis>(offline(config), std::move(wiring))), daemon_(&axis_->daemon) {
+    : given_(config),
+      axis_(std::make_unique<servod::WiredAxis>(offline(config), std::move(wiring))),
+      daemon_(&axis_->daemon) {
   daemon_->run_cycles(20);
 }
 
@@ -248,6 +251,13 @@ const sim::SimulatedMotor* InProcessRunner::simulated_motor() const { return axi
 std::unique_ptr<ExperimentRunner> InProcessRunner::side_runner() const {
   if (!config_) return nullptr;
   return std::make_unique<InProcessRunner>(*config_);
+}
+
+std::unique_ptr<ExperimentRunner> InProcessRunner::runner_with_sources(sim::ErrorSources kept) const {
+  const sim::SimulatedMotor* motor = simulated_motor();
+  if (motor == nullptr) return nullptr;
+  return std::make_unique<InProcessRunner>(
+      given_, servod::wire_simulated_axis(given_, sim::with_error_sources(motor->parameters(), kept)));
 }
 
 std::string InProcessRunner::oracle_unavailable_reason() const {

@@ -112,9 +112,11 @@ class InProcessRunner final : public ExperimentRunner {
   /// Another daemon core on the same configuration, built as this one was;
   /// nullptr when this one runs on a wiring the caller built.
   std::unique_ptr<ExperimentRunner> side_runner() const override;
+  std::unique_ptr<ExperimentRunner> runner_with_sources(sim::ErrorSources kept) const override;
 
  private:
   struct RunLog;
+  servod::ServodConfig given_;                  ///< the configuration as given
   std::optional<servod::ServodConfig> config_;  ///< as given, when the wiring is the configuration's
   std::unique_ptr<servod::WiredAxis> axis_;
   servod::ServoDaemon* daemon_;  ///< axis_->daemon
