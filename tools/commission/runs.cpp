@@ -177,7 +177,7 @@ servo::PathText path_text(const std::string& path) {
 }  // namespace
 
 InProcessRunner::InProcessRunner(const servod::ServodConfig& config) : InProcessRunner(config, servod::wire_axis(config)) {
-  config_ = config;
+  wiring_from_config_ = true;
 }
 
 InProcessRunner::InProcessRunner(const servod::ServodConfig& config, servod::AxisWiring wiring)
@@ -249,8 +249,8 @@ Recording InProcessRunner::run_program(const servod::ProgramFile& program, const
 const sim::SimulatedMotor* InProcessRunner::simulated_motor() const { return axis_->wiring.motor.get(); }
 
 std::unique_ptr<ExperimentRunner> InProcessRunner::side_runner() const {
-  if (!config_) return nullptr;
-  return std::make_unique<InProcessRunner>(*config_);
+  if (!wiring_from_config_) return nullptr;
+  return std::make_unique<InProcessRunner>(given_);
 }
 
 std::unique_ptr<ExperimentRunner> InProcessRunner::runner_with_sources(sim::ErrorSources kept) const {

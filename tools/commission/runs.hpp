@@ -5,7 +5,6 @@
 
 #include <functional>
 #include <memory>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -116,8 +115,8 @@ class InProcessRunner final : public ExperimentRunner {
 
  private:
   struct RunLog;
-  servod::ServodConfig given_;                  ///< the configuration as given
-  std::optional<servod::ServodConfig> config_;  ///< as given, when the wiring is the configuration's
+  servod::ServodConfig given_;       ///< the configuration as given
+  bool wiring_from_config_ = false;  ///< the wiring is the configuration's (not one the caller built)
   std::unique_ptr<servod::WiredAxis> axis_;
   servod::ServoDaemon* daemon_;  ///< axis_->daemon
   std::unique_ptr<RunLog> log_;
