@@ -63,11 +63,6 @@ void require_accepted(const LawCheck& check, const std::string& path, const std:
   if (!check.accepted()) throw LawRefused(path, what, describe(check));
 }
 
-LawLimits law_limits(const ServodConfig& config) {
-  return {config.loop.rate_hz, config.motor.drive.motor_constant_N_per_A, config.motor.stroke_min_m,
-          config.motor.stroke_max_m};
-}
-
 /// What a model law blends to outside its identified range
 /// (commutation/range_blend.hpp; docs/servod.md, "What a law may cost and
 /// mean"): the calibration loaded last (the classical law's, in use or

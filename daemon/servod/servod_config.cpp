@@ -412,4 +412,9 @@ ServodConfig load_servod_config(const std::string& path) {
   return config;
 }
 
+LawLimits law_limits(const ServodConfig& config) {
+  return {config.loop.rate_hz, config.motor.drive.motor_constant_N_per_A, config.motor.stroke_min_m,
+          config.motor.stroke_max_m};
+}
+
 }  // namespace clm::servod

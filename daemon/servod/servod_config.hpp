@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "commutation/commutator.hpp"
+#include "commutation/law_check.hpp"
 #include "commutation/model_file.hpp"
 #include "daemon/control/loop_analysis.hpp"
 #include "daemon/servo/servo_cycle.hpp"
@@ -113,5 +114,9 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
 /// −1 for a URL of another provider. Throws std::invalid_argument for a ttl
 /// that is not a whole number in 0..255.
 int lcm_url_ttl(const std::string& url);
+
+/// What the daemon checks a law against (commutation/law_check.hpp): the
+/// loop's rate, the drive's nominal motor constant and the stroke.
+LawLimits law_limits(const ServodConfig& config);
 
 }  // namespace clm::servod

@@ -148,3 +148,62 @@ TEST_CASE("a model is scored on the force sensor's held-out rows as the force mo
   options.validation_fraction = 0.0;
   CHECK(std::isnan(position_validation_score(data, options, summary, reports, truth)));
 }
+
+TEST_CASE("the model from positions that is scored never saw the held-out rows", "[position]") {
+  std::mt19937_64 rng(29);
+  const PositionOnlyMotor truth(rng, 55.0, -0.45);
+  const MotorDescription motor = description();
+  const std::string csv = experiment_csv(truth);
+  const ExperimentData data = read_experiment_data(CsvTable::parse(csv, "position.csv"), motor);
+  PositionIdentifyOptions options;
+  options.motion.mass_kg = truth.mass_kg;
+  const PositionIdentification identified = identify_from_position(data, motor, options);
+  const auto coefficients = [](const ElectromagneticModel& model) {
+    const CoilSetModel& c = model.coil_sets.at(0);
+    Eigen::VectorXd all(c.column_a_spline.cols() * 3);
+    all << c.column_a_spline.row(0).transpose(), c.column_b_spline.row(0).transpose(), c.cogging_spline.row(0).transpose();
+    return all;
+  };
+
+  // Nothing excluded: the model kept.
+  const Eigen::VectorXd kept = coefficients(identified.model.model);
+  const Eigen::VectorXd none = coefficients(position_model_without(data, motor, options, identified, {{}}));
+  INFO("nothing excluded: coefficients " << (none - kept).norm() << " off the model kept, of " << kept.norm());
+  CHECK((none - kept).norm() < 1e-9 * kept.norm());
+
+  // The force data's held-out rows: a fifth of them, in four stretches.
+  const auto excluded = held_out_times(data, 0.2);
+  REQUIRE(excluded.size() == 1);
+  const double share = static_cast<double>(excluded[0].size()) / static_cast<double>(data.coil_sets[0].dataset.size());
+  INFO("held-out share " << share);
+  CHECK(share == Approx(0.2).margin(0.01));
+  const Eigen::VectorXd without = coefficients(position_model_without(data, motor, options, identified, excluded));
+  INFO("held out: coefficients " << (without - kept).norm() << " off the model kept");
+  CHECK((without - kept).norm() > 1e-6 * kept.norm());  // a fit of its own
+
+  // Those rows' positions and setpoints replaced by nonsense: the same model.
+  std::istringstream in(csv);
+  std::ostringstream corrupted;
+  corrupted.precision(17);
+  std::string line;
+  std::getline(in, line);
+  corrupted << line << "\n";
+  std::size_t changed = 0;
+  while (std::getline(in, line)) {
+    double t, set, delta, magnitude, y;
+    char c;
+    std::istringstream row(line);
+    row >> t >> c >> set >> c >> delta >> c >> magnitude >> c >> y;
+    if (std::binary_search(excluded[0].begin(), excluded[0].end(), t)) {
+      magnitude = -3.0 * magnitude + 7.0;
+      y += 2e-3;
+      ++changed;
+    }
+    corrupted << t << "," << set << "," << delta << "," << magnitude << "," << y << "\n";
+  }
+  REQUIRE(changed == excluded[0].size());
+  const ExperimentData spoiled = read_experiment_data(CsvTable::parse(corrupted.str(), "spoiled.csv"), motor);
+  const Eigen::VectorXd blind = coefficients(position_model_without(spoiled, motor, options, identified, excluded));
+  INFO("held-out rows spoiled: coefficients " << (blind - without).norm() << " off, of " << without.norm());
+  CHECK((blind - without).norm() < 1e-9 * without.norm());
+}

@@ -133,3 +133,16 @@ TEST_CASE("report.json's ratios are well formed whichever laws were evaluated", 
     CHECK_FALSE(contains(ratios, ", }"));
   }
 }
+
+TEST_CASE("a law clm-servod would refuse does not compete, and the report says why", "[commission]") {
+  // The PGNN would win clearly, but its gains beyond its data are no motor's.
+  auto report = report_with(blocks({0.40, 0.20, 0.30, 0.26}, {0.24, 0.30, 0.22, 0.28}),
+                            blocks({0.42, 0.22, 0.31, 0.27}, {0.25, 0.31, 0.24, 0.29}),
+                            blocks({0.10, 0.05, 0.08, 0.07}, {0.06, 0.08, 0.05, 0.07}));
+  report.refused_laws["pgnn"] = "coil set 2 at y = -0.1 m: motor constant 962 N/A outside [6.7, 670] N/A";
+  commission::recommend(report);
+  CHECK(report.recommended == "spline");
+  CHECK(report.force_recommended == "spline");
+  for (const auto& law : report.law_scores) CHECK(law.law != "pgnn");
+  CHECK(contains(report.recommendation, "pgnn not a candidate, clm-servod refuses it: coil set 2 at y = -0.1 m"));
+}

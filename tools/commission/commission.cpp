@@ -217,7 +217,8 @@ data::ExperimentData identify_from_forces(const Options& options, const MotorDes
 void identify_from_positions(const Options& options, const servod::ServodConfig& config,
                              const std::vector<Recording>& experiments,
                              const std::vector<Recording>& payload_experiments, const WrittenFile& written,
-                             const Tell& tell, const ModelFile* force_spline, Report& report) {
+                             const Tell& tell, const ModelFile* force_spline,
+                             const data::ExperimentData* force_data, Report& report) {
   const MotorDescription& motor = config.motor;
   auto step_start = Clock::now();
   tell("identify from positions", 0.0, "");
@@ -260,6 +261,16 @@ void identify_from_positions(const Options& options, const servod::ServodConfig&
   model.provenance.data_sha256 = sha256_file(position_csv);
   model.provenance.generator = "clm commission";
   write_file_atomically(written("model-spline-position.yaml"), format_model_file(model));
+  if (force_spline != nullptr && force_data != nullptr) {
+    // Scored as the force models are: fit without the force data's held-out
+    // rows, so that its held-out score is one (docs/commutation.md, "The
+    // recommendation").
+    const ElectromagneticModel without = data::position_model_without(
+        position_data, motor, position, report.position,
+        data::held_out_times(*force_data, options.identify.validation_fraction));
+    report.position_validation_score = data::position_validation_score(
+        *force_data, options.identify, report.spline_selection, report.spline, without, &report.position_held_out);
+  }
   report.steps.push_back({"identify from positions", seconds_since(step_start)});
   step_start = Clock::now();
   data::reconstruct_driving_force(position_data, motor, report.position);
@@ -370,6 +381,7 @@ std::vector<data::LawScore> laws_in_tie_order(const Report& report, bool with_po
   };
   for (const char* law : kTieOrder) {
     const std::string name = law;
+    if (report.refused_laws.count(name) != 0) continue;
     if (name == "spline" && !report.spline_selection.trials.empty()) {
       laws.push_back(from_trial(law, report.spline_selection));
     } else if (name == "pgnn" && !report.pgnn_selection.trials.empty()) {
@@ -420,6 +432,7 @@ void recommend(Report& report) {
     text += " " + with_error(entry.score) + ";";
   }
   text.pop_back();
+  for (const auto& [law, why] : report.refused_laws) text += "; " + law + " not a candidate, clm-servod refuses it: " + why;
   text += "; " + verdict.recommended + ", " + verdict_reason(verdict);
   const std::string margin = runner_up_margin(verdict);
   if (!margin.empty()) text += "; " + margin;
@@ -768,14 +781,23 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   if (options.no_force_sensor || report.spline_selection.nuisance) {
     const bool beside_forces = sensor && !options.no_force_sensor;
     identify_from_positions(options, config, experiments, payload_experiments, written, tell,
-                            beside_forces ? &models[1] : nullptr, report);
+                            beside_forces ? &models[1] : nullptr, beside_forces ? &*force_data : nullptr, report);
   }
-  if (force_data && report.from_position && !options.no_force_sensor) {
-    report.position_validation_score =
-        data::position_validation_score(*force_data, options.identify, report.spline_selection, report.spline,
-                                        report.position.model.model, &report.position_held_out);
+  if (sensor) {
+    // A law the daemon would refuse cannot go into service (checked as
+    // clm-servod checks it, blended beyond its range to the calibration
+    // loaded before it).
+    const std::vector<ClassicalEstimate> outside = report.calibration_paper.estimates();
+    const LawLimits limits = servod::law_limits(config);
+    const auto check = [&](const char* law, const ElectromagneticModel& model) {
+      const LawCheck verdict = check_blended_law(model, outside, limits);
+      if (!verdict.accepted()) report.refused_laws[law] = describe(verdict);
+    };
+    check("pgnn", models[0].model);
+    check("spline", models[1].model);
+    if (report.from_position) check("spline-position", report.position.model.model);
+    recommend(report);
   }
-  if (sensor) recommend(report);
   if (options.no_force_sensor) {
     // Commissioned as an axis without a force sensor: the laws from positions
     // are the result, the force-sensor ones (when there is a sensor) a comparison.

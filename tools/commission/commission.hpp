@@ -173,6 +173,10 @@ struct Report {
   /// scores and standard errors, in the order of preference on a tie
   /// (kTieOrder; "classical" is the physics-only fit, score 1 per coil set).
   std::vector<data::LawScore> law_scores;
+  /// Models the daemon would refuse to load (commutation/law_check.hpp, as
+  /// clm-servod checks them: blended to the calibration beyond their range),
+  /// by law name, with its reason: they do not compete for the recommendation.
+  std::map<std::string, std::string> refused_laws;
   /// How `recommended` was chosen from law_scores; `decided_by` says
   /// "validation score" (a clear win), "tie rule", or "no force sensor"
   /// (commissioned from positions: the verdict of the scores is

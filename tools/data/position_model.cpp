@@ -1,5 +1,6 @@
 #include "tools/data/position_model.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -91,6 +92,52 @@ std::vector<identification::MotionFit> fit_all(const std::vector<std::vector<ide
   return fits;
 }
 
+
+// The spline model of `fits` on `basis`: F_y rows from positions, F_x and
+// T_z rows zero.
+ElectromagneticModel spline_model(const std::vector<identification::MotionFit>& fits, const UniformCubicBasis& basis,
+                                  const MotorDescription& motor, const PositionNormalisation& normalisation) {
+  ElectromagneticModel model;
+  model.kind = ModelKind::kSpline;
+  model.pole_pitch_m = motor.pole_pitch_m;
+  model.normalisation = normalisation;
+  model.spline_basis = basis;
+  for (const auto& motion : fits) {
+    CoilSetModel coil_set;
+    coil_set.a_N_per_A.row(0) = motion.a_y;
+    coil_set.b_N_per_A.row(0) = motion.b_y;
+    coil_set.column_a_spline = SplineCoefficients::Zero(3, basis.size());
+    coil_set.column_b_spline = SplineCoefficients::Zero(3, basis.size());
+    coil_set.cogging_spline = SplineCoefficients::Zero(3, basis.size());
+    coil_set.column_a_spline.row(0) = motion.column_a;
+    coil_set.column_b_spline.row(0) = motion.column_b;
+    coil_set.cogging_spline.row(0) = motion.cogging;
+    model.coil_sets.push_back(std::move(coil_set));
+  }
+  model.validate();
+  return model;
+}
+
+// `run` cut where its times come within `tolerance_s` of `excluded_s`
+// (sorted): the stretches in between, as runs of their own.
+void cut_at(const identification::MotionRun& run, const std::vector<double>& excluded_s, double tolerance_s,
+            std::vector<identification::MotionRun>& into) {
+  const Eigen::Index n = run.time_s.size();
+  const auto excluded = [&](double t) {
+    const auto it = std::lower_bound(excluded_s.begin(), excluded_s.end(), t - tolerance_s);
+    return it != excluded_s.end() && *it <= t + tolerance_s;
+  };
+  for (Eigen::Index first = 0; first < n;) {
+    if (excluded(run.time_s[first])) {
+      ++first;
+      continue;
+    }
+    Eigen::Index end = first + 1;
+    while (end < n && !excluded(run.time_s[end])) ++end;
+    into.push_back(slice(run, first, end - first));
+    first = end;
+  }
+}
 }  // namespace
 
 PositionIdentification identify_from_position(const ExperimentData& data, const MotorDescription& motor,
@@ -155,27 +202,47 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
   result.fits = fit_all(all, data, motor, basis, fit);
   result.mass_kg = result.fits.front().mass_kg;
 
-  ElectromagneticModel& model = result.model.model;
-  model.kind = ModelKind::kSpline;
-  model.pole_pitch_m = motor.pole_pitch_m;
-  model.normalisation = identification::normalisation_for(as_vector(all_positions));
-  model.spline_basis = basis;
-  for (const auto& motion : result.fits) {
-    CoilSetModel coil_set;
-    coil_set.a_N_per_A.row(0) = motion.a_y;
-    coil_set.b_N_per_A.row(0) = motion.b_y;
-    coil_set.column_a_spline = SplineCoefficients::Zero(3, basis.size());
-    coil_set.column_b_spline = SplineCoefficients::Zero(3, basis.size());
-    coil_set.cogging_spline = SplineCoefficients::Zero(3, basis.size());
-    coil_set.column_a_spline.row(0) = motion.column_a;
-    coil_set.column_b_spline.row(0) = motion.column_b;
-    coil_set.cogging_spline.row(0) = motion.cogging;
-    model.coil_sets.push_back(std::move(coil_set));
-  }
-  model.validate();
+  result.model.model =
+      spline_model(result.fits, basis, motor, identification::normalisation_for(as_vector(all_positions)));
   result.model.provenance.rows_from = {RowSource::kPosition, RowSource::kDriveConstants, RowSource::kDriveConstants};
   result.model.provenance.created_utc = utc_timestamp();
   return result;
+}
+
+std::vector<std::vector<double>> held_out_times(const ExperimentData& force_data, double validation_fraction) {
+  std::vector<std::vector<double>> times;
+  for (const auto& experiment : force_data.coil_sets) {
+    const auto split = identification::split_contiguous_blocks(experiment.dataset, validation_fraction);
+    std::vector<double>& held = times.emplace_back();
+    for (const Eigen::Index k : split.validation) held.push_back(experiment.motion.time_s[k]);
+    std::sort(held.begin(), held.end());
+  }
+  return times;
+}
+
+ElectromagneticModel position_model_without(const ExperimentData& data, const MotorDescription& motor,
+                                            const PositionIdentifyOptions& options,
+                                            const PositionIdentification& identified,
+                                            const std::vector<std::vector<double>>& excluded_times_s) {
+  if (excluded_times_s.size() != data.coil_sets.size()) {
+    throw std::invalid_argument("position model without held-out rows: " + std::to_string(excluded_times_s.size()) +
+                                " coil sets of excluded times for " + std::to_string(data.coil_sets.size()));
+  }
+  identification::MotionFitOptions fit = with_drive(options.motion, motor);
+  fit.mass_kg = identified.mass_kg;  // the scale of the model kept
+  fit.viscous_N_s_per_m = fit.direction_N = 0.0;
+  const UniformCubicBasis& basis = identified.model.model.spline_basis;
+  std::vector<std::vector<identification::MotionRun>> training(data.coil_sets.size());
+  for (std::size_t l = 0; l < data.coil_sets.size(); ++l) {
+    for (const auto& run : data.coil_sets[l].runs) {
+      const Eigen::Index n = run.time_s.size();
+      // Half a period: the rows of both tables carry the same cycles' times.
+      const double tolerance_s = n > 1 ? 0.5 * (run.time_s[n - 1] - run.time_s[0]) / static_cast<double>(n - 1) : 0.0;
+      cut_at(run, excluded_times_s[l], tolerance_s, training[l]);
+    }
+  }
+  return spline_model(fit_all(training, data, motor, basis, fit), basis, motor,
+                      identified.model.model.normalisation);
 }
 
 identification::PayloadMass mass_from_payload(const ExperimentData& without, const ExperimentData& with,

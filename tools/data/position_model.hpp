@@ -53,6 +53,23 @@ struct PositionIdentification {
 PositionIdentification identify_from_position(const ExperimentData& data, const MotorDescription& motor,
                                               const PositionIdentifyOptions& options);
 
+/// The times of the rows each coil set's force models hold out
+/// (identification::split_contiguous_blocks of its dataset at
+/// `validation_fraction`), sorted, per coil set.
+std::vector<std::vector<double>> held_out_times(const ExperimentData& force_data, double validation_fraction);
+
+/// `identified`'s model fit again on `data` without its rows at
+/// `excluded_times_s` (per coil set, as held_out_times gives them; each run
+/// is cut there, so no difference reaches across a held-out stretch), on the
+/// same knot grid and at the same mass: the model a held-out force score
+/// compares with force models fit on their training blocks alone. Throws
+/// std::invalid_argument when the coil sets differ, std::runtime_error as
+/// identify_from_position.
+ElectromagneticModel position_model_without(const ExperimentData& data, const MotorDescription& motor,
+                                            const PositionIdentifyOptions& options,
+                                            const PositionIdentification& identified,
+                                            const std::vector<std::vector<double>>& excluded_times_s);
+
 /// The translator's mass from the same experiments without and with a known
 /// payload of `payload_kg` (identification::mass_from_payload): every coil
 /// set of both fitted per kilogram on one knot grid (pole pitch / 8 over both
@@ -75,8 +92,9 @@ void take_off_axis_rows(ModelFile& position_model, const ModelFile& force_model)
 void reconstruct_driving_force(ExperimentData& data, const MotorDescription& motor,
                                const PositionIdentification& identified);
 
-/// A model from positions scored on force data as identify_motor scores its
-/// capacity trials (CapacityTrial::validation_score): the sum over coil sets
+/// A model from positions, fit without the force data's held-out rows
+/// (position_model_without), scored on force data as identify_motor scores
+/// its capacity trials (CapacityTrial::validation_score): the sum over coil sets
 /// of its held-out F_y MSE over the physics-only fit's, on the same held-out
 /// blocks, with the sensor offset of `summary` removed and, where the force
 /// models carry one, a direction-dependent force C·tanh(ẏ/v_c) fitted to its
