@@ -23,6 +23,10 @@ const char* describe(Fault fault) noexcept {
     case Fault::kCommutationNotFinite: return "commutation produced a non-finite setpoint";
     case Fault::kFeedbackNotFinite: return "position loop produced a non-finite force";
     case Fault::kLoopStalled: return "the loop stalled longer than its limit";
+    case Fault::kDriveWatchdog: return "the drive's setpoint watchdog expired";
+    case Fault::kEndStop: return "limit switch or end stop active";
+    case Fault::kDriveCurrentLimited: return "the drive limited its current too long";
+    case Fault::kDriveNotEnabled: return "the drive did not report enabled";
   }
   return "unknown fault";
 }

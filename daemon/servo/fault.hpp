@@ -30,6 +30,11 @@ enum class Fault : std::uint16_t {
   kCommutationNotFinite = 208,  ///< the commutation law produced a non-finite setpoint
   kFeedbackNotFinite = 209,     ///< the position loop produced a non-finite force demand
   kLoopStalled = 210,           ///< the loop did not run for longer than `stall_limit_s` (a stall, SIGSTOP)
+  // The drive's own signals (drivers/drive_signals.hpp; docs/servod.md, "The drive's own signals")
+  kDriveWatchdog = 211,         ///< the drive's setpoint watchdog expired
+  kEndStop = 212,               ///< a limit switch or end stop is active
+  kDriveCurrentLimited = 213,   ///< the drive limited its current longer than `current_limited_limit_s`
+  kDriveNotEnabled = 214,       ///< the drive did not report Enabled within `enable_timeout_s`, or stopped reporting it
 };
 
 /// Short fixed text for logs and telemetry; never allocates.
@@ -54,7 +59,7 @@ struct FaultReactionEntry {
 };
 
 /// Every fault and its reaction, in the order of the enum (docs/servod.md prints it).
-inline constexpr std::array<FaultReactionEntry, 18> kFaultReactions{{
+inline constexpr std::array<FaultReactionEntry, 22> kFaultReactions{{
     {Fault::kEncoderFrameMissing, FaultReaction::kZeroSetpoints},
     {Fault::kForceFrameMissing, FaultReaction::kQuickStop},
     {Fault::kEncoderAliveJump, FaultReaction::kZeroSetpoints},
@@ -75,6 +80,13 @@ inline constexpr std::array<FaultReactionEntry, 18> kFaultReactions{{
     // The feedback is fresh again when the loop resumes; the drive's own
     // watchdog zeroed its setpoints meanwhile, or the axis ran on the last ones.
     {Fault::kLoopStalled, FaultReaction::kQuickStop},
+    // The drive stopped its current itself, or may not apply what it is sent.
+    {Fault::kDriveWatchdog, FaultReaction::kZeroSetpoints},
+    // The axis is where it must not be but its feedback is sound: braked with
+    // the loop closed, as long as the drive still applies current.
+    {Fault::kEndStop, FaultReaction::kQuickStop},
+    {Fault::kDriveCurrentLimited, FaultReaction::kQuickStop},
+    {Fault::kDriveNotEnabled, FaultReaction::kZeroSetpoints},
 }};
 
 /// The reaction to `fault` from kFaultReactions; kZeroSetpoints for any value

@@ -99,8 +99,9 @@ void ServoCycle::latch(Fault fault) noexcept {
     }
     return;
   }
-  const bool driving = status_.state == ServoState::kEnabled;
+  const bool driving = status_.state == ServoState::kEnabled && !status_.enabling;
   status_.state = ServoState::kFault;
+  status_.enabling = false;
   status_.fault = fault;
   status_.fault_cycle = cycle_;
   mailbox_.restricted_.store(false, std::memory_order_release);
@@ -280,14 +281,17 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s, const BusReport
   account_feedback();  // servo_cycle_feedback.cpp
   check_soft_limits();
   record_.force_limited = false;
-  if (status_.state == ServoState::kEnabled || status_.fault_reaction_running) {
+  const auto enabled = [&] { return status_.state == ServoState::kEnabled || status_.fault_reaction_running; };
+  if (enabled() && !status_.enabling) {
     drive();
+  } else if (enabled()) {
+    wait_for_drive();
   } else {
     follow_axis();
   }
-  const bool driving = status_.state == ServoState::kEnabled || status_.fault_reaction_running;
-  if (!driving) zero_setpoints();
-  const std::size_t count = encode_setpoints(driving);
+  // What the step left: a fault it latched, a reaction it ended.
+  if (!enabled() || status_.enabling) zero_setpoints();
+  const std::size_t count = encode_setpoints(enabled());
   fill_record(time_s);
   return {frames_.data(), count};
 }
@@ -425,12 +429,26 @@ void ServoCycle::follow_axis() noexcept {
   reference_cycle_ = cycle_;
 }
 
-std::size_t ServoCycle::encode_setpoints(bool driving) noexcept {
+void ServoCycle::wait_for_drive() noexcept {
+  // Enable is sent, the drive does not apply current yet: the hold stays
+  // where enable put it (a program offered meanwhile starts there) and a
+  // program's clock waits at its start.
+  if (running_ != nullptr) program_start_cycle_ = cycle_ + 1;
+  record_.r_m = hold_m_;
+  record_.r_dot_m_per_s = record_.r_ddot_m_per_s2 = 0.0;
+  record_.e_m = hold_m_ - position_m_;
+  record_.u_fb_N = record_.u_ff_N = record_.F_star_N = 0.0;
+  record_.Fy_star_N = record_.Fx_star_N = record_.Tz_star_Nm = 0.0;
+  reference_ = {hold_m_, 0.0, 0.0, 0.0};
+  reference_cycle_ = cycle_;
+}
+
+std::size_t ServoCycle::encode_setpoints(bool enable) noexcept {
   // Profile magnitude_phase: the (39) setpoints;
   // phase_current: the law's currents as they are (the drive does no
   // commutation of its own). A fault found while encoding sends zero at once.
   setpoints_.coil_sets = settings_.protocol.coil_sets;
-  setpoints_.enable = driving;
+  setpoints_.enable = enable;
   setpoints_.clear_fault = clear_drive_fault_;
   setpoints_.alive_counter = setpoint_alive_++;
   can::CodecStatus status = can::CodecStatus::kOk;

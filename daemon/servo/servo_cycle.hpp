@@ -58,6 +58,12 @@ struct ServoSettings {
   /// A loop that did not wake for longer than this latches kLoopStalled when
   /// it resumes (a stall, SIGSTOP), whatever the drive did meanwhile [s].
   double stall_limit_s = 0.1;
+  /// Enable completes when the drive reports Enabled; not within this time
+  /// after the enable, kDriveNotEnabled [s].
+  double enable_timeout_s = 0.1;
+  /// The drive limiting its current for longer than this latches
+  /// kDriveCurrentLimited [s].
+  double current_limited_limit_s = 0.1;
   double standstill_velocity_m_per_s = 2e-3;
   /// Largest velocity, acceleration and jerk a move or program may ask for.
   control::MotionLimits motion_limits{0.5, 10.0, 2000.0};
@@ -99,6 +105,7 @@ struct CycleCounters {
   std::int64_t guard_stops = 0;     ///< of those, by the approach guard
   std::int64_t jog_timeouts = 0;    ///< jogs stopped because no renewal came within jog_timeout_s
   std::int64_t force_sensor_losses = 0;  ///< times the force sensor was lost in service (a warning, not a fault)
+  std::int64_t current_limited_cycles = 0;  ///< enabled cycles whose feedback said the drive limited its current
 };
 
 /// What the cycle reports of itself; read on the loop thread (an observer,
@@ -111,6 +118,12 @@ struct CycleStatus {
   bool mode_change_pending = false;  ///< a requested law waits for standstill (kDeferred)
   bool stopping = false;             ///< a stop (command, guard or fault reaction) is under way
   bool fault_reaction_running = false;  ///< still driven along a quick stop after a fault latched
+  /// Enabled, and the drive has not reported Enabled yet: setpoints zero
+  /// with the enable bit, the hold where the axis was, a program's clock
+  /// held at its start (docs/servod.md, "The drive's own signals").
+  bool enabling = false;
+  /// What the drive said of itself in its last feedback.
+  drivers::DriveSignals drive;
   /// The force sensor's warning: kNone while it is healthy (or the axis has
   /// none), else why it was lost in service (kForceFrameMissing,
   /// kForceAliveJump, kFrameRejected, kMeasurementNotFinite). In an
@@ -224,8 +237,13 @@ class ServoCycle {
   void latch(Fault fault) noexcept;
   /// Whether `counter` follows the stream's last one (frames owed: `unseen`).
   bool track_alive(std::uint8_t counter, std::uint8_t& last, bool& known, int& unseen, bool late) noexcept;
-  /// Missing frames, the position and velocity estimate, the drive's fault bit.
+  /// Missing frames, the position and velocity estimate, the drive's signals.
   void account_feedback() noexcept;
+  /// The reactions to the drive's signals: its faults, the enable
+  /// handshake, the current limit's duration.
+  void react_to_drive(const drivers::DriveSignals& signals) noexcept;
+  /// Enabling: the drive not yet applying current; the record as follow_axis, the hold kept.
+  void wait_for_drive() noexcept;
   void account_force_feedback() noexcept;
   /// A fault in an experiment, else the force sensor's warning.
   void force_sensor_trouble(Fault reason) noexcept;
@@ -239,8 +257,9 @@ class ServoCycle {
   void approach_guard(const control::ReferenceSample& now, const control::ReferenceSample& next) noexcept;
   /// Not driven: the reference follows the axis so that enabling is bumpless.
   void follow_axis() noexcept;
-  /// The setpoint frames (zero at once on a fault found while encoding); their count.
-  std::size_t encode_setpoints(bool driving) noexcept;
+  /// The setpoint frames with the enable bit `enable` (zero at once on a
+  /// fault found while encoding); their count.
+  std::size_t encode_setpoints(bool enable) noexcept;
   void fill_record(double time_s) noexcept;
   void commutate(double position_m, double velocity_m_per_s, double force_N) noexcept;
   void zero_setpoints() noexcept;
@@ -302,6 +321,8 @@ class ServoCycle {
   double restricted_min_m_ = 0.0, restricted_max_m_ = 0.0;
   double hold_m_ = 0.0;
   double saturated_time_s_ = 0.0;
+  std::int64_t enable_wait_periods_ = 0;      // since enable, while enabling
+  std::int64_t current_limited_periods_ = 0;  // the drive's current limit active without a break
   int consecutive_overruns_ = 0;
 
   // Output.

@@ -38,6 +38,10 @@ void ServoSettings::validate() const {
   require(missing_frame_limit >= 1, "missing_frame_limit must be at least 1");
   require(overrun_limit >= 1, "overrun_limit must be at least 1");
   require(stall_limit_s >= 2.0 * period_s && stall_limit_s <= 10.0, "stall_limit_s must be in [2 periods, 10 s]");
+  require(enable_timeout_s >= 2.0 * period_s && enable_timeout_s <= 10.0,
+          "enable_timeout_s must be in [2 periods, 10 s]");
+  require(current_limited_limit_s >= period_s && current_limited_limit_s <= 10.0,
+          "current_limited_limit_s must be in [1 period, 10 s]");
   require(standstill_velocity_m_per_s > 0.0, "standstill_velocity_m_per_s must be positive");
   const auto positive = [](double x) { return x > 0.0 && std::isfinite(x); };
   require(positive(motion_limits.velocity_m_per_s) && positive(motion_limits.acceleration_m_per_s2) &&
@@ -123,8 +127,11 @@ CommandResult ServoCycle::enable() noexcept {
     restricted_max_m_ = std::max(settings_.soft_limit_max_m, position_m_ + settings_.following_error_limit_m);
   }
   mailbox_.restricted_.store(recovering, std::memory_order_release);
-  // Bumpless: hold where the axis is, fresh integrator.
+  // Bumpless: hold where the axis is, fresh integrator; the loop closes when
+  // the drive reports Enabled (react_to_drive).
   status_.state = ServoState::kEnabled;
+  status_.enabling = true;
+  enable_wait_periods_ = current_limited_periods_ = 0;
   status_.stopping = status_.fault_reaction_running = false;
   reference_ = {position_m_, 0.0, 0.0, 0.0};
   hold_m_ = position_m_;
@@ -136,6 +143,7 @@ CommandResult ServoCycle::enable() noexcept {
 
 CommandResult ServoCycle::disable() noexcept {
   if (status_.state == ServoState::kEnabled) status_.state = ServoState::kDisabled;
+  status_.enabling = false;
   end_program();
   leave_experiment();
   status_.stopping = status_.fault_reaction_running = false;

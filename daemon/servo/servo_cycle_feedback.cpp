@@ -73,8 +73,40 @@ void ServoCycle::account_feedback() noexcept {
     const double alpha = period_s / (kVelocityFilter_s + period_s);
     const double middle_m_per_s = velocity_estimate_m_per_s_ + 0.5 * period_s * acceleration_m_per_s2;
     velocity_estimate_m_per_s_ += period_s * acceleration_m_per_s2 + alpha * (raw_velocity - middle_m_per_s);
-    // The feedback of the cycle that carries the clear request predates it.
-    if ((drive_.status_word & can::kStatusFault) && !clear_drive_fault_) latch(Fault::kDriveFault);
+    react_to_drive(can::drive_signals(drive_.status_word));
+  }
+}
+
+void ServoCycle::react_to_drive(const drivers::DriveSignals& signals) noexcept {
+  status_.drive = signals;
+  // The feedback of the cycle that carries the clear request predates it.
+  // The most specific reason first: a drive that stops for its watchdog or
+  // an end stop sets its fault bit too.
+  if (!clear_drive_fault_) {
+    if (signals.watchdog_expired) latch(Fault::kDriveWatchdog);
+    if (signals.end_stop) latch(Fault::kEndStop);
+    if (signals.fault) latch(Fault::kDriveFault);
+  }
+  // Durations in whole periods, so that a limit of n periods lets n pass.
+  const auto periods = [&](double seconds) { return std::llround(seconds / settings_.period_s); };
+  if (status_.state != ServoState::kEnabled) {
+    current_limited_periods_ = 0;
+    return;
+  }
+  if (signals.current_limited) {
+    ++status_.counters.current_limited_cycles;
+    if (++current_limited_periods_ > periods(settings_.current_limited_limit_s)) latch(Fault::kDriveCurrentLimited);
+  } else {
+    current_limited_periods_ = 0;
+  }
+  // The handshake: enable completes when the drive says so; a drive that
+  // stops saying so without a fault of its own is one that no longer applies current.
+  if (signals.enabled) {
+    status_.enabling = false;
+  } else if (!status_.enabling) {
+    latch(Fault::kDriveNotEnabled);
+  } else if (++enable_wait_periods_ > periods(settings_.enable_timeout_s)) {
+    latch(Fault::kDriveNotEnabled);
   }
 }
 

@@ -303,8 +303,15 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
   }
 
   if (const auto faults = root.optional("faults")) {
-    faults->expect_keys({"missing_frame_limit", "overrun_limit", "stall_limit_s"});
+    faults->expect_keys(
+        {"missing_frame_limit", "overrun_limit", "stall_limit_s", "enable_timeout_s", "current_limited_limit_s"});
     if (const auto v = faults->optional("stall_limit_s")) config.servo.stall_limit_s = v->as_double_in(2.0 / config.loop.rate_hz, 10.0);
+    if (const auto v = faults->optional("enable_timeout_s")) {
+      config.servo.enable_timeout_s = v->as_double_in(2.0 / config.loop.rate_hz, 10.0);
+    }
+    if (const auto v = faults->optional("current_limited_limit_s")) {
+      config.servo.current_limited_limit_s = v->as_double_in(1.0 / config.loop.rate_hz, 10.0);
+    }
     if (const auto v = faults->optional("missing_frame_limit")) config.servo.missing_frame_limit = static_cast<int>(v->as_integer_in(1, 1000));
     if (const auto v = faults->optional("overrun_limit")) config.servo.overrun_limit = static_cast<int>(v->as_integer_in(1, 1000));
   }

@@ -74,6 +74,9 @@ void TelemetryBridge::fill_status(const servo::ServoCycle& cycle, const LoopTimi
                                                                      : telemetry::kForceSensorLost;
   out.force_sensor_warning = static_cast<std::int16_t>(force_warning);
   out.force_sensor_losses = c.force_sensor_losses;
+  out.drive_signals = telemetry::drive_signal_bits(cycle.status().drive);
+  out.enabling = cycle.status().enabling;
+  out.current_limited_cycles = c.current_limited_cycles;
   daemon_->loaded_file(LoadedFileSlot::kCalibration, out.calibration);
   daemon_->loaded_file(LoadedFileSlot::kPgnnModel, out.pgnn_model);
   daemon_->loaded_file(LoadedFileSlot::kSplineModel, out.spline_model);

@@ -9,8 +9,13 @@ namespace clm::telemetry {
 
 using clm_lcm::servo_command_t;
 using clm_lcm::servo_state_t;
+using clm_lcm::servo_status_t;
 using servo::CommandKind;
 
+static_assert(kDriveEnabled == servo_status_t::DRIVE_ENABLED && kDriveFault == servo_status_t::DRIVE_FAULT &&
+              kDriveWatchdogExpired == servo_status_t::DRIVE_WATCHDOG_EXPIRED &&
+              kDriveCurrentLimited == servo_status_t::DRIVE_CURRENT_LIMITED &&
+              kDriveEndStop == servo_status_t::DRIVE_END_STOP);
 static_assert(static_cast<int>(CommandKind::kEnable) == servo_command_t::ENABLE);
 static_assert(static_cast<int>(CommandKind::kDisable) == servo_command_t::DISABLE);
 static_assert(static_cast<int>(CommandKind::kClearFault) == servo_command_t::CLEAR_FAULT);
@@ -196,6 +201,9 @@ clm_lcm::servo_status_t to_message(const ServoStatusSample& sample, std::int64_t
   m.force_sensor = sample.force_sensor;
   m.force_sensor_warning = sample.force_sensor_warning;
   m.force_sensor_losses = sample.force_sensor_losses;
+  m.drive_signals = sample.drive_signals;
+  m.enabling = sample.enabling;
+  m.current_limited_cycles = sample.current_limited_cycles;
   const CommandAuthorityStatus& c = sample.commands;
   m.control_client = c.control_client;
   m.control_lease_remaining_s = c.control_lease_remaining_s;

@@ -10,6 +10,7 @@
 #include <string_view>
 
 #include "daemon/servo/fixed_text.hpp"
+#include "drivers/drive_signals.hpp"
 
 namespace clm::telemetry {
 
@@ -107,6 +108,9 @@ struct ServoStatusSample {
   std::int8_t force_sensor = 0;           ///< clm_lcm::servo_status_t::FORCE_SENSOR_*
   std::int16_t force_sensor_warning = 0;  ///< while lost: the fault an experiment would latch, else 0
   std::int64_t force_sensor_losses = 0;
+  std::int16_t drive_signals = 0;  ///< clm_lcm::servo_status_t::DRIVE_* bits
+  bool enabling = false;
+  std::int64_t current_limited_cycles = 0;
   CommandAuthorityStatus commands;
 };
 
@@ -114,6 +118,18 @@ struct ServoStatusSample {
 inline constexpr std::int8_t kForceSensorNone = 0;
 inline constexpr std::int8_t kForceSensorOk = 1;
 inline constexpr std::int8_t kForceSensorLost = 2;
+
+/// ServoStatusSample::drive_signals, as clm_lcm::servo_status_t::DRIVE_*.
+inline constexpr std::int16_t kDriveEnabled = 1;
+inline constexpr std::int16_t kDriveFault = 2;
+inline constexpr std::int16_t kDriveWatchdogExpired = 4;
+inline constexpr std::int16_t kDriveCurrentLimited = 8;
+inline constexpr std::int16_t kDriveEndStop = 16;
+constexpr std::int16_t drive_signal_bits(const drivers::DriveSignals& s) noexcept {
+  return static_cast<std::int16_t>((s.enabled ? kDriveEnabled : 0) | (s.fault ? kDriveFault : 0) |
+                                   (s.watchdog_expired ? kDriveWatchdogExpired : 0) |
+                                   (s.current_limited ? kDriveCurrentLimited : 0) | (s.end_stop ? kDriveEndStop : 0));
+}
 
 /// Something that happened once, as servo_event_t.
 struct ServoEventSample {

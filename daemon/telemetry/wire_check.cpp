@@ -77,6 +77,7 @@ constexpr std::array kStatusFields{
     i64("frames_late"), i64("frames_rejected"), i64("telemetry_dropped"), i8("bus_state", -1, 3),
     i64("damping_cycles"), boolean("program_running"), finite("program_time_s"), boolean("restricted"),
     i8("force_sensor", 0, 2), i16("force_sensor_warning", 0), i64("force_sensor_losses"),
+    i16("drive_signals", 0, 31), boolean("enabling"), i64("current_limited_cycles"),
     i64("control_client"), finite("control_lease_remaining_s"), i64("commands_admitted"),
     i64("commands_refused_malformed"), i64("commands_refused_other_axis"), i64("commands_refused_other_session"),
     i64("commands_refused_no_client"), i64("commands_refused_replayed"), i64("commands_refused_stale"),

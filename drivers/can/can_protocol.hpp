@@ -23,6 +23,7 @@
 #include <string>
 
 #include "commutation/types.hpp"
+#include "drivers/drive_signals.hpp"
 
 namespace clm::can {
 
@@ -166,6 +167,17 @@ struct DriveFeedback {
   std::uint16_t status_word = 0;    ///< kStatus* bits
   std::uint8_t alive_counter = 0;   ///< +1 per frame, wraps 255 → 0
 };
+
+/// The signals of a status word (kStatus* bits).
+constexpr drivers::DriveSignals drive_signals(std::uint16_t status_word) noexcept {
+  drivers::DriveSignals signals;
+  signals.enabled = (status_word & kStatusEnabled) != 0;
+  signals.fault = (status_word & kStatusFault) != 0;
+  signals.watchdog_expired = (status_word & kStatusWatchdogExpired) != 0;
+  signals.current_limited = (status_word & kStatusCurrentLimited) != 0;
+  signals.end_stop = (status_word & kStatusEndStop) != 0;
+  return signals;
+}
 
 /// TPDO1 of the force sensor.
 struct ForceFeedback {

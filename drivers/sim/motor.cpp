@@ -68,6 +68,7 @@ void SimulatedMotor::reset(double position_m, double velocity_m_per_s) {
   setpoints_.fill(DriveSetpoint{});
   commanded_currents_.fill(PhaseCurrentSetpoint{});
   enable_requested_ = false;
+  enabled_at_s_ = 0.0;
   last_command_time_s_ = 0.0;
   latched_ = 0;
   limited_in_last_step_ = false;
@@ -80,7 +81,30 @@ void SimulatedMotor::reset(double position_m, double velocity_m_per_s) {
   update_outputs();
 }
 
-bool SimulatedMotor::drive_active() const noexcept { return enable_requested_ && latched_ == 0; }
+void SimulatedMotor::push_to(double position_m, double velocity_m_per_s) {
+  const auto& mechanics = parameters_.mechanics;
+  if (!(position_m >= mechanics.end_stop_min_m && position_m <= mechanics.end_stop_max_m) ||
+      !std::isfinite(velocity_m_per_s)) {
+    throw ParameterError("push_to: position " + std::to_string(position_m) + " m outside the end stops [" +
+                         std::to_string(mechanics.end_stop_min_m) + ", " + std::to_string(mechanics.end_stop_max_m) +
+                         "] m or velocity not finite");
+  }
+  position_m_ = encoder_position_m_ = position_m;
+  velocity_m_per_s_ = encoder_velocity_m_per_s_ = velocity_m_per_s;
+  // The encoder's history starts again here: no reading interpolates across the push.
+  history_time_s_[0] = time_s_;
+  history_position_m_[0] = position_m;
+  history_next_ = 1;
+  history_count_ = 1;
+  in_contact_ = position_m == mechanics.end_stop_min_m || position_m == mechanics.end_stop_max_m;
+  step_mean_position_m_ = position_m;
+  update_outputs();
+}
+
+bool SimulatedMotor::drive_active() const noexcept {
+  return enable_requested_ && latched_ == 0 &&
+         time_s_ - enabled_at_s_ >= parameters_.drive.enable_delay_s - kWatchdogTolerance_s;
+}
 
 void SimulatedMotor::latch_fault(std::uint32_t bits) noexcept {
   latched_ |= bits | kStatusFault;
@@ -162,6 +186,7 @@ void SimulatedMotor::take_setpoints(std::span<const DriveSetpoint> setpoints,
 }
 
 void SimulatedMotor::take_command(bool enable) noexcept {
+  if (enable && !enable_requested_) enabled_at_s_ = time_s_;
   enable_requested_ = enable;
   last_command_time_s_ = time_s_;
   update_outputs();
@@ -442,6 +467,10 @@ DriveStatus SimulatedMotor::status() const noexcept {
   std::uint32_t word = latched_ & kLatchedBits;
   if (drive_active()) word |= kStatusEnabled;
   if (limited_in_last_step_) word |= kStatusCurrentLimited;
+  const auto& mechanics = parameters_.mechanics;
+  if (position_m_ <= mechanics.limit_switch_min_m || position_m_ >= mechanics.limit_switch_max_m) {
+    word |= kStatusEndStop;
+  }
   return DriveStatus{word};
 }
 

@@ -33,8 +33,10 @@ enum DriveStatusBit : std::uint32_t {
   /// Not latched: during the last step() at least one substep limited the
   /// current of at least one coil set (see DriveParameters::phase_current_limit_A).
   kStatusCurrentLimited = 1u << 3,
-  /// Latched: the translator hit an end stop (moved into it); the limit
-  /// switch faults the drive.
+  /// The translator hit an end stop (moved into it; latched, and the drive
+  /// faults), or is at or beyond a limit switch
+  /// (MechanicsParameters::limit_switch_min_m, _max_m; while it is there,
+  /// without a fault of the drive's own).
   kStatusEndStop = 1u << 4,
   /// Latched: a command had the wrong number of setpoints or a non-finite value.
   kStatusInvalidSetpoint = 1u << 5,
@@ -174,6 +176,12 @@ class SimulatedMotor {
   /// ParameterError for a position outside the end stops.
   void reset(double position_m, double velocity_m_per_s = 0.0);
 
+  /// The translator moved to `position_m` at `velocity_m_per_s` by an
+  /// outside force (a push, a collision) at this instant: the drive, its
+  /// faults, the time and the counters are kept, the encoder reads the new
+  /// position from now on. Throws ParameterError as reset().
+  void push_to(double position_m, double velocity_m_per_s = 0.0);
+
   /// The force disturbance (ForceDisturbanceParameters) back to its time 0,
   /// the rest of the state kept: runs started after it meet the same
   /// disturbance (common random numbers, to compare laws run by run).
@@ -281,6 +289,7 @@ class SimulatedMotor {
   std::array<DriveSetpoint, kMaxCoilSets> setpoints_{};
   std::array<PhaseCurrentSetpoint, kMaxCoilSets> commanded_currents_{};
   bool enable_requested_ = false;
+  double enabled_at_s_ = 0.0;  // when enable_requested_ last became true
   double last_command_time_s_ = 0.0;
   std::uint32_t latched_ = 0;
   bool limited_in_last_step_ = false;

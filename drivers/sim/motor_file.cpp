@@ -111,7 +111,8 @@ void read_direction_dependent(const Node& section, ElectromagneticParameters& em
 void read_mechanics(const Node& section, const MotorParameters& motor, MechanicsParameters& mechanics) {
   section.expect_keys({"translator_mass_kg", "viscous_friction_N_s_per_m", "coulomb_friction_N",
                        "friction_smoothing_velocity_m_per_s", "integration_step_s", "end_stop_min_m",
-                       "end_stop_max_m", "flexible_mode", "force_disturbance"});
+                       "end_stop_max_m", "limit_switch_min_m", "limit_switch_max_m", "flexible_mode",
+                       "force_disturbance"});
   mechanics.translator_mass_kg = section["translator_mass_kg"].as_positive();
   mechanics.viscous_friction_N_s_per_m = optional_double(section, "viscous_friction_N_s_per_m", 0.0, 0.0, kInfinity);
   mechanics.coulomb_friction_N = optional_double(section, "coulomb_friction_N", 0.0, 0.0, kInfinity);
@@ -123,6 +124,9 @@ void read_mechanics(const Node& section, const MotorParameters& motor, Mechanics
       optional_double(section, "end_stop_min_m", motor.stroke_min_m - 0.01, -kInfinity, motor.stroke_min_m);
   mechanics.end_stop_max_m =
       optional_double(section, "end_stop_max_m", motor.stroke_max_m + 0.01, motor.stroke_max_m, kInfinity);
+  // Without limit switches only the stops' impact is reported.
+  mechanics.limit_switch_min_m = optional_double(section, "limit_switch_min_m", -kInfinity, -kInfinity, kInfinity);
+  mechanics.limit_switch_max_m = optional_double(section, "limit_switch_max_m", kInfinity, -kInfinity, kInfinity);
   if (const auto mode = section.optional("flexible_mode")) {
     mode->expect_keys({"frequency_Hz", "damping_ratio", "encoder_mass_fraction"});
     auto& m = mechanics.flexible_mode;
@@ -143,8 +147,9 @@ void read_mechanics(const Node& section, const MotorParameters& motor, Mechanics
 // The simulated drive's dynamics (the drive: section holds what a real
 // drive is set to; these are its physics).
 void read_drive_dynamics(const Node& section, DriveParameters& drive) {
-  section.expect_keys({"setpoint_delay_s", "current_loop"});
+  section.expect_keys({"setpoint_delay_s", "enable_delay_s", "current_loop"});
   drive.setpoint_delay_s = optional_double(section, "setpoint_delay_s", 0.0, 0.0, kMaxSetpointDelay_s);
+  drive.enable_delay_s = optional_double(section, "enable_delay_s", 0.0, 0.0, 1.0);
   if (const auto loop = section.optional("current_loop")) {
     loop->expect_keys({"bandwidth_Hz", "phase_resistance_ohm", "phase_inductance_H", "voltage_limit_V"});
     auto& c = drive.current_loop;

@@ -85,6 +85,17 @@ void MechanicsParameters::validate() const {
   require_finite("end_stop_min_m", end_stop_min_m);
   require_finite("end_stop_max_m", end_stop_max_m);
   if (!(end_stop_max_m > end_stop_min_m)) fail("end_stop_max_m", end_stop_max_m, "must be above end_stop_min_m");
+  const bool none_below = limit_switch_min_m == -std::numeric_limits<double>::infinity();
+  const bool none_above = limit_switch_max_m == std::numeric_limits<double>::infinity();
+  if (!(none_below || (limit_switch_min_m >= end_stop_min_m && limit_switch_min_m < end_stop_max_m))) {
+    fail("limit_switch_min_m", limit_switch_min_m, "must lie within the end stops (or be absent)");
+  }
+  if (!(none_above || (limit_switch_max_m <= end_stop_max_m && limit_switch_max_m > end_stop_min_m))) {
+    fail("limit_switch_max_m", limit_switch_max_m, "must lie within the end stops (or be absent)");
+  }
+  if (!(limit_switch_min_m < limit_switch_max_m)) {
+    fail("limit_switch_max_m", limit_switch_max_m, "must be above limit_switch_min_m");
+  }
   require_non_negative("flexible_mode.frequency_Hz", flexible_mode.frequency_Hz);
   if (!(flexible_mode.damping_ratio > 0.0 && flexible_mode.damping_ratio <= 1.0)) {
     fail("flexible_mode.damping_ratio", flexible_mode.damping_ratio, "must lie in (0, 1]");
@@ -110,6 +121,7 @@ void DriveParameters::validate() const {
   require_finite("drive.commutation.phase_offset_rad", commutation.phase_offset_rad);
   require_positive("phase_current_limit_A", phase_current_limit_A);
   require_positive("watchdog_timeout_s", watchdog_timeout_s);
+  if (!(enable_delay_s >= 0.0 && enable_delay_s <= 1.0)) fail("enable_delay_s", enable_delay_s, "must lie in 0..1 s");
   if (!(setpoint_delay_s >= 0.0 && setpoint_delay_s <= kMaxSetpointDelay_s)) {
     fail("setpoint_delay_s", setpoint_delay_s, "must lie in 0.." + std::to_string(kMaxSetpointDelay_s) + " s");
   }

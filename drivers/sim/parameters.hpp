@@ -9,6 +9,7 @@
 // the magnet track a point of the translator is, u = y + offset.
 
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -133,6 +134,11 @@ struct MechanicsParameters {
   double integration_step_s = 5e-5;
   double end_stop_min_m = -0.13;  ///< lower hard stop [m]
   double end_stop_max_m = 0.13;   ///< upper hard stop [m], > end_stop_min_m
+  /// Limit switches: active while the translator is at or beyond them
+  /// (DriveStatus kStatusEndStop), without faulting the drive; between the
+  /// stroke and the hard stops [m]. Infinite: none (the stops' impact alone).
+  double limit_switch_min_m = -std::numeric_limits<double>::infinity();  ///< −∞ or in [end_stop_min_m, limit_switch_max_m)
+  double limit_switch_max_m = std::numeric_limits<double>::infinity();   ///< +∞ or in (limit_switch_min_m, end_stop_max_m]
   FlexibleModeParameters flexible_mode;
   ForceDisturbanceParameters force_disturbance;
 
@@ -163,6 +169,10 @@ struct DriveParameters {
   DriveProfile profile = DriveProfile::kMagnitudePhase;
   double phase_current_limit_A = 10.0; ///< |i_a|, |i_b|, |i_c| ≤ limit [A], > 0
   double watchdog_timeout_s = 0.01;    ///< current stops this long after the last setpoint [s], > 0
+  /// From an enable command to current applied and kStatusEnabled reported
+  /// (power stage and current loop starting), at the first period boundary
+  /// at or after it [s], 0..1.
+  double enable_delay_s = 0.0;
   /// A setpoint takes effect this long after it is received (the drive's
   /// frame processing and PWM update) [s], 0..kMaxSetpointDelay_s. Enable
   /// and disable act at once.

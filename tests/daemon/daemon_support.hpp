@@ -163,8 +163,14 @@ inline void require_safe_output(servod::WiredAxis& axis, bool frames_reached_dri
   }
 }
 
-/// The last cycle drove the axis: enable set on the bus and the drive enabled.
+/// The axis is driven: once the enable handshake is over (the drive
+/// reports Enabled, within faults.enable_timeout_s), the last cycle sent
+/// enable and the drive is enabled.
 inline void require_driving_output(servod::WiredAxis& axis) {
+  const auto& settings = axis.daemon.config().servo;
+  const auto handshake_cycles = std::llround(settings.enable_timeout_s / settings.period_s) + 2;
+  for (long long k = 0; axis.daemon.cycle().status().enabling && k < handshake_cycles; ++k) axis.daemon.run_cycles(1);
+  REQUIRE_FALSE(axis.daemon.cycle().status().enabling);
   const SentSetpoints sent = sent_setpoints(axis);
   REQUIRE(sent.complete);
   CHECK(sent.command.enable);

@@ -363,7 +363,7 @@ TEST_CASE("a position outside the soft limits latches kPositionOutOfRange, enabl
   EnabledAxis axis;
   const double soft_max_m = axis.daemon.config().servo.soft_limit_max_m;
   // The translator pushed past the soft limit (inside the end stops).
-  axis.motor().reset(soft_max_m + 0.005);
+  axis.motor().push_to(soft_max_m + 0.005);
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
   CHECK(axis.motor().truth().position_m > soft_max_m);
   axis.require_latched(Fault::kPositionOutOfRange);
@@ -371,14 +371,14 @@ TEST_CASE("a position outside the soft limits latches kPositionOutOfRange, enabl
   test::command(axis.daemon, Kind::kClearFault);
   CHECK(axis.daemon.cycle().status().fault == Fault::kPositionOutOfRange);
   // Back inside, it recovers.
-  axis.motor().reset(0.0);
+  axis.motor().push_to(0.0);
   axis.daemon.run_cycles(2);
   axis.require_recovers();
 
   // Disabled axis moved outside by hand: the fault latches all the same.
   test::command(axis.daemon, Kind::kDisable);
   REQUIRE(axis.daemon.cycle().status().state == ServoState::kDisabled);
-  axis.motor().reset(axis.daemon.config().servo.soft_limit_min_m - 0.005);
+  axis.motor().push_to(axis.daemon.config().servo.soft_limit_min_m - 0.005);
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
   axis.require_latched(Fault::kPositionOutOfRange);
 }
@@ -457,7 +457,7 @@ TEST_CASE("overruns: limit-1 in a row ride through, the limit latches kRepeatedO
   axis.require_recovers();
 }
 
-TEST_CASE("a drive watchdog trip is reported by the drive and latches kDriveFault, clearing clears the drive",
+TEST_CASE("a drive watchdog trip is reported by the drive and latches kDriveWatchdog, clearing clears the drive",
           "[daemon][faults]") {
   EnabledAxis axis;
   const auto& protocol = axis.daemon.config().servo.protocol;
@@ -470,7 +470,8 @@ TEST_CASE("a drive watchdog trip is reported by the drive and latches kDriveFaul
   CHECK(axis.motor().status().watchdog());
   CHECK(axis.motor().status().fault());
   CHECK(cycles == std::llround(watchdog_s / axis.daemon.config().servo.period_s));
-  axis.require_latched(Fault::kDriveFault, false);
+  // The watchdog's own fault, not the drive's generic one it comes with.
+  axis.require_latched(Fault::kDriveWatchdog, false);
   REQUIRE(axis.injection().drop_setpoint_frames == 0);
   axis.require_recovers();
 }

@@ -273,7 +273,7 @@ TEST_CASE("every fault injected at full speed gets the reaction of the table and
     case How::kFollowingError: {
       // A push of the translator: 3 mm in one cycle, along the motion.
       auto& motor = *wired.simulated_motor();
-      motor.reset(motor.truth().position_m - 0.003, motor.truth().velocity_m_per_s);
+      motor.push_to(motor.truth().position_m - 0.003, motor.truth().velocity_m_per_s);
       expected = Fault::kFollowingError;
       break;
     }
@@ -295,7 +295,7 @@ TEST_CASE("every fault injected at full speed gets the reaction of the table and
       break;
     case How::kSoftLimit: {
       auto& motor = *wired.simulated_motor();
-      motor.reset(s.soft_limit_max_m + 0.0005, motor.truth().velocity_m_per_s);
+      motor.push_to(s.soft_limit_max_m + 0.0005, motor.truth().velocity_m_per_s);
       expected = Fault::kPositionOutOfRange;
       break;
     }
@@ -388,7 +388,7 @@ TEST_CASE("a fault that distrusts the feedback, during a quick-stop reaction, ze
   const auto& s = axis.settings();
   axis.at_full_speed(0.1);
   auto& motor = axis.motor();
-  motor.reset(motor.truth().position_m - 0.003, motor.truth().velocity_m_per_s);
+  motor.push_to(motor.truth().position_m - 0.003, motor.truth().velocity_m_per_s);
   REQUIRE(test::run_until_fault(daemon, 200) <= 200);
   REQUIRE(daemon.cycle().status().fault == Fault::kFollowingError);
   REQUIRE(daemon.cycle().status().fault_reaction_running);
@@ -521,7 +521,7 @@ TEST_CASE("after fault 202 the axis is enabled in restricted mode and only a slo
   Axis axis;
   const auto& s = axis.settings();
   // The translator pushed past the soft limit by hand.
-  axis.motor().reset(s.soft_limit_max_m + 0.01);
+  axis.motor().push_to(s.soft_limit_max_m + 0.01);
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
   REQUIRE(axis.daemon.cycle().status().fault == Fault::kPositionOutOfRange);
   axis.daemon.run_cycles(20);
@@ -573,18 +573,18 @@ TEST_CASE("restricted mode: moving farther out latches 202 again, far outside it
   config.servo.recovery_margin_m = 0.01;  // the end stop is 20 mm beyond the soft limit
   Axis axis(config);
   const auto& s = axis.settings();
-  axis.motor().reset(s.soft_limit_min_m - 0.005);
+  axis.motor().push_to(s.soft_limit_min_m - 0.005);
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
   (void)axis.daemon.take_replies();
   test::command(axis.daemon, Kind::kEnable, 5);
   REQUIRE(axis.daemon.cycle().mailbox().restricted());
   // Pushed 3 mm farther out (more than the following-error limit): 202 again.
-  axis.motor().reset(s.soft_limit_min_m - 0.008);
+  axis.motor().push_to(s.soft_limit_min_m - 0.008);
   CHECK(test::run_until_fault(axis.daemon, 5) == 1);
   CHECK(axis.daemon.cycle().status().fault == Fault::kPositionOutOfRange);
   CHECK_FALSE(axis.daemon.cycle().mailbox().restricted());
   // Beyond recovery_margin_m: enable stays refused.
-  axis.motor().reset(s.soft_limit_min_m - s.recovery_margin_m - 0.001);
+  axis.motor().push_to(s.soft_limit_min_m - s.recovery_margin_m - 0.001);
   axis.daemon.run_cycles(5);
   (void)axis.daemon.take_replies();
   test::command(axis.daemon, Kind::kEnable, 5);

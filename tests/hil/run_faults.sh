@@ -283,10 +283,10 @@ if start_faults_daemon 2; then
   # The drive still reports its watchdog fault: the new daemon must latch it.
   wait_fault 5 || true  # the check below says what the status showed
   status=$after
-  if [ "$(field fault "$status")" = 206 ]; then
-    pass "restart: the new daemon latched 206 ($(field fault_reason "$status")) from the drive's watchdog fault"
+  if [ "$(field fault "$status")" = 211 ]; then
+    pass "restart: the new daemon latched 211 ($(field fault_reason "$status")) from the drive's watchdog fault"
   else
-    fail "restart: expected fault 206 from the drive's latched watchdog within 5 s, daemon: fault $(field fault "$status") ($(field fault_reason "$status"))"
+    fail "restart: expected fault 211 from the drive's latched watchdog within 5 s, daemon: fault $(field fault "$status") ($(field fault_reason "$status"))"
   fi
   if enable_and_move; then
     sleep 0.1

@@ -92,6 +92,14 @@ void print_status(const clm_lcm::servo_status_t& s) {
   std::printf("force_sensor: %s", kForceSensor[s.force_sensor]);
   if (s.force_sensor == clm_lcm::servo_status_t::FORCE_SENSOR_LOST) std::printf(" (%d)", s.force_sensor_warning);
   std::printf(", losses %lld\n", static_cast<long long>(s.force_sensor_losses));
+  std::printf("drive: %s%s%s%s%s%s, current limited %lld cycles\n",
+              s.enabling ? "enabling (waiting for the drive's enabled)" : "",
+              (s.drive_signals & clm_lcm::servo_status_t::DRIVE_ENABLED) ? " enabled" : " not enabled",
+              (s.drive_signals & clm_lcm::servo_status_t::DRIVE_FAULT) ? " fault" : "",
+              (s.drive_signals & clm_lcm::servo_status_t::DRIVE_WATCHDOG_EXPIRED) ? " watchdog-expired" : "",
+              (s.drive_signals & clm_lcm::servo_status_t::DRIVE_CURRENT_LIMITED) ? " current-limited" : "",
+              (s.drive_signals & clm_lcm::servo_status_t::DRIVE_END_STOP) ? " end-stop" : "",
+              static_cast<long long>(s.current_limited_cycles));
   std::printf("cycles: %lld\n", static_cast<long long>(s.cycles));
   std::printf("overruns: %lld\n", static_cast<long long>(s.overruns));
   std::printf("wakeup_latency_s: p50 %.1e, p99 %.1e, max %.1e\n", s.wakeup_latency_p50_s, s.wakeup_latency_p99_s,

@@ -102,6 +102,9 @@ TEST_CASE("a push acts against the motion for its cycles while the drive is enab
     bench.motor.command(zero, true);
     bench.sync();
   };
+  // The drive enables after its enable delay; the push is for an enabled drive.
+  for (int k = 0; k < 100 && !bench.motor.status().enabled(); ++k) enabled_sync();
+  REQUIRE(bench.motor.status().enabled());
   bench.bus.request_next_step();
   const double v0 = bench.motor.truth().velocity_m_per_s;
   for (int k = 0; k < 50; ++k) enabled_sync();

@@ -387,3 +387,65 @@ TEST_CASE("reset refuses positions outside the end stops", "[sim][motor]") {
   REQUIRE_THROWS_AS(motor.reset(0.5), ParameterError);
   REQUIRE_NOTHROW(motor.reset(0.11));
 }
+
+TEST_CASE("the drive reports Enabled and applies current only after its enable delay", "[sim][motor][drive-signals]") {
+  MotorParameters parameters = fixtures::ideal_motor(1);
+  parameters.drive.enable_delay_s = 0.003;
+  SimulatedMotor motor(parameters);
+  motor.reset(0.0);
+  const std::vector<DriveSetpoint> push{{50.0, 0.0}};
+  int steps = 0;
+  while (!motor.status().enabled()) {
+    REQUIRE(motor.command(push, true) == CommandResult::kAccepted);
+    CHECK(motor.truth().currents_A.cwiseAbs().maxCoeff() == 0.0);
+    motor.step(1e-3);
+    REQUIRE(++steps < 10);
+  }
+  // Enabled from the first period boundary at or after 3 ms.
+  CHECK(steps == 3);
+  REQUIRE(motor.command(push, true) == CommandResult::kAccepted);
+  motor.step(1e-3);
+  CHECK(motor.truth().currents_A.cwiseAbs().maxCoeff() > 0.1);
+  CHECK_FALSE(motor.status().fault());
+}
+
+TEST_CASE("a limit switch reports EndStop while the translator is beyond it, without a fault; push_to keeps the drive",
+          "[sim][motor][drive-signals]") {
+  MotorParameters parameters = fixtures::ideal_motor(1);
+  parameters.mechanics.limit_switch_max_m = 0.1;
+  SimulatedMotor motor(parameters);
+  motor.reset(0.0);
+  const std::vector<DriveSetpoint> zero{{0.0, 0.0}};
+  REQUIRE(motor.command(zero, true) == CommandResult::kAccepted);
+  motor.step(1e-3);
+  REQUIRE(motor.status().enabled());
+  CHECK_FALSE(motor.status().end_stop());
+  motor.push_to(0.1005);
+  CHECK(motor.truth().position_m == 0.1005);
+  CHECK(motor.status().end_stop());
+  CHECK(motor.status().enabled());  // the push kept the drive as it was
+  CHECK_FALSE(motor.status().fault());
+  motor.push_to(0.099);
+  CHECK_FALSE(motor.status().end_stop());  // not latched
+  // Outside the end stops, or in the wrong order, the file's values are refused.
+  parameters.mechanics.limit_switch_max_m = 0.2;
+  CHECK_THROWS_WITH(parameters.validate(), Catch::Contains("limit_switch_max_m"));
+  parameters.mechanics.limit_switch_max_m = 0.1;
+  parameters.mechanics.limit_switch_min_m = 0.1;
+  CHECK_THROWS_WITH(parameters.validate(), Catch::Contains("limit_switch_max_m"));
+  CHECK_THROWS_AS(motor.push_to(0.5), ParameterError);
+}
+
+TEST_CASE("the shipped motor files carry limit switches inside their end stops and an enable delay",
+          "[sim][motor][drive-signals]") {
+  for (const char* file : {"config/motor-sim.yaml", "config/motor-sim-2coil.yaml", "config/motor-sim-4coil.yaml",
+                           "config/motor-sim-phase-current.yaml"}) {
+    INFO(file);
+    const MotorParameters m = load_motor_parameters(fixtures::source_path(file));
+    CHECK(m.mechanics.limit_switch_min_m > m.mechanics.end_stop_min_m);
+    CHECK(m.mechanics.limit_switch_min_m < m.stroke_min_m);
+    CHECK(m.mechanics.limit_switch_max_m < m.mechanics.end_stop_max_m);
+    CHECK(m.mechanics.limit_switch_max_m > m.stroke_max_m);
+    CHECK(m.drive.enable_delay_s == 0.002);
+  }
+}

@@ -321,8 +321,8 @@ TEST_CASE("The motor file sets every plant term, and refuses an unknown key in t
   insert_after("\n  sensors:\n",
                "    encoder_delay_s: 1.0e-4\n    encoder_scale_pitch_m: 4.0e-5\n"
                "    encoder_interpolation_error_m: 5.0e-9\n    encoder_interpolation_second_m: 1.0e-9\n");
-  insert_after("\nsimulation:\n",
-               "  drive:\n    setpoint_delay_s: 2.5e-4\n"
+  insert_after("\n  drive:\n",  // simulation.drive: (the top-level drive: is not indented)
+               "    setpoint_delay_s: 2.5e-4\n"
                "    current_loop: {bandwidth_Hz: 1500.0, phase_resistance_ohm: 3.0, phase_inductance_H: 1.5e-3, "
                "voltage_limit_V: 100.0}\n");
   const MotorParameters m = read_motor_parameters(yaml::Node::load_string(text, "motor.yaml"));
