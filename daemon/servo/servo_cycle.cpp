@@ -421,11 +421,16 @@ void ServoCycle::follow_axis() noexcept {
   // Not driving: the reference follows the axis so that enabling is bumpless.
   hold_m_ = position_m_;
   mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
-  record_.r_m = position_m_;
+  rest_at(position_m_);
+}
+
+void ServoCycle::rest_at(double position_m) noexcept {
+  record_.r_m = position_m;
   record_.r_dot_m_per_s = record_.r_ddot_m_per_s2 = 0.0;
-  record_.e_m = record_.u_fb_N = record_.u_ff_N = record_.F_star_N = 0.0;
+  record_.e_m = position_m - position_m_;
+  record_.u_fb_N = record_.u_ff_N = record_.F_star_N = 0.0;
   record_.Fy_star_N = record_.Fx_star_N = record_.Tz_star_Nm = 0.0;
-  reference_ = {position_m_, 0.0, 0.0, 0.0};
+  reference_ = {position_m, 0.0, 0.0, 0.0};
   reference_cycle_ = cycle_;
 }
 
@@ -434,13 +439,7 @@ void ServoCycle::wait_for_drive() noexcept {
   // where enable put it (a program offered meanwhile starts there) and a
   // program's clock waits at its start.
   if (running_ != nullptr) program_start_cycle_ = cycle_ + 1;
-  record_.r_m = hold_m_;
-  record_.r_dot_m_per_s = record_.r_ddot_m_per_s2 = 0.0;
-  record_.e_m = hold_m_ - position_m_;
-  record_.u_fb_N = record_.u_ff_N = record_.F_star_N = 0.0;
-  record_.Fy_star_N = record_.Fx_star_N = record_.Tz_star_Nm = 0.0;
-  reference_ = {hold_m_, 0.0, 0.0, 0.0};
-  reference_cycle_ = cycle_;
+  rest_at(hold_m_);
 }
 
 std::size_t ServoCycle::encode_setpoints(bool enable) noexcept {

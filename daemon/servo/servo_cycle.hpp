@@ -257,6 +257,8 @@ class ServoCycle {
   void approach_guard(const control::ReferenceSample& now, const control::ReferenceSample& next) noexcept;
   /// Not driven: the reference follows the axis so that enabling is bumpless.
   void follow_axis() noexcept;
+  /// The reference at rest at `position_m`, no force asked: the record and the reference.
+  void rest_at(double position_m) noexcept;
   /// The setpoint frames with the enable bit `enable` (zero at once on a
   /// fault found while encoding); their count.
   std::size_t encode_setpoints(bool enable) noexcept;
