@@ -42,14 +42,19 @@ SimulatedMotor::SimulatedMotor(const MotorParameters& parameters)
   reset(0.5 * (parameters_.stroke_min_m + parameters_.stroke_max_m));
 }
 
-void SimulatedMotor::reset(double position_m, double velocity_m_per_s) {
+void SimulatedMotor::require_between_stops(const char* what, double position_m, double velocity_m_per_s) const {
   const auto& mechanics = parameters_.mechanics;
   if (!(position_m >= mechanics.end_stop_min_m && position_m <= mechanics.end_stop_max_m) ||
       !std::isfinite(velocity_m_per_s)) {
-    throw ParameterError("reset: position " + std::to_string(position_m) + " m outside the end stops [" +
-                         std::to_string(mechanics.end_stop_min_m) + ", " + std::to_string(mechanics.end_stop_max_m) +
-                         "] m or velocity not finite");
+    throw ParameterError(std::string(what) + ": position " + std::to_string(position_m) +
+                         " m outside the end stops [" + std::to_string(mechanics.end_stop_min_m) + ", " +
+                         std::to_string(mechanics.end_stop_max_m) + "] m or velocity not finite");
   }
+}
+
+void SimulatedMotor::reset(double position_m, double velocity_m_per_s) {
+  require_between_stops("reset", position_m, velocity_m_per_s);
+  const auto& mechanics = parameters_.mechanics;
   time_s_ = 0.0;
   position_m_ = position_m;
   velocity_m_per_s_ = velocity_m_per_s;
@@ -82,13 +87,8 @@ void SimulatedMotor::reset(double position_m, double velocity_m_per_s) {
 }
 
 void SimulatedMotor::push_to(double position_m, double velocity_m_per_s) {
+  require_between_stops("push_to", position_m, velocity_m_per_s);
   const auto& mechanics = parameters_.mechanics;
-  if (!(position_m >= mechanics.end_stop_min_m && position_m <= mechanics.end_stop_max_m) ||
-      !std::isfinite(velocity_m_per_s)) {
-    throw ParameterError("push_to: position " + std::to_string(position_m) + " m outside the end stops [" +
-                         std::to_string(mechanics.end_stop_min_m) + ", " + std::to_string(mechanics.end_stop_max_m) +
-                         "] m or velocity not finite");
-  }
   position_m_ = encoder_position_m_ = position_m;
   velocity_m_per_s_ = encoder_velocity_m_per_s_ = velocity_m_per_s;
   // The encoder's history starts again here: no reading interpolates across the push.

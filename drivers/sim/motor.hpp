@@ -218,6 +218,8 @@ class SimulatedMotor {
   void take_command(bool enable) noexcept;
   bool drive_active() const noexcept;
   void latch_fault(std::uint32_t bits) noexcept;
+  /// Throws ParameterError naming `what` for a position outside the end stops or a velocity not finite.
+  void require_between_stops(const char* what, double position_m, double velocity_m_per_s) const;
   /// Phase current setpoints of the drive at `position_m`, after its current
   /// limit (zero when not active); true if limited.
   bool drive_currents(double position_m, CurrentVector& currents_A) const noexcept;
