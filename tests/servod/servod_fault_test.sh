@@ -116,6 +116,13 @@ run_phase() {
   grep -q "fault injection: ${#cases[@]} steps, one per SIGUSR1" "$work/servod-$name.log" ||
       fail "the daemon does not say the plan is armed"
   ctl enable > /dev/null || fail "enable refused"
+  # The enable handshake ends with the drive's Enabled in the status (the simulated drive takes 2 ms).
+  local drive_line waited=0
+  until drive_line=$(ctl status | grep '^drive:') && [[ "$drive_line" == "drive: enabled, current limited"* ]]; do
+    [ $waited -lt 50 ] || fail "the status does not say the drive is enabled 5 s after enable: $drive_line"
+    sleep 0.1
+    waited=$((waited + 1))
+  done
   to_start "$name"
   local k=0
   for item in "${cases[@]}"; do

@@ -92,8 +92,8 @@ void print_status(const clm_lcm::servo_status_t& s) {
   std::printf("force_sensor: %s", kForceSensor[s.force_sensor]);
   if (s.force_sensor == clm_lcm::servo_status_t::FORCE_SENSOR_LOST) std::printf(" (%d)", s.force_sensor_warning);
   std::printf(", losses %lld\n", static_cast<long long>(s.force_sensor_losses));
-  std::printf("drive: %s%s%s%s%s%s, current limited %lld cycles\n",
-              s.enabling ? "enabling (waiting for the drive's enabled)" : "",
+  std::printf("drive:%s%s%s%s%s%s, current limited %lld cycles\n",
+              s.enabling ? " enabling (waiting for the drive to report enabled):" : "",
               (s.drive_signals & clm_lcm::servo_status_t::DRIVE_ENABLED) ? " enabled" : " not enabled",
               (s.drive_signals & clm_lcm::servo_status_t::DRIVE_FAULT) ? " fault" : "",
               (s.drive_signals & clm_lcm::servo_status_t::DRIVE_WATCHDOG_EXPIRED) ? " watchdog-expired" : "",
