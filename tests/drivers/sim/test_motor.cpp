@@ -409,7 +409,7 @@ TEST_CASE("the drive reports Enabled and applies current only after its enable d
   CHECK_FALSE(motor.status().fault());
 }
 
-TEST_CASE("a limit switch reports EndStop while the translator is beyond it, without a fault; push_to keeps the drive",
+TEST_CASE("a limit switch reports EndStop while the translator is beyond it, without a fault, and push_to keeps the drive",
           "[sim][motor][drive-signals]") {
   MotorParameters parameters = fixtures::ideal_motor(1);
   parameters.mechanics.limit_switch_max_m = 0.1;
