@@ -437,8 +437,11 @@ void ServoCycle::rest_at(double position_m) noexcept {
 void ServoCycle::wait_for_drive() noexcept {
   // Enable is sent, the drive does not apply current yet: the hold stays
   // where enable put it (a program offered meanwhile starts there) and a
-  // program's clock waits at its start.
-  if (running_ != nullptr) program_start_cycle_ = cycle_ + 1;
+  // program's clock waits at its start, a jog's silence too.
+  if (running_ != nullptr) {
+    program_start_cycle_ = cycle_ + 1;
+    jog_renewed_cycle_ = cycle_;
+  }
   rest_at(hold_m_);
 }
 
