@@ -166,3 +166,40 @@ TEST_CASE("a limit switch latches kEndStop with a quick stop, and the translator
   CHECK(motor.truth().end_stop_collisions == 0);
   test::require_safe_output(wired);
 }
+
+TEST_CASE("a jog started while the drive enables counts its silence from the loop closing", "[daemon][drive-signals]") {
+  // A drive slower to enable than the jog's timeout: without the renewal
+  // clock held, the jog would stop in the cycle the loop closes.
+  auto config = test::ideal_plant_config();
+  config.servo.enable_timeout_s = 0.5;
+  std::unique_ptr<servod::WiredAxis> holder;
+  auto& wired = wired_with(holder, config, [](sim::MotorParameters& p) { p.drive.enable_delay_s = 0.3; });
+  auto& daemon = wired.daemon;
+  test::command(daemon, Kind::kEnable, 1);
+  REQUIRE(daemon.cycle().status().enabling);
+  servo::Command jog;
+  jog.kind = Kind::kJog;
+  jog.jog_velocity_m_per_s = 0.05;
+  jog.limits = {0.05, 1.0, 1000.0};
+  (void)daemon.take_replies();
+  REQUIRE(daemon.submit(jog).answered_later());
+  daemon.run_cycles(1);
+  const auto started = daemon.take_replies();
+  REQUIRE(started.size() == 1);
+  REQUIRE(started[0].text() == "jog started");
+  int cycles = 0;
+  while (daemon.cycle().status().enabling) {
+    daemon.run_cycles(1);
+    REQUIRE(++cycles < 400);
+  }
+  INFO("enabling took " << cycles << " cycles, longer than the jog timeout " << config.servo.jog_timeout_s << " s");
+  REQUIRE(cycles * config.servo.period_s > config.servo.jog_timeout_s);
+  const double start_m = wired.simulated_motor()->truth().position_m;
+  // No renewal since: it runs for its timeout from the loop closing, then stops.
+  daemon.run_cycles(200);
+  CHECK(daemon.cycle().status().counters.jog_timeouts == 0);
+  CHECK(wired.simulated_motor()->truth().position_m > start_m + 0.003);
+  daemon.run_cycles(400);
+  CHECK(daemon.cycle().status().counters.jog_timeouts == 1);
+  CHECK(daemon.cycle().status().state == ServoState::kEnabled);
+}
