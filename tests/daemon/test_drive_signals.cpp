@@ -31,6 +31,12 @@ servod::WiredAxis& wired_with(std::unique_ptr<servod::WiredAxis>& holder, const 
   return *holder;
 }
 
+/// Enables the axis and runs until the drive reports Enabled and the axis is driven.
+void enable_through_handshake(servod::WiredAxis& wired) {
+  test::command(wired.daemon, Kind::kEnable, 1);
+  test::require_driving_output(wired);
+}
+
 servod::CommandReply move_to(servod::ServoDaemon& daemon, double target_m, control::MotionLimits limits) {
   servo::Command move;
   move.kind = Kind::kMoveTo;
@@ -102,8 +108,7 @@ TEST_CASE("a drive that stops reporting Enabled without a fault of its own latch
   std::unique_ptr<servod::WiredAxis> holder;
   auto& wired = wired_with(holder, config, [](sim::MotorParameters& p) { p.drive.enable_delay_s = 0.002; });
   auto& daemon = wired.daemon;
-  test::command(daemon, Kind::kEnable, 1);
-  test::require_driving_output(wired);
+  enable_through_handshake(wired);
   // The drive restarts (a power glitch): disabled, no fault bit.
   sim::SimulatedMotor& motor = *wired.simulated_motor();
   motor.reset(motor.truth().position_m);
@@ -121,8 +126,7 @@ TEST_CASE("CurrentLimited is counted, and latches kDriveCurrentLimited with a qu
   // 1 A: about 60 N of the motor's, below what a brisk move asks.
   auto& wired = wired_with(holder, config, [](sim::MotorParameters& p) { p.drive.phase_current_limit_A = 1.0; });
   auto& daemon = wired.daemon;
-  test::command(daemon, Kind::kEnable, 1);
-  test::require_driving_output(wired);
+  enable_through_handshake(wired);
   const auto& counters = daemon.cycle().status().counters;
   REQUIRE(counters.current_limited_cycles == 0);
   const double start_m = wired.simulated_motor()->truth().position_m;
@@ -145,8 +149,7 @@ TEST_CASE("a limit switch latches kEndStop with a quick stop, and the translator
   const double switch_m = config.servo.soft_limit_max_m - 0.03;
   auto& wired = wired_with(holder, config, [&](sim::MotorParameters& p) { p.mechanics.limit_switch_max_m = switch_m; });
   auto& daemon = wired.daemon;
-  test::command(daemon, Kind::kEnable, 1);
-  test::require_driving_output(wired);
+  enable_through_handshake(wired);
   REQUIRE(move_to(daemon, switch_m + 0.02, {0.2, 5.0, 1000.0}).accepted());
   const auto cycles = test::run_until_fault(daemon, 2000);
   REQUIRE(cycles <= 2000);
