@@ -19,6 +19,10 @@ struct DriveSignals {
   bool current_limited = false;
   /// A limit switch or an end stop is active.
   bool end_stop = false;
+  /// Its position latch caught its event since it was armed; clears when disarmed.
+  bool latched = false;
+  /// The reference switch is active now.
+  bool reference_switch = false;
 };
 
 }  // namespace clm::drivers

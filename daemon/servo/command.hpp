@@ -42,8 +42,9 @@ enum class CommandKind : std::int8_t {
   kGetParameter = 16,    ///< the value of a run-time parameter (daemon/servod/parameters.hpp)
   kSetParameter = 17,    ///< change a run-time parameter at standstill (ServoCycle::execute)
   kRenewControl = 18,    ///< the holder's heartbeat: a deadman lease (daemon/servod/command_gate.hpp)
+  kHome = 19,            ///< find the commutation and the reference (ServoCycle::execute; docs/servod.md, "Homing")
 };
-inline constexpr int kCommandKinds = 18;
+inline constexpr int kCommandKinds = 19;
 
 /// True when `code` is a CommandKind value (1..kCommandKinds).
 constexpr bool is_command_kind(int code) noexcept { return code >= 1 && code <= kCommandKinds; }
@@ -125,6 +126,7 @@ inline constexpr std::array<CommandRoute, kCommandKinds> kCommandRoutes{{
     {CommandKind::kGetParameter,     "get_parameter",     AnsweredBy::kDaemon,     CommandClass::kRead,            FileUse::kNone,          "",             kInAnyState,  false},
     {CommandKind::kSetParameter,     "set_parameter",     AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInAnyState,  true},
     {CommandKind::kRenewControl,     "renew_control",     AnsweredBy::kAuthority,  CommandClass::kRenewControl,    FileUse::kNone,          "",             kInAnyState,  false},
+    {CommandKind::kHome,             "home",              AnsweredBy::kCycle,      CommandClass::kControlled,      FileUse::kNone,          "",             kInDisabled | kInEnabled,  true},
 }};
 
 constexpr bool routes_in_order() noexcept {

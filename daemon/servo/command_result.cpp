@@ -34,6 +34,9 @@ const char* describe(CommandResult result) noexcept {
     case CommandResult::kRejectedLoaderBusy: return "busy loading another file";
     case CommandResult::kRejectedLoadWaiting: return "an earlier load is still waiting for standstill";
     case CommandResult::kRejectedFile: return "the file could not be loaded";
+    case CommandResult::kRejectedNotHomed:
+      return "the axis is not homed: positions are the encoder's reading until `home`; jog and the drive's own law only";
+    case CommandResult::kRejectedHoming: return "homing is under way; stop it or wait for it";
     case CommandResult::kRejectedOtherAxis: return "the command names another axis";
     case CommandResult::kRejectedOtherSession: return "the command is for another run of the daemon";
     case CommandResult::kRejectedNoClient: return "client id 0 is not a client";

@@ -27,6 +27,10 @@ const char* describe(Fault fault) noexcept {
     case Fault::kEndStop: return "limit switch or end stop active";
     case Fault::kDriveCurrentLimited: return "the drive limited its current too long";
     case Fault::kDriveNotEnabled: return "the drive did not report enabled";
+    case Fault::kCommutationNotFound: return "commutation finding found no consistent phase";
+    case Fault::kFindingMotion: return "commutation finding moved the axis beyond its bound";
+    case Fault::kHomingNotFound: return "homing found no reference within its search distance";
+    case Fault::kLatchFrameMissing: return "the drive latched its position and the latch frame did not come";
   }
   return "unknown fault";
 }

@@ -35,6 +35,11 @@ enum class Fault : std::uint16_t {
   kEndStop = 212,               ///< a limit switch or end stop is active
   kDriveCurrentLimited = 213,   ///< the drive limited its current longer than `current_limited_limit_s`
   kDriveNotEnabled = 214,       ///< the drive did not report Enabled within `enable_timeout_s`, or stopped reporting it
+  // Homing (docs/servod.md, "Homing").
+  kCommutationNotFound = 215,   ///< commutation finding saw too little motion, or motion no phase explains
+  kFindingMotion = 216,         ///< the axis moved beyond homing.commutation_finding.max_motion_m
+  kHomingNotFound = 217,        ///< no reference event within homing.search_distance_m
+  kLatchFrameMissing = 218,     ///< the drive reported a latch and its latch frame did not come
 };
 
 /// Short fixed text for logs and telemetry; never allocates.
@@ -59,7 +64,7 @@ struct FaultReactionEntry {
 };
 
 /// Every fault and its reaction, in the order of the enum (docs/servod.md prints it).
-inline constexpr std::array<FaultReactionEntry, 22> kFaultReactions{{
+inline constexpr std::array<FaultReactionEntry, 26> kFaultReactions{{
     {Fault::kEncoderFrameMissing, FaultReaction::kZeroSetpoints},
     {Fault::kForceFrameMissing, FaultReaction::kQuickStop},
     {Fault::kEncoderAliveJump, FaultReaction::kZeroSetpoints},
@@ -87,6 +92,12 @@ inline constexpr std::array<FaultReactionEntry, 22> kFaultReactions{{
     {Fault::kEndStop, FaultReaction::kQuickStop},
     {Fault::kDriveCurrentLimited, FaultReaction::kQuickStop},
     {Fault::kDriveNotEnabled, FaultReaction::kZeroSetpoints},
+    // The loop is open while the commutation is found: nothing to brake with.
+    {Fault::kCommutationNotFound, FaultReaction::kZeroSetpoints},
+    {Fault::kFindingMotion, FaultReaction::kZeroSetpoints},
+    // The search runs with the loop closed on a found commutation.
+    {Fault::kHomingNotFound, FaultReaction::kQuickStop},
+    {Fault::kLatchFrameMissing, FaultReaction::kQuickStop},
 }};
 
 /// The reaction to `fault` from kFaultReactions; kZeroSetpoints for any value

@@ -43,6 +43,7 @@ ServoCycle::ServoCycle(const ServoSettings& settings)
   commutation_.currents_A.resize(2 * settings.protocol.coil_sets);
   references_A_.resize(2 * settings.protocol.coil_sets);
   record_.coil_sets = settings.protocol.coil_sets;
+  status_.commutation_found = status_.homed = !settings.homing.incremental();
 }
 
 void ServoCycle::install_law(CommutationMode mode, const CommutationLaw* law) noexcept {
@@ -52,7 +53,7 @@ void ServoCycle::install_law(CommutationMode mode, const CommutationLaw* law) no
 }
 
 bool ServoCycle::at_standstill() const noexcept {
-  return running_ == nullptr && !status_.stopping && std::abs(velocity_estimate_m_per_s_) < settings_.standstill_velocity_m_per_s;
+  return running_ == nullptr && !status_.stopping && status_.homing == HomingPhase::kIdle && std::abs(velocity_estimate_m_per_s_) < settings_.standstill_velocity_m_per_s;
 }
 
 bool ServoCycle::outside_soft_limits(double position_m) const noexcept {
@@ -105,7 +106,8 @@ void ServoCycle::latch(Fault fault) noexcept {
   status_.fault = fault;
   status_.fault_cycle = cycle_;
   mailbox_.restricted_.store(false, std::memory_order_release);
-  const bool moving = running_ != nullptr || status_.stopping;
+  const bool moving = running_ != nullptr || status_.stopping || status_.homing == HomingPhase::kSearching;
+  abort_homing();
   const bool plausible = have_position_ && std::abs(reference_.position_m - position_m_) <=
                                                kPlausibleErrorFactor * settings_.following_error_limit_m;
   status_.fault_reaction_running = false;
@@ -141,7 +143,11 @@ void ServoCycle::adopt_offers() noexcept {
     // of move_to says; in restricted mode only one that ends inside the soft limits.
     CommandResult result = check_legal(CommandKind::kMoveTo, status_.state, running_ == nullptr && !status_.stopping);
     if (result == CommandResult::kAccepted) {
-      if (mailbox_.restricted_.load(std::memory_order_relaxed) && outside_soft_limits(offered->end_m())) {
+      if (status_.homing != HomingPhase::kIdle) {
+        result = CommandResult::kRejectedHoming;
+      } else if (!jog && !status_.homed) {
+        result = CommandResult::kRejectedNotHomed;
+      } else if (mailbox_.restricted_.load(std::memory_order_relaxed) && outside_soft_limits(offered->end_m())) {
         result = CommandResult::kRejectedRestricted;
       } else if (std::abs(offered->start_m() - hold_m_) > kProgramStartTolerance_m) {
         result = CommandResult::kRejectedStartMoved;
@@ -264,6 +270,7 @@ void ServoCycle::commutate(double position_m, double velocity_m_per_s, double fo
       setpoints_.currents[s] = {reference_A.x(), reference_A.y()};
     }
   }
+  shift_to_drive_frame();
   for (int l = 0; l < coil_sets; ++l) {
     const auto s = static_cast<std::size_t>(l);
     const DriveSetpoint& setpoint = setpoints_.setpoints[s];
@@ -282,7 +289,9 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s, const BusReport
   check_soft_limits();
   record_.force_limited = false;
   const auto enabled = [&] { return status_.state == ServoState::kEnabled || status_.fault_reaction_running; };
-  if (enabled() && !status_.enabling) {
+  if (enabled() && !status_.enabling && status_.homing == HomingPhase::kFinding) {
+    find_commutation();
+  } else if (enabled() && !status_.enabling) {
     drive();
   } else if (enabled()) {
     wait_for_drive();
@@ -293,6 +302,7 @@ std::span<const can::Frame> ServoCycle::end_cycle(double time_s, const BusReport
   if (!enabled() || status_.enabling) zero_setpoints();
   const std::size_t count = encode_setpoints(enabled());
   fill_record(time_s);
+  if (homing_complete_) finish_homing();
   return {frames_.data(), count};
 }
 
@@ -305,7 +315,7 @@ void ServoCycle::check_soft_limits() noexcept {
     } else if (position_m_ < restricted_min_m_ || position_m_ > restricted_max_m_ || status_.state != ServoState::kEnabled) {
       latch(Fault::kPositionOutOfRange);
     }
-  } else if (have_position_ && outside_soft_limits(position_m_)) {
+  } else if (have_position_ && status_.homed && outside_soft_limits(position_m_)) {
     latch(Fault::kPositionOutOfRange);
   }
 }
@@ -346,16 +356,21 @@ void ServoCycle::drive() noexcept {
       end_program();
       mailbox_.idle_.store(true, std::memory_order_release);
     }
+  } else if (status_.homing == HomingPhase::kSearching) {
+    sample(search_, static_cast<double>(cycle_ - search_start_cycle_) * settings_.period_s);
+    watch_search(now);
   } else if (status_.stopping) {
     const double t = static_cast<double>(cycle_ - stop_start_cycle_) * settings_.period_s;
     sample(stop_profile_, t);
     if (t >= stop_profile_.duration_s()) {
-      // At rest: hold there; a fault reaction ends with zero setpoints.
+      // At rest: hold there; a fault reaction ends with zero setpoints; a
+      // homing moves the position frame at the end of this cycle.
       hold_m_ = stop_profile_.rest_position_m();
       mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
       status_.stopping = false;
       status_.fault_reaction_running = false;
-      mailbox_.idle_.store(true, std::memory_order_release);
+      homing_complete_ = status_.homing == HomingPhase::kStopping;
+      if (!homing_complete_) mailbox_.idle_.store(true, std::memory_order_release);
     }
   }
   reference_ = now;
@@ -381,7 +396,9 @@ void ServoCycle::drive() noexcept {
   }
   record_.F_star_N = force;
   if (status_.state == ServoState::kEnabled || status_.fault_reaction_running) {
-    commutate(position_m_, velocity_estimate_m_per_s_, force);
+    // The laws' position: the axis frame once homed, before that the
+    // reading moved by the phase commutation finding found.
+    commutate(position_m_ - status_.axis_offset_m + commutation_offset_m_, velocity_estimate_m_per_s_, force);
   }
 }
 
@@ -452,6 +469,9 @@ std::size_t ServoCycle::encode_setpoints(bool enable) noexcept {
   setpoints_.coil_sets = settings_.protocol.coil_sets;
   setpoints_.enable = enable;
   setpoints_.clear_fault = clear_drive_fault_;
+  // The drive's position latch, armed while the search runs and nothing was latched.
+  setpoints_.arm_latch = enable && status_.homing == HomingPhase::kSearching && !latch_received_;
+  setpoints_.latch_on_switch = settings_.homing.method == control::HomingMethod::kReferenceSwitch;
   setpoints_.alive_counter = setpoint_alive_++;
   can::CodecStatus status = can::CodecStatus::kOk;
   std::size_t count = can::encode_setpoints(settings_.protocol, setpoints_, frames_, status);

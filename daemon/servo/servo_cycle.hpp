@@ -15,6 +15,7 @@
 #include "commutation/commutator.hpp"
 #include "commutation/current_loop_compensation.hpp"
 #include "daemon/control/envelope.hpp"
+#include "daemon/control/homing.hpp"
 #include "daemon/control/position_controller.hpp"
 #include "daemon/control/stop_profile.hpp"
 #include "daemon/control/trajectory.hpp"
@@ -80,6 +81,8 @@ struct ServoSettings {
   double jog_timeout_s = 0.25;
   /// The machine the safe envelope is derived from (control::check_envelope).
   control::Machine machine{};
+  /// How the axis finds its commutation and its reference (docs/servod.md, "Homing").
+  control::HomingSettings homing{};
   /// Throws std::invalid_argument naming the setting, or the relation of the
   /// safe envelope the settings together break.
   void validate() const;
@@ -110,6 +113,15 @@ struct CycleCounters {
 
 /// What the cycle reports of itself; read on the loop thread (an observer,
 /// the daemon between cycles).
+/// Where homing is (docs/servod.md, "Homing").
+enum class HomingPhase : std::uint8_t {
+  kIdle,
+  kFinding,    ///< commutation finding: the loop open, doublets at test phases
+  kSearching,  ///< the loop closed, moving at the search velocity, the drive's latch armed
+  kStopping,   ///< the event latched: stopping before the position frame moves to it
+};
+const char* name(HomingPhase phase) noexcept;
+
 struct CycleStatus {
   ServoState state = ServoState::kDisabled;
   Fault fault = Fault::kNone;
@@ -124,6 +136,19 @@ struct CycleStatus {
   bool enabling = false;
   /// What the drive said of itself in its last feedback.
   drivers::DriveSignals drive;
+  /// The drive's commutation is known: found since start-up, or the axis
+  /// has an absolute encoder (homing.method none).
+  bool commutation_found = false;
+  /// Positions are in the axis frame the files were made in: homed since
+  /// start-up, or an absolute encoder. Until then they are the encoder's
+  /// reading, moves to positions and position-dependent laws are refused.
+  bool homed = false;
+  HomingPhase homing = HomingPhase::kIdle;
+  /// The last commutation finding's phase (the Δ of most force on the
+  /// drive's raw commutation) [rad], and the last homing's offset, axis
+  /// position less the encoder's reading [m].
+  double found_phase_rad = 0.0;
+  double axis_offset_m = 0.0;
   /// The force sensor's warning: kNone while it is healthy (or the axis has
   /// none), else why it was lost in service (kForceFrameMissing,
   /// kForceAliveJump, kFrameRejected, kMeasurementNotFinite). In an
@@ -226,6 +251,8 @@ class ServoCycle {
   CommandResult clear_fault() noexcept;
   CommandResult stop() noexcept;
   CommandResult quick_stop() noexcept;
+  /// Enables if needed (with commutation finding), then searches the reference.
+  CommandResult home() noexcept;
   /// For kExperiment, `coil_set` (1-based) and `delta_rad` select the experiment.
   CommandResult request_mode(CommutationMode mode, int coil_set = 0, double delta_rad = 0.0) noexcept;
   void set_feedforward(const control::FeedforwardParameters& parameters) noexcept;
@@ -247,6 +274,25 @@ class ServoCycle {
   void account_force_feedback() noexcept;
   /// A fault in an experiment, else the force sensor's warning.
   void force_sensor_trouble(Fault reason) noexcept;
+  // Homing (servo_cycle_homing.cpp).
+  /// The loop has just closed (the handshake done): commutation finding
+  /// first where the commutation is unknown, then a requested search.
+  void after_enable() noexcept;
+  /// One period of commutation finding: the open-loop doublet's setpoints.
+  void find_commutation() noexcept;
+  void begin_search() noexcept;
+  /// The search at its reference `now`: a latch received stops it, a
+  /// latch without its frame or the distance used up latches a fault.
+  void watch_search(const control::ReferenceSample& now) noexcept;
+  /// At rest after the latch: the position frame moves to the reference.
+  void finish_homing() noexcept;
+  /// Ends homing where it is: a stop, a disable, a fault.
+  void abort_homing() noexcept;
+  /// The law a mode needs homing for (every one but the drive's own).
+  bool needs_homing(CommutationMode mode) const noexcept;
+  /// Setpoints for the drive's commutation on its raw reading: Δ shifted by
+  /// the axis frame's offset (profile magnitude_phase).
+  void shift_to_drive_frame() noexcept;
   void adopt_offers() noexcept;
   // The steps of end_cycle, in order.
   /// Fault 202 outside the soft limits; restricted mode ends inside them.
@@ -313,6 +359,16 @@ class ServoCycle {
   bool have_position_ = false;
   double position_m_ = 0.0, previous_position_m_ = 0.0;
   double velocity_estimate_m_per_s_ = 0.0;
+  // Homing: the axis frame (position = reading + axis_offset_m), the
+  // commutation frame (the laws' position = reading + commutation offset).
+  double commutation_offset_m_ = 0.0;
+  control::CommutationFinder finder_;
+  control::SearchProfile search_;
+  std::int64_t search_start_cycle_ = 0;
+  bool home_requested_ = false;
+  bool latch_received_ = false, homing_complete_ = false;
+  double latched_reading_m_ = 0.0, pending_offset_m_ = 0.0;
+  int latch_frame_wait_ = 0;
 
   // Reference and loop.
   control::ReferenceSample reference_{};  // the reference of cycle reference_cycle_

@@ -56,6 +56,10 @@ void ServoSettings::validate() const {
           "recovery_velocity_fraction must be in (0, 1]");
   require(recovery_margin_m >= 0.0 && std::isfinite(recovery_margin_m), "recovery_margin_m must not be negative");
   require(jog_timeout_s > 0.0 && std::isfinite(jog_timeout_s), "jog_timeout_s must be positive");
+  homing.validate();
+  // The search starts and stops within the stop limits: its velocity must be one a move may have.
+  require(homing.search_velocity_m_per_s <= motion_limits.velocity_m_per_s,
+          "homing.search_velocity_m_per_s must not exceed motion.velocity_m_per_s");
   const std::string outside = control::check_envelope(
       machine, {period_s, soft_limit_min_m, soft_limit_max_m, following_error_limit_m, force_limit_N,
                 saturation_time_limit_s, motion_limits, stop_limits, quick_stop_limits, feedforward, pid});
@@ -90,6 +94,7 @@ CommandResult ServoCycle::execute(const Command& command) noexcept {
       return request_mode(CommutationMode::kExperiment, command.coil_set, command.delta_rad);
     case CommandKind::kLoadFeedforward: set_feedforward(command.feedforward); return CommandResult::kAccepted;
     case CommandKind::kSetParameter: return apply_tuning(command.tuning);
+    case CommandKind::kHome: return home();
     default: return CommandResult::kRejectedInvalid;  // not a kind the cycle executes (moves come as offers)
   }
 }
@@ -144,6 +149,7 @@ CommandResult ServoCycle::enable() noexcept {
 CommandResult ServoCycle::disable() noexcept {
   if (status_.state == ServoState::kEnabled) status_.state = ServoState::kDisabled;
   status_.enabling = false;
+  abort_homing();
   end_program();
   leave_experiment();
   status_.stopping = status_.fault_reaction_running = false;
@@ -169,14 +175,24 @@ CommandResult ServoCycle::clear_fault() noexcept {
 }
 
 CommandResult ServoCycle::stop() noexcept {
-  if (status_.state == ServoState::kEnabled && running_ != nullptr) begin_stop(settings_.stop_limits, false);
+  // Commutation finding runs with the loop open: stopping it is opening the drive.
+  if (status_.homing == HomingPhase::kFinding) return disable();
+  const bool searching = status_.homing == HomingPhase::kSearching || status_.homing == HomingPhase::kStopping;
+  if (status_.state == ServoState::kEnabled && (running_ != nullptr || (searching && !status_.stopping))) {
+    begin_stop(settings_.stop_limits, false);
+  }
+  abort_homing();
   return CommandResult::kAccepted;
 }
 
 CommandResult ServoCycle::quick_stop() noexcept {
-  if (status_.state == ServoState::kEnabled && (running_ != nullptr || (status_.stopping && !stop_quick_))) {
+  if (status_.homing == HomingPhase::kFinding) return disable();
+  const bool searching = status_.homing == HomingPhase::kSearching;
+  if (status_.state == ServoState::kEnabled &&
+      (running_ != nullptr || searching || (status_.stopping && !stop_quick_))) {
     begin_stop(settings_.quick_stop_limits, true);
   }
+  abort_homing();
   return CommandResult::kAccepted;
 }
 
@@ -191,7 +207,9 @@ CommandResult ServoCycle::request_mode(CommutationMode mode, int coil_set, doubl
     if (can::has_force_sensor(settings_.protocol) && status_.force_sensor_warning != Fault::kNone) {
       return CommandResult::kRejectedNoForceSensor;
     }
-  } else if (laws_[static_cast<std::size_t>(mode)] == nullptr &&
+  }
+  if (needs_homing(mode) && !status_.homed) return CommandResult::kRejectedNotHomed;
+  if (mode != CommutationMode::kExperiment && laws_[static_cast<std::size_t>(mode)] == nullptr &&
              !mailbox_.laws_[static_cast<std::size_t>(mode)].pending()) {
     return CommandResult::kRejectedNoLaw;
   }

@@ -58,7 +58,7 @@ void ServoCycle::account_feedback() noexcept {
   if (drive_fresh_) {
     if (!std::isfinite(drive_.position_m)) latch(Fault::kMeasurementNotFinite);
     previous_position_m_ = have_position_ ? position_m_ : drive_.position_m;
-    position_m_ = drive_.position_m;
+    position_m_ = drive_.position_m + status_.axis_offset_m;
     have_position_ = true;
     // The velocity observer: the reference's acceleration over the last
     // period (what the loop asked the axis to do) predicts the change; the
@@ -102,7 +102,10 @@ void ServoCycle::react_to_drive(const drivers::DriveSignals& signals) noexcept {
   // The handshake: enable completes when the drive says so; a drive that
   // stops saying so without a fault of its own is one that no longer applies current.
   if (signals.enabled) {
-    status_.enabling = false;
+    if (status_.enabling) {
+      status_.enabling = false;
+      after_enable();
+    }
   } else if (!status_.enabling) {
     latch(Fault::kDriveNotEnabled);
   } else if (++enable_wait_periods_ > periods(settings_.enable_timeout_s)) {
@@ -164,6 +167,17 @@ void ServoCycle::on_frame(const drivers::ReceivedFrame& received) noexcept {
     }
     drive_ = feedback;
     drive_fresh_ = true;
+  } else if (frame.id == can::drive_latch_id(settings_.protocol)) {
+    // The drive's latch frame: taken while a search waits for it, else ignored.
+    can::DriveLatch latched;
+    if (can::decode_drive_latch(settings_.protocol, frame, latched) != can::CodecStatus::kOk) {
+      ++status_.counters.frames_rejected;
+      return;
+    }
+    if (status_.homing == HomingPhase::kSearching && !latch_received_ && std::isfinite(latched.position_m)) {
+      latched_reading_m_ = latched.position_m;
+      latch_received_ = true;
+    }
   } else if (can::has_force_sensor(settings_.protocol) && frame.id == can::force_feedback_id(settings_.protocol)) {
     can::ForceFeedback feedback;
     if (can::decode_force_feedback(settings_.protocol, frame, feedback) != can::CodecStatus::kOk) {

@@ -80,6 +80,7 @@ std::string check_command(servo::Command& command) {
     case CommandKind::kClearFault:
     case CommandKind::kStop:
     case CommandKind::kQuickStop:
+    case CommandKind::kHome:
     case CommandKind::kRunProgram:
     case CommandKind::kSetExperiment:
     case CommandKind::kLoadCalibration:

@@ -83,7 +83,7 @@ std::string canonical_directory(const yaml::Node& node, const std::string& path)
 
 ServodConfig parse_servod_config(const yaml::Node& root, const std::string& directory) {
   root.expect_keys({"motor_file", "axis", "loop", "can", "control", "commutation", "faults", "telemetry", "commands",
-                    "motion"});
+                    "motion", "homing"});
   ServodConfig config;
   config.origin = root.file();
   if (const auto axis = root.optional("axis")) {
@@ -300,6 +300,48 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     if (const auto v = motion->optional("recovery_velocity_fraction")) config.servo.recovery_velocity_fraction = v->as_double_in(0.001, 1.0);
     if (const auto v = motion->optional("recovery_margin_m")) config.servo.recovery_margin_m = v->as_double_in(0.0, 1.0);
     if (const auto v = motion->optional("jog_timeout_s")) config.servo.jog_timeout_s = v->as_double_in(0.01, 10.0);
+  }
+
+  if (const auto homing = root.optional("homing")) {
+    homing->expect_keys({"method", "direction", "search_velocity_m_per_s", "search_distance_m", "reference_position_m",
+                         "commutation_finding"});
+    auto& h = config.servo.homing;
+    if (const auto v = homing->optional("method")) {
+      const std::string method = v->as_string();
+      if (method == "none") {
+        h.method = control::HomingMethod::kNone;
+      } else if (method == "index") {
+        h.method = control::HomingMethod::kIndex;
+      } else if (method == "reference_switch") {
+        h.method = control::HomingMethod::kReferenceSwitch;
+      } else {
+        v->fail("expected none, index or reference_switch, got '" + method + "'");
+      }
+    }
+    if (const auto v = homing->optional("direction")) {
+      h.direction = static_cast<int>(v->as_integer_in(-1, 1));
+      if (h.direction == 0) v->fail("expected 1 (towards soft_limit_max_m) or -1, got 0");
+    }
+    if (const auto v = homing->optional("search_velocity_m_per_s")) h.search_velocity_m_per_s = v->as_double_in(1e-5, 0.1);
+    if (const auto v = homing->optional("search_distance_m")) h.search_distance_m = v->as_double_in(1e-4, 10.0);
+    if (const auto v = homing->optional("reference_position_m")) h.reference_position_m = v->as_double_in(-10.0, 10.0);
+    if (const auto finding = homing->optional("commutation_finding")) {
+      finding->expect_keys({"force_N", "max_motion_m", "settle_s", "phases"});
+      auto& f = h.finding;
+      if (const auto v = finding->optional("force_N")) f.force_N = v->as_double_in(0.1, 1000.0);
+      if (const auto v = finding->optional("max_motion_m")) f.max_motion_m = v->as_double_in(1e-5, 0.05);
+      if (const auto v = finding->optional("settle_s")) f.settle_s = v->as_double_in(0.005, 2.0);
+      if (const auto v = finding->optional("phases")) {
+        f.phases = static_cast<int>(v->as_integer_in(8, control::kMaxFindingPhases));
+        if (f.phases % 2 != 0) v->fail("expected an even number of phases, got " + std::to_string(f.phases));
+      }
+    }
+    // Until homed only the drive's own law drives (docs/servod.md, "Homing"):
+    // a position-dependent law is chosen after `home`.
+    if (h.incremental() && config.commutation.mode != servo::CommutationMode::kOriginal) {
+      (*homing)["method"].fail(std::string("an incremental encoder starts with commutation.mode: original; ") +
+                               "choose the law after `clm ctl home`");
+    }
   }
 
   if (const auto faults = root.optional("faults")) {

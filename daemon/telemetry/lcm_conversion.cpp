@@ -34,7 +34,8 @@ static_assert(static_cast<int>(CommandKind::kQuickStop) == servo_command_t::QUIC
 static_assert(static_cast<int>(CommandKind::kJog) == servo_command_t::JOG);
 static_assert(static_cast<int>(CommandKind::kGetParameter) == servo_command_t::GET_PARAMETER);
 static_assert(static_cast<int>(CommandKind::kSetParameter) == servo_command_t::SET_PARAMETER);
-static_assert(servo::kCommandKinds == servo_command_t::RENEW_CONTROL);
+static_assert(static_cast<int>(CommandKind::kHome) == servo_command_t::HOME);
+static_assert(servo::kCommandKinds == servo_command_t::HOME);
 static_assert(static_cast<int>(servo::CommutationMode::kOriginal) == servo_state_t::COMMUTATION_ORIGINAL);
 static_assert(static_cast<int>(servo::CommutationMode::kClassical) == servo_state_t::COMMUTATION_CLASSICAL);
 static_assert(static_cast<int>(servo::CommutationMode::kPgnn) == servo_state_t::COMMUTATION_PGNN);
@@ -293,6 +294,7 @@ std::string to_command(const clm_lcm::servo_command_t& message, servo::Command& 
     case CommandKind::kTakeControl:
     case CommandKind::kReleaseControl:
     case CommandKind::kRenewControl:
+    case CommandKind::kHome:
     case CommandKind::kRunProgram:       // its file: above
     case CommandKind::kLoadCalibration:
     case CommandKind::kLoadModel:

@@ -227,6 +227,32 @@ CodecStatus decode_drive_feedback(const ProtocolConfig& config, const Frame& fra
   return CodecStatus::kOk;
 }
 
+// --- Drive latch (TPDO2 of the drive) ----------------------------------------
+// bytes 0..3 latched position int32 [nm] (as in the drive feedback), 4 latch count.
+
+CodecStatus encode_drive_latch(const ProtocolConfig& config, const DriveLatch& latch, Frame& out) noexcept {
+  if (!config.is_valid()) return CodecStatus::kOutOfRange;
+  std::int64_t position = 0;
+  const CodecStatus status = to_raw(latch.position_m, kPositionRawPerMetre, kInt32Min, kInt32Max, position);
+  if (status != CodecStatus::kOk) return status;
+  Frame frame;
+  frame.id = drive_latch_id(config);
+  frame.dlc = kDriveLatchDlc;
+  put_le(frame.data, 0, 4, position);
+  frame.data[4] = latch.latch_count;
+  out = frame;
+  return CodecStatus::kOk;
+}
+
+CodecStatus decode_drive_latch(const ProtocolConfig& config, const Frame& frame, DriveLatch& latch) noexcept {
+  if (!config.is_valid()) return CodecStatus::kOutOfRange;
+  const CodecStatus status = check_frame(frame, drive_latch_id(config), kDriveLatchDlc);
+  if (status != CodecStatus::kOk) return status;
+  latch.position_m = static_cast<double>(get_signed_le(frame.data, 0, 4)) / kPositionRawPerMetre;
+  latch.latch_count = frame.data[4];
+  return CodecStatus::kOk;
+}
+
 // --- Force feedback (TPDO1 of the force sensor) ------------------------------
 // bytes 0..2 F_y int24 [mN], 3..4 F_x int16 [10 mN], 5..6 T_z int16 [mN·m], 7 alive counter.
 
@@ -264,7 +290,8 @@ CodecStatus decode_force_feedback(const ProtocolConfig& config, const Frame& fra
 }
 
 // --- Setpoints (RPDO1..RPDO3 of the drive) -----------------------------------
-// RPDO1: 0 control byte, 1 alive counter, 2..3 magnitude 1, 4..5 Δ 1.
+// RPDO1: 0 control byte (bits 0..3: enable, clear fault, arm latch, latch on
+// switch), 1 alive counter, 2..3 magnitude 1, 4..5 Δ 1.
 // RPDO2: 0..1 magnitude 2, 2..3 Δ 2, 4..5 magnitude 3, 6..7 Δ 3.
 // RPDO3: 0..1 magnitude 4, 2..3 Δ 4.
 // Profile phase_current: i_a in place of the magnitude, i_b in place of Δ.
@@ -296,8 +323,9 @@ std::size_t encode_setpoints(const ProtocolConfig& config, const SetpointCommand
   Frame rpdo1;
   rpdo1.id = setpoint_id(config, 0);
   rpdo1.dlc = kRpdo1Dlc;
-  rpdo1.data[0] = static_cast<std::uint8_t>((command.enable ? kControlEnable : 0) |
-                                            (command.clear_fault ? kControlClearFault : 0));
+  rpdo1.data[0] = static_cast<std::uint8_t>(
+      (command.enable ? kControlEnable : 0) | (command.clear_fault ? kControlClearFault : 0) |
+      (command.arm_latch ? kControlArmLatch : 0) | (command.latch_on_switch ? kControlLatchOnSwitch : 0));
   rpdo1.data[1] = command.alive_counter;
   put_setpoint(rpdo1.data, 2, raw[0]);
   out[0] = rpdo1;
@@ -337,6 +365,8 @@ CodecStatus decode_setpoint_frame(const ProtocolConfig& config, const Frame& fra
     if ((control & kControlReservedMask) != 0) return CodecStatus::kOutOfRange;
     accumulate.enable = (control & kControlEnable) != 0;
     accumulate.clear_fault = (control & kControlClearFault) != 0;
+    accumulate.arm_latch = (control & kControlArmLatch) != 0;
+    accumulate.latch_on_switch = (control & kControlLatchOnSwitch) != 0;
     accumulate.alive_counter = frame.data[1];
     store_coil_set(config, frame.data, 2, 0, accumulate);
   } else if (index == 1) {
@@ -354,6 +384,8 @@ CodecStatus decode_setpoint_frame(const ProtocolConfig& config, const Frame& fra
 
 std::uint32_t cycle_bits(const ProtocolConfig& config) {
   config.validate();
+  // The drive latch (TPDO2) is not in the schedule: an event frame, at most
+  // one per arming of the latch (one per homing), not one per cycle.
   std::uint32_t bits = worst_case_frame_bits(kSyncDlc) + worst_case_frame_bits(kDriveFeedbackDlc);
   if (has_force_sensor(config)) bits += worst_case_frame_bits(kForceFeedbackDlc);
   constexpr std::array<std::uint8_t, kMaxSetpointFrames> dlcs{kRpdo1Dlc, kRpdo2Dlc, kRpdo3Dlc};

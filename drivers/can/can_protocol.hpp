@@ -5,7 +5,9 @@
 // Classic CAN 2.0A (11-bit identifiers) with CANopen-style COB-IDs, so
 // candump, Wireshark and DBC tools read the bus: SYNC 0x080 from the daemon,
 // TPDO1 (0x180 + node) from the drive and the force sensor, RPDO1..RPDO3
-// (0x200/0x300/0x400 + drive node) with the coil-set setpoints to the drive.
+// (0x200/0x300/0x400 + drive node) with the coil-set setpoints to the drive,
+// and TPDO2 (0x280 + drive node), the drive's position latch, sent only in
+// the period its latch caught its event.
 // Multi-byte fields are little-endian, signed fields two's complement.
 //
 // Encoding and decoding run in the cycle: they are noexcept, do not allocate
@@ -58,6 +60,7 @@ inline constexpr std::size_t kMaxSetpointFrames = 3;
 
 inline constexpr std::uint32_t kSyncId = 0x080;       ///< CANopen SYNC
 inline constexpr std::uint32_t kTpdo1Base = 0x180;    ///< + node: feedback of drive and force sensor
+inline constexpr std::uint32_t kTpdo2Base = 0x280;    ///< + drive node: the drive's position latch (event)
 inline constexpr std::uint32_t kRpdo1Base = 0x200;    ///< + drive node: control, alive, coil set 1
 inline constexpr std::uint32_t kRpdo2Base = 0x300;    ///< + drive node: coil sets 2 and 3
 inline constexpr std::uint32_t kRpdo3Base = 0x400;    ///< + drive node: coil set 4
@@ -66,6 +69,7 @@ inline constexpr std::uint32_t kMaxStandardId = 0x7FF;
 inline constexpr std::uint8_t kSyncDlc = 1;
 inline constexpr std::uint8_t kDriveFeedbackDlc = 7;
 inline constexpr std::uint8_t kForceFeedbackDlc = 8;
+inline constexpr std::uint8_t kDriveLatchDlc = 5;
 inline constexpr std::uint8_t kRpdo1Dlc = 6;
 inline constexpr std::uint8_t kRpdo2Dlc = 8;
 inline constexpr std::uint8_t kRpdo3Dlc = 4;
@@ -97,6 +101,11 @@ struct ProtocolConfig {
 constexpr std::uint32_t drive_feedback_id(const ProtocolConfig& config) noexcept {
   return kTpdo1Base + config.drive_node_id;
 }
+/// TPDO2 of the drive, 0x280 + drive_node_id: its position latch, sent once
+/// per latch event, in that period before its TPDO1.
+constexpr std::uint32_t drive_latch_id(const ProtocolConfig& config) noexcept {
+  return kTpdo2Base + config.drive_node_id;
+}
 /// The axis has a force sensor (force_sensor_node_id is not kNoForceSensor).
 constexpr bool has_force_sensor(const ProtocolConfig& config) noexcept {
   return config.force_sensor_node_id != kNoForceSensor;
@@ -115,33 +124,43 @@ constexpr std::size_t setpoint_frame_count(int coil_sets) noexcept {
   if (coil_sets < 1 || coil_sets > kMaxProtocolCoilSets) return 0;
   return coil_sets == 1 ? 1 : (coil_sets <= 3 ? 2 : 3);
 }
-/// The identifiers the daemon receives: drive feedback, and force feedback
-/// when the axis has a sensor.
+/// The identifiers the daemon receives: drive feedback, drive latch, and
+/// force feedback when the axis has a sensor (count 3; 2 without one).
 struct ReceiveIds {
-  std::array<std::uint32_t, 2> ids{};
+  std::array<std::uint32_t, 3> ids{};
   std::size_t count = 0;
   std::span<const std::uint32_t> view() const noexcept { return {ids.data(), count}; }
 };
 constexpr ReceiveIds daemon_receive_ids(const ProtocolConfig& config) noexcept {
-  if (!has_force_sensor(config)) return {{drive_feedback_id(config), 0}, 1};
-  return {{drive_feedback_id(config), force_feedback_id(config)}, 2};
+  if (!has_force_sensor(config)) return {{drive_feedback_id(config), drive_latch_id(config), 0}, 2};
+  return {{drive_feedback_id(config), drive_latch_id(config), force_feedback_id(config)}, 3};
 }
 
 // ---------------------------------------------------------------------------
 // Signals
 
-/// Status word bits of the drive feedback; bits 5..15 are reserved and 0.
+/// Status word bits of the drive feedback; bits 7..15 are reserved and 0.
 inline constexpr std::uint16_t kStatusEnabled = 1u << 0;
 inline constexpr std::uint16_t kStatusFault = 1u << 1;
 inline constexpr std::uint16_t kStatusWatchdogExpired = 1u << 2;
 inline constexpr std::uint16_t kStatusCurrentLimited = 1u << 3;
 inline constexpr std::uint16_t kStatusEndStop = 1u << 4;
-inline constexpr std::uint16_t kStatusReservedMask = 0xFFE0;
+/// The latch caught its event since it was armed; clears when disarmed.
+inline constexpr std::uint16_t kStatusLatched = 1u << 5;
+/// The reference switch is active now.
+inline constexpr std::uint16_t kStatusReferenceSwitch = 1u << 6;
+inline constexpr std::uint16_t kStatusReservedMask = 0xFF80;
 
-/// Control byte bits of RPDO1; bits 2..7 are reserved and 0.
+/// Control byte bits of RPDO1; bits 4..7 are reserved and 0.
 inline constexpr std::uint8_t kControlEnable = 1u << 0;
 inline constexpr std::uint8_t kControlClearFault = 1u << 1;
-inline constexpr std::uint8_t kControlReservedMask = 0xFC;
+/// Arm the drive's position latch: while set, the drive latches its position
+/// reading once, at the next latch event.
+inline constexpr std::uint8_t kControlArmLatch = 1u << 2;
+/// The latch event is the reference switch becoming active, instead of the
+/// encoder's next index mark.
+inline constexpr std::uint8_t kControlLatchOnSwitch = 1u << 3;
+inline constexpr std::uint8_t kControlReservedMask = 0xF0;
 
 /// SYNC counter range (CANopen, CiA 301: 1 up to the overflow value, then 1 again).
 inline constexpr std::uint8_t kSyncCounterFirst = 1;
@@ -176,8 +195,17 @@ constexpr drivers::DriveSignals drive_signals(std::uint16_t status_word) noexcep
   signals.watchdog_expired = (status_word & kStatusWatchdogExpired) != 0;
   signals.current_limited = (status_word & kStatusCurrentLimited) != 0;
   signals.end_stop = (status_word & kStatusEndStop) != 0;
+  signals.latched = (status_word & kStatusLatched) != 0;
+  signals.reference_switch = (status_word & kStatusReferenceSwitch) != 0;
   return signals;
 }
+
+/// TPDO2 of the drive: the position its latch caught. Sent once per latch,
+/// in the period the latch happened, before that period's TPDO1.
+struct DriveLatch {
+  double position_m = 0.0;        ///< latched position [m], int32 in nm on the wire as DriveFeedback's (±2.147 m)
+  std::uint8_t latch_count = 0;   ///< +1 per latch, wraps 255 → 0
+};
 
 /// TPDO1 of the force sensor.
 struct ForceFeedback {
@@ -189,6 +217,8 @@ struct ForceFeedback {
 struct SetpointCommand {
   bool enable = false;             ///< control bit 0: power stage enabled
   bool clear_fault = false;        ///< control bit 1: request to clear a latched fault
+  bool arm_latch = false;          ///< control bit 2: position latch armed (kControlArmLatch)
+  bool latch_on_switch = false;    ///< control bit 3: latch on the reference switch, not the index (kControlLatchOnSwitch)
   std::uint8_t alive_counter = 0;  ///< +1 per cycle, wraps 255 → 0
   int coil_sets = 0;               ///< L; must equal ProtocolConfig::coil_sets
   /// Profile magnitude_phase: setpoints[l] for coil set l+1, l < L:
@@ -210,6 +240,12 @@ CodecStatus decode_sync(const Frame& frame, std::uint8_t& sync_counter) noexcept
 /// rounding or a reserved status bit set (both directions).
 CodecStatus encode_drive_feedback(const ProtocolConfig& config, const DriveFeedback& feedback, Frame& out) noexcept;
 CodecStatus decode_drive_feedback(const ProtocolConfig& config, const Frame& frame, DriveFeedback& feedback) noexcept;
+
+/// Drive TPDO2 (position latch), DLC 5: position as in the drive feedback,
+/// latch count in byte 4. kOutOfRange for a position outside int32 nm after
+/// rounding.
+CodecStatus encode_drive_latch(const ProtocolConfig& config, const DriveLatch& latch, Frame& out) noexcept;
+CodecStatus decode_drive_latch(const ProtocolConfig& config, const Frame& frame, DriveLatch& latch) noexcept;
 
 /// Force-sensor TPDO1, DLC 8. kOutOfRange when the config has no force sensor.
 CodecStatus encode_force_feedback(const ProtocolConfig& config, const ForceFeedback& feedback, Frame& out) noexcept;
@@ -247,7 +283,10 @@ constexpr std::uint32_t worst_case_frame_bits(std::uint8_t dlc) noexcept {
 }
 
 /// Worst-case bits of one cycle's schedule: SYNC, drive feedback, force
-/// feedback (when the axis has a sensor) and the RPDOs for L. Throws std::invalid_argument if the config is invalid.
+/// feedback (when the axis has a sensor) and the RPDOs for L. Per cycle: the
+/// drive latch (TPDO2) is an event frame, at most one per arming (one per
+/// homing), so it is not counted; it adds worst_case_frame_bits(kDriveLatchDlc)
+/// = 105 bits to the one cycle it is sent in. Throws std::invalid_argument if the config is invalid.
 std::uint32_t cycle_bits(const ProtocolConfig& config);
 
 /// Worst-case bus load of the cycle schedule as a fraction (0.575 = 57.5 %):

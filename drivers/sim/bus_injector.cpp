@@ -18,6 +18,8 @@ constexpr std::array<InjectionKind, 11> kKinds{
 // Byte offsets in the drive's TPDO1 (docs/can-protocol.md).
 constexpr std::size_t kPositionTopByte = 3;
 constexpr std::size_t kStatusLowByte = 4;   // status bits 0..7
+constexpr std::uint8_t kReservedStatusBit = 0x80;  // status bit 7, the lowest reserved one (kStatusReservedMask)
+static_assert((clm::can::kStatusReservedMask & kReservedStatusBit) != 0);
 constexpr std::size_t kAliveByte = 6;
 // And in the force sensor's TPDO1.
 constexpr std::size_t kForceAliveByte = 7;
@@ -104,6 +106,10 @@ void BusInjector::transform(std::span<const can::Frame> replies, Replies& out) c
   for (const can::Frame& reply : replies) {
     const bool drive = reply.id == can::drive_feedback_id(protocol_);
     const bool force = reply.id == can::force_feedback_id(protocol_);
+    // Anything else, the drive's latch frame (TPDO2) included, is sent at
+    // once and unchanged, in the nodes' order: the latch frame reaches the
+    // daemon in its period, before the drive feedback (which a step may
+    // drop, delay or corrupt, never move ahead of it).
     if (!active || !(drive || force)) {
       push_now(reply);
       continue;
@@ -125,7 +131,7 @@ void BusInjector::transform(std::span<const can::Frame> replies, Replies& out) c
         if (out.late_count < out.late.size()) out.late[out.late_count++] = frame;
         continue;
       case InjectionKind::kCorruptReserved:
-        frame.data[kStatusLowByte] = static_cast<std::uint8_t>(frame.data[kStatusLowByte] | 0x20);
+        frame.data[kStatusLowByte] = static_cast<std::uint8_t>(frame.data[kStatusLowByte] | kReservedStatusBit);
         break;
       case InjectionKind::kCorruptAlive:
         if (first) frame.data[kAliveByte] = static_cast<std::uint8_t>(frame.data[kAliveByte] + 7);

@@ -5,7 +5,9 @@
 // (the daemon's last RPDO1 had ControlEnable set), acting on the replies the
 // nodes (SimulatedNodes) produced for that SYNC and the following ones. What
 // it does to a frame is what a faulty node or bus would do to it: lose it,
-// send it late, corrupt it, send it twice. No allocation per frame.
+// send it late, corrupt it, send it twice. No allocation per frame. The
+// drive's latch frame (TPDO2) is never touched: it goes out at once, before
+// the drive feedback, as the nodes made it.
 //
 // The in-process bus of the daemon's cycle tests has its own, finer injection
 // (in_process_bus.hpp); this one is for separate processes over SocketCAN.
@@ -25,7 +27,7 @@ enum class InjectionKind {
   kDropDrive,        ///< the drive's TPDO1 is not sent
   kDropForce,        ///< the force sensor's TPDO1 is not sent
   kLateDrive,        ///< the drive's TPDO1 is sent `late_fraction` of a period after SYNC
-  kCorruptReserved,  ///< a reserved status bit (bit 5) is set in the drive's TPDO1
+  kCorruptReserved,  ///< a reserved status bit (bit 7) is set in the drive's TPDO1
   kCorruptAlive,     ///< the drive's alive counter is advanced by 7 (one frame)
   kCorruptForceAlive,  ///< the force sensor's alive counter is advanced by 7 (one frame)
   kCorruptPosition,  ///< bit 29 of the drive's position is flipped (a 0.537 m jump)
@@ -73,7 +75,7 @@ class BusInjector {
   const InjectionStep* on_sync() noexcept;
 
   struct Replies {
-    std::array<can::Frame, 4> now{};  ///< send at once, in order
+    std::array<can::Frame, 4> now{};  ///< send at once, in order: latch, drive (twice if duplicated), force
     std::size_t now_count = 0;
     std::array<can::Frame, 2> late{};  ///< send `late_fraction` of a period after the SYNC
     std::size_t late_count = 0;

@@ -146,7 +146,7 @@ bool InProcessBus::send(const can::Frame& frame) noexcept {
     for (std::size_t k = 0; k < delayed_count_; ++k) enqueue(delayed_[k].frame, delayed_[k].timestamp_ns);
     delayed_count_ = 0;
   }
-  std::array<can::Frame, 2> replies{};
+  std::array<can::Frame, SimulatedNodes::kMaxReplies> replies{};  // latch, drive and force feedback
   const std::size_t count = nodes_->on_frame(frame, replies);
   const can::ProtocolConfig& protocol = nodes_->protocol();
   for (std::size_t k = 0; k < count; ++k) {
@@ -184,6 +184,10 @@ bool InProcessBus::send(const can::Frame& frame) noexcept {
       }
       continue;
     }
+    // The drive's latch frame (TPDO2, first of the replies in its period)
+    // takes no injection: it is enqueued below, in this period and in the
+    // nodes' order, ahead of the drive feedback it precedes on the bus (a
+    // delayed feedback frame only comes later still).
     if (reply.id == can::force_feedback_id(protocol)) {
       if (injection_.drop_force_frames > 0) {
         --injection_.drop_force_frames;

@@ -3,7 +3,8 @@
 // straight to the simulated nodes and their replies come back through a
 // fixed ring, timestamped with the loop's clock (the bus is its own
 // drivers::BusClock). Optional fault injection acts on the frames as a
-// bus-side injector would.
+// bus-side injector would; the drive's latch frame (TPDO2) is passed on as
+// the nodes sent it, in its period and before the drive feedback.
 
 #include <array>
 #include <atomic>

@@ -39,6 +39,8 @@ SimulatedMotor::SimulatedMotor(const MotorParameters& parameters)
   RandomStream phases(stream_seed(parameters_.sensors.noise_seed, 7));
   interpolation_phase_rad_[0] = kTwoPi * phases.uniform();
   interpolation_phase_rad_[1] = kTwoPi * phases.uniform();
+  RandomStream offset(parameters_.sensors.encoder_offset_seed);
+  encoder_offset_m_ = parameters_.sensors.encoder_power_up_offset_max_m * (2.0 * offset.uniform() - 1.0);
   reset(0.5 * (parameters_.stroke_min_m + parameters_.stroke_max_m));
 }
 
@@ -76,6 +78,7 @@ void SimulatedMotor::reset(double position_m, double velocity_m_per_s) {
   enabled_at_s_ = 0.0;
   last_command_time_s_ = 0.0;
   latched_ = 0;
+  latch_armed_ = latch_caught_ = latch_fresh_ = false;
   limited_in_last_step_ = false;
   end_stop_collisions_ = 0;
   last_impact_speed_m_per_s_ = 0.0;
@@ -220,7 +223,49 @@ bool SimulatedMotor::drive_currents(double position_m, CurrentVector& currents_A
     currents_A.setZero(2 * coil_sets());
     return false;
   }
-  return phase_currents(position_m, setpoints_, commanded_currents_, currents_A);
+  return phase_currents(position_m + encoder_offset_m_, setpoints_, commanded_currents_, currents_A);
+}
+
+double SimulatedMotor::counter_reading_m(double position_m) const noexcept {
+  const double resolution_m = parameters_.sensors.encoder_resolution_m;
+  const double reading_m = position_m + encoder_offset_m_;
+  return resolution_m > 0.0 ? resolution_m * std::round(reading_m / resolution_m) : reading_m;
+}
+
+void SimulatedMotor::set_latch(bool armed, LatchSource source) noexcept {
+  if (!armed || source != latch_source_) latch_caught_ = latch_fresh_ = false;
+  latch_armed_ = armed;
+  latch_source_ = source;
+}
+
+bool SimulatedMotor::take_latch(double& position_m) noexcept {
+  if (!latch_fresh_) return false;
+  latch_fresh_ = false;
+  position_m = latch_position_m_;
+  return true;
+}
+
+void SimulatedMotor::watch_latch(double from_m, double to_m) noexcept {
+  if (!latch_armed_ || latch_caught_ || from_m == to_m) return;
+  const auto& sensors = parameters_.sensors;
+  double event_m = 0.0;
+  if (latch_source_ == LatchSource::kIndex) {
+    if (!(sensors.index_pitch_m > 0.0)) return;
+    const double from_k = std::floor(from_m / sensors.index_pitch_m);
+    const double to_k = std::floor(to_m / sensors.index_pitch_m);
+    if (from_k == to_k) return;
+    // The first mark passed: the boundary above `from` moving up, `from`'s own moving down.
+    event_m = sensors.index_pitch_m * (to_m > from_m ? from_k + 1.0 : from_k);
+  } else {
+    if (!sensors.has_reference_switch()) return;
+    const auto active = [&](double x) {
+      return x >= sensors.reference_switch_min_m && x <= sensors.reference_switch_max_m;
+    };
+    if (active(from_m) || !active(to_m)) return;
+    event_m = to_m > from_m ? sensors.reference_switch_min_m : sensors.reference_switch_max_m;
+  }
+  latch_position_m_ = counter_reading_m(event_m);
+  latch_caught_ = latch_fresh_ = true;
 }
 
 bool SimulatedMotor::phase_currents(double position_m, std::span<const DriveSetpoint> setpoints,
@@ -359,6 +404,8 @@ StepResult SimulatedMotor::step(double period_s) noexcept {
     }
     in_contact_ = position_m_ == mechanics.end_stop_max_m || position_m_ == mechanics.end_stop_min_m;
     if (mode.rigid()) encoder_position_m_ = position_m_;
+    watch_latch(history_position_m_[static_cast<std::size_t>((history_next_ - 1 + kEncoderHistory) % kEncoderHistory)],
+                encoder_position_m_);
     history_time_s_[static_cast<std::size_t>(history_next_)] = start_s + (k + 1) * h;
     history_position_m_[static_cast<std::size_t>(history_next_)] = encoder_position_m_;
     history_next_ = (history_next_ + 1) % kEncoderHistory;
@@ -453,10 +500,7 @@ SensorFrame SimulatedMotor::sense() noexcept {
                 sensors.encoder_interpolation_second_m * elementary::sin(2.0 * angle + interpolation_phase_rad_[1]);
   }
   position += sensors.encoder_noise_m * noise_.normal();
-  if (sensors.encoder_resolution_m > 0.0) {
-    position = sensors.encoder_resolution_m * std::round(position / sensors.encoder_resolution_m);
-  }
-  frame.position_m = position;
+  frame.position_m = counter_reading_m(position);
   for (int q = 0; q < 3; ++q) {
     frame.wrench[q] = wrench_[q] + sensors.force_bias_N_N_Nm[q] + sensors.force_noise_N_N_Nm[q] * noise_.normal();
   }
@@ -470,6 +514,12 @@ DriveStatus SimulatedMotor::status() const noexcept {
   const auto& mechanics = parameters_.mechanics;
   if (position_m_ <= mechanics.limit_switch_min_m || position_m_ >= mechanics.limit_switch_max_m) {
     word |= kStatusEndStop;
+  }
+  if (latch_caught_) word |= kStatusLatched;
+  const auto& sensors = parameters_.sensors;
+  if (sensors.has_reference_switch() && encoder_position_m_ >= sensors.reference_switch_min_m &&
+      encoder_position_m_ <= sensors.reference_switch_max_m) {
+    word |= kStatusReferenceSwitch;
   }
   return DriveStatus{word};
 }
@@ -503,6 +553,7 @@ TruthState SimulatedMotor::truth() const noexcept {
   state.end_stop_collisions = end_stop_collisions_;
   state.last_impact_speed_m_per_s = last_impact_speed_m_per_s_;
   state.current_limited_substeps = current_limited_substeps_;
+  state.encoder_offset_m = encoder_offset_m_;
   return state;
 }
 

@@ -40,6 +40,18 @@ enum DriveStatusBit : std::uint32_t {
   kStatusEndStop = 1u << 4,
   /// Latched: a command had the wrong number of setpoints or a non-finite value.
   kStatusInvalidSetpoint = 1u << 5,
+  /// Not latched: the position latch (set_latch) caught its event since it
+  /// was armed; clears when it is disarmed.
+  kStatusLatched = 1u << 6,
+  /// Not latched: the reference switch is active now
+  /// (SensorParameters::reference_switch_min_m, _max_m, on the read head's true position).
+  kStatusReferenceSwitch = 1u << 7,
+};
+
+/// What the drive's position latch waits for (a touch probe's trigger).
+enum class LatchSource {
+  kIndex,            ///< the encoder's next index mark (SensorParameters::index_pitch_m)
+  kReferenceSwitch,  ///< the reference switch becoming active
 };
 
 struct DriveStatus {
@@ -51,6 +63,8 @@ struct DriveStatus {
   bool current_limited() const noexcept { return has(kStatusCurrentLimited); }
   bool end_stop() const noexcept { return has(kStatusEndStop); }
   bool invalid_setpoint() const noexcept { return has(kStatusInvalidSetpoint); }
+  bool latched() const noexcept { return has(kStatusLatched); }
+  bool reference_switch() const noexcept { return has(kStatusReferenceSwitch); }
 };
 
 enum class CommandResult {
@@ -108,6 +122,9 @@ struct TruthState {
   double last_impact_speed_m_per_s = 0.0;
   /// Substeps in which the current limit acted, since reset().
   long current_limited_substeps = 0;
+  /// The encoder's reading less the read head's true position: the
+  /// incremental encoder's power-up offset (SensorParameters) [m].
+  double encoder_offset_m = 0.0;
 };
 
 class SimulatedMotor {
@@ -149,6 +166,17 @@ class SimulatedMotor {
   void latch_internal_fault() noexcept;
 
   TruthState truth() const noexcept;
+
+  /// The drive's position latch (what CiA 402 calls a touch probe): armed,
+  /// it latches the encoder's reading at the first event of `source` the
+  /// read head passes, once, and reports kStatusLatched until disarmed.
+  /// Arming again after a disarm waits for a new event. The reading is the
+  /// encoder's (its power-up offset included) at the event's position,
+  /// without noise: the drive samples its counter on the edge.
+  void set_latch(bool armed, LatchSource source) noexcept;
+  /// True once per latch, in the first call after it happened, with the
+  /// latched reading [m]: what the drive sends in its latch frame.
+  bool take_latch(double& position_m) noexcept;
 
   /// An external force along y on the translator [N] from now on (a hand, a
   /// cable, an obstacle), until set again; 0 removes it. Not seen by the
@@ -220,9 +248,17 @@ class SimulatedMotor {
   void latch_fault(std::uint32_t bits) noexcept;
   /// Throws ParameterError naming `what` for a position outside the end stops or a velocity not finite.
   void require_between_stops(const char* what, double position_m, double velocity_m_per_s) const;
-  /// Phase current setpoints of the drive at `position_m`, after its current
-  /// limit (zero when not active); true if limited.
+  /// Phase current setpoints of the drive with the translator at
+  /// `position_m`, after its current limit (zero when not active); true if
+  /// limited. The drive commutates on its encoder's reading, the position
+  /// plus the power-up offset.
   bool drive_currents(double position_m, CurrentVector& currents_A) const noexcept;
+  /// The position latch: an event between the read head's positions
+  /// `from_m` and `to_m` (one substep) latches it when armed.
+  void watch_latch(double from_m, double to_m) noexcept;
+  /// The encoder's reading at the read head's true position `position_m`,
+  /// without interpolation error and noise, quantised.
+  double counter_reading_m(double position_m) const noexcept;
   /// The same for given setpoints (the profile's), whether active or not.
   bool phase_currents(double position_m, std::span<const DriveSetpoint> setpoints,
                       std::span<const PhaseCurrentSetpoint> currents, CurrentVector& currents_A) const noexcept;
@@ -270,6 +306,12 @@ class SimulatedMotor {
   std::array<double, kEncoderHistory> history_position_m_{};
   int history_next_ = 0;
   int history_count_ = 0;
+  // The incremental encoder's power-up offset (drawn once, SensorParameters).
+  double encoder_offset_m_ = 0.0;
+  // The position latch (set_latch): armed, caught, not yet taken.
+  bool latch_armed_ = false, latch_caught_ = false, latch_fresh_ = false;
+  LatchSource latch_source_ = LatchSource::kIndex;
+  double latch_position_m_ = 0.0;
   // The interpolation error's phases (drawn once from the noise seed).
   double interpolation_phase_rad_[2] = {0.0, 0.0};
   ForceDisturbance disturbance_;

@@ -163,7 +163,9 @@ void read_drive_dynamics(const Node& section, DriveParameters& drive) {
 void read_sensors(const Node& section, SensorParameters& sensors) {
   section.expect_keys({"noise_seed", "encoder_resolution_m", "encoder_noise_m", "force_noise_N_N_Nm",
                        "force_bias_N_N_Nm", "encoder_delay_s", "encoder_scale_pitch_m",
-                       "encoder_interpolation_error_m", "encoder_interpolation_second_m"});
+                       "encoder_interpolation_error_m", "encoder_interpolation_second_m",
+                       "encoder_power_up_offset_max_m", "encoder_offset_seed", "index_pitch_m",
+                       "reference_switch_min_m", "reference_switch_max_m"});
   if (const auto seed = section.optional("noise_seed")) sensors.noise_seed = seed_value(*seed);
   sensors.encoder_resolution_m = optional_double(section, "encoder_resolution_m", 0.0, 0.0, 1e-3);
   sensors.encoder_noise_m = optional_double(section, "encoder_noise_m", 0.0, 0.0, 1e-3);
@@ -174,6 +176,15 @@ void read_sensors(const Node& section, SensorParameters& sensors) {
       optional_double(section, "encoder_scale_pitch_m", sensors.encoder_scale_pitch_m, 1e-7, 1.0);
   sensors.encoder_interpolation_error_m = optional_double(section, "encoder_interpolation_error_m", 0.0, 0.0, 1e-4);
   sensors.encoder_interpolation_second_m = optional_double(section, "encoder_interpolation_second_m", 0.0, 0.0, 1e-4);
+  sensors.encoder_power_up_offset_max_m = optional_double(section, "encoder_power_up_offset_max_m", 0.0, 0.0, 1.0);
+  if (const auto seed = section.optional("encoder_offset_seed")) sensors.encoder_offset_seed = seed_value(*seed);
+  sensors.index_pitch_m = optional_double(section, "index_pitch_m", 0.0, 0.0, 10.0);
+  sensors.reference_switch_min_m = optional_double(section, "reference_switch_min_m", 0.0, -10.0, 10.0);
+  sensors.reference_switch_max_m = optional_double(section, "reference_switch_max_m", 0.0, -10.0, 10.0);
+  if (sensors.reference_switch_max_m < sensors.reference_switch_min_m) {
+    section.fail("reference_switch_max_m " + std::to_string(sensors.reference_switch_max_m) +
+                 " m must not lie below reference_switch_min_m " + std::to_string(sensors.reference_switch_min_m) + " m");
+  }
 }
 
 }  // namespace

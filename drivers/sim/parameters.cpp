@@ -142,6 +142,13 @@ void SensorParameters::validate() const {
   require_positive("encoder_scale_pitch_m", encoder_scale_pitch_m);
   require_non_negative("encoder_interpolation_error_m", encoder_interpolation_error_m);
   require_non_negative("encoder_interpolation_second_m", encoder_interpolation_second_m);
+  require_non_negative("encoder_power_up_offset_max_m", encoder_power_up_offset_max_m);
+  require_non_negative("index_pitch_m", index_pitch_m);
+  require_finite("reference_switch_min_m", reference_switch_min_m);
+  require_finite("reference_switch_max_m", reference_switch_max_m);
+  if (reference_switch_max_m < reference_switch_min_m) {
+    fail("reference_switch_max_m", reference_switch_max_m, "must not lie below reference_switch_min_m");
+  }
 }
 
 void MotorParameters::validate() const {

@@ -197,6 +197,22 @@ struct SensorParameters {
   double encoder_scale_pitch_m = 20e-6;          ///< p [m], > 0
   double encoder_interpolation_error_m = 0.0;    ///< a1 [m], ≥ 0
   double encoder_interpolation_second_m = 0.0;   ///< a2 [m], ≥ 0
+  /// An incremental encoder: its reading is the read head's true position
+  /// plus an offset drawn once, at power-up (construction), uniformly in
+  /// ±encoder_power_up_offset_max_m from encoder_offset_seed; 0: an
+  /// absolute encoder, reading the true position [m], ≥ 0. The drive
+  /// commutates on its reading, so an offset also shifts its commutation.
+  double encoder_power_up_offset_max_m = 0.0;
+  std::uint64_t encoder_offset_seed = 4;
+  /// Index marks at every integer multiple of this on the scale (true
+  /// position 0 is one); 0: none [m], ≥ 0.
+  double index_pitch_m = 0.0;
+  /// The reference switch: active while the read head's true position lies
+  /// in [reference_switch_min_m, reference_switch_max_m]; absent when both
+  /// are equal (the default) [m].
+  double reference_switch_min_m = 0.0;
+  double reference_switch_max_m = 0.0;
+  bool has_reference_switch() const noexcept { return reference_switch_max_m > reference_switch_min_m; }
 
   void validate() const;
 };

@@ -39,17 +39,43 @@ std::size_t SimulatedNodes::on_frame(const can::Frame& frame, std::span<can::Fra
     if (status.watchdog()) word |= can::kStatusWatchdogExpired;
     if (status.current_limited()) word |= can::kStatusCurrentLimited;
     if (status.end_stop()) word |= can::kStatusEndStop;
+    if (status.latched()) word |= can::kStatusLatched;
+    if (status.reference_switch()) word |= can::kStatusReferenceSwitch;
     std::size_t count = 0;
+    // The cyclic frames' room is kept; a latch frame goes before them when
+    // it fits too (SimulatedNodes::on_frame's contract).
+    const std::size_t cyclic = can::has_force_sensor(protocol_) ? 2 : 1;
+    double latched_m = 0.0;
+    if (motor_->take_latch(latched_m)) {
+      // The drive's TPDO2, sent once, in the period of the latch, before its TPDO1.
+      const can::DriveLatch latch{latched_m, latch_count_++};
+      can::Frame latch_frame;
+      if (can::encode_drive_latch(protocol_, latch, latch_frame) != can::CodecStatus::kOk) {
+        ++counters_.feedback_not_encoded;
+      } else if (replies.size() < cyclic + 1) {
+        ++counters_.replies_no_room;
+      } else {
+        replies[count++] = latch_frame;
+      }
+    }
+    const auto put = [&](const can::Frame& reply) {
+      if (count < replies.size()) {
+        replies[count++] = reply;
+      } else {
+        ++counters_.replies_no_room;
+      }
+    };
+    can::Frame reply;
     const can::DriveFeedback drive{sensed.position_m, word, drive_alive_++};
-    if (can::encode_drive_feedback(protocol_, drive, replies[count]) == can::CodecStatus::kOk) {
-      ++count;
+    if (can::encode_drive_feedback(protocol_, drive, reply) == can::CodecStatus::kOk) {
+      put(reply);
     } else {
       ++counters_.feedback_not_encoded;
     }
     if (can::has_force_sensor(protocol_)) {  // an axis without one gets no force frame
       const can::ForceFeedback force{sensed.wrench, force_alive_++};
-      if (can::encode_force_feedback(protocol_, force, replies[count]) == can::CodecStatus::kOk) {
-        ++count;
+      if (can::encode_force_feedback(protocol_, force, reply) == can::CodecStatus::kOk) {
+        put(reply);
       } else {
         ++counters_.feedback_not_encoded;
       }
@@ -66,6 +92,8 @@ std::size_t SimulatedNodes::on_frame(const can::Frame& frame, std::span<can::Fra
     const unsigned complete = (1u << can::setpoint_frame_count(protocol_.coil_sets)) - 1;
     if (received_mask_ == complete) {
       if (pending_.clear_fault) motor_->clear_fault();
+      motor_->set_latch(pending_.arm_latch, pending_.latch_on_switch ? sim::LatchSource::kReferenceSwitch
+                                                                      : sim::LatchSource::kIndex);
       const auto count = static_cast<std::size_t>(protocol_.coil_sets);
       if (protocol_.drive_profile == DriveProfile::kPhaseCurrent) {
         motor_->command_currents(std::span<const PhaseCurrentSetpoint>(pending_.currents.data(), count),

@@ -6,11 +6,13 @@
 // to the end of the CRC are stuffed, worst case ⌊(34 + 8n − 1)/4⌋ stuff bits.
 //   n = 1 (SYNC):           55 + ⌊41/4⌋ = 55 + 10 =  65
 //   n = 4 (RPDO3):          79 + ⌊65/4⌋ = 79 + 16 =  95
+//   n = 5 (drive TPDO2):    87 + ⌊73/4⌋ = 87 + 18 = 105
 //   n = 6 (RPDO1):          95 + ⌊81/4⌋ = 95 + 20 = 115
 //   n = 7 (drive TPDO1):   103 + ⌊89/4⌋ = 103 + 22 = 125
 //   n = 8 (force, RPDO2):  111 + ⌊97/4⌋ = 111 + 24 = 135
 // Cycle: SYNC + drive + force = 325 bits, plus RPDO1 (L ≥ 1) 115, RPDO2 (L ≥ 2)
-// 135, RPDO3 (L = 4) 95: L=1 440, L=2 575, L=3 575, L=4 670 bits.
+// 135, RPDO3 (L = 4) 95: L=1 440, L=2 575, L=3 575, L=4 670 bits. The drive
+// latch (TPDO2) is an event frame, at most one per arming: not in the cycle.
 
 #include <catch2/catch.hpp>
 
@@ -33,6 +35,8 @@ TEST_CASE("worst-case frame lengths match the hand count with bit stuffing", "[c
   CHECK(can::worst_case_frame_bits(0) == 47 + 8);  // 47 fixed + ⌊33/4⌋ = 8 stuff bits
   CHECK(can::worst_case_frame_bits(1) == 65);
   CHECK(can::worst_case_frame_bits(4) == 95);
+  CHECK(can::worst_case_frame_bits(5) == 105);
+  CHECK(can::worst_case_frame_bits(can::kDriveLatchDlc) == 105);
   CHECK(can::worst_case_frame_bits(6) == 115);
   CHECK(can::worst_case_frame_bits(7) == 125);
   CHECK(can::worst_case_frame_bits(8) == 135);
@@ -43,6 +47,16 @@ TEST_CASE("cycle schedule bits for L = 1..4 match the hand count", "[can][bus_lo
   CHECK(can::cycle_bits(config_with(2)) == 575);
   CHECK(can::cycle_bits(config_with(3)) == 575);
   CHECK(can::cycle_bits(config_with(4)) == 670);
+}
+
+TEST_CASE("the drive latch is an event frame: the cycle schedule leaves it out and it fits the one period it is in",
+          "[can][bus_load]") {
+  for (int l = 1; l <= 4; ++l) {
+    // Its 105 bits would make the cyclic sums above anything but 440/575/575/670.
+    const std::uint32_t with_latch = can::cycle_bits(config_with(l)) + can::worst_case_frame_bits(can::kDriveLatchDlc);
+    CHECK(with_latch <= 1000u);  // 1 ms at 1 Mbit/s
+  }
+  CHECK(can::cycle_bits(config_with(4)) + can::worst_case_frame_bits(can::kDriveLatchDlc) == 775);
 }
 
 TEST_CASE("without a force sensor the cycle schedule is one DLC-8 frame (135 bits) shorter", "[can][bus_load]") {

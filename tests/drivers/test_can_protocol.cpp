@@ -70,30 +70,33 @@ TEST_CASE("protocol config validation names the offending field and value", "[ca
   for (int l = 1; l <= 4; ++l) CHECK_NOTHROW(config_with(l).validate());
 }
 
-TEST_CASE("COB-IDs are CANopen SYNC and TPDO1 and RPDO1-3 plus the configured node IDs", "[can]") {
+TEST_CASE("COB-IDs are CANopen SYNC and TPDO1 and TPDO2 and RPDO1-3 plus the configured node IDs", "[can]") {
   const can::ProtocolConfig defaults;
   CHECK(can::kSyncId == 0x080);
   CHECK(can::drive_feedback_id(defaults) == 0x181);
+  CHECK(can::drive_latch_id(defaults) == 0x281);
   CHECK(can::force_feedback_id(defaults) == 0x182);
   CHECK(can::setpoint_id(defaults, 0) == 0x201);
   CHECK(can::setpoint_id(defaults, 1) == 0x301);
   CHECK(can::setpoint_id(defaults, 2) == 0x401);
   const auto receive = can::daemon_receive_ids(defaults);
-  REQUIRE(receive.view().size() == 2);
+  REQUIRE(receive.view().size() == 3);
   CHECK(receive.view()[0] == 0x181);
-  CHECK(receive.view()[1] == 0x182);
+  CHECK(receive.view()[1] == 0x281);
+  CHECK(receive.view()[2] == 0x182);
 
   can::ProtocolConfig other;
   other.drive_node_id = 0x7F;
   other.force_sensor_node_id = 0x10;
   CHECK(can::drive_feedback_id(other) == 0x1FF);
+  CHECK(can::drive_latch_id(other) == 0x2FF);
   CHECK(can::force_feedback_id(other) == 0x190);
   CHECK(can::setpoint_id(other, 0) == 0x27F);
   CHECK(can::setpoint_id(other, 1) == 0x37F);
   CHECK(can::setpoint_id(other, 2) == 0x47F);
 }
 
-TEST_CASE("an axis without a force sensor receives the drive's TPDO1 alone and has no force frame", "[can]") {
+TEST_CASE("an axis without a force sensor receives the drive's TPDO1 and TPDO2 alone and has no force frame", "[can]") {
   can::ProtocolConfig none;
   none.force_sensor_node_id = can::kNoForceSensor;
   CHECK_NOTHROW(none.validate());
@@ -101,8 +104,9 @@ TEST_CASE("an axis without a force sensor receives the drive's TPDO1 alone and h
   CHECK_FALSE(can::has_force_sensor(none));
   CHECK(can::has_force_sensor(can::ProtocolConfig{}));
   const auto receive = can::daemon_receive_ids(none);
-  REQUIRE(receive.view().size() == 1);
+  REQUIRE(receive.view().size() == 2);
   CHECK(receive.view()[0] == can::drive_feedback_id(none));
+  CHECK(receive.view()[1] == can::drive_latch_id(none));
   // Node 0 is no node: no force frame is encoded, and a frame at 0x180 is not one.
   can::Frame frame;
   CHECK(can::encode_force_feedback(none, can::ForceFeedback{}, frame) == CodecStatus::kOutOfRange);
@@ -206,7 +210,7 @@ TEST_CASE("drive feedback round-trips random positions within half a nanometre a
           "[can][drive][property]") {
   std::mt19937_64 random(1001);
   std::uniform_real_distribution<double> position(-2.147483648, 2.147483647);
-  std::uniform_int_distribution<int> status_bits(0, 0x1F);
+  std::uniform_int_distribution<int> status_bits(0, 0x7F);
   std::uniform_int_distribution<int> alive(0, 255);
   can::ProtocolConfig config;
   config.drive_node_id = 9;
@@ -236,7 +240,8 @@ TEST_CASE("drive feedback refuses positions beyond int32 nm or not finite and re
   CHECK(can::encode_drive_feedback(config, {kNaN, 0, 0}, frame) == CodecStatus::kNotFinite);
   CHECK(can::encode_drive_feedback(config, {kInf, 0, 0}, frame) == CodecStatus::kNotFinite);
   CHECK(can::encode_drive_feedback(config, {-kInf, 0, 0}, frame) == CodecStatus::kNotFinite);
-  CHECK(can::encode_drive_feedback(config, {0.0, 0x0020, 0}, frame) == CodecStatus::kOutOfRange);
+  CHECK(can::encode_drive_feedback(config, {0.0, 0x0080, 0}, frame) == CodecStatus::kOutOfRange);
+  CHECK(can::encode_drive_feedback(config, {0.0, 0x0100, 0}, frame) == CodecStatus::kOutOfRange);
   CHECK(can::encode_drive_feedback(config, {0.0, 0x8000, 0}, frame) == CodecStatus::kOutOfRange);
   CHECK(same_frame(frame, sentinel_frame()));
   // Just inside after rounding to the nearest nm.
@@ -252,13 +257,179 @@ TEST_CASE("drive feedback decoding refuses a wrong identifier or DLC or a reserv
   CHECK(can::decode_drive_feedback(config, frame_of(0x181, {1, 2, 3, 4, 0, 0, 5, 0}), decoded) ==
         CodecStatus::kWrongLength);
   CHECK(can::decode_drive_feedback(config, frame_of(0x181, {1, 2, 3, 4, 0, 0}), decoded) == CodecStatus::kWrongLength);
-  CHECK(can::decode_drive_feedback(config, frame_of(0x181, {1, 2, 3, 4, 0x20, 0, 5}), decoded) ==
+  CHECK(can::decode_drive_feedback(config, frame_of(0x181, {1, 2, 3, 4, 0x80, 0, 5}), decoded) ==
+        CodecStatus::kOutOfRange);
+  CHECK(can::decode_drive_feedback(config, frame_of(0x181, {1, 2, 3, 4, 0xFF, 0, 5}), decoded) ==
         CodecStatus::kOutOfRange);
   CHECK(can::decode_drive_feedback(config, frame_of(0x181, {1, 2, 3, 4, 0, 0x01, 5}), decoded) ==
         CodecStatus::kOutOfRange);
   CHECK(decoded.position_m == before.position_m);
   CHECK(decoded.status_word == before.status_word);
   CHECK(decoded.alive_counter == before.alive_counter);
+}
+
+TEST_CASE("status bits 5 and 6 are the latch and the reference switch and round-trip, and bits 7..15 stay reserved",
+          "[can][drive]") {
+  CHECK(can::kStatusLatched == 0x0020);
+  CHECK(can::kStatusReferenceSwitch == 0x0040);
+  CHECK(can::kStatusReservedMask == 0xFF80);
+  CHECK((can::kStatusReservedMask & (can::kStatusEnabled | can::kStatusFault | can::kStatusWatchdogExpired |
+                                     can::kStatusCurrentLimited | can::kStatusEndStop | can::kStatusLatched |
+                                     can::kStatusReferenceSwitch)) == 0);
+  const can::ProtocolConfig config;
+  Frame frame = sentinel_frame();
+  REQUIRE(can::encode_drive_feedback(config, {0.0, 0x0061, 9}, frame) == CodecStatus::kOk);
+  CHECK(same_frame(frame, frame_of(0x181, {0, 0, 0, 0, 0x61, 0x00, 9})));
+  can::DriveFeedback decoded;
+  REQUIRE(can::decode_drive_feedback(config, frame_of(0x181, {0, 0, 0, 0, 0x7F, 0x00, 9}), decoded) ==
+          CodecStatus::kOk);
+  CHECK(decoded.status_word == 0x007F);
+  for (int bit = 7; bit < 16; ++bit) {
+    INFO("status bit " << bit);
+    const auto word = static_cast<std::uint16_t>(1u << bit);
+    Frame refused = sentinel_frame();
+    CHECK(can::encode_drive_feedback(config, {0.0, word, 0}, refused) == CodecStatus::kOutOfRange);
+    CHECK(same_frame(refused, sentinel_frame()));
+    const auto low = static_cast<std::uint8_t>(word & 0xFF), high = static_cast<std::uint8_t>(word >> 8);
+    CHECK(can::decode_drive_feedback(config, frame_of(0x181, {0, 0, 0, 0, low, high, 0}), decoded) ==
+          CodecStatus::kOutOfRange);
+  }
+}
+
+TEST_CASE("drive_signals maps every status bit, the latch (bit 5) and the reference switch (bit 6) included",
+          "[can][drive]") {
+  const auto none = can::drive_signals(0);
+  CHECK_FALSE(none.latched);
+  CHECK_FALSE(none.reference_switch);
+  const auto latched = can::drive_signals(can::kStatusLatched);
+  CHECK(latched.latched);
+  CHECK_FALSE(latched.reference_switch);
+  CHECK_FALSE(latched.enabled);
+  CHECK_FALSE(latched.end_stop);
+  const auto at_switch = can::drive_signals(can::kStatusReferenceSwitch);
+  CHECK(at_switch.reference_switch);
+  CHECK_FALSE(at_switch.latched);
+  CHECK_FALSE(at_switch.end_stop);
+  const auto all = can::drive_signals(0x007F);
+  CHECK(all.enabled);
+  CHECK(all.fault);
+  CHECK(all.watchdog_expired);
+  CHECK(all.current_limited);
+  CHECK(all.end_stop);
+  CHECK(all.latched);
+  CHECK(all.reference_switch);
+  // Each bit maps to its own signal alone.
+  const auto enabled_only = can::drive_signals(can::kStatusEnabled | can::kStatusEndStop);
+  CHECK_FALSE(enabled_only.latched);
+  CHECK_FALSE(enabled_only.reference_switch);
+}
+
+// --- drive latch -------------------------------------------------------------------
+
+TEST_CASE("drive latch is TPDO2 with the hand-computed little-endian layout", "[can][latch]") {
+  const can::ProtocolConfig config;
+  CHECK(can::kTpdo2Base == 0x280);
+  CHECK(can::kDriveLatchDlc == 5);
+  // 0.123456789 m = 0x075BCD15 nm; count 0x2A.
+  Frame frame = sentinel_frame();
+  REQUIRE(can::encode_drive_latch(config, {0.123456789, 0x2A}, frame) == CodecStatus::kOk);
+  CHECK(same_frame(frame, frame_of(0x281, {0x15, 0xCD, 0x5B, 0x07, 0x2A})));
+  CHECK(frame.data[5] == 0);
+  CHECK(frame.data[7] == 0);
+  // -1 nm is 0xFFFFFFFF; the int32 ends as in the drive feedback.
+  REQUIRE(can::encode_drive_latch(config, {-1e-9, 0xFF}, frame) == CodecStatus::kOk);
+  CHECK(same_frame(frame, frame_of(0x281, {0xFF, 0xFF, 0xFF, 0xFF, 0xFF})));
+  REQUIRE(can::encode_drive_latch(config, {-2.147483648, 0}, frame) == CodecStatus::kOk);
+  CHECK(same_frame(frame, frame_of(0x281, {0x00, 0x00, 0x00, 0x80, 0x00})));
+  REQUIRE(can::encode_drive_latch(config, {2.147483647, 1}, frame) == CodecStatus::kOk);
+  CHECK(same_frame(frame, frame_of(0x281, {0xFF, 0xFF, 0xFF, 0x7F, 0x01})));
+
+  can::DriveLatch decoded;
+  REQUIRE(can::decode_drive_latch(config, frame_of(0x281, {0x15, 0xCD, 0x5B, 0x07, 0x2A}), decoded) ==
+          CodecStatus::kOk);
+  CHECK(decoded.position_m == 0.123456789);
+  CHECK(decoded.latch_count == 0x2A);
+
+  can::ProtocolConfig other;
+  other.drive_node_id = 0x7F;
+  other.force_sensor_node_id = 0x10;
+  REQUIRE(can::encode_drive_latch(other, {0.0, 3}, frame) == CodecStatus::kOk);
+  CHECK(frame.id == 0x2FF);
+}
+
+TEST_CASE("drive latch round-trips random and negative positions within half a nanometre and the count exactly",
+          "[can][latch][property]") {
+  std::mt19937_64 random(1004);
+  std::uniform_real_distribution<double> position(-2.147483648, 2.147483647);
+  can::ProtocolConfig config;
+  config.drive_node_id = 9;
+  config.force_sensor_node_id = can::kNoForceSensor;  // the latch does not depend on the sensor
+  std::uint8_t count = 250;                            // wraps 255 → 0 within the first frames
+  int negative = 0;
+  for (int i = 0; i < 100000; ++i) {
+    const can::DriveLatch sent{position(random), count};
+    negative += sent.position_m < 0.0;
+    Frame frame;
+    REQUIRE(can::encode_drive_latch(config, sent, frame) == CodecStatus::kOk);
+    REQUIRE(frame.id == 0x289);
+    REQUIRE(frame.dlc == 5);
+    can::DriveLatch received;
+    REQUIRE(can::decode_drive_latch(config, frame, received) == CodecStatus::kOk);
+    REQUIRE(std::abs(received.position_m - sent.position_m) <= 0.5e-9 * (1 + 1e-6));
+    REQUIRE(received.latch_count == sent.latch_count);
+    ++count;
+  }
+  CHECK(negative > 40000);
+  // The count wraps 255 → 0 as a uint8 on the wire.
+  Frame frame;
+  can::DriveLatch received;
+  REQUIRE(can::encode_drive_latch(config, {-0.5, 255}, frame) == CodecStatus::kOk);
+  REQUIRE(can::decode_drive_latch(config, frame, received) == CodecStatus::kOk);
+  CHECK(received.latch_count == 255);
+  CHECK(received.position_m == -0.5);
+  REQUIRE(can::encode_drive_latch(config, {-0.5, static_cast<std::uint8_t>(received.latch_count + 1)}, frame) ==
+          CodecStatus::kOk);
+  REQUIRE(can::decode_drive_latch(config, frame, received) == CodecStatus::kOk);
+  CHECK(received.latch_count == 0);
+}
+
+TEST_CASE("drive latch encoding refuses positions beyond int32 nm or not finite and writes nothing", "[can][latch]") {
+  const can::ProtocolConfig config;
+  Frame frame = sentinel_frame();
+  CHECK(can::encode_drive_latch(config, {2.147483648, 0}, frame) == CodecStatus::kOutOfRange);
+  CHECK(can::encode_drive_latch(config, {-2.147483649, 0}, frame) == CodecStatus::kOutOfRange);
+  CHECK(can::encode_drive_latch(config, {1e300, 0}, frame) == CodecStatus::kOutOfRange);
+  CHECK(can::encode_drive_latch(config, {-1e300, 0}, frame) == CodecStatus::kOutOfRange);
+  CHECK(can::encode_drive_latch(config, {kNaN, 0}, frame) == CodecStatus::kNotFinite);
+  CHECK(can::encode_drive_latch(config, {kInf, 0}, frame) == CodecStatus::kNotFinite);
+  CHECK(can::encode_drive_latch(config, {-kInf, 0}, frame) == CodecStatus::kNotFinite);
+  can::ProtocolConfig invalid;
+  invalid.drive_node_id = 0;
+  CHECK(can::encode_drive_latch(invalid, {0.0, 0}, frame) == CodecStatus::kOutOfRange);
+  CHECK(same_frame(frame, sentinel_frame()));
+  // Just inside after rounding to the nearest nm, as the drive feedback.
+  CHECK(can::encode_drive_latch(config, {2.1474836474, 0}, frame) == CodecStatus::kOk);
+  CHECK(can::encode_drive_latch(config, {-2.1474836484, 0}, frame) == CodecStatus::kOk);
+}
+
+TEST_CASE("drive latch decoding refuses a wrong identifier or DLC and writes nothing", "[can][latch]") {
+  const can::ProtocolConfig config;
+  const can::DriveLatch before{0.25, 17};
+  can::DriveLatch decoded = before;
+  // The drive's TPDO1 and another node's TPDO2 are not its latch frame.
+  CHECK(can::decode_drive_latch(config, frame_of(0x181, {1, 2, 3, 4, 5}), decoded) == CodecStatus::kWrongId);
+  CHECK(can::decode_drive_latch(config, frame_of(0x282, {1, 2, 3, 4, 5}), decoded) == CodecStatus::kWrongId);
+  CHECK(can::decode_drive_latch(config, frame_of(0x281, {1, 2, 3, 4}), decoded) == CodecStatus::kWrongLength);
+  CHECK(can::decode_drive_latch(config, frame_of(0x281, {1, 2, 3, 4, 5, 0}), decoded) == CodecStatus::kWrongLength);
+  CHECK(can::decode_drive_latch(config, frame_of(0x281, {}), decoded) == CodecStatus::kWrongLength);
+  can::ProtocolConfig invalid;
+  invalid.coil_sets = 0;
+  CHECK(can::decode_drive_latch(invalid, frame_of(0x281, {1, 2, 3, 4, 5}), decoded) == CodecStatus::kOutOfRange);
+  CHECK(decoded.position_m == before.position_m);
+  CHECK(decoded.latch_count == before.latch_count);
+  // And the drive feedback's decoder does not take a latch frame.
+  can::DriveFeedback feedback;
+  CHECK(can::decode_drive_feedback(config, frame_of(0x281, {1, 2, 3, 4, 5}), feedback) == CodecStatus::kWrongId);
 }
 
 // --- force feedback ---------------------------------------------------------------
@@ -398,6 +569,42 @@ TEST_CASE("only the RPDOs L needs are sent and for L=2 the coil set 3 fields are
   CHECK(frames[0].data[0] == 0x03);
 }
 
+TEST_CASE("the control byte's bits 2 and 3 arm the latch and choose the reference switch, and round-trip",
+          "[can][setpoint][latch]") {
+  CHECK(can::kControlArmLatch == 0x04);
+  CHECK(can::kControlLatchOnSwitch == 0x08);
+  CHECK(can::kControlReservedMask == 0xF0);
+  const can::SetpointCommand defaults;
+  CHECK_FALSE(defaults.arm_latch);
+  CHECK_FALSE(defaults.latch_on_switch);
+  std::array<Frame, 3> frames{};
+  CodecStatus status = CodecStatus::kWrongId;
+  for (int bits = 0; bits < 16; ++bits) {
+    INFO("control bits " << bits);
+    auto command = hand_command(1);
+    command.enable = (bits & 1) != 0;
+    command.clear_fault = (bits & 2) != 0;
+    command.arm_latch = (bits & 4) != 0;
+    command.latch_on_switch = (bits & 8) != 0;
+    REQUIRE(can::encode_setpoints(config_with(1), command, frames, status) == 1);
+    CHECK(frames[0].data[0] == bits);
+    can::SetpointCommand received;
+    REQUIRE(can::decode_setpoint_frame(config_with(1), frames[0], received) == CodecStatus::kOk);
+    CHECK(received.enable == command.enable);
+    CHECK(received.clear_fault == command.clear_fault);
+    CHECK(received.arm_latch == command.arm_latch);
+    CHECK(received.latch_on_switch == command.latch_on_switch);
+  }
+  // Hand-made RPDO1 with arm latch and latch on switch: 0x0C.
+  can::SetpointCommand received;
+  REQUIRE(can::decode_setpoint_frame(config_with(1), frame_of(0x201, {0x0C, 0x10, 0xA0, 0x0F, 0x78, 0xEC}), received) ==
+          CodecStatus::kOk);
+  CHECK_FALSE(received.enable);
+  CHECK_FALSE(received.clear_fault);
+  CHECK(received.arm_latch);
+  CHECK(received.latch_on_switch);
+}
+
 TEST_CASE("setpoints round-trip random values for every L within half an LSB", "[can][setpoint][property]") {
   std::mt19937_64 random(1003);
   std::uniform_real_distribution<double> magnitude(-819.2, 819.175);
@@ -410,6 +617,8 @@ TEST_CASE("setpoints round-trip random values for every L within half an LSB", "
       sent.coil_sets = l;
       sent.enable = byte(random) % 2 == 1;
       sent.clear_fault = byte(random) % 2 == 1;
+      sent.arm_latch = byte(random) % 2 == 1;
+      sent.latch_on_switch = byte(random) % 2 == 1;
       sent.alive_counter = static_cast<std::uint8_t>(byte(random));
       for (int k = 0; k < l; ++k) sent.setpoints[static_cast<std::size_t>(k)] = {magnitude(random), delta(random)};
       std::array<Frame, 3> frames{};
@@ -425,6 +634,8 @@ TEST_CASE("setpoints round-trip random values for every L within half an LSB", "
       REQUIRE(received.coil_sets == l);
       REQUIRE(received.enable == sent.enable);
       REQUIRE(received.clear_fault == sent.clear_fault);
+      REQUIRE(received.arm_latch == sent.arm_latch);
+      REQUIRE(received.latch_on_switch == sent.latch_on_switch);
       REQUIRE(received.alive_counter == sent.alive_counter);
       for (std::size_t k = 0; k < static_cast<std::size_t>(l); ++k) {
         REQUIRE(std::abs(received.setpoints[k].magnitude_N - sent.setpoints[k].magnitude_N) <= 0.0125 * (1 + 1e-6));
@@ -495,8 +706,11 @@ TEST_CASE("setpoint decoding refuses RPDOs that L does not use and wrong DLCs an
         CodecStatus::kWrongLength);
   CHECK(can::decode_setpoint_frame(config_with(4), frame_of(0x401, {1, 2, 3, 4, 0, 0, 0, 0}), accumulate) ==
         CodecStatus::kWrongLength);
-  CHECK(can::decode_setpoint_frame(config_with(4), frame_of(0x201, {0x04, 2, 3, 4, 5, 6}), accumulate) ==
-        CodecStatus::kOutOfRange);
+  for (const std::uint8_t reserved : std::initializer_list<std::uint8_t>{0x10, 0x20, 0x40, 0x80, 0xF0, 0xFF}) {
+    INFO("control byte " << static_cast<int>(reserved));
+    CHECK(can::decode_setpoint_frame(config_with(4), frame_of(0x201, {reserved, 2, 3, 4, 5, 6}), accumulate) ==
+          CodecStatus::kOutOfRange);
+  }
   CHECK(can::decode_setpoint_frame(config_with(4), frame_of(0x201, {0x80, 2, 3, 4, 5, 6}), accumulate) ==
         CodecStatus::kOutOfRange);
   // For L = 2 a non-zero coil set 3 means the daemon and the drive disagree on L.
@@ -548,6 +762,8 @@ TEST_CASE("encoding and decoding every frame 1e5 times does not allocate", "[can
   Frame sync;
   Frame drive;
   Frame force;
+  Frame latch;
+  can::DriveLatch drive_latch;
   can::SetpointCommand accumulate;
   can::DriveFeedback drive_feedback;
   can::ForceFeedback force_feedback;
@@ -569,8 +785,10 @@ TEST_CASE("encoding and decoding every frame 1e5 times does not allocate", "[can
     force_feedback.wrench = clm::Wrench(1e-3 * i, 0.5, -0.25);
     ok += can::encode_force_feedback(config, force_feedback, force) == CodecStatus::kOk;
     ok += can::decode_force_feedback(config, force, force_feedback) == CodecStatus::kOk;
+    ok += can::encode_drive_latch(config, {-1e-6 * i, static_cast<std::uint8_t>(i)}, latch) == CodecStatus::kOk;
+    ok += can::decode_drive_latch(config, latch, drive_latch) == CodecStatus::kOk;
   }
   const std::size_t allocations = scope.allocations();
   CHECK(allocations == 0);
-  CHECK(ok == 100000u * (3 + 3 + 6));
+  CHECK(ok == 100000u * (3 + 3 + 8));
 }

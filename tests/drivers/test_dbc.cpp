@@ -72,6 +72,8 @@ clm::can::SetpointCommand command_from(const Values& v) {
   const auto get = [&](const std::string& name) { return v.count(name) ? v.at(name) : 0.0; };
   command.enable = get("ControlEnable") != 0.0;
   command.clear_fault = get("ControlClearFault") != 0.0;
+  command.arm_latch = get("ControlArmLatch") != 0.0;
+  command.latch_on_switch = get("ControlLatchOnSwitch") != 0.0;
   command.alive_counter = static_cast<std::uint8_t>(get("AliveCounter"));
   for (int l = 0; l < 4; ++l) {
     command.setpoints[static_cast<std::size_t>(l)].magnitude_N = get("Magnitude" + std::to_string(l + 1) + "_N");
@@ -113,7 +115,9 @@ const std::map<std::string, MessageCodec>& codecs() {
               static_cast<unsigned>(v.at("StatusEnabled")) << 0 | static_cast<unsigned>(v.at("StatusFault")) << 1 |
               static_cast<unsigned>(v.at("StatusWatchdogExpired")) << 2 |
               static_cast<unsigned>(v.at("StatusCurrentLimited")) << 3 |
-              static_cast<unsigned>(v.at("StatusEndStop")) << 4 | static_cast<unsigned>(v.at("StatusReserved")) << 5);
+              static_cast<unsigned>(v.at("StatusEndStop")) << 4 | static_cast<unsigned>(v.at("StatusLatched")) << 5 |
+              static_cast<unsigned>(v.at("StatusReferenceSwitch")) << 6 |
+              static_cast<unsigned>(v.at("StatusReserved")) << 7);
           feedback.alive_counter = static_cast<std::uint8_t>(v.at("AliveCounter"));
           return clm::can::encode_drive_feedback(dbc_config(), feedback, out);
         },
@@ -126,10 +130,25 @@ const std::map<std::string, MessageCodec>& codecs() {
           v["StatusWatchdogExpired"] = bit(feedback.status_word, 2);
           v["StatusCurrentLimited"] = bit(feedback.status_word, 3);
           v["StatusEndStop"] = bit(feedback.status_word, 4);
-          v["StatusReserved"] = static_cast<double>(feedback.status_word >> 5);
+          v["StatusLatched"] = bit(feedback.status_word, 5);
+          v["StatusReferenceSwitch"] = bit(feedback.status_word, 6);
+          v["StatusReserved"] = static_cast<double>(feedback.status_word >> 7);
           v["AliveCounter"] = feedback.alive_counter;
           return status;
         }};
+    t["DriveLatch"] = {[](const Values& v, Frame& out) {
+                         clm::can::DriveLatch latch;
+                         latch.position_m = v.at("LatchPosition_m");
+                         latch.latch_count = static_cast<std::uint8_t>(v.at("LatchCount"));
+                         return clm::can::encode_drive_latch(dbc_config(), latch, out);
+                       },
+                       [](const Frame& frame, Values& v) {
+                         clm::can::DriveLatch latch;
+                         const CodecStatus status = clm::can::decode_drive_latch(dbc_config(), frame, latch);
+                         v["LatchPosition_m"] = latch.position_m;
+                         v["LatchCount"] = latch.latch_count;
+                         return status;
+                       }};
     t["ForceFeedback"] = {[](const Values& v, Frame& out) {
                             clm::can::ForceFeedback feedback;
                             feedback.wrench = clm::Wrench(v.at("Fy_N"), v.at("Fx_N"), v.at("Tz_Nm"));
@@ -152,6 +171,8 @@ const std::map<std::string, MessageCodec>& codecs() {
         if (rpdo1) {
           v["ControlEnable"] = command.enable ? 1.0 : 0.0;
           v["ControlClearFault"] = command.clear_fault ? 1.0 : 0.0;
+          v["ControlArmLatch"] = command.arm_latch ? 1.0 : 0.0;
+          v["ControlLatchOnSwitch"] = command.latch_on_switch ? 1.0 : 0.0;
           v["ControlReserved"] = 0.0;  // a decoded command cannot carry reserved bits
           v["AliveCounter"] = command.alive_counter;
         }
@@ -181,15 +202,15 @@ const std::map<std::string, MessageCodec>& codecs() {
 
 }  // namespace
 
-TEST_CASE("the DBC names the three nodes and exactly the six frames of the protocol", "[can][dbc]") {
+TEST_CASE("the DBC names the three nodes and exactly the seven frames of the protocol", "[can][dbc]") {
   FOR_EACH_PROFILE {
     INFO("drive profile " << clm::name(profile_under_test));
     CHECK(dbc().nodes == std::vector<std::string>{"Daemon", "Drive", "ForceSensor"});
     std::set<std::string> names;
     for (const auto& message : dbc().messages) names.insert(message.name);
-    CHECK(names == std::set<std::string>{"Sync", "DriveFeedback", "ForceFeedback", "DriveSetpoint1", "DriveSetpoint2",
-                                         "DriveSetpoint3"});
-    CHECK(dbc().messages.size() == 6);
+    CHECK(names == std::set<std::string>{"Sync", "DriveFeedback", "DriveLatch", "ForceFeedback", "DriveSetpoint1",
+                                         "DriveSetpoint2", "DriveSetpoint3"});
+    CHECK(dbc().messages.size() == 7);
   }
 }
 
@@ -199,12 +220,14 @@ TEST_CASE("every DBC frame has the codec's identifier and DLC and sender for the
     const auto config = dbc_config();
     CHECK(message_named("Sync").id == clm::can::kSyncId);
     CHECK(message_named("DriveFeedback").id == clm::can::drive_feedback_id(config));
+    CHECK(message_named("DriveLatch").id == clm::can::drive_latch_id(config));
     CHECK(message_named("ForceFeedback").id == clm::can::force_feedback_id(config));
     CHECK(message_named("DriveSetpoint1").id == clm::can::setpoint_id(config, 0));
     CHECK(message_named("DriveSetpoint2").id == clm::can::setpoint_id(config, 1));
     CHECK(message_named("DriveSetpoint3").id == clm::can::setpoint_id(config, 2));
     CHECK(message_named("Sync").sender == "Daemon");
     CHECK(message_named("DriveFeedback").sender == "Drive");
+    CHECK(message_named("DriveLatch").sender == "Drive");
     CHECK(message_named("ForceFeedback").sender == "ForceSensor");
     for (const char* name : {"DriveSetpoint1", "DriveSetpoint2", "DriveSetpoint3"}) {
       CHECK(message_named(name).sender == "Daemon");
@@ -341,5 +364,76 @@ TEST_CASE("the codec refuses one LSB beyond each end of every physical DBC signa
         CHECK(codec.encode(values, frame) == CodecStatus::kOk);
       }
     }
+  }
+}
+
+TEST_CASE("the DBC's status and control bit signals sit at the codec's kStatus and kControl bits", "[can][dbc]") {
+  FOR_EACH_PROFILE {
+    INFO("drive profile " << clm::name(profile_under_test));
+    // Bits of a signal relative to the first bit of its word: status word at bit 32, control byte at bit 0.
+    const auto mask_of = [](const DbcMessage& message, const std::string& name, int word_start) {
+      for (const auto& signal : message.signals) {
+        if (signal.name == name) {
+          return ((std::uint32_t{1} << signal.length_bits) - 1) << (signal.start_bit - word_start);
+        }
+      }
+      FAIL("no signal " << name << " in " << message.name);
+      return std::uint32_t{0};
+    };
+    const DbcMessage& feedback = message_named("DriveFeedback");
+    const std::map<std::string, std::uint32_t> status{
+        {"StatusEnabled", clm::can::kStatusEnabled},
+        {"StatusFault", clm::can::kStatusFault},
+        {"StatusWatchdogExpired", clm::can::kStatusWatchdogExpired},
+        {"StatusCurrentLimited", clm::can::kStatusCurrentLimited},
+        {"StatusEndStop", clm::can::kStatusEndStop},
+        {"StatusLatched", clm::can::kStatusLatched},
+        {"StatusReferenceSwitch", clm::can::kStatusReferenceSwitch},
+        {"StatusReserved", clm::can::kStatusReservedMask}};
+    for (const auto& [name, mask] : status) {
+      INFO(name);
+      CHECK(mask_of(feedback, name, 32) == mask);
+    }
+    const DbcMessage& rpdo1 = message_named("DriveSetpoint1");
+    const std::map<std::string, std::uint32_t> control{
+        {"ControlEnable", clm::can::kControlEnable},
+        {"ControlClearFault", clm::can::kControlClearFault},
+        {"ControlArmLatch", clm::can::kControlArmLatch},
+        {"ControlLatchOnSwitch", clm::can::kControlLatchOnSwitch},
+        {"ControlReserved", clm::can::kControlReservedMask}};
+    for (const auto& [name, mask] : control) {
+      INFO(name);
+      CHECK(mask_of(rpdo1, name, 0) == mask);
+    }
+  }
+}
+
+TEST_CASE("the DBC's drive latch frame carries the position as the drive feedback does and a count", "[can][dbc]") {
+  FOR_EACH_PROFILE {
+    INFO("drive profile " << clm::name(profile_under_test));
+    const DbcMessage& latch = message_named("DriveLatch");
+    CHECK(latch.dlc == clm::can::kDriveLatchDlc);
+    REQUIRE(latch.signals.size() == 2);
+    const DbcSignal& position = latch.signals[0];
+    const DbcSignal& count = latch.signals[1];
+    CHECK(position.name == "LatchPosition_m");
+    CHECK(count.name == "LatchCount");
+    // The same field as DriveFeedback's Position_m: bits 0..31, signed, 1 nm, metres, full int32 range.
+    const DbcMessage& feedback = message_named("DriveFeedback");
+    const auto same_as = std::find_if(feedback.signals.begin(), feedback.signals.end(),
+                                      [](const DbcSignal& s) { return s.name == "Position_m"; });
+    REQUIRE(same_as != feedback.signals.end());
+    CHECK(position.start_bit == same_as->start_bit);
+    CHECK(position.length_bits == same_as->length_bits);
+    CHECK(position.is_signed == same_as->is_signed);
+    CHECK(position.scale == same_as->scale);
+    CHECK(position.minimum == same_as->minimum);
+    CHECK(position.maximum == same_as->maximum);
+    CHECK(position.unit == same_as->unit);
+    CHECK(count.start_bit == 32);
+    CHECK(count.length_bits == 8);
+    CHECK_FALSE(count.is_signed);
+    CHECK(count.raw_minimum() == 0);
+    CHECK(count.raw_maximum() == 255);
   }
 }

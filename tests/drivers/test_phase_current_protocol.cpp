@@ -140,6 +140,31 @@ TEST_CASE("phase-current encoding refuses one LSB beyond each range end and non-
   CHECK(same_frame(frames[0], frame_of(0x201, {0x01, 0x10, 0xFF, 0x7F, 0x00, 0x80})));
 }
 
+TEST_CASE("the phase-current RPDO1 carries the latch control bits as magnitude/phase does and refuses bits 4..7",
+          "[can][setpoint][phase_current][latch]") {
+  const auto config = phase_current_config(1);
+  auto command = hand_currents(1);
+  command.arm_latch = true;
+  command.latch_on_switch = true;
+  std::array<Frame, 3> frames{};
+  CodecStatus status = CodecStatus::kWrongId;
+  REQUIRE(can::encode_setpoints(config, command, frames, status) == 1);
+  CHECK(same_frame(frames[0], frame_of(0x201, {0x0D, 0x10, 0xA0, 0x0F, 0x78, 0xEC})));
+  can::SetpointCommand received;
+  REQUIRE(can::decode_setpoint_frame(config, frames[0], received) == CodecStatus::kOk);
+  CHECK(received.enable);
+  CHECK_FALSE(received.clear_fault);
+  CHECK(received.arm_latch);
+  CHECK(received.latch_on_switch);
+  CHECK(received.currents[0].ia_A == 4.0);
+  for (int bit = 4; bit < 8; ++bit) {
+    INFO("control bit " << bit);
+    const auto control = static_cast<std::uint8_t>(1u << bit);
+    CHECK(can::decode_setpoint_frame(config, frame_of(0x201, {control, 0x10, 0xA0, 0x0F, 0x78, 0xEC}), received) ==
+          CodecStatus::kOutOfRange);
+  }
+}
+
 TEST_CASE("phase currents round-trip random values for every L within half a milliampere",
           "[can][setpoint][phase_current][property]") {
   std::mt19937_64 random(9701);

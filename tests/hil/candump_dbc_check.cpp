@@ -11,7 +11,8 @@
 // not a frame) is a failure, reported with its line number.
 //
 // Also counts the frames per message and, for information, the gaps in the
-// SYNC counter and the alive counters (lost frames would show there).
+// SYNC counter and the alive counters (lost frames would show there), and in
+// the drive latch frames' (0x280 + drive node) latch count when there are any.
 //
 // Exit status: 0 every frame decodes (and there are at least --min-frames);
 // 1 a frame does not decode or too few frames; 2 bad arguments, unreadable files.
@@ -105,6 +106,10 @@ CodecStatus decode_with_codec(const clm::can::ProtocolConfig& config, const Fram
     clm::can::DriveFeedback feedback;
     return clm::can::decode_drive_feedback(config, frame, feedback);
   }
+  if (frame.id == clm::can::drive_latch_id(config)) {
+    clm::can::DriveLatch latch;
+    return clm::can::decode_drive_latch(config, frame, latch);
+  }
   if (clm::can::has_force_sensor(config) && frame.id == clm::can::force_feedback_id(config)) {
     clm::can::ForceFeedback feedback;
     return clm::can::decode_force_feedback(config, frame, feedback);
@@ -145,6 +150,8 @@ int check(const Options& options) {
   std::map<std::string, long long> per_message;
   std::map<std::uint32_t, CounterGaps> alive_gaps;
   CounterGaps sync_gaps;
+  CounterGaps latch_gaps;  // the drive latch's count: +1 per latch, so a gap is a lost latch frame
+  long long latch_frames = 0;
   long long frames = 0, bad = 0, line_number = 0;
   std::string line;
   const auto report = [&](const std::string& reason) {
@@ -201,6 +208,9 @@ int check(const Options& options) {
     ++per_message[message.name];
     if (frame.id == clm::can::kSyncId) {
       sync_gaps.see(frame.data[0], clm::can::kSyncCounterFirst, clm::can::kSyncCounterLast);
+    } else if (frame.id == clm::can::drive_latch_id(config)) {
+      ++latch_frames;
+      latch_gaps.see(frame.data[4], 0, 255);  // byte 4: the latch count
     } else {
       // The alive counter's byte: drive feedback 6, force feedback 7, RPDO1 1 (RPDO2/3 have none).
       int alive_byte = -1;
@@ -219,6 +229,7 @@ int check(const Options& options) {
     std::snprintf(text, sizeof text, ", alive 0x%03X %lld", static_cast<unsigned>(id), g.gaps);
     gaps += text;
   }
+  if (latch_frames > 0) gaps += ", latch count " + std::to_string(latch_gaps.gaps);
   if (bad > options.max_reports) std::printf("... and %lld more\n", bad - options.max_reports);
   if (bad > 0) {
     std::printf("hil_candump_check: FAIL: %lld of %lld lines of %s do not decode against %s (%s)\n", bad,

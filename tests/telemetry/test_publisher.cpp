@@ -307,8 +307,8 @@ TEST_CASE("An ill-formed command is refused with an ack naming the field, and ne
     edit(m);
     cases.push_back({m, std::move(reason)});
   };
-  add(M::RENEW_CONTROL + 1, [](M&) {}, "unknown command 19 (1..18)");  // one past the last kind
-  add(0, [](M&) {}, "unknown command 0 (1..18)");
+  add(M::HOME + 1, [](M&) {}, "unknown command 20 (1..19)");  // one past the last kind
+  add(0, [](M&) {}, "unknown command 0 (1..19)");
   add(M::GET_PARAMETER, [](M& m) { m.parameter = ""; }, "parameter must have 1..47 characters");
   add(M::SET_PARAMETER, [](M& m) { m.parameter = std::string(48, 'k'); }, "parameter must have 1..47 characters");
   add(M::SET_PARAMETER, [](M& m) {

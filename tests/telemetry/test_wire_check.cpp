@@ -197,7 +197,7 @@ TEST_CASE("enum ranges, booleans and non-finite numbers are refused before decod
   REQUIRE(check_command(encode_command(command)) == "");
   command.command = 0;
   CHECK_THAT(check_command(encode_command(command)), Catch::Contains("servo_command_t.command"));
-  command.command = clm_lcm::servo_command_t::RENEW_CONTROL + 1;  // one past the last kind
+  command.command = clm_lcm::servo_command_t::HOME + 1;  // one past the last kind
   CHECK_THAT(check_command(encode_command(command)), Catch::Contains("servo_command_t.command"));
   command.command = clm_lcm::servo_command_t::MOVE_TO;
   for (double bad : {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(),

@@ -1,0 +1,47 @@
+#include "daemon/control/homing.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace clm::control {
+
+const char* name(HomingMethod method) noexcept {
+  switch (method) {
+    case HomingMethod::kNone: return "none";
+    case HomingMethod::kIndex: return "index";
+    case HomingMethod::kReferenceSwitch: return "reference_switch";
+  }
+  return "?";
+}
+
+void HomingSettings::validate() const {
+  const auto fail = [](const std::string& what, double value, const std::string& rule) {
+    throw std::invalid_argument("homing." + what + ": " + std::to_string(value) + " " + rule);
+  };
+  if (direction != 1 && direction != -1) fail("direction", direction, "must be +1 or -1");
+  if (!(search_velocity_m_per_s > 0.0 && search_velocity_m_per_s <= 0.1)) {
+    fail("search_velocity_m_per_s", search_velocity_m_per_s, "must lie in (0, 0.1] m/s");
+  }
+  if (!(search_distance_m > 0.0 && search_distance_m <= 10.0)) {
+    fail("search_distance_m", search_distance_m, "must lie in (0, 10] m");
+  }
+  if (!std::isfinite(reference_position_m)) fail("reference_position_m", reference_position_m, "must be finite");
+  finding.validate();
+}
+
+SearchProfile SearchProfile::plan(double start_m, double velocity_m_per_s, const StopLimits& limits) noexcept {
+  SearchProfile profile;
+  profile.start_m_ = start_m;
+  profile.velocity_m_per_s_ = velocity_m_per_s;
+  profile.relative_ = StopProfile::plan({0.0, -velocity_m_per_s, 0.0, 0.0}, limits);
+  return profile;
+}
+
+ReferenceSample SearchProfile::sample(double t_s) const noexcept {
+  ReferenceSample relative = relative_.sample(t_s);
+  return {start_m_ + velocity_m_per_s_ * t_s + relative.position_m, velocity_m_per_s_ + relative.velocity_m_per_s,
+          relative.acceleration_m_per_s2, relative.jerk_m_per_s3};
+}
+
+}  // namespace clm::control

@@ -1,0 +1,173 @@
+// Homing in the servo cycle (docs/servod.md, "Homing"): commutation finding
+// with the loop open, then the search with the loop closed on the drive's
+// own law until the drive latches its reference, then the position frame
+// moved to it. No allocation, lock, throw or log.
+
+#include <cmath>
+
+#include "commutation/transform.hpp"
+#include "daemon/servo/servo_cycle.hpp"
+
+namespace clm::servo {
+namespace {
+
+constexpr double kTwoPi = 6.28318530717958647692;
+
+}  // namespace
+
+const char* name(HomingPhase phase) noexcept {
+  switch (phase) {
+    case HomingPhase::kIdle: return "idle";
+    case HomingPhase::kFinding: return "finding commutation";
+    case HomingPhase::kSearching: return "searching the reference";
+    case HomingPhase::kStopping: return "stopping at the reference";
+  }
+  return "?";
+}
+
+bool ServoCycle::needs_homing(CommutationMode mode) const noexcept {
+  // The drive's own law is a function of the electrical angle alone, which
+  // commutation finding gives; every other law is a function of position.
+  return mode != CommutationMode::kOriginal;
+}
+
+CommandResult ServoCycle::home() noexcept {
+  if (status_.homing != HomingPhase::kIdle) return CommandResult::kRejectedHoming;
+  if (!settings_.homing.incremental()) return CommandResult::kAccepted;  // an absolute encoder: homed from the start
+  if (status_.state == ServoState::kEnabled) {
+    if (running_ != nullptr || status_.stopping) return CommandResult::kRejectedBusy;
+    if (status_.enabling) {
+      home_requested_ = true;
+      return CommandResult::kAccepted;
+    }
+    begin_search();
+    return CommandResult::kAccepted;
+  }
+  const CommandResult enabled = enable();
+  if (enabled == CommandResult::kAccepted) home_requested_ = true;
+  return enabled;
+}
+
+void ServoCycle::after_enable() noexcept {
+  if (!status_.commutation_found) {
+    const double total_force_N = settings_.homing.finding.force_N * settings_.protocol.coil_sets;
+    finder_.start(settings_.homing.finding, total_force_N, settings_.machine.mass_kg, settings_.period_s,
+                  drive_.position_m);
+    status_.homing = HomingPhase::kFinding;
+    return;
+  }
+  if (home_requested_) begin_search();
+}
+
+void ServoCycle::find_commutation() noexcept {
+  // The loop is open: the reference follows the axis, so that the loop
+  // closes bumpless where finding leaves it.
+  hold_m_ = position_m_;
+  mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
+  rest_at(position_m_);
+  const control::FindingSetpoint test = finder_.update(drive_.position_m);
+  switch (finder_.outcome()) {
+    case control::FindingOutcome::kRunning: break;
+    case control::FindingOutcome::kFound:
+      status_.found_phase_rad = finder_.phase_rad();
+      commutation_offset_m_ = finder_.phase_rad() * settings_.pole_pitch_m / kTwoPi;
+      status_.commutation_found = true;
+      status_.homing = HomingPhase::kIdle;
+      controller_.reset();
+      if (home_requested_) begin_search();
+      return;
+    case control::FindingOutcome::kMovedTooFar: latch(Fault::kFindingMotion); return;
+    case control::FindingOutcome::kNoResponse:
+    case control::FindingOutcome::kInconsistent: latch(Fault::kCommutationNotFound); return;
+  }
+  // The doublet through the drive's own law on its raw reading, every coil set alike.
+  const int coil_sets = settings_.protocol.coil_sets;
+  commanded_.setpoints.fill({});
+  commanded_.currents.fill({});
+  double square_sum_A2 = 0.0;
+  for (int l = 0; l < coil_sets; ++l) {
+    const auto s = static_cast<std::size_t>(l);
+    const DriveSetpoint setpoint{test.magnitude_N, test.delta_rad};
+    const Eigen::Vector2d i = drive_phase_currents(settings_.drive, setpoint, drive_.position_m, settings_.pole_pitch_m);
+    commanded_.setpoints[s] = setpoint;
+    commanded_.currents[s] = {i.x(), i.y()};
+    square_sum_A2 += i.squaredNorm() + (i.x() + i.y()) * (i.x() + i.y());
+  }
+  record_.current_square_sum_A2 = square_sum_A2;
+  record_.damping_engaged = false;
+  setpoints_.setpoints = commanded_.setpoints;
+  setpoints_.currents = commanded_.currents;
+}
+
+void ServoCycle::begin_search() noexcept {
+  home_requested_ = false;
+  const double velocity = settings_.homing.direction * settings_.homing.search_velocity_m_per_s;
+  search_ = control::SearchProfile::plan(hold_m_, velocity, settings_.stop_limits);
+  search_start_cycle_ = cycle_ + 1;
+  latch_received_ = homing_complete_ = false;
+  latch_frame_wait_ = 0;
+  status_.homing = HomingPhase::kSearching;
+  mailbox_.idle_.store(false, std::memory_order_release);
+}
+
+void ServoCycle::watch_search(const control::ReferenceSample& now) noexcept {
+  if (latch_received_) {
+    // The reference in the encoder's frame is known: stop, then move the frame.
+    pending_offset_m_ = settings_.homing.reference_position_m - latched_reading_m_;
+    status_.homing = HomingPhase::kStopping;
+    reference_ = now;
+    reference_cycle_ = cycle_;
+    begin_stop(settings_.stop_limits, false);
+    return;
+  }
+  if (status_.drive.latched && ++latch_frame_wait_ > settings_.missing_frame_limit) {
+    latch(Fault::kLatchFrameMissing);
+    return;
+  }
+  if (std::abs(now.position_m - search_.start_m()) > settings_.homing.search_distance_m) {
+    latch(Fault::kHomingNotFound);
+  }
+}
+
+void ServoCycle::finish_homing() noexcept {
+  // At rest: every position the cycle keeps moves with the frame, so the
+  // loop sees no step.
+  const double shift_m = pending_offset_m_ - status_.axis_offset_m;
+  status_.axis_offset_m = pending_offset_m_;
+  commutation_offset_m_ = pending_offset_m_;
+  position_m_ += shift_m;
+  previous_position_m_ += shift_m;
+  hold_m_ += shift_m;
+  reference_.position_m += shift_m;
+  mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
+  status_.homed = true;
+  status_.homing = HomingPhase::kIdle;
+  homing_complete_ = false;
+  mailbox_.idle_.store(true, std::memory_order_release);
+}
+
+void ServoCycle::abort_homing() noexcept {
+  home_requested_ = false;
+  homing_complete_ = false;
+  status_.homing = HomingPhase::kIdle;
+}
+
+void ServoCycle::shift_to_drive_frame() noexcept {
+  // The laws take the drive to commutate on the axis frame; it commutates
+  // on its raw reading, commutation_offset_m_ behind it.
+  if (settings_.protocol.drive_profile != DriveProfile::kMagnitudePhase || commutation_offset_m_ == 0.0) return;
+  const double shift_rad = kTwoPi * commutation_offset_m_ / settings_.pole_pitch_m;
+  for (int l = 0; l < settings_.protocol.coil_sets; ++l) {
+    DriveSetpoint& setpoint = setpoints_.setpoints[static_cast<std::size_t>(l)];
+    double delta = wrap_angle_rad(setpoint.delta_rad + shift_rad);
+    double magnitude = setpoint.magnitude_N;
+    if (settings_.phase_convention == PhaseConvention::kSignedMagnitude && std::abs(delta) > 0.5 * kTwoPi / 2.0) {
+      // Back into (−π/2, π/2] with the magnitude's sign.
+      delta = wrap_angle_rad(delta + kTwoPi / 2.0);
+      magnitude = -magnitude;
+    }
+    setpoint = {magnitude, delta};
+  }
+}
+
+}  // namespace clm::servo

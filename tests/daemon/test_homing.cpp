@@ -1,0 +1,212 @@
+// Homing (docs/servod.md, "Homing") on the shipped default motor, every
+// plant term on, with an incremental encoder that powers up at a random
+// offset: commutation finding against the simulator's truth, the index
+// homing against the encoder's true offset, the bounds of both, and what is
+// refused before homing.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <vector>
+
+#include "commutation/transform.hpp"
+#include "daemon/servod/axis_wiring.hpp"
+#include "daemon_support.hpp"
+#include "drivers/sim/motor_file.hpp"
+
+using namespace clm;
+using Kind = servo::CommandKind;
+using servo::Fault;
+using servo::HomingPhase;
+using servo::ServoState;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct PowerUp {
+  std::uint64_t seed = 4;      ///< of the encoder's power-up offset
+  double start_m = -0.05;      ///< the translator's true position at power-up
+  double offset_max_m = 0.05;  ///< ± the offset's range: beyond one pole pitch (0.03 m)
+};
+
+/// The shipped motor with an incremental encoder: one index mark at true 0
+/// in the stroke (a pitch of 1 m), the reference switch around it.
+sim::MotorParameters incremental_motor(const PowerUp& power_up) {
+  sim::MotorParameters motor = sim::load_motor_parameters(test::source_path("config/motor-sim.yaml"));
+  motor.sensors.encoder_power_up_offset_max_m = power_up.offset_max_m;
+  motor.sensors.encoder_offset_seed = power_up.seed;
+  motor.sensors.index_pitch_m = 1.0;
+  motor.sensors.reference_switch_min_m = 0.0;
+  motor.sensors.reference_switch_max_m = 0.02;
+  return motor;
+}
+
+servod::ServodConfig homing_config(control::HomingMethod method) {
+  auto config = test::virtual_config();
+  config.servo.homing.method = method;
+  config.servo.homing.direction = 1;
+  config.servo.homing.search_velocity_m_per_s = 0.005;
+  config.servo.homing.search_distance_m = 0.2;
+  config.servo.homing.reference_position_m = 0.0;  // the mark's (and the switch edge's) true position
+  return config;
+}
+
+std::unique_ptr<servod::WiredAxis> wire(const servod::ServodConfig& config, const PowerUp& power_up) {
+  auto wired = std::make_unique<servod::WiredAxis>(config, servod::wire_simulated_axis(config, incremental_motor(power_up)));
+  wired->simulated_motor()->reset(power_up.start_m);
+  wired->daemon.run_cycles(10);
+  return wired;
+}
+
+/// The phase Δ that drives +y hardest through the drive's own law on its raw
+/// reading at the translator's true position: the first harmonic of the
+/// static F_y over Δ, from the simulator's truth (every coil set alike).
+double true_phase_rad(const sim::SimulatedMotor& motor, double position_m) {
+  const int sets = motor.coil_sets();
+  constexpr int kSteps = 64;
+  double a = 0.0, b = 0.0;
+  for (int k = 0; k < kSteps; ++k) {
+    const double delta = 2.0 * kPi * k / kSteps;
+    std::vector<DriveSetpoint> setpoints(static_cast<std::size_t>(sets), DriveSetpoint{10.0, delta});
+    const double force = motor.ideal_drive_wrench(position_m, setpoints, {}).x();
+    a += force * std::cos(delta);
+    b += force * std::sin(delta);
+  }
+  // ideal_drive_wrench commutates on the true position; the drive reads the
+  // offset more, which its Δ must take back.
+  const double offset_rad = 2.0 * kPi * motor.truth().encoder_offset_m / motor.parameters().pole_pitch_m();
+  return wrap_angle_rad(std::atan2(b, a) - offset_rad);
+}
+
+/// Runs until homing is over (or a fault); the largest distance from `start_m` the translator reached.
+double run_homing(servod::WiredAxis& wired, double start_m, std::int64_t max_cycles, double* finding_motion_m = nullptr) {
+  double largest_m = 0.0;
+  for (std::int64_t k = 0; k < max_cycles; ++k) {
+    wired.daemon.run_cycles(1);
+    const auto& status = wired.daemon.cycle().status();
+    const double moved_m = std::abs(wired.simulated_motor()->truth().position_m - start_m);
+    largest_m = std::max(largest_m, moved_m);
+    if (finding_motion_m != nullptr && !status.commutation_found) *finding_motion_m = std::max(*finding_motion_m, moved_m);
+    if (status.state == ServoState::kFault) break;
+    if (status.homed && status.homing == HomingPhase::kIdle && !status.enabling) break;
+  }
+  return largest_m;
+}
+
+}  // namespace
+
+TEST_CASE("home from power-up: commutation found within 0.02 rad of the truth, the index within 2 counts",
+          "[daemon][homing]") {
+  const auto config = homing_config(control::HomingMethod::kIndex);
+  const double resolution_m = 1e-9;  // motor-sim.yaml's encoder_resolution_m
+  // Offsets of both signs, four beyond one pole pitch (|offset| > 0.03 m: seeds 2, 9, 10, 22).
+  for (const PowerUp power_up : {PowerUp{4, -0.05}, PowerUp{11, -0.09}, PowerUp{23, -0.02}, PowerUp{57, -0.07},
+                                 PowerUp{9, -0.06}, PowerUp{10, -0.1}, PowerUp{22, -0.03}, PowerUp{2, -0.08}}) {
+    auto holder = wire(config, power_up);
+    auto& wired = *holder;
+    sim::SimulatedMotor& motor = *wired.simulated_motor();
+    const double offset_m = motor.truth().encoder_offset_m;
+    INFO("seed " << power_up.seed << ", start " << power_up.start_m << " m, encoder offset " << offset_m << " m");
+    REQUIRE(std::abs(offset_m) > 0.0);
+    REQUIRE_FALSE(wired.daemon.cycle().status().homed);
+    const double phase_truth = true_phase_rad(motor, power_up.start_m);
+
+    REQUIRE(test::command(wired.daemon, Kind::kHome, 1).accepted());
+    double finding_motion_m = 0.0;
+    run_homing(wired, power_up.start_m, 200000, &finding_motion_m);
+    const auto& status = wired.daemon.cycle().status();
+    INFO("fault " << static_cast<int>(status.fault) << " (" << servo::describe(status.fault) << ")");
+    REQUIRE(status.state == ServoState::kEnabled);
+    REQUIRE(status.homed);
+    const double phase_error = wrap_angle_rad(status.found_phase_rad - phase_truth);
+    INFO("found phase " << status.found_phase_rad << " rad, truth " << phase_truth << " rad");
+    CHECK(std::abs(phase_error) <= 0.02);
+    INFO("finding moved " << finding_motion_m * 1e3 << " mm");
+    CHECK(finding_motion_m <= config.servo.homing.finding.max_motion_m);
+    // position = reading + axis_offset, reading = true + encoder offset: the
+    // axis offset is the encoder's, negated, when the reference is the mark's true position.
+    INFO("axis offset " << status.axis_offset_m << " m");
+    CHECK(std::abs(status.axis_offset_m + offset_m) <= 2.0 * resolution_m);
+    // And the loop holds where it stopped, in the new frame, without a step.
+    wired.daemon.run_cycles(200);
+    CHECK(wired.daemon.cycle().status().state == ServoState::kEnabled);
+    CHECK(std::abs(wired.daemon.cycle().record().y_m - motor.truth().encoder_side_position_m) < 2e-8);
+  }
+}
+
+TEST_CASE("before homing: moves to positions and position-dependent laws are refused, jog is allowed",
+          "[daemon][homing]") {
+  test::TemporaryDirectory dir;
+  const auto files = test::write_truth_laws(dir, test::source_path("config/motor-sim.yaml"));
+  const auto config = test::with_laws(homing_config(control::HomingMethod::kIndex), files, servo::CommutationMode::kOriginal);
+  auto holder = wire(config, PowerUp{});
+  auto& daemon = holder->daemon;
+  servo::Command classical;
+  classical.kind = Kind::kSetCommutation;
+  classical.commutation = servo::CommutationMode::kClassical;
+  classical.sequence = 1;
+  daemon.submit(classical);
+  CHECK(test::cycle_answer(daemon, 1).result == servo::CommandResult::kRejectedNotHomed);
+  // enable finds the commutation, then holds.
+  REQUIRE(test::command(daemon, Kind::kEnable, 1).accepted());
+  for (int k = 0; k < 20000 && !daemon.cycle().status().commutation_found; ++k) daemon.run_cycles(1);
+  REQUIRE(daemon.cycle().status().commutation_found);
+  REQUIRE(daemon.cycle().status().state == ServoState::kEnabled);
+  CHECK_FALSE(daemon.cycle().status().homed);
+  servo::Command move;
+  move.kind = Kind::kMoveTo;
+  move.target_m = daemon.cycle().record().y_m + 0.005;
+  move.sequence = 2;
+  daemon.submit(move);
+  CHECK(test::cycle_answer(daemon, 2).result == servo::CommandResult::kRejectedNotHomed);
+  servo::Command jog;
+  jog.kind = Kind::kJog;
+  jog.jog_velocity_m_per_s = 0.005;
+  jog.limits = {0.005, 0.1, 10.0};
+  jog.sequence = 3;
+  daemon.submit(jog);
+  CHECK(test::cycle_answer(daemon, 3).result == servo::CommandResult::kJogStarted);
+  daemon.run_cycles(600);  // the jog times out and stops
+  REQUIRE(daemon.run_until_idle(5000) < 5000);
+  // Homed, the law is accepted.
+  REQUIRE(test::command(daemon, Kind::kHome, 1).accepted());
+  run_homing(*holder, holder->simulated_motor()->truth().position_m, 200000);
+  REQUIRE(daemon.cycle().status().homed);
+  classical.sequence = 4;
+  daemon.submit(classical);
+  CHECK(test::cycle_answer(daemon, 4).result == servo::CommandResult::kAccepted);
+}
+
+TEST_CASE("homing that finds no reference within its distance latches 217 and stops", "[daemon][homing]") {
+  auto config = homing_config(control::HomingMethod::kIndex);
+  config.servo.homing.direction = -1;  // away from the only mark
+  config.servo.homing.search_distance_m = 0.01;
+  auto holder = wire(config, PowerUp{});
+  auto& daemon = holder->daemon;
+  REQUIRE(test::command(daemon, Kind::kHome, 1).accepted());
+  const double start_m = holder->simulated_motor()->truth().position_m;
+  const double largest_m = run_homing(*holder, start_m, 200000);
+  CHECK(daemon.cycle().status().fault == Fault::kHomingNotFound);
+  CHECK_FALSE(daemon.cycle().status().homed);
+  // The quick stop rests within the search distance plus its braking.
+  CHECK(largest_m < config.servo.homing.search_distance_m + 0.002);
+  daemon.run_cycles(500);
+  CHECK(holder->simulated_motor()->truth().end_stop_collisions == 0);
+}
+
+TEST_CASE("commutation finding on a translator that does not move latches 215", "[daemon][homing]") {
+  auto config = homing_config(control::HomingMethod::kIndex);
+  auto holder = wire(config, PowerUp{});
+  auto& daemon = holder->daemon;
+  // A clamped translator: an outside force far above what finding drives.
+  holder->simulated_motor()->set_payload_kg(150.0);
+  holder->simulated_motor()->set_disturbance_force_N(0.0);
+  REQUIRE(test::command(daemon, Kind::kEnable, 1).accepted());
+  for (int k = 0; k < 20000 && daemon.cycle().status().state == ServoState::kEnabled &&
+                  !daemon.cycle().status().commutation_found;
+       ++k) {
+    daemon.run_cycles(1);
+  }
+  CHECK(daemon.cycle().status().fault == Fault::kCommutationNotFound);
+  CHECK_FALSE(daemon.cycle().status().commutation_found);
+}
