@@ -210,3 +210,19 @@ TEST_CASE("commutation finding on a translator that does not move latches 215", 
   CHECK(daemon.cycle().status().fault == Fault::kCommutationNotFound);
   CHECK_FALSE(daemon.cycle().status().commutation_found);
 }
+
+TEST_CASE("homing to the reference switch's edge: the axis offset within 2 counts", "[daemon][homing]") {
+  const auto config = homing_config(control::HomingMethod::kReferenceSwitch);
+  for (const PowerUp power_up : {PowerUp{4, -0.05}, PowerUp{10, -0.1}}) {
+    auto holder = wire(config, power_up);
+    const double offset_m = holder->simulated_motor()->truth().encoder_offset_m;
+    INFO("seed " << power_up.seed << ", start " << power_up.start_m << " m, encoder offset " << offset_m << " m");
+    REQUIRE(test::command(holder->daemon, Kind::kHome, 1).accepted());
+    run_homing(*holder, power_up.start_m, 200000);
+    const auto& status = holder->daemon.cycle().status();
+    INFO("fault " << static_cast<int>(status.fault) << ", axis offset " << status.axis_offset_m << " m");
+    REQUIRE(status.homed);
+    // The switch's lower edge lies at true 0, the configured reference position.
+    CHECK(std::abs(status.axis_offset_m + offset_m) <= 2e-9);
+  }
+}

@@ -242,6 +242,8 @@ void add_ctl(CLI::App& app) {
   simple("take-control", Kind::kTakeControl, "become the client that commands the axis (other commands do it themselves)");
   simple("release", Kind::kReleaseControl, "give up control of the axis");
   simple("quick-stop", Kind::kQuickStop, "stop the running motion within the quick-stop limits, stay enabled");
+  simple("home", Kind::kHome,
+         "enable if needed, find the commutation where unknown, search the reference (homing:), stay enabled");
 
   struct MoveOptions {
     double target_m = 0.0, velocity_m_per_s = 0.1, acceleration_m_per_s2 = 1.0, jerk_m_per_s3 = 1000.0;

@@ -135,7 +135,7 @@ void run_sim(const SimOptions& options) {
   const std::int64_t end_ns =
       options.duration_s > 0.0 ? start_ns + static_cast<std::int64_t>(options.duration_s * 1e9) : INT64_MAX;
   std::int64_t replies_sent = 0, replies_failed = 0;
-  std::array<can::Frame, 2> replies{};
+  std::array<can::Frame, sim::SimulatedNodes::kMaxReplies> replies{};
   sim::BusInjector::Replies injected;
   drivers::ReceivedFrame received;
   const auto period_ns = static_cast<std::int64_t>(period_s * 1e9);
