@@ -30,7 +30,7 @@ const char* describe(Fault fault) noexcept {
     case Fault::kCommutationNotFound: return "commutation finding found no consistent phase";
     case Fault::kFindingMotion: return "commutation finding moved the axis beyond its bound";
     case Fault::kHomingNotFound: return "homing found no reference within its search distance";
-    case Fault::kLatchFrameMissing: return "the drive latched its position and the latch frame did not come";
+    case Fault::kLatchInvalid: return "the drive's latch is not one the search made";
   }
   return "unknown fault";
 }

@@ -39,7 +39,7 @@ enum class Fault : std::uint16_t {
   kCommutationNotFound = 215,   ///< commutation finding saw too little motion, or motion no phase explains
   kFindingMotion = 216,         ///< the axis moved beyond homing.commutation_finding.max_motion_m
   kHomingNotFound = 217,        ///< no reference event within homing.search_distance_m
-  kLatchFrameMissing = 218,     ///< the drive reported a latch and its latch frame did not come
+  kLatchInvalid = 218,          ///< a latch frame without the drive's Latched, Latched without a frame, or a latched position the search did not pass
 };
 
 /// Short fixed text for logs and telemetry; never allocates.
@@ -97,7 +97,7 @@ inline constexpr std::array<FaultReactionEntry, 26> kFaultReactions{{
     {Fault::kFindingMotion, FaultReaction::kZeroSetpoints},
     // The search runs with the loop closed on a found commutation.
     {Fault::kHomingNotFound, FaultReaction::kQuickStop},
-    {Fault::kLatchFrameMissing, FaultReaction::kQuickStop},
+    {Fault::kLatchInvalid, FaultReaction::kQuickStop},
 }};
 
 /// The reaction to `fault` from kFaultReactions; kZeroSetpoints for any value

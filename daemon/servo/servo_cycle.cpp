@@ -143,7 +143,9 @@ void ServoCycle::adopt_offers() noexcept {
     // of move_to says; in restricted mode only one that ends inside the soft limits.
     CommandResult result = check_legal(CommandKind::kMoveTo, status_.state, running_ == nullptr && !status_.stopping);
     if (result == CommandResult::kAccepted) {
-      if (status_.homing != HomingPhase::kIdle) {
+      // While homing, and while an enable waits to find the commutation
+      // (the axis moves before the loop closes), nothing else moves it.
+      if (status_.homing != HomingPhase::kIdle || (status_.enabling && !status_.commutation_found)) {
         result = CommandResult::kRejectedHoming;
       } else if (!jog && !status_.homed) {
         result = CommandResult::kRejectedNotHomed;

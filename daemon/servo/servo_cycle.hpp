@@ -366,7 +366,7 @@ class ServoCycle {
   control::SearchProfile search_;
   std::int64_t search_start_cycle_ = 0;
   bool home_requested_ = false;
-  bool latch_received_ = false, homing_complete_ = false;
+  bool latch_received_ = false, latch_checked_ = false, latch_in_span_ = false, homing_complete_ = false;
   double latched_reading_m_ = 0.0, pending_offset_m_ = 0.0;
   int latch_frame_wait_ = 0;
 

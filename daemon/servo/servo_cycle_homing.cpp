@@ -12,6 +12,10 @@ namespace clm::servo {
 namespace {
 
 constexpr double kTwoPi = 6.28318530717958647692;
+// A latched reading may lie this far outside the readings of the period it
+// came in (the encoder's delay and interpolation error, the mode between
+// read head and motor side); a latch farther out is not one this search made.
+constexpr double kLatchSpanMargin_m = 1e-5;
 
 }  // namespace
 
@@ -104,14 +108,30 @@ void ServoCycle::begin_search() noexcept {
   const double velocity = settings_.homing.direction * settings_.homing.search_velocity_m_per_s;
   search_ = control::SearchProfile::plan(hold_m_, velocity, settings_.stop_limits);
   search_start_cycle_ = cycle_ + 1;
-  latch_received_ = homing_complete_ = false;
+  latch_received_ = latch_checked_ = latch_in_span_ = homing_complete_ = false;
   latch_frame_wait_ = 0;
   status_.homing = HomingPhase::kSearching;
   mailbox_.idle_.store(false, std::memory_order_release);
 }
 
 void ServoCycle::watch_search(const control::ReferenceSample& now) noexcept {
-  if (latch_received_) {
+  if (latch_received_ && !latch_checked_) {
+    // The frame is taken as the drive's only if it names a reading between
+    // this period's and the last (widened by a period's search and the
+    // margin), and the drive's own status says Latched within the frame limit.
+    latch_checked_ = true;
+    const double reading_m = position_m_ - status_.axis_offset_m;
+    const double previous_m = previous_position_m_ - status_.axis_offset_m;
+    const double margin_m = settings_.homing.search_velocity_m_per_s * settings_.period_s + kLatchSpanMargin_m;
+    latch_in_span_ = latched_reading_m_ >= std::min(reading_m, previous_m) - margin_m &&
+                     latched_reading_m_ <= std::max(reading_m, previous_m) + margin_m;
+    latch_frame_wait_ = 0;
+  }
+  if (latch_received_ && !latch_in_span_) {
+    latch(Fault::kLatchInvalid);
+    return;
+  }
+  if (latch_received_ && status_.drive.latched) {
     // The reference in the encoder's frame is known: stop, then move the frame.
     pending_offset_m_ = settings_.homing.reference_position_m - latched_reading_m_;
     status_.homing = HomingPhase::kStopping;
@@ -120,8 +140,10 @@ void ServoCycle::watch_search(const control::ReferenceSample& now) noexcept {
     begin_stop(settings_.stop_limits, false);
     return;
   }
-  if (status_.drive.latched && ++latch_frame_wait_ > settings_.missing_frame_limit) {
-    latch(Fault::kLatchFrameMissing);
+  // The frame and the drive's Latched come together; either alone for
+  // longer than the frame limit is not this search's latch.
+  if ((latch_received_ || status_.drive.latched) && ++latch_frame_wait_ > settings_.missing_frame_limit) {
+    latch(Fault::kLatchInvalid);
     return;
   }
   if (std::abs(now.position_m - search_.start_m()) > settings_.homing.search_distance_m) {

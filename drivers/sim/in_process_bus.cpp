@@ -149,6 +149,13 @@ bool InProcessBus::send(const can::Frame& frame) noexcept {
   std::array<can::Frame, SimulatedNodes::kMaxReplies> replies{};  // latch, drive and force feedback
   const std::size_t count = nodes_->on_frame(frame, replies);
   const can::ProtocolConfig& protocol = nodes_->protocol();
+  if (frame.id == can::kSyncId && injection_.spoof_latch) {
+    injection_.spoof_latch = false;
+    can::Frame spoofed;
+    if (can::encode_drive_latch(protocol, {injection_.spoof_latch_position_m, 0}, spoofed) == can::CodecStatus::kOk) {
+      enqueue(spoofed, time_ns_);
+    }
+  }
   for (std::size_t k = 0; k < count; ++k) {
     can::Frame reply = replies[k];
     if (reply.id == can::drive_feedback_id(protocol)) {
@@ -185,9 +192,13 @@ bool InProcessBus::send(const can::Frame& frame) noexcept {
       continue;
     }
     // The drive's latch frame (TPDO2, first of the replies in its period)
-    // takes no injection: it is enqueued below, in this period and in the
-    // nodes' order, ahead of the drive feedback it precedes on the bus (a
-    // delayed feedback frame only comes later still).
+    // is enqueued below, in this period and in the nodes' order, ahead of
+    // the drive feedback it precedes on the bus (a delayed feedback frame
+    // only comes later still), unless the injection drops it.
+    if (reply.id == can::drive_latch_id(protocol) && injection_.drop_latch_frames > 0) {
+      --injection_.drop_latch_frames;
+      continue;
+    }
     if (reply.id == can::force_feedback_id(protocol)) {
       if (injection_.drop_force_frames > 0) {
         --injection_.drop_force_frames;

@@ -30,6 +30,11 @@ struct Injection {
   int skip_force_alive = 0;        ///< add this to the next force-sensor frame's alive counter
   int corrupt_position_frames = 0; ///< next n drive frames with the position bytes set to 0x7fffffff
   int drop_setpoint_frames = 0;    ///< drop the next n setpoint frames (the drive watchdog sees nothing)
+  int drop_latch_frames = 0;       ///< drop the next n latch frames of the drive
+  /// At the next SYNC, a latch frame no latch made, naming this reading: a
+  /// frame from another node on the bus, or one corrupted into a valid one.
+  bool spoof_latch = false;
+  double spoof_latch_position_m = 0.0;
   drivers::BusState bus_state = drivers::BusState::kActive;
   bool fail_sends = false;
 };

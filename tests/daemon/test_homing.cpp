@@ -226,3 +226,51 @@ TEST_CASE("homing to the reference switch's edge: the axis offset within 2 count
     CHECK(std::abs(status.axis_offset_m + offset_m) <= 2e-9);
   }
 }
+
+TEST_CASE("a latch frame the search did not make, or a latch without its frame, latches 218 and the axis is not homed",
+          "[daemon][homing]") {
+  const auto config = homing_config(control::HomingMethod::kIndex);
+  const PowerUp power_up{4, -0.05};
+  auto holder = wire(config, power_up);
+  auto& daemon = holder->daemon;
+  auto& injection = holder->in_process_bus()->injection();
+  SECTION("a frame naming a reading the search has not reached") {
+    const double start_m = daemon.cycle().record().y_m;
+    REQUIRE(test::command(daemon, Kind::kHome, 1).accepted());
+    // Run until the search has moved 2 mm, then a frame 20 mm ahead of the axis.
+    for (int k = 0; k < 200000 && daemon.cycle().record().y_m < start_m + 0.002; ++k) {
+      daemon.run_cycles(1);
+      REQUIRE(daemon.cycle().status().state != ServoState::kFault);
+    }
+    REQUIRE(daemon.cycle().status().homing == HomingPhase::kSearching);
+    injection.spoof_latch = true;
+    injection.spoof_latch_position_m = daemon.cycle().record().y_m + 0.02;
+    CHECK(test::run_until_fault(daemon, 10) <= 2);
+  }
+  SECTION("the drive's latch frame lost") {
+    injection.drop_latch_frames = 1;
+    REQUIRE(test::command(daemon, Kind::kHome, 1).accepted());
+    run_homing(*holder, power_up.start_m, 200000);
+  }
+  CHECK(daemon.cycle().status().fault == Fault::kLatchInvalid);
+  CHECK_FALSE(daemon.cycle().status().homed);
+  // The quick stop brings the axis to rest, short of the end stops.
+  daemon.run_cycles(2000);
+  CHECK(std::abs(holder->simulated_motor()->truth().velocity_m_per_s) < 1e-3);
+  CHECK(holder->simulated_motor()->truth().end_stop_collisions == 0);
+}
+
+TEST_CASE("a move offered while an enable waits to find the commutation is refused", "[daemon][homing]") {
+  auto holder = wire(homing_config(control::HomingMethod::kIndex), PowerUp{});
+  auto& daemon = holder->daemon;
+  REQUIRE(test::command(daemon, Kind::kEnable, 1).accepted());
+  REQUIRE(daemon.cycle().status().enabling);
+  REQUIRE_FALSE(daemon.cycle().status().commutation_found);
+  servo::Command jog;
+  jog.kind = Kind::kJog;
+  jog.sequence = 2;
+  jog.jog_velocity_m_per_s = 0.005;
+  jog.limits = {0.005, 0.1, 10.0};
+  daemon.submit(jog);
+  CHECK(test::cycle_answer(daemon, 2).result == servo::CommandResult::kRejectedHoming);
+}
