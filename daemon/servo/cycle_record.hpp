@@ -17,6 +17,14 @@ namespace clm::servo {
 /// The servo's state; values are servo_status_t.STATE_*.
 enum class ServoState : std::uint8_t { kDisabled = 0, kEnabled = 1, kFault = 2 };
 
+/// Where homing is (docs/servod.md, "Homing"); values are servo_status_t.HOMING_*.
+enum class HomingPhase : std::uint8_t {
+  kIdle = 0,
+  kFinding = 1,    ///< commutation finding: the loop open, doublets at test phases
+  kSearching = 2,  ///< the loop closed, moving at the search velocity, the drive's latch armed
+  kStopping = 3,   ///< the event latched: stopping before the position frame moves to it
+};
+
 /// The commutation the cycle uses; values are servo_state_t.COMMUTATION_*.
 enum class CommutationMode : std::uint8_t {
   kOriginal = 0,    ///< the drive's own fixed law, uncalibrated

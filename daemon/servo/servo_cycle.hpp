@@ -113,15 +113,6 @@ struct CycleCounters {
 
 /// What the cycle reports of itself; read on the loop thread (an observer,
 /// the daemon between cycles).
-/// Where homing is (docs/servod.md, "Homing").
-enum class HomingPhase : std::uint8_t {
-  kIdle,
-  kFinding,    ///< commutation finding: the loop open, doublets at test phases
-  kSearching,  ///< the loop closed, moving at the search velocity, the drive's latch armed
-  kStopping,   ///< the event latched: stopping before the position frame moves to it
-};
-const char* name(HomingPhase phase) noexcept;
-
 struct CycleStatus {
   ServoState state = ServoState::kDisabled;
   Fault fault = Fault::kNone;

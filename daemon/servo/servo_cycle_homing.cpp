@@ -19,16 +19,6 @@ constexpr double kLatchSpanMargin_m = 1e-5;
 
 }  // namespace
 
-const char* name(HomingPhase phase) noexcept {
-  switch (phase) {
-    case HomingPhase::kIdle: return "idle";
-    case HomingPhase::kFinding: return "finding commutation";
-    case HomingPhase::kSearching: return "searching the reference";
-    case HomingPhase::kStopping: return "stopping at the reference";
-  }
-  return "?";
-}
-
 bool ServoCycle::needs_homing(CommutationMode mode) const noexcept {
   // The drive's own law is a function of the electrical angle alone, which
   // commutation finding gives; every other law is a function of position.

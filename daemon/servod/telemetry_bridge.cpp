@@ -77,6 +77,12 @@ void TelemetryBridge::fill_status(const servo::ServoCycle& cycle, const LoopTimi
   out.drive_signals = telemetry::drive_signal_bits(cycle.status().drive);
   out.enabling = cycle.status().enabling;
   out.current_limited_cycles = c.current_limited_cycles;
+  const auto& status = cycle.status();
+  out.commutation_found = status.commutation_found;
+  out.homed = status.homed;
+  out.homing = static_cast<std::int8_t>(status.homing);
+  out.found_phase_rad = status.found_phase_rad;
+  out.axis_offset_m = status.axis_offset_m;
   daemon_->loaded_file(LoadedFileSlot::kCalibration, out.calibration);
   daemon_->loaded_file(LoadedFileSlot::kPgnnModel, out.pgnn_model);
   daemon_->loaded_file(LoadedFileSlot::kSplineModel, out.spline_model);

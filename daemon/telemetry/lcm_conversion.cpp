@@ -15,7 +15,12 @@ using servo::CommandKind;
 static_assert(kDriveEnabled == servo_status_t::DRIVE_ENABLED && kDriveFault == servo_status_t::DRIVE_FAULT &&
               kDriveWatchdogExpired == servo_status_t::DRIVE_WATCHDOG_EXPIRED &&
               kDriveCurrentLimited == servo_status_t::DRIVE_CURRENT_LIMITED &&
-              kDriveEndStop == servo_status_t::DRIVE_END_STOP);
+              kDriveEndStop == servo_status_t::DRIVE_END_STOP && kDriveLatched == servo_status_t::DRIVE_LATCHED &&
+              kDriveReferenceSwitch == servo_status_t::DRIVE_REFERENCE_SWITCH);
+static_assert(static_cast<int>(servo::HomingPhase::kIdle) == servo_status_t::HOMING_IDLE &&
+              static_cast<int>(servo::HomingPhase::kFinding) == servo_status_t::HOMING_FINDING &&
+              static_cast<int>(servo::HomingPhase::kSearching) == servo_status_t::HOMING_SEARCHING &&
+              static_cast<int>(servo::HomingPhase::kStopping) == servo_status_t::HOMING_STOPPING);
 static_assert(static_cast<int>(CommandKind::kEnable) == servo_command_t::ENABLE);
 static_assert(static_cast<int>(CommandKind::kDisable) == servo_command_t::DISABLE);
 static_assert(static_cast<int>(CommandKind::kClearFault) == servo_command_t::CLEAR_FAULT);
@@ -205,6 +210,11 @@ clm_lcm::servo_status_t to_message(const ServoStatusSample& sample, std::int64_t
   m.drive_signals = sample.drive_signals;
   m.enabling = sample.enabling;
   m.current_limited_cycles = sample.current_limited_cycles;
+  m.commutation_found = sample.commutation_found;
+  m.homed = sample.homed;
+  m.homing = sample.homing;
+  m.found_phase_rad = sample.found_phase_rad;
+  m.axis_offset_m = sample.axis_offset_m;
   const CommandAuthorityStatus& c = sample.commands;
   m.control_client = c.control_client;
   m.control_lease_remaining_s = c.control_lease_remaining_s;

@@ -111,6 +111,11 @@ struct ServoStatusSample {
   std::int16_t drive_signals = 0;  ///< clm_lcm::servo_status_t::DRIVE_* bits
   bool enabling = false;
   std::int64_t current_limited_cycles = 0;
+  bool commutation_found = false;
+  bool homed = false;
+  std::int8_t homing = 0;  ///< clm_lcm::servo_status_t::HOMING_*, the value of servo::HomingPhase
+  double found_phase_rad = 0.0;
+  double axis_offset_m = 0.0;
   CommandAuthorityStatus commands;
 };
 
@@ -125,10 +130,13 @@ inline constexpr std::int16_t kDriveFault = 2;
 inline constexpr std::int16_t kDriveWatchdogExpired = 4;
 inline constexpr std::int16_t kDriveCurrentLimited = 8;
 inline constexpr std::int16_t kDriveEndStop = 16;
+inline constexpr std::int16_t kDriveLatched = 32;
+inline constexpr std::int16_t kDriveReferenceSwitch = 64;
 constexpr std::int16_t drive_signal_bits(const drivers::DriveSignals& s) noexcept {
   return static_cast<std::int16_t>((s.enabled ? kDriveEnabled : 0) | (s.fault ? kDriveFault : 0) |
                                    (s.watchdog_expired ? kDriveWatchdogExpired : 0) |
-                                   (s.current_limited ? kDriveCurrentLimited : 0) | (s.end_stop ? kDriveEndStop : 0));
+                                   (s.current_limited ? kDriveCurrentLimited : 0) | (s.end_stop ? kDriveEndStop : 0) |
+                                   (s.latched ? kDriveLatched : 0) | (s.reference_switch ? kDriveReferenceSwitch : 0));
 }
 
 /// Something that happened once, as servo_event_t.

@@ -77,7 +77,8 @@ constexpr std::array kStatusFields{
     i64("frames_late"), i64("frames_rejected"), i64("telemetry_dropped"), i8("bus_state", -1, 3),
     i64("damping_cycles"), boolean("program_running"), finite("program_time_s"), boolean("restricted"),
     i8("force_sensor", 0, 2), i16("force_sensor_warning", 0), i64("force_sensor_losses"),
-    i16("drive_signals", 0, 31), boolean("enabling"), i64("current_limited_cycles"),
+    i16("drive_signals", 0, 127), boolean("enabling"), i64("current_limited_cycles"), boolean("commutation_found"),
+    boolean("homed"), i8("homing", 0, 3), finite("found_phase_rad"), finite("axis_offset_m"),
     i64("control_client"), finite("control_lease_remaining_s"), i64("commands_admitted"),
     i64("commands_refused_malformed"), i64("commands_refused_other_axis"), i64("commands_refused_other_session"),
     i64("commands_refused_no_client"), i64("commands_refused_replayed"), i64("commands_refused_stale"),
@@ -183,7 +184,7 @@ std::string check_wire(const WireLayout& layout, std::span<const std::uint8_t> d
   if (read_signed(datagram.data(), 8) != layout.hash) return std::string(type) + ": type hash does not match";
   std::size_t pos = 8;
   // Integer fields seen so far, for the lengths of arrays.
-  std::array<std::int64_t, 64> integers{};
+  std::array<std::int64_t, 96> integers{};
   if (layout.fields.size() > integers.size()) return std::string(type) + ": layout has too many fields";
   for (std::size_t f = 0; f < layout.fields.size(); ++f) {
     const WireField& field = layout.fields[f];

@@ -100,6 +100,13 @@ void print_status(const clm_lcm::servo_status_t& s) {
               (s.drive_signals & clm_lcm::servo_status_t::DRIVE_CURRENT_LIMITED) ? " current-limited" : "",
               (s.drive_signals & clm_lcm::servo_status_t::DRIVE_END_STOP) ? " end-stop" : "",
               static_cast<long long>(s.current_limited_cycles));
+  static constexpr const char* kHoming[] = {"idle", "finding commutation", "searching the reference",
+                                            "stopping at the reference"};
+  std::printf("homing: %s, commutation %s, %s", kHoming[s.homing], s.commutation_found ? "found" : "unknown",
+              s.homed ? "homed" : "not homed (positions are the encoder's reading)");
+  if (s.commutation_found) std::printf(", found phase %.4f rad", s.found_phase_rad);
+  if (s.homed) std::printf(", axis offset %.9f m", s.axis_offset_m);
+  std::printf("\n");
   std::printf("cycles: %lld\n", static_cast<long long>(s.cycles));
   std::printf("overruns: %lld\n", static_cast<long long>(s.overruns));
   std::printf("wakeup_latency_s: p50 %.1e, p99 %.1e, max %.1e\n", s.wakeup_latency_p50_s, s.wakeup_latency_p99_s,
