@@ -171,6 +171,43 @@ std::vector<ClassicalEstimate> CalibrationFile::estimates() const {
   return result;
 }
 
+bool EncoderReference::same_frame(const EncoderReference& other) const noexcept {
+  if (method != other.method) return false;
+  return method == "none" || std::abs(position_m - other.position_m) <= 1e-9;
+}
+
+std::string EncoderReference::describe() const {
+  if (method == "none") return "none (an absolute encoder)";
+  return method + " at " + yaml::format_double(position_m) + " m";
+}
+
+namespace {
+
+// Written for an incremental encoder only: a file without one is an
+// absolute encoder's, as every file written before homing existed.
+void emit_reference(YAML::Emitter& out, const EncoderReference& reference) {
+  if (reference.method == "none") return;
+  out << YAML::Key << "encoder_reference" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "method" << YAML::Value << reference.method;
+  out << YAML::Key << "position_m" << YAML::Value << yaml::format_double(reference.position_m);
+  out << YAML::EndMap;
+}
+
+EncoderReference parse_reference(const yaml::Node& root) {
+  EncoderReference reference;
+  const auto node = root.optional("encoder_reference");
+  if (!node) return reference;
+  node->expect_keys({"method", "position_m"});
+  reference.method = (*node)["method"].as_string();
+  if (reference.method != "none" && reference.method != "index" && reference.method != "reference_switch") {
+    (*node)["method"].fail("expected none, index or reference_switch, got '" + reference.method + "'");
+  }
+  reference.position_m = (*node)["position_m"].as_double_in(-10.0, 10.0);
+  return reference;
+}
+
+}  // namespace
+
 std::string format_calibration_file(const CalibrationFile& file) {
   YAML::Emitter out;
   out << YAML::Comment("clm-servo calibration (Algorithm 1); format in docs/model-format.md");
@@ -182,6 +219,7 @@ std::string format_calibration_file(const CalibrationFile& file) {
   out << YAML::Key << "pole_pitch_m" << YAML::Value << yaml::format_double(file.pole_pitch_m);
   out << YAML::Key << "coil_sets" << YAML::Value << file.coil_sets.size();
   out << YAML::EndMap;
+  emit_reference(out, file.reference);
   out << YAML::Key << "experiment_drive_commutation" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "motor_constant_N_per_A" << YAML::Value << yaml::format_double(file.drive.motor_constant_N_per_A);
   out << YAML::Key << "phase_offset_rad" << YAML::Value << yaml::format_double(file.drive.phase_offset_rad);
@@ -222,9 +260,10 @@ std::string format_calibration_file(const CalibrationFile& file) {
 
 CalibrationFile parse_calibration_file(const yaml::Node& root) {
   check_format(root, kCalibrationFormat);
-  root.expect_keys({"format", "format_version", "method", "motor", "experiment_drive_commutation", "coil_sets",
-                    "provenance"});
+  root.expect_keys({"format", "format_version", "method", "motor", "encoder_reference", "experiment_drive_commutation",
+                    "coil_sets", "provenance"});
   CalibrationFile file;
+  file.reference = parse_reference(root);
   file.method = root["method"].as_string();
   if (file.method != "algorithm1" && file.method != "offset_robust" && file.method != "position") {
     root["method"].fail("expected 'algorithm1', 'offset_robust' or 'position', got '" + file.method + "'");
@@ -293,6 +332,7 @@ std::string format_model_file(const ModelFile& file) {
   out << YAML::Key << "pole_pitch_m" << YAML::Value << yaml::format_double(model.pole_pitch_m);
   out << YAML::Key << "coil_sets" << YAML::Value << model.coil_set_count();
   out << YAML::EndMap;
+  emit_reference(out, file.reference);
   if (model.kind == ModelKind::kPgnn) {
     out << YAML::Key << "position_normalisation" << YAML::Value << YAML::BeginMap;
     out << YAML::Key << "offset_m" << YAML::Value << yaml::format_double(model.normalisation.offset_m);
@@ -406,12 +446,13 @@ const char* name(RowSource source) {
 ModelFile parse_model_file(const yaml::Node& root) {
   check_format(root, kModelFormat);
   ModelFile file;
+  file.reference = parse_reference(root);
   auto& model = file.model;
   const std::string kind = root["kind"].as_string();
   if (kind == "pgnn") {
     model.kind = ModelKind::kPgnn;
-    root.expect_keys({"format", "format_version", "kind", "motor", "position_normalisation", "harmonic_orders",
-                      "coil_sets", "provenance"});
+    root.expect_keys({"format", "format_version", "kind", "motor", "encoder_reference", "position_normalisation",
+                      "harmonic_orders", "coil_sets", "provenance"});
     const yaml::Node normalisation = root["position_normalisation"];
     normalisation.expect_keys({"offset_m", "scale_m"});
     model.normalisation.offset_m = normalisation["offset_m"].as_double();
@@ -431,7 +472,8 @@ ModelFile parse_model_file(const yaml::Node& root) {
     }
   } else if (kind == "spline") {
     model.kind = ModelKind::kSpline;
-    root.expect_keys({"format", "format_version", "kind", "motor", "spline_knots", "coil_sets", "provenance"});
+    root.expect_keys({"format", "format_version", "kind", "motor", "encoder_reference", "spline_knots", "coil_sets",
+                      "provenance"});
     const yaml::Node knots = root["spline_knots"];
     knots.expect_keys({"start_m", "end_m", "intervals"});
     model.spline_basis.start_m = knots["start_m"].as_double();

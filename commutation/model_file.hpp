@@ -58,8 +58,22 @@ struct MotorDescription {
 MotorDescription read_motor_description(const yaml::Node& root);
 MotorDescription load_motor_description(const std::string& path);
 
+/// The encoder reference a file's positions are in (docs/servod.md,
+/// "Homing"): how the axis was homed and the axis position it gave the
+/// latched event. `encoder_reference:` in calibration and model files;
+/// absent in a file, an absolute encoder's ("none").
+struct EncoderReference {
+  std::string method = "none";  ///< "none" (an absolute encoder), "index" or "reference_switch"
+  double position_m = 0.0;      ///< homing.reference_position_m (meaningless for "none") [m]
+  /// The same frame: the same method and, when homed, the same position within 1 nm.
+  bool same_frame(const EncoderReference& other) const noexcept;
+  /// e.g. "index at 0.000000000 m", "none (an absolute encoder)".
+  std::string describe() const;
+};
+
 struct CalibrationFile {
   double pole_pitch_m = 0.0;
+  EncoderReference reference;  ///< the frame of the experiments' positions
   DriveCommutation drive;  ///< the commutation the experiments ran with
   /// "algorithm1", "offset_robust", or "position" (Algorithm 1 on the
   /// driving force a position-identified model reconstructs).
@@ -132,6 +146,7 @@ struct ModelProvenance {
 struct ModelFile {
   ElectromagneticModel model;
   ModelProvenance provenance;
+  EncoderReference reference;  ///< the frame of its positions (and of its identified range)
 };
 
 std::string format_model_file(const ModelFile& file);

@@ -41,7 +41,7 @@ enum class CommandResult : std::uint8_t {
   kRejectedLoadWaiting,     ///< a law loaded earlier still waits for standstill
   kRejectedFile,            ///< the file named could not be loaded (the detail: rule or place, and path)
   kRejectedNotHomed,        ///< a move to a position, or a position-dependent law, before homing
-  kRejectedHoming,          ///< homing is under way, or needs what the axis lacks (the detail says which)
+  kRejectedHoming,          ///< homing is under way (commutation finding included)
   // Refused by the command authority (daemon/servod/command_gate.hpp).
   kRejectedOtherAxis,       ///< the command names another axis
   kRejectedOtherSession,    ///< the command is for another run of the daemon

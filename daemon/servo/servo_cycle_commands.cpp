@@ -177,8 +177,8 @@ CommandResult ServoCycle::clear_fault() noexcept {
 CommandResult ServoCycle::stop() noexcept {
   // Commutation finding runs with the loop open: stopping it is opening the drive.
   if (status_.homing == HomingPhase::kFinding) return disable();
-  const bool searching = status_.homing == HomingPhase::kSearching || status_.homing == HomingPhase::kStopping;
-  if (status_.state == ServoState::kEnabled && (running_ != nullptr || (searching && !status_.stopping))) {
+  const bool searching = status_.homing == HomingPhase::kSearching;
+  if (status_.state == ServoState::kEnabled && (running_ != nullptr || searching)) {
     begin_stop(settings_.stop_limits, false);
   }
   abort_homing();

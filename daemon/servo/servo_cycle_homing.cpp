@@ -170,15 +170,10 @@ void ServoCycle::shift_to_drive_frame() noexcept {
   if (settings_.protocol.drive_profile != DriveProfile::kMagnitudePhase || commutation_offset_m_ == 0.0) return;
   const double shift_rad = kTwoPi * commutation_offset_m_ / settings_.pole_pitch_m;
   for (int l = 0; l < settings_.protocol.coil_sets; ++l) {
+    // Through the transform (20), which puts it into the convention's range.
     DriveSetpoint& setpoint = setpoints_.setpoints[static_cast<std::size_t>(l)];
-    double delta = wrap_angle_rad(setpoint.delta_rad + shift_rad);
-    double magnitude = setpoint.magnitude_N;
-    if (settings_.phase_convention == PhaseConvention::kSignedMagnitude && std::abs(delta) > 0.5 * kTwoPi / 2.0) {
-      // Back into (−π/2, π/2] with the magnitude's sign.
-      delta = wrap_angle_rad(delta + kTwoPi / 2.0);
-      magnitude = -magnitude;
-    }
-    setpoint = {magnitude, delta};
+    setpoint = transform_inverse(transform_forward({setpoint.magnitude_N, setpoint.delta_rad + shift_rad}),
+                                 settings_.phase_convention);
   }
 }
 

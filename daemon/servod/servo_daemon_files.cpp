@@ -115,6 +115,25 @@ std::string ServoDaemon::law_source(servo::CommutationMode mode) const {
   return "";
 }
 
+namespace {
+
+/// The reference this axis homes to (homing:), as files record it.
+EncoderReference configured_reference(const ServodConfig& config) {
+  return {control::name(config.servo.homing.method), config.servo.homing.reference_position_m};
+}
+
+/// Throws naming `path` when its positions are in another frame than the
+/// axis's (docs/servod.md, "Homing").
+void require_same_reference(const EncoderReference& recorded, const ServodConfig& config, const std::string& path) {
+  const EncoderReference axis = configured_reference(config);
+  if (!recorded.same_frame(axis)) {
+    throw std::runtime_error(path + ": encoder_reference: made against " + recorded.describe() +
+                             "; this axis homes to " + axis.describe() + " (homing: in " + config.origin + ")");
+  }
+}
+
+}  // namespace
+
 std::unique_ptr<ServoDaemon::OwnedLaw> ServoDaemon::build_law(servo::CommutationMode mode, const std::string& path,
                                                              const std::string& text, const std::string& sha256) const {
   auto owned = std::make_unique<OwnedLaw>();
@@ -126,6 +145,7 @@ std::unique_ptr<ServoDaemon::OwnedLaw> ServoDaemon::build_law(servo::Commutation
   if (mode == servo::CommutationMode::kClassical) {
     owned->calibration = parse_calibration_file(yaml::Node::load_string(text, path));
     check_matches_motor(owned->calibration, config_.motor, path, config_.motor_file);
+    require_same_reference(owned->calibration.reference, config_, path);
     owned->estimates = owned->calibration.estimates();
     owned->law = std::make_unique<ClassicalCommutator>(owned->estimates, config_.motor.pole_pitch_m, config_.motor.drive,
                                                        config_.commutation.options.phase_convention);
@@ -133,6 +153,7 @@ std::unique_ptr<ServoDaemon::OwnedLaw> ServoDaemon::build_law(servo::Commutation
   } else {
     owned->model = parse_model_file(yaml::Node::load_string(text, path));
     check_matches_motor(owned->model.model, config_.motor, path, config_.motor_file);
+    require_same_reference(owned->model.reference, config_, path);
     const ModelKind expected = mode == servo::CommutationMode::kPgnn ? ModelKind::kPgnn : ModelKind::kSpline;
     if (owned->model.model.kind != expected) {
       throw std::runtime_error(path + ": kind: the file holds a " +

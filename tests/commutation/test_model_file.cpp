@@ -265,3 +265,39 @@ TEST_CASE("calibration files round-trip and refuse a wrong coil-set count", "[mo
   CHECK_THROWS_WITH(parse_calibration_file(yaml::Node::load_string(broken, "calib.yaml")),
                     Catch::Contains("calib.yaml") && Catch::Contains("coil_sets"));
 }
+
+TEST_CASE("the encoder reference round-trips, is absent for an absolute encoder, and compares frames",
+          "[model_file]") {
+  CalibrationFile file;
+  file.pole_pitch_m = 0.03;
+  file.drive = {67.0, -0.52};
+  file.method = "algorithm1";
+  file.coil_sets = {{{61.34, -0.54}, {-0.785, 0.785}, {0.9, 0.8}, {1.5, 1.6}, {}}};
+  // An absolute encoder's file has no encoder_reference: what every file before homing was.
+  const std::string absolute = format_calibration_file(file);
+  CHECK(absolute.find("encoder_reference") == std::string::npos);
+  CHECK(parse_calibration_file(yaml::Node::load_string(absolute, "c.yaml")).reference.method == "none");
+  file.reference = {"index", -0.0125};
+  const std::string text = format_calibration_file(file);
+  const CalibrationFile parsed = parse_calibration_file(yaml::Node::load_string(text, "c.yaml"));
+  CHECK(parsed.reference.method == "index");
+  CHECK(parsed.reference.position_m == -0.0125);
+  CHECK(format_calibration_file(parsed) == text);
+  // Model files the same way.
+  std::mt19937_64 rng(7);
+  ModelFile model = random_model_file(ModelKind::kSpline, 2, rng);
+  model.reference = {"reference_switch", 0.04};
+  const ModelFile model_parsed = parse_model_file(yaml::Node::load_string(format_model_file(model), "m.yaml"));
+  CHECK(model_parsed.reference.method == "reference_switch");
+  CHECK(model_parsed.reference.position_m == 0.04);
+  // The same frame: the same method, and for a homed one the same position within 1 nm.
+  CHECK(EncoderReference{"index", 0.0}.same_frame({"index", 0.5e-9}));
+  CHECK_FALSE(EncoderReference{"index", 0.0}.same_frame({"index", 2e-9}));
+  CHECK_FALSE(EncoderReference{"index", 0.0}.same_frame({"reference_switch", 0.0}));
+  CHECK(EncoderReference{"none", 0.0}.same_frame({"none", 3.0}));
+  CHECK_FALSE(EncoderReference{"none", 0.0}.same_frame({"index", 0.0}));
+  std::string unknown = text;
+  unknown.replace(unknown.find("method: index"), 13, "method: laser");
+  CHECK_THROWS_WITH(parse_calibration_file(yaml::Node::load_string(unknown, "c.yaml")),
+                    Catch::Contains("c.yaml") && Catch::Contains("laser"));
+}

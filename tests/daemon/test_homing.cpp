@@ -139,7 +139,19 @@ TEST_CASE("before homing: moves to positions and position-dependent laws are ref
   test::TemporaryDirectory dir;
   const auto files = test::write_truth_laws(dir, test::source_path("config/motor-sim.yaml"));
   const auto config = test::with_laws(homing_config(control::HomingMethod::kIndex), files, servo::CommutationMode::kOriginal);
-  auto holder = wire(config, PowerUp{});
+  // Files made against an absolute encoder are in another frame than this axis's.
+  CHECK_THROWS_WITH(wire(config, PowerUp{}), Catch::Contains("calibration.yaml") &&
+                                                 Catch::Contains("encoder_reference: made against none") &&
+                                                 Catch::Contains("this axis homes to index at 0 m"));
+  // The calibration made against this axis's reference (index at 0 m) is taken.
+  CalibrationFile calibration =
+      test::truth_calibration(sim::load_motor_parameters(test::source_path("config/motor-sim.yaml")));
+  calibration.reference = {"index", 0.0};
+  test::write_text(files.calibration, format_calibration_file(calibration));
+  auto referenced = config;
+  referenced.commutation.pgnn_model_file.clear();
+  referenced.commutation.spline_model_file.clear();
+  auto holder = wire(referenced, PowerUp{});
   auto& daemon = holder->daemon;
   servo::Command classical;
   classical.kind = Kind::kSetCommutation;
