@@ -117,15 +117,10 @@ std::string ServoDaemon::law_source(servo::CommutationMode mode) const {
 
 namespace {
 
-/// The reference this axis homes to (homing:), as files record it.
-EncoderReference configured_reference(const ServodConfig& config) {
-  return {control::name(config.servo.homing.method), config.servo.homing.reference_position_m};
-}
-
 /// Throws naming `path` when its positions are in another frame than the
 /// axis's (docs/servod.md, "Homing").
 void require_same_reference(const EncoderReference& recorded, const ServodConfig& config, const std::string& path) {
-  const EncoderReference axis = configured_reference(config);
+  const EncoderReference axis = encoder_reference(config);
   if (!recorded.same_frame(axis)) {
     throw std::runtime_error(path + ": encoder_reference: made against " + recorded.describe() +
                              "; this axis homes to " + axis.describe() + " (homing: in " + config.origin + ")");

@@ -466,4 +466,8 @@ LawLimits law_limits(const ServodConfig& config) {
           config.motor.stroke_max_m};
 }
 
+EncoderReference encoder_reference(const ServodConfig& config) {
+  return {control::name(config.servo.homing.method), config.servo.homing.reference_position_m};
+}
+
 }  // namespace clm::servod

@@ -108,6 +108,10 @@ struct ServodConfig {
 /// Reads and validates the file; relative paths are resolved against its
 /// directory. Throws yaml::Error with file, line and key path.
 ServodConfig load_servod_config(const std::string& path);
+
+/// The reference this axis homes to (homing:), as calibration and model
+/// files record theirs (docs/model-format.md, "The encoder reference").
+EncoderReference encoder_reference(const ServodConfig& config);
 ServodConfig parse_servod_config(const yaml::Node& root, const std::string& directory);
 
 /// The ttl of a udpm:// LCM URL (LCM's default, 0, when it names none);

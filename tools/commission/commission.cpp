@@ -37,6 +37,13 @@ IncompleteMarker::IncompleteMarker(const std::string& dir, const std::string& st
 void IncompleteMarker::finished() { std::filesystem::remove(path_); }
 namespace {
 
+/// The experiments written to `csv`, in the frame of the axis they ran on.
+data::ExperimentData read_experiments(const std::string& csv, const MotorDescription& motor, const Report& report) {
+  data::ExperimentData data = data::read_experiment_data(data::CsvTable::load(csv), motor);
+  data.reference = report.encoder_reference;
+  return data;
+}
+
 using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point start) {
@@ -163,7 +170,7 @@ data::ExperimentData identify_from_forces(const Options& options, const MotorDes
   const std::string experiment_csv = written("experiments.csv");
   write_experiment_csv(experiment_csv, experiments, motor.drive_profile, true);
   auto step_start = Clock::now();
-  data::ExperimentData data = data::read_experiment_data(data::CsvTable::load(experiment_csv), motor);
+  data::ExperimentData data = read_experiments(experiment_csv, motor, report);
   const std::string data_hash = sha256_file(experiment_csv);
   report.calibration_paper = data::calibrate_motor(data, motor, data::CalibrationMethod::kAlgorithm1);
   report.calibration_robust = data::calibrate_motor(data, motor, data::CalibrationMethod::kOffsetRobust);
@@ -224,7 +231,7 @@ void identify_from_positions(const Options& options, const servod::ServodConfig&
   tell("identify from positions", 0.0, "");
   const std::string position_csv = written("experiments-position.csv");
   write_experiment_csv(position_csv, experiments, motor.drive_profile, false);
-  data::ExperimentData position_data = data::read_experiment_data(data::CsvTable::load(position_csv), motor);
+  data::ExperimentData position_data = read_experiments(position_csv, motor, report);
   report.from_position = true;
   data::PositionIdentifyOptions position = options.position;
   if (force_spline != nullptr) {
@@ -235,7 +242,7 @@ void identify_from_positions(const Options& options, const servod::ServodConfig&
   } else if (!payload_experiments.empty()) {
     const std::string payload_csv = written("experiments-payload.csv");
     write_experiment_csv(payload_csv, payload_experiments, motor.drive_profile, false);
-    const data::ExperimentData payload_data = data::read_experiment_data(data::CsvTable::load(payload_csv), motor);
+    const data::ExperimentData payload_data = read_experiments(payload_csv, motor, report);
     const identification::PayloadMass found =
         data::mass_from_payload(position_data, payload_data, motor, position, options.payload_kg);
     position.motion.mass_kg = found.mass_kg;
@@ -580,6 +587,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
   const servod::ServodConfig config = servod::load_servod_config(options.config_path);
   const MotorDescription motor = config.motor;
   report.coil_sets = motor.coil_sets;
+  report.encoder_reference = servod::encoder_reference(config);
   if (const std::string refusal = payload_refusal(options); !refusal.empty()) throw std::runtime_error(refusal);
   // Without a force sensor only the laws from positions are commissioned.
   check_force_sensor(config, options);
@@ -670,7 +678,7 @@ Report run(const Options& options, ExperimentRunner& runner, const std::function
     // friction), else at control.mass_kg (a payload's mass comes later),
     // whose few per cent off are the gains' error.
     write_experiment_csv(csv, nominal, motor.drive_profile, !options.no_force_sensor);
-    const data::ExperimentData data = data::read_experiment_data(data::CsvTable::load(csv), motor);
+    const data::ExperimentData data = read_experiments(csv, motor, report);
     ModelFile first;
     if (options.no_force_sensor) {
       data::PositionIdentifyOptions position = options.position;

@@ -129,6 +129,9 @@ struct StepTime {
 
 struct Report {
   std::string config_path;
+  /// The frame of every position the experiments recorded (the axis's
+  /// homing:), recorded in report.json and in every file made from them.
+  EncoderReference encoder_reference;
   int coil_sets = 0;
   CalibrationFile calibration_paper;
   CalibrationFile calibration_robust;

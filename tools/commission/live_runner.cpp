@@ -214,6 +214,26 @@ void LcmRunner::set_payload(double payload_kg) {
 }
 
 void LcmRunner::enable_axis() {
+  const auto status = client_.latest_status();
+  if (config_.servo.homing.incremental() && (!status || !status->homed)) {
+    // An axis at its power-up offset: home enables, finds the commutation
+    // and the reference (docs/servod.md, "Homing"), within the time its
+    // search may take and the finding's.
+    command("HOME", make_command(Kind::kHome));
+    const auto& homing = config_.servo.homing;
+    const double timeout_s = homing.search_distance_m / homing.search_velocity_m_per_s + 30.0;
+    const auto start = std::chrono::steady_clock::now();
+    for (;;) {
+      const servo_status_t now = client_.wait_for_status(timeout_s);
+      if (now.state == servo_status_t::STATE_FAULT) {
+        throw RunTimeFailure("homing ended in fault " + std::to_string(now.fault) + ": " + now.fault_reason);
+      }
+      if (now.homed && now.homing == servo_status_t::HOMING_IDLE && now.state == servo_status_t::STATE_ENABLED) break;
+      if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > timeout_s) {
+        throw RunTimeFailure("the axis was not homed within " + std::to_string(timeout_s) + " s of HOME");
+      }
+    }
+  }
   command("ENABLE", make_command(Kind::kEnable));
   client_.wait_for_state("CLM_SERVO_STATE of the enabled axis", 2.0,
                          [](const servo_state_t& s) { return s.state == kStateEnabled; });

@@ -300,6 +300,8 @@ std::string report_json(const Report& report) {
   std::ostringstream out;
   out << "{\n  \"schema\": \"clm-servo-report\",\n  \"schema_version\": 1,\n";
   out << "  \"config\": " << yaml::quoted(report.config_path) << ",\n  \"coil_sets\": " << report.coil_sets << ",\n";
+  out << "  \"encoder_reference\": {\"method\": " << yaml::quoted(report.encoder_reference.method)
+      << ", \"position_m\": " << yaml::format_double(report.encoder_reference.position_m) << "},\n";
   out << "  \"notes\": [";
   for (std::size_t k = 0; k < report.notes.size(); ++k) out << (k ? ", " : "") << yaml::quoted(report.notes[k]);
   out << "],\n";

@@ -18,6 +18,7 @@ CalibrationFile calibrate_motor(const ExperimentData& data, const MotorDescripti
   CalibrationFile file;
   file.pole_pitch_m = motor.pole_pitch_m;
   file.drive = motor.drive;
+  file.reference = data.reference;
   file.method = method == CalibrationMethod::kAlgorithm1    ? "algorithm1"
                 : method == CalibrationMethod::kOffsetRobust ? "offset_robust"
                                                              : "position";
@@ -392,6 +393,7 @@ ModelFile identify_motor(const ExperimentData& data, const MotorDescription& mot
       trial.model.model.validate();
     }
   }
+  for (CapacityTrial& trial : summary.trials) trial.model.reference = data.reference;
   const CapacityTrial& chosen = summary.trials[summary.chosen];
   reports = chosen.coil_sets;
   ModelFile file = chosen.model;

@@ -45,6 +45,10 @@ struct ExperimentData {
   /// Rows whose previous cycle is not in the table (the first row of each
   /// run): their force has no setpoint to pair with, so they are left out.
   std::size_t unpaired_rows = 0;
+  /// The frame of the positions (docs/model-format.md, "The encoder
+  /// reference"): the CSV does not carry it, the caller that knows the axis
+  /// sets it. The files made from these data record it.
+  EncoderReference reference;
 };
 
 /// Validates and groups the rows. A row's setpoint (magnitude_N, delta_rad,

@@ -205,6 +205,7 @@ PositionIdentification identify_from_position(const ExperimentData& data, const 
   result.model.model =
       spline_model(result.fits, basis, motor, identification::normalisation_for(as_vector(all_positions)));
   result.model.provenance.rows_from = {RowSource::kPosition, RowSource::kDriveConstants, RowSource::kDriveConstants};
+  result.model.reference = data.reference;
   result.model.provenance.created_utc = utc_timestamp();
   return result;
 }
