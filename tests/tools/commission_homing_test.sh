@@ -6,7 +6,9 @@
 # upper edge (reference_position_m −0.04, searching downwards). Commissioning
 # finds the commutation and homes before its experiments, completes, and
 # records the reference: report.json's encoder_reference, and every
-# calibration and model file's. About 12 s.
+# calibration and model file's. clm calibrate on the same data records the
+# reference given by --encoder-reference, none without it, and refuses an
+# unknown method (exit 2, one line). About 15 s.
 #
 #   commission_homing_test.sh CLM SOURCE_DIR WORK_DIR
 set -euo pipefail
@@ -43,4 +45,16 @@ assert abs(float(lines[i + 2].split(":")[1]) + 0.04) < 1e-12, lines[i + 2]
 PY
 done
 grep -q "^recommended for service: " "$work/commission.log" || fail "no recommendation"
+# clm calibrate from the same data records the reference it is given, and none without one.
+"$clm" calibrate --motor "$work/config/motor-sim.yaml" --data "$work/out/experiments.csv" --output "$work/given.yaml" \
+    --encoder-reference reference_switch --reference-position-m -0.04 > /dev/null || fail "clm calibrate with a reference"
+grep -A2 "^encoder_reference:" "$work/given.yaml" | grep -q "position_m: -0.04" || fail "clm calibrate: the reference given is not recorded"
+"$clm" calibrate --motor "$work/config/motor-sim.yaml" --data "$work/out/experiments.csv" --output "$work/none.yaml" \
+    > /dev/null || fail "clm calibrate without a reference"
+grep -q "^encoder_reference:" "$work/none.yaml" && fail "clm calibrate without --encoder-reference wrote one"
+rc=0
+"$clm" calibrate --motor "$work/config/motor-sim.yaml" --data "$work/out/experiments.csv" --output "$work/bad.yaml" \
+    --encoder-reference laser 2> "$work/bad.err" > /dev/null || rc=$?
+[ "$rc" = 2 ] && [ "$(wc -l < "$work/bad.err")" = 1 ] && [ ! -e "$work/bad.yaml" ] ||
+    fail "--encoder-reference laser: exit $rc, stderr '$(cat "$work/bad.err")'"
 echo "commission_homing_test: passed"

@@ -22,6 +22,7 @@ void add_calibrate(CLI::App& app) {
     double knot_spacing_m = 0.0;
     double viscous_N_s_per_m = 0.0;
     double direction_N = 0.0;
+    EncoderReference reference;
     data::DataLimits limits;
     lcmlog::GapPolicy gaps;
   };
@@ -41,6 +42,7 @@ void add_calibrate(CLI::App& app) {
                   "force balance)")
       ->check(clm::non_negative_number())->capture_default_str();
   add_friction_options(*sub, options->viscous_N_s_per_m, options->direction_N);
+  add_encoder_reference_options(*sub, options->reference);
   lcmlog::add_data_limit_options(*sub, options->limits, "--data");
   lcmlog::add_gap_option(*sub, options->gaps);
   sub->callback([options] {
@@ -48,6 +50,7 @@ void add_calibrate(CLI::App& app) {
     // The table (the file's text) is dropped once its rows are grouped.
     auto data = data::read_experiment_data(
         lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment, options->limits, options->gaps), motor);
+    data.reference = options->reference;
     if (!data.measured_forces) {
       // Algorithm 1 on the driving force a model identified from positions reconstructs.
       if (options->robust) {

@@ -76,6 +76,18 @@ void add_friction_options(CLI::App& sub, double& viscous_N_s_per_m, double& dire
       ->check(clm::non_negative_number());
 }
 
+void add_encoder_reference_options(CLI::App& sub, EncoderReference& reference) {
+  sub.add_option("--encoder-reference", reference.method,
+                 "how the axis the data were recorded on was homed (its homing.method): none for an absolute "
+                 "encoder; clm-servod takes the file only on an axis homed the same way")
+      ->check(CLI::IsMember({"none", "index", "reference_switch"}))
+      ->capture_default_str();
+  sub.add_option("--reference-position-m", reference.position_m,
+                 "the axis position homing gave the latched event (its homing.reference_position_m)")
+      ->check(clm::in_range(-10.0, 10.0))
+      ->capture_default_str();
+}
+
 void add_identify(CLI::App& app) {
   auto* sub = app.add_subcommand("identify", "Algorithm 2: identify a PGNN (or spline) model of the electromagnetics");
   struct Options {
@@ -85,6 +97,7 @@ void add_identify(CLI::App& app) {
     double viscous_N_s_per_m = 0.0;
     double direction_N = 0.0;
     std::string off_axis_model;
+    EncoderReference reference;
     data::DataLimits limits;
     lcmlog::GapPolicy gaps;
   };
@@ -133,6 +146,7 @@ void add_identify(CLI::App& app) {
                   "data without force columns: the translator's mass, which fixes the force scale (default: the "
                   "drive's nominal commutation does)")
       ->check(clm::non_negative_number())->capture_default_str();
+  add_encoder_reference_options(*sub, options->reference);
   add_friction_options(*sub, options->viscous_N_s_per_m, options->direction_N);
   sub->add_option("--off-axis-model", options->off_axis_model,
                   "data without force columns: a spline model of a force-sensor identification whose F_x and T_z rows "
@@ -152,8 +166,9 @@ void add_identify(CLI::App& app) {
     const auto motor = load_motor_description(options->motor);
     // The table (the file's text) is dropped once its rows are grouped, before
     // the identification's own matrices are made (docs/benchmarks.md, memory).
-    const auto data = data::read_experiment_data(
+    auto data = data::read_experiment_data(
         lcmlog::load_data_table(options->data, lcmlog::CsvFormat::kExperiment, options->limits, options->gaps), motor);
+    data.reference = options->reference;
     if (data.measured_forces && !options->off_axis_model.empty()) {
       throw std::runtime_error("--off-axis-model: " + options->data +
                                " has force columns; a model of F_x and T_z is for data without them");

@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "commutation/model_file.hpp"
 #include "tools/cli/progress.hpp"
 
 namespace clm::data {
@@ -30,5 +31,10 @@ void print_position_identification(const data::PositionIdentification& identifie
 /// --viscous-N-s-per-m and --direction-force-N: the friction that sets the
 /// force scale of an identification from positions (clm identify, calibrate, commission).
 void add_friction_options(CLI::App& sub, double& viscous_N_s_per_m, double& direction_N);
+
+/// --encoder-reference and --reference-position-m: the frame the data's
+/// positions are in, recorded in the file written (docs/model-format.md,
+/// "The encoder reference"; clm identify, calibrate).
+void add_encoder_reference_options(CLI::App& sub, EncoderReference& reference);
 
 }  // namespace clm::cli
