@@ -27,6 +27,10 @@ void HomingSettings::validate() const {
     fail("search_distance_m", search_distance_m, "must lie in (0, 10] m");
   }
   if (!std::isfinite(reference_position_m)) fail("reference_position_m", reference_position_m, "must be finite");
+  if (index_in_switch && method != HomingMethod::kReferenceSwitch) {
+    throw std::invalid_argument("homing.index_in_switch: true needs method reference_switch, got " +
+                                std::string(name(method)));
+  }
   finding.validate();
 }
 

@@ -35,6 +35,10 @@ struct HomingSettings {
   /// The axis position of the event the drive latches (an index mark or the
   /// switch's edge) [m]: the reference the calibration and model files were made against.
   double reference_position_m = 0.0;
+  /// kReferenceSwitch only: after the switch's edge, the search goes on to
+  /// the encoder's next index mark, which is the reference (the switch says
+  /// which mark, the mark where).
+  bool index_in_switch = false;
   CommutationFindingSettings finding;
   /// The encoder reads an unknown offset at power-up.
   bool incremental() const noexcept { return method != HomingMethod::kNone; }

@@ -473,7 +473,7 @@ std::size_t ServoCycle::encode_setpoints(bool enable) noexcept {
   setpoints_.clear_fault = clear_drive_fault_;
   // The drive's position latch, armed while the search runs and nothing was latched.
   setpoints_.arm_latch = enable && status_.homing == HomingPhase::kSearching && !latch_received_;
-  setpoints_.latch_on_switch = settings_.homing.method == control::HomingMethod::kReferenceSwitch;
+  setpoints_.latch_on_switch = settings_.homing.method == control::HomingMethod::kReferenceSwitch && !awaiting_index_;
   setpoints_.alive_counter = setpoint_alive_++;
   can::CodecStatus status = can::CodecStatus::kOk;
   std::size_t count = can::encode_setpoints(settings_.protocol, setpoints_, frames_, status);

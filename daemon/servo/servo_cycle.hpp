@@ -272,8 +272,9 @@ class ServoCycle {
   /// One period of commutation finding: the open-loop doublet's setpoints.
   void find_commutation() noexcept;
   void begin_search() noexcept;
-  /// The search at its reference `now`: a latch received stops it, a
-  /// latch without its frame or the distance used up latches a fault.
+  /// The search at its reference `now`: a latch received stops it (or,
+  /// index_in_switch, the switch's edge arms the index), a latch without
+  /// its frame or the distance used up latches a fault.
   void watch_search(const control::ReferenceSample& now) noexcept;
   /// At rest after the latch: the position frame moves to the reference.
   void finish_homing() noexcept;
@@ -358,6 +359,7 @@ class ServoCycle {
   std::int64_t search_start_cycle_ = 0;
   bool home_requested_ = false;
   bool latch_received_ = false, latch_checked_ = false, latch_in_span_ = false, homing_complete_ = false;
+  bool awaiting_index_ = false;  // index_in_switch: the switch's edge latched, the index next
   double latched_reading_m_ = 0.0, pending_offset_m_ = 0.0;
   int latch_frame_wait_ = 0;
 

@@ -98,7 +98,7 @@ void ServoCycle::begin_search() noexcept {
   const double velocity = settings_.homing.direction * settings_.homing.search_velocity_m_per_s;
   search_ = control::SearchProfile::plan(hold_m_, velocity, settings_.stop_limits);
   search_start_cycle_ = cycle_ + 1;
-  latch_received_ = latch_checked_ = latch_in_span_ = homing_complete_ = false;
+  latch_received_ = latch_checked_ = latch_in_span_ = homing_complete_ = awaiting_index_ = false;
   latch_frame_wait_ = 0;
   status_.homing = HomingPhase::kSearching;
   mailbox_.idle_.store(false, std::memory_order_release);
@@ -119,6 +119,14 @@ void ServoCycle::watch_search(const control::ReferenceSample& now) noexcept {
   }
   if (latch_received_ && !latch_in_span_) {
     latch(Fault::kLatchInvalid);
+    return;
+  }
+  if (latch_received_ && status_.drive.latched && settings_.homing.index_in_switch && !awaiting_index_) {
+    // The switch's edge says which mark: the latch goes over to the index
+    // (its source changes, which re-arms it) and the search goes on.
+    awaiting_index_ = true;
+    latch_received_ = latch_checked_ = false;
+    latch_frame_wait_ = 0;
     return;
   }
   if (latch_received_ && status_.drive.latched) {

@@ -304,7 +304,7 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
 
   if (const auto homing = root.optional("homing")) {
     homing->expect_keys({"method", "direction", "search_velocity_m_per_s", "search_distance_m", "reference_position_m",
-                         "commutation_finding"});
+                         "index_in_switch", "commutation_finding"});
     auto& h = config.servo.homing;
     if (const auto v = homing->optional("method")) {
       const std::string method = v->as_string();
@@ -325,6 +325,12 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     if (const auto v = homing->optional("search_velocity_m_per_s")) h.search_velocity_m_per_s = v->as_double_in(1e-5, 0.1);
     if (const auto v = homing->optional("search_distance_m")) h.search_distance_m = v->as_double_in(1e-4, 10.0);
     if (const auto v = homing->optional("reference_position_m")) h.reference_position_m = v->as_double_in(-10.0, 10.0);
+    if (const auto v = homing->optional("index_in_switch")) {
+      h.index_in_switch = v->as_bool();
+      if (h.index_in_switch && h.method != control::HomingMethod::kReferenceSwitch) {
+        v->fail("index_in_switch: true needs method: reference_switch");
+      }
+    }
     if (const auto finding = homing->optional("commutation_finding")) {
       finding->expect_keys({"force_N", "max_motion_m", "settle_s", "phases"});
       auto& f = h.finding;

@@ -286,3 +286,29 @@ TEST_CASE("a move offered while an enable waits to find the commutation is refus
   daemon.submit(jog);
   CHECK(test::cycle_answer(daemon, 2).result == servo::CommandResult::kRejectedHoming);
 }
+
+TEST_CASE("homing to the index inside the reference switch: the switch says which mark, the mark where",
+          "[daemon][homing]") {
+  auto config = homing_config(control::HomingMethod::kReferenceSwitch);
+  config.servo.homing.index_in_switch = true;
+  // Marks every 7 mm: the switch [0, 0.02] m holds those at 0.007 and 0.014 m;
+  // searching upwards from its lower edge, the first is at 0.007 m.
+  config.servo.homing.reference_position_m = 0.007;
+  for (const PowerUp power_up : {PowerUp{4, -0.05}, PowerUp{10, -0.1}}) {
+    sim::MotorParameters motor = incremental_motor(power_up);
+    motor.sensors.index_pitch_m = 0.007;
+    servod::WiredAxis wired(config, servod::wire_simulated_axis(config, motor));
+    wired.simulated_motor()->reset(power_up.start_m);
+    wired.daemon.run_cycles(10);
+    const double offset_m = wired.simulated_motor()->truth().encoder_offset_m;
+    INFO("seed " << power_up.seed << ", start " << power_up.start_m << " m, encoder offset " << offset_m << " m");
+    REQUIRE(test::command(wired.daemon, Kind::kHome, 1).accepted());
+    run_homing(wired, power_up.start_m, 200000);
+    const auto& status = wired.daemon.cycle().status();
+    INFO("fault " << static_cast<int>(status.fault) << ", axis offset " << status.axis_offset_m << " m");
+    REQUIRE(status.homed);
+    CHECK(std::abs(status.axis_offset_m + offset_m) <= 2e-9);
+    // It stopped past the mark at 0.007 m, not at the switch's edge.
+    CHECK(wired.simulated_motor()->truth().position_m > 0.007);
+  }
+}
