@@ -199,8 +199,8 @@ EncoderReference parse_reference(const yaml::Node& root) {
   if (!node) return reference;
   node->expect_keys({"method", "position_m"});
   reference.method = (*node)["method"].as_string();
-  if (reference.method != "none" && reference.method != "index" && reference.method != "reference_switch") {
-    (*node)["method"].fail("expected none, index or reference_switch, got '" + reference.method + "'");
+  if (std::find(kReferenceMethods.begin(), kReferenceMethods.end(), reference.method) == kReferenceMethods.end()) {
+    (*node)["method"].fail("expected none, index, reference_switch or hard_stop, got '" + reference.method + "'");
   }
   reference.position_m = (*node)["position_m"].as_double_in(-10.0, 10.0);
   return reference;

@@ -8,11 +8,13 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "commutation/calibration.hpp"
 #include "commutation/classical.hpp"
 #include "commutation/current_loop_compensation.hpp"
+#include "commutation/encoder_reference.hpp"
 #include "commutation/model.hpp"
 #include "config/yaml_reader.hpp"
 
@@ -62,15 +64,6 @@ MotorDescription load_motor_description(const std::string& path);
 /// "Homing"): how the axis was homed and the axis position it gave the
 /// latched event. `encoder_reference:` in calibration and model files;
 /// absent in a file, an absolute encoder's ("none").
-struct EncoderReference {
-  std::string method = "none";  ///< "none" (an absolute encoder), "index" or "reference_switch"
-  double position_m = 0.0;      ///< homing.reference_position_m (meaningless for "none") [m]
-  /// The same frame: the same method and, when homed, the same position within 1 nm.
-  bool same_frame(const EncoderReference& other) const noexcept;
-  /// e.g. "index at 0.000000000 m", "none (an absolute encoder)".
-  std::string describe() const;
-};
-
 struct CalibrationFile {
   double pole_pitch_m = 0.0;
   EncoderReference reference;  ///< the frame of the experiments' positions

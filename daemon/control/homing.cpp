@@ -1,18 +1,19 @@
 #include "daemon/control/homing.hpp"
 
+#include "commutation/encoder_reference.hpp"
+
 #include <cmath>
 #include <stdexcept>
 #include <string>
 
 namespace clm::control {
 
+static_assert(kReferenceMethods.size() == static_cast<std::size_t>(HomingMethod::kHardStop) + 1,
+              "kReferenceMethods names every HomingMethod, in its order");
+
 const char* name(HomingMethod method) noexcept {
-  switch (method) {
-    case HomingMethod::kNone: return "none";
-    case HomingMethod::kIndex: return "index";
-    case HomingMethod::kReferenceSwitch: return "reference_switch";
-  }
-  return "?";
+  const auto index = static_cast<std::size_t>(method);
+  return index < kReferenceMethods.size() ? kReferenceMethods[index].data() : "?";
 }
 
 void HomingSettings::validate() const {
@@ -31,6 +32,13 @@ void HomingSettings::validate() const {
     throw std::invalid_argument("homing.index_in_switch: true needs method reference_switch, got " +
                                 std::string(name(method)));
   }
+  if (!(hard_stop_force_N > 0.0 && hard_stop_force_N <= 10000.0)) {
+    fail("hard_stop_force_N", hard_stop_force_N, "must lie in (0, 10000] N");
+  }
+  if (!(hard_stop_following_error_m > 0.0 && hard_stop_following_error_m <= 0.01)) {
+    fail("hard_stop_following_error_m", hard_stop_following_error_m, "must lie in (0, 0.01] m");
+  }
+  if (!(back_off_m > 0.0 && back_off_m <= 0.1)) fail("back_off_m", back_off_m, "must lie in (0, 0.1] m");
   finding.validate();
 }
 

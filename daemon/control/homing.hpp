@@ -19,8 +19,13 @@ enum class HomingMethod : std::uint8_t {
   kIndex,
   /// The same with the reference switch's edge as the latch event.
   kReferenceSwitch,
+  /// Commutation finding, then a search with the force limited to
+  /// hard_stop_force_N until the following error passes
+  /// hard_stop_following_error_m (the axis stopped at the hard stop): that
+  /// reading is the reference; then back off by back_off_m.
+  kHardStop,
 };
-/// "none", "index", "reference_switch".
+/// "none", "index", "reference_switch", "hard_stop".
 const char* name(HomingMethod method) noexcept;
 
 struct HomingSettings {
@@ -39,6 +44,13 @@ struct HomingSettings {
   /// the encoder's next index mark, which is the reference (the switch says
   /// which mark, the mark where).
   bool index_in_switch = false;
+  /// kHardStop: the force the search may push with [N], > 0, and the
+  /// following error that says it stopped at the hard stop [m], > 0 (below
+  /// control.following_error_limit_m); the distance it backs off by [m], > 0.
+  double hard_stop_force_N = 40.0;
+  double hard_stop_following_error_m = 2e-4;
+  double back_off_m = 0.002;
+  bool latches() const noexcept { return method == HomingMethod::kIndex || method == HomingMethod::kReferenceSwitch; }
   CommutationFindingSettings finding;
   /// The encoder reads an unknown offset at power-up.
   bool incremental() const noexcept { return method != HomingMethod::kNone; }

@@ -23,6 +23,7 @@ enum class HomingPhase : std::uint8_t {
   kFinding = 1,    ///< commutation finding: the loop open, doublets at test phases
   kSearching = 2,  ///< the loop closed, moving at the search velocity, the drive's latch armed
   kStopping = 3,   ///< the event latched: stopping before the position frame moves to it
+  kBackingOff = 4, ///< hard_stop: at the stop, moving back off it before stopping
 };
 
 /// The commutation the cycle uses; values are servo_state_t.COMMUTATION_*.

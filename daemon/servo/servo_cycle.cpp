@@ -106,7 +106,8 @@ void ServoCycle::latch(Fault fault) noexcept {
   status_.fault = fault;
   status_.fault_cycle = cycle_;
   mailbox_.restricted_.store(false, std::memory_order_release);
-  const bool moving = running_ != nullptr || status_.stopping || status_.homing == HomingPhase::kSearching;
+  const bool moving = running_ != nullptr || status_.stopping || status_.homing == HomingPhase::kSearching ||
+                      status_.homing == HomingPhase::kBackingOff;
   abort_homing();
   const bool plausible = have_position_ && std::abs(reference_.position_m - position_m_) <=
                                                kPlausibleErrorFactor * settings_.following_error_limit_m;
@@ -358,7 +359,7 @@ void ServoCycle::drive() noexcept {
       end_program();
       mailbox_.idle_.store(true, std::memory_order_release);
     }
-  } else if (status_.homing == HomingPhase::kSearching) {
+  } else if (status_.homing == HomingPhase::kSearching || status_.homing == HomingPhase::kBackingOff) {
     sample(search_, static_cast<double>(cycle_ - search_start_cycle_) * settings_.period_s);
     watch_search(now);
   } else if (status_.stopping) {
@@ -379,6 +380,11 @@ void ServoCycle::drive() noexcept {
   reference_cycle_ = cycle_;
   approach_guard(now, next);
   double force = controller_.update(now, position_m_, ahead, ahead_next);
+  if (pushing_to_hard_stop()) {
+    // Against the hard stop the force is what homing allows, by design:
+    // neither a saturation nor (below its limit) a following-error fault.
+    force = std::clamp(force, -settings_.homing.hard_stop_force_N, settings_.homing.hard_stop_force_N);
+  }
   record_.r_m = now.position_m;
   record_.r_dot_m_per_s = now.velocity_m_per_s;
   record_.r_ddot_m_per_s2 = now.acceleration_m_per_s2;
@@ -472,7 +478,8 @@ std::size_t ServoCycle::encode_setpoints(bool enable) noexcept {
   setpoints_.enable = enable;
   setpoints_.clear_fault = clear_drive_fault_;
   // The drive's position latch, armed while the search runs and nothing was latched.
-  setpoints_.arm_latch = enable && status_.homing == HomingPhase::kSearching && !latch_received_;
+  setpoints_.arm_latch =
+      enable && settings_.homing.latches() && status_.homing == HomingPhase::kSearching && !latch_received_;
   setpoints_.latch_on_switch = settings_.homing.method == control::HomingMethod::kReferenceSwitch && !awaiting_index_;
   setpoints_.alive_counter = setpoint_alive_++;
   can::CodecStatus status = can::CodecStatus::kOk;

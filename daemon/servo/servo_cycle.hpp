@@ -280,6 +280,11 @@ class ServoCycle {
   void finish_homing() noexcept;
   /// Ends homing where it is: a stop, a disable, a fault.
   void abort_homing() noexcept;
+  /// Homing to the hard stop: searching or backing off, the force limited.
+  bool pushing_to_hard_stop() const noexcept {
+    return settings_.homing.method == control::HomingMethod::kHardStop &&
+           (status_.homing == HomingPhase::kSearching || status_.homing == HomingPhase::kBackingOff);
+  }
   /// The law a mode needs homing for (every one but the drive's own).
   bool needs_homing(CommutationMode mode) const noexcept;
   /// Setpoints for the drive's commutation on its raw reading: Δ shifted by
@@ -360,6 +365,7 @@ class ServoCycle {
   bool home_requested_ = false;
   bool latch_received_ = false, latch_checked_ = false, latch_in_span_ = false, homing_complete_ = false;
   bool awaiting_index_ = false;  // index_in_switch: the switch's edge latched, the index next
+  double contact_m_ = 0.0;       // hard_stop: the axis position where it met the stop
   double latched_reading_m_ = 0.0, pending_offset_m_ = 0.0;
   int latch_frame_wait_ = 0;
 

@@ -60,6 +60,10 @@ void ServoSettings::validate() const {
   // The search starts and stops within the stop limits: its velocity must be one a move may have.
   require(homing.search_velocity_m_per_s <= motion_limits.velocity_m_per_s,
           "homing.search_velocity_m_per_s must not exceed motion.velocity_m_per_s");
+  // The hard stop is told by the following error, before the fault's limit is.
+  require(homing.method != control::HomingMethod::kHardStop ||
+              homing.hard_stop_following_error_m < following_error_limit_m,
+          "homing.hard_stop_following_error_m must lie below control.following_error_limit_m");
   const std::string outside = control::check_envelope(
       machine, {period_s, soft_limit_min_m, soft_limit_max_m, following_error_limit_m, force_limit_N,
                 saturation_time_limit_s, motion_limits, stop_limits, quick_stop_limits, feedforward, pid});
@@ -177,7 +181,7 @@ CommandResult ServoCycle::clear_fault() noexcept {
 CommandResult ServoCycle::stop() noexcept {
   // Commutation finding runs with the loop open: stopping it is opening the drive.
   if (status_.homing == HomingPhase::kFinding) return disable();
-  const bool searching = status_.homing == HomingPhase::kSearching;
+  const bool searching = status_.homing == HomingPhase::kSearching || status_.homing == HomingPhase::kBackingOff;
   if (status_.state == ServoState::kEnabled && (running_ != nullptr || searching)) {
     begin_stop(settings_.stop_limits, false);
   }
@@ -187,7 +191,7 @@ CommandResult ServoCycle::stop() noexcept {
 
 CommandResult ServoCycle::quick_stop() noexcept {
   if (status_.homing == HomingPhase::kFinding) return disable();
-  const bool searching = status_.homing == HomingPhase::kSearching;
+  const bool searching = status_.homing == HomingPhase::kSearching || status_.homing == HomingPhase::kBackingOff;
   if (status_.state == ServoState::kEnabled &&
       (running_ != nullptr || searching || (status_.stopping && !stop_quick_))) {
     begin_stop(settings_.quick_stop_limits, true);

@@ -105,6 +105,29 @@ void ServoCycle::begin_search() noexcept {
 }
 
 void ServoCycle::watch_search(const control::ReferenceSample& now) noexcept {
+  if (settings_.homing.method == control::HomingMethod::kHardStop) {
+    if (status_.homing == HomingPhase::kBackingOff) {
+      if (std::abs(now.position_m - contact_m_) >= settings_.homing.back_off_m) {
+        status_.homing = HomingPhase::kStopping;
+        reference_ = now;
+        reference_cycle_ = cycle_;
+        begin_stop(settings_.stop_limits, false);
+      }
+    } else if (std::abs(now.position_m - position_m_) > settings_.homing.hard_stop_following_error_m) {
+      // The reference runs on, the axis stands: it met the stop. That
+      // reading is the reference; the search turns back from where the axis is.
+      pending_offset_m_ = settings_.homing.reference_position_m - (position_m_ - status_.axis_offset_m);
+      contact_m_ = position_m_;
+      status_.homing = HomingPhase::kBackingOff;
+      search_ = control::SearchProfile::plan(position_m_,
+                                             -settings_.homing.direction * settings_.homing.search_velocity_m_per_s,
+                                             settings_.stop_limits);
+      search_start_cycle_ = cycle_ + 1;
+    } else if (std::abs(now.position_m - search_.start_m()) > settings_.homing.search_distance_m) {
+      latch(Fault::kHomingNotFound);
+    }
+    return;
+  }
   if (latch_received_ && !latch_checked_) {
     // The frame is taken as the drive's only if it names a reading between
     // this period's and the last (widened by a period's search and the

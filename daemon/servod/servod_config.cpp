@@ -304,19 +304,14 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
 
   if (const auto homing = root.optional("homing")) {
     homing->expect_keys({"method", "direction", "search_velocity_m_per_s", "search_distance_m", "reference_position_m",
-                         "index_in_switch", "commutation_finding"});
+                         "index_in_switch", "hard_stop_force_N", "hard_stop_following_error_m", "back_off_m",
+                         "commutation_finding"});
     auto& h = config.servo.homing;
     if (const auto v = homing->optional("method")) {
       const std::string method = v->as_string();
-      if (method == "none") {
-        h.method = control::HomingMethod::kNone;
-      } else if (method == "index") {
-        h.method = control::HomingMethod::kIndex;
-      } else if (method == "reference_switch") {
-        h.method = control::HomingMethod::kReferenceSwitch;
-      } else {
-        v->fail("expected none, index or reference_switch, got '" + method + "'");
-      }
+      const auto found = std::find(kReferenceMethods.begin(), kReferenceMethods.end(), method);
+      if (found == kReferenceMethods.end()) v->fail("expected none, index, reference_switch or hard_stop, got '" + method + "'");
+      h.method = static_cast<control::HomingMethod>(found - kReferenceMethods.begin());
     }
     if (const auto v = homing->optional("direction")) {
       h.direction = static_cast<int>(v->as_integer_in(-1, 1));
@@ -325,6 +320,11 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
     if (const auto v = homing->optional("search_velocity_m_per_s")) h.search_velocity_m_per_s = v->as_double_in(1e-5, 0.1);
     if (const auto v = homing->optional("search_distance_m")) h.search_distance_m = v->as_double_in(1e-4, 10.0);
     if (const auto v = homing->optional("reference_position_m")) h.reference_position_m = v->as_double_in(-10.0, 10.0);
+    if (const auto v = homing->optional("hard_stop_force_N")) h.hard_stop_force_N = v->as_double_in(0.1, 10000.0);
+    if (const auto v = homing->optional("hard_stop_following_error_m")) {
+      h.hard_stop_following_error_m = v->as_double_in(1e-6, 0.01);
+    }
+    if (const auto v = homing->optional("back_off_m")) h.back_off_m = v->as_double_in(1e-5, 0.1);
     if (const auto v = homing->optional("index_in_switch")) {
       h.index_in_switch = v->as_bool();
       if (h.index_in_switch && h.method != control::HomingMethod::kReferenceSwitch) {

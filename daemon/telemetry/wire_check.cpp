@@ -78,7 +78,7 @@ constexpr std::array kStatusFields{
     i64("damping_cycles"), boolean("program_running"), finite("program_time_s"), boolean("restricted"),
     i8("force_sensor", 0, 2), i16("force_sensor_warning", 0), i64("force_sensor_losses"),
     i16("drive_signals", 0, 127), boolean("enabling"), i64("current_limited_cycles"), boolean("commutation_found"),
-    boolean("homed"), i8("homing", 0, 3), finite("found_phase_rad"), finite("axis_offset_m"),
+    boolean("homed"), i8("homing", 0, 4), finite("found_phase_rad"), finite("axis_offset_m"),
     i64("control_client"), finite("control_lease_remaining_s"), i64("commands_admitted"),
     i64("commands_refused_malformed"), i64("commands_refused_other_axis"), i64("commands_refused_other_session"),
     i64("commands_refused_no_client"), i64("commands_refused_replayed"), i64("commands_refused_stale"),

@@ -398,7 +398,7 @@ StepResult SimulatedMotor::step(double period_s) noexcept {
       if (!in_contact_) {
         ++end_stop_collisions_;
         last_impact_speed_m_per_s_ = std::abs(velocity_m_per_s_);
-        latch_fault(kStatusEndStop);
+        if (last_impact_speed_m_per_s_ > mechanics.end_stop_fault_speed_m_per_s) latch_fault(kStatusEndStop);
       }
       velocity_m_per_s_ = 0.0;
     }

@@ -111,7 +111,8 @@ void read_direction_dependent(const Node& section, ElectromagneticParameters& em
 void read_mechanics(const Node& section, const MotorParameters& motor, MechanicsParameters& mechanics) {
   section.expect_keys({"translator_mass_kg", "viscous_friction_N_s_per_m", "coulomb_friction_N",
                        "friction_smoothing_velocity_m_per_s", "integration_step_s", "end_stop_min_m",
-                       "end_stop_max_m", "limit_switch_min_m", "limit_switch_max_m", "flexible_mode",
+                       "end_stop_max_m", "end_stop_fault_speed_m_per_s", "limit_switch_min_m", "limit_switch_max_m",
+                       "flexible_mode",
                        "force_disturbance"});
   mechanics.translator_mass_kg = section["translator_mass_kg"].as_positive();
   mechanics.viscous_friction_N_s_per_m = optional_double(section, "viscous_friction_N_s_per_m", 0.0, 0.0, kInfinity);
@@ -124,6 +125,7 @@ void read_mechanics(const Node& section, const MotorParameters& motor, Mechanics
       optional_double(section, "end_stop_min_m", motor.stroke_min_m - 0.01, -kInfinity, motor.stroke_min_m);
   mechanics.end_stop_max_m =
       optional_double(section, "end_stop_max_m", motor.stroke_max_m + 0.01, motor.stroke_max_m, kInfinity);
+  mechanics.end_stop_fault_speed_m_per_s = optional_double(section, "end_stop_fault_speed_m_per_s", 0.0, 0.0, 10.0);
   // Without limit switches only the stops' impact is reported.
   mechanics.limit_switch_min_m = optional_double(section, "limit_switch_min_m", -kInfinity, -kInfinity, kInfinity);
   mechanics.limit_switch_max_m = optional_double(section, "limit_switch_max_m", kInfinity, -kInfinity, kInfinity);

@@ -85,6 +85,7 @@ void MechanicsParameters::validate() const {
   require_finite("end_stop_min_m", end_stop_min_m);
   require_finite("end_stop_max_m", end_stop_max_m);
   if (!(end_stop_max_m > end_stop_min_m)) fail("end_stop_max_m", end_stop_max_m, "must be above end_stop_min_m");
+  require_non_negative("end_stop_fault_speed_m_per_s", end_stop_fault_speed_m_per_s);
   const bool none_below = limit_switch_min_m == -std::numeric_limits<double>::infinity();
   const bool none_above = limit_switch_max_m == std::numeric_limits<double>::infinity();
   if (!(none_below || (limit_switch_min_m >= end_stop_min_m && limit_switch_min_m < end_stop_max_m))) {

@@ -134,6 +134,11 @@ struct MechanicsParameters {
   double integration_step_s = 5e-5;
   double end_stop_min_m = -0.13;  ///< lower hard stop [m]
   double end_stop_max_m = 0.13;   ///< upper hard stop [m], > end_stop_min_m
+  /// An impact on a hard stop faster than this latches kStatusEndStop and
+  /// the drive's fault (a crash the machine's end-stop sensing reports);
+  /// slower it is a contact the drive does not see, as a homing to the hard
+  /// stop makes (docs/servod.md, "Homing") [m/s], ≥ 0; 0: every impact.
+  double end_stop_fault_speed_m_per_s = 0.0;
   /// Limit switches: active while the translator is at or beyond them
   /// (DriveStatus kStatusEndStop), without faulting the drive; between the
   /// stroke and the hard stops [m]. Infinite: none (the stops' impact alone).

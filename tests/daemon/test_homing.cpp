@@ -6,6 +6,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "commutation/transform.hpp"
@@ -310,5 +311,42 @@ TEST_CASE("homing to the index inside the reference switch: the switch says whic
     CHECK(std::abs(status.axis_offset_m + offset_m) <= 2e-9);
     // It stopped past the mark at 0.007 m, not at the switch's edge.
     CHECK(wired.simulated_motor()->truth().position_m > 0.007);
+  }
+}
+
+TEST_CASE("homing to the hard stop: the force limited, the stop found by the following error, backed off",
+          "[daemon][homing]") {
+  auto config = homing_config(control::HomingMethod::kHardStop);
+  config.servo.homing.direction = -1;
+  config.servo.homing.search_distance_m = 0.06;
+  config.servo.homing.reference_position_m = -0.13;  // the lower hard stop's true position
+  for (const PowerUp power_up : {PowerUp{4, -0.1}, PowerUp{10, -0.09}}) {
+    sim::MotorParameters motor = incremental_motor(power_up);
+    // No limit switches in the way; a contact slower than 2 cm/s is not a crash.
+    motor.mechanics.limit_switch_min_m = -std::numeric_limits<double>::infinity();
+    motor.mechanics.limit_switch_max_m = std::numeric_limits<double>::infinity();
+    motor.mechanics.end_stop_fault_speed_m_per_s = 0.02;
+    servod::WiredAxis wired(config, servod::wire_simulated_axis(config, motor));
+    wired.simulated_motor()->reset(power_up.start_m);
+    wired.daemon.run_cycles(10);
+    const double offset_m = wired.simulated_motor()->truth().encoder_offset_m;
+    INFO("seed " << power_up.seed << ", start " << power_up.start_m << " m, encoder offset " << offset_m << " m");
+    REQUIRE(test::command(wired.daemon, Kind::kHome, 1).accepted());
+    run_homing(wired, power_up.start_m, 200000);
+    const auto& status = wired.daemon.cycle().status();
+    const auto truth = wired.simulated_motor()->truth();
+    INFO("fault " << static_cast<int>(status.fault) << ", axis offset " << status.axis_offset_m << " m, "
+                  << truth.end_stop_collisions << " contact(s) at " << truth.last_impact_speed_m_per_s << " m/s");
+    REQUIRE(status.homed);
+    CHECK(truth.end_stop_collisions >= 1);  // it met the stop (and re-met it, pressed against it, at mm/s)
+    CHECK(truth.last_impact_speed_m_per_s <= config.servo.homing.search_velocity_m_per_s * 1.5);
+    // The reading at the stop: within what the mode's spring gives under the homing force and the
+    // following error's threshold (2 µm and 0.2 mm here; measured below 10 µm).
+    const double error_m = status.axis_offset_m + offset_m;
+    INFO("offset error " << error_m * 1e6 << " um");
+    CHECK(std::abs(error_m) < 1e-5);
+    // Backed off by back_off_m (2 mm), then stopped within the stop limits.
+    CHECK(truth.position_m > -0.13 + config.servo.homing.back_off_m);
+    CHECK(truth.position_m < -0.13 + config.servo.homing.back_off_m + 0.001);
   }
 }

@@ -101,7 +101,7 @@ void print_status(const clm_lcm::servo_status_t& s) {
               (s.drive_signals & clm_lcm::servo_status_t::DRIVE_END_STOP) ? " end-stop" : "",
               static_cast<long long>(s.current_limited_cycles));
   static constexpr const char* kHoming[] = {"idle", "finding commutation", "searching the reference",
-                                            "stopping at the reference"};
+                                            "stopping at the reference", "backing off the hard stop"};
   std::printf("homing: %s, commutation %s, %s", kHoming[s.homing], s.commutation_found ? "found" : "unknown",
               s.homed ? "homed" : "not homed (positions are the encoder's reading)");
   if (s.commutation_found) std::printf(", found phase %.4f rad", s.found_phase_rad);

@@ -80,7 +80,7 @@ void add_encoder_reference_options(CLI::App& sub, EncoderReference& reference) {
   sub.add_option("--encoder-reference", reference.method,
                  "how the axis the data were recorded on was homed (its homing.method): none for an absolute "
                  "encoder; clm-servod takes the file only on an axis homed the same way")
-      ->check(CLI::IsMember({"none", "index", "reference_switch"}))
+      ->check(CLI::IsMember(std::vector<std::string>(kReferenceMethods.begin(), kReferenceMethods.end())))
       ->capture_default_str();
   sub.add_option("--reference-position-m", reference.position_m,
                  "the axis position homing gave the latched event (its homing.reference_position_m)")
