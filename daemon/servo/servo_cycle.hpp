@@ -272,10 +272,18 @@ class ServoCycle {
   /// One period of commutation finding: the open-loop doublet's setpoints.
   void find_commutation() noexcept;
   void begin_search() noexcept;
-  /// The search at its reference `now`: a latch received stops it (or,
-  /// index_in_switch, the switch's edge arms the index), a latch without
-  /// its frame or the distance used up latches a fault.
+  /// The search's reference from rest at `position_m` towards `direction` (±1).
+  void search_from(double position_m, int direction) noexcept;
+  /// The reference found at the encoder's `reading_m`: stop from `now`, then move the frame.
+  void stop_search(const control::ReferenceSample& now, double reading_m) noexcept;
+  /// The search at its reference `now`: its method's watch, then the distance (fault 217).
   void watch_search(const control::ReferenceSample& now) noexcept;
+  /// A latch received stops it (or, index_in_switch, the switch's edge arms
+  /// the index); a latch without its frame latches 218. True when it decided.
+  bool watch_latch(const control::ReferenceSample& now) noexcept;
+  /// The following error says the axis stands at the stop: back off, then
+  /// stop. True when it decided.
+  bool watch_hard_stop(const control::ReferenceSample& now) noexcept;
   /// At rest after the latch: the position frame moves to the reference.
   void finish_homing() noexcept;
   /// Ends homing where it is: a stop, a disable, a fault.
@@ -365,7 +373,7 @@ class ServoCycle {
   bool home_requested_ = false;
   bool latch_received_ = false, latch_checked_ = false, latch_in_span_ = false, homing_complete_ = false;
   bool awaiting_index_ = false;  // index_in_switch: the switch's edge latched, the index next
-  double contact_m_ = 0.0;       // hard_stop: the axis position where it met the stop
+  double contact_m_ = 0.0, contact_reading_m_ = 0.0;  // hard_stop: where it met the stop (axis frame, reading)
   double latched_reading_m_ = 0.0, pending_offset_m_ = 0.0;
   int latch_frame_wait_ = 0;
 

@@ -95,39 +95,54 @@ void ServoCycle::find_commutation() noexcept {
 
 void ServoCycle::begin_search() noexcept {
   home_requested_ = false;
-  const double velocity = settings_.homing.direction * settings_.homing.search_velocity_m_per_s;
-  search_ = control::SearchProfile::plan(hold_m_, velocity, settings_.stop_limits);
-  search_start_cycle_ = cycle_ + 1;
+  search_from(hold_m_, settings_.homing.direction);
   latch_received_ = latch_checked_ = latch_in_span_ = homing_complete_ = awaiting_index_ = false;
   latch_frame_wait_ = 0;
   status_.homing = HomingPhase::kSearching;
   mailbox_.idle_.store(false, std::memory_order_release);
 }
 
+void ServoCycle::search_from(double position_m, int direction) noexcept {
+  search_ = control::SearchProfile::plan(position_m, direction * settings_.homing.search_velocity_m_per_s,
+                                         settings_.stop_limits);
+  search_start_cycle_ = cycle_ + 1;
+}
+
+void ServoCycle::stop_search(const control::ReferenceSample& now, double reading_m) noexcept {
+  // The reference in the encoder's frame is known: stop, then move the frame.
+  pending_offset_m_ = settings_.homing.reference_position_m - reading_m;
+  status_.homing = HomingPhase::kStopping;
+  reference_ = now;
+  reference_cycle_ = cycle_;
+  begin_stop(settings_.stop_limits, false);
+}
+
 void ServoCycle::watch_search(const control::ReferenceSample& now) noexcept {
-  if (settings_.homing.method == control::HomingMethod::kHardStop) {
-    if (status_.homing == HomingPhase::kBackingOff) {
-      if (std::abs(now.position_m - contact_m_) >= settings_.homing.back_off_m) {
-        status_.homing = HomingPhase::kStopping;
-        reference_ = now;
-        reference_cycle_ = cycle_;
-        begin_stop(settings_.stop_limits, false);
-      }
-    } else if (std::abs(now.position_m - position_m_) > settings_.homing.hard_stop_following_error_m) {
-      // The reference runs on, the axis stands: it met the stop. That
-      // reading is the reference; the search turns back from where the axis is.
-      pending_offset_m_ = settings_.homing.reference_position_m - (position_m_ - status_.axis_offset_m);
-      contact_m_ = position_m_;
-      status_.homing = HomingPhase::kBackingOff;
-      search_ = control::SearchProfile::plan(position_m_,
-                                             -settings_.homing.direction * settings_.homing.search_velocity_m_per_s,
-                                             settings_.stop_limits);
-      search_start_cycle_ = cycle_ + 1;
-    } else if (std::abs(now.position_m - search_.start_m()) > settings_.homing.search_distance_m) {
-      latch(Fault::kHomingNotFound);
-    }
-    return;
+  const bool decided =
+      settings_.homing.method == control::HomingMethod::kHardStop ? watch_hard_stop(now) : watch_latch(now);
+  if (!decided && status_.homing == HomingPhase::kSearching &&
+      std::abs(now.position_m - search_.start_m()) > settings_.homing.search_distance_m) {
+    latch(Fault::kHomingNotFound);
   }
+}
+
+bool ServoCycle::watch_hard_stop(const control::ReferenceSample& now) noexcept {
+  if (status_.homing == HomingPhase::kBackingOff) {
+    if (std::abs(now.position_m - contact_m_) < settings_.homing.back_off_m) return true;
+    stop_search(now, contact_reading_m_);
+    return true;
+  }
+  if (std::abs(now.position_m - position_m_) <= settings_.homing.hard_stop_following_error_m) return false;
+  // The reference runs on, the axis stands: it met the stop. That reading
+  // is the reference; the search turns back from where the axis is.
+  contact_m_ = position_m_;
+  contact_reading_m_ = position_m_ - status_.axis_offset_m;
+  status_.homing = HomingPhase::kBackingOff;
+  search_from(position_m_, -settings_.homing.direction);
+  return true;
+}
+
+bool ServoCycle::watch_latch(const control::ReferenceSample& now) noexcept {
   if (latch_received_ && !latch_checked_) {
     // The frame is taken as the drive's only if it names a reading between
     // this period's and the last (widened by a period's search and the
@@ -142,34 +157,27 @@ void ServoCycle::watch_search(const control::ReferenceSample& now) noexcept {
   }
   if (latch_received_ && !latch_in_span_) {
     latch(Fault::kLatchInvalid);
-    return;
-  }
-  if (latch_received_ && status_.drive.latched && settings_.homing.index_in_switch && !awaiting_index_) {
-    // The switch's edge says which mark: the latch goes over to the index
-    // (its source changes, which re-arms it) and the search goes on.
-    awaiting_index_ = true;
-    latch_received_ = latch_checked_ = false;
-    latch_frame_wait_ = 0;
-    return;
+    return true;
   }
   if (latch_received_ && status_.drive.latched) {
-    // The reference in the encoder's frame is known: stop, then move the frame.
-    pending_offset_m_ = settings_.homing.reference_position_m - latched_reading_m_;
-    status_.homing = HomingPhase::kStopping;
-    reference_ = now;
-    reference_cycle_ = cycle_;
-    begin_stop(settings_.stop_limits, false);
-    return;
+    if (settings_.homing.index_in_switch && !awaiting_index_) {
+      // The switch's edge says which mark: the latch goes over to the index
+      // (its source changes, which re-arms it) and the search goes on.
+      awaiting_index_ = true;
+      latch_received_ = latch_checked_ = false;
+      latch_frame_wait_ = 0;
+      return true;
+    }
+    stop_search(now, latched_reading_m_);
+    return true;
   }
   // The frame and the drive's Latched come together; either alone for
   // longer than the frame limit is not this search's latch.
   if ((latch_received_ || status_.drive.latched) && ++latch_frame_wait_ > settings_.missing_frame_limit) {
     latch(Fault::kLatchInvalid);
-    return;
+    return true;
   }
-  if (std::abs(now.position_m - search_.start_m()) > settings_.homing.search_distance_m) {
-    latch(Fault::kHomingNotFound);
-  }
+  return false;
 }
 
 void ServoCycle::finish_homing() noexcept {
