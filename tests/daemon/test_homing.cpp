@@ -52,11 +52,16 @@ servod::ServodConfig homing_config(control::HomingMethod method) {
   return config;
 }
 
-std::unique_ptr<servod::WiredAxis> wire(const servod::ServodConfig& config, const PowerUp& power_up) {
-  auto wired = std::make_unique<servod::WiredAxis>(config, servod::wire_simulated_axis(config, incremental_motor(power_up)));
+/// The daemon of `config` on `motor` (default: incremental_motor), the translator at power_up.start_m.
+std::unique_ptr<servod::WiredAxis> wire(const servod::ServodConfig& config, const PowerUp& power_up,
+                                        const sim::MotorParameters& motor) {
+  auto wired = std::make_unique<servod::WiredAxis>(config, servod::wire_simulated_axis(config, motor));
   wired->simulated_motor()->reset(power_up.start_m);
   wired->daemon.run_cycles(10);
   return wired;
+}
+std::unique_ptr<servod::WiredAxis> wire(const servod::ServodConfig& config, const PowerUp& power_up) {
+  return wire(config, power_up, incremental_motor(power_up));
 }
 
 /// The phase Δ that drives +y hardest through the drive's own law on its raw
@@ -298,9 +303,8 @@ TEST_CASE("homing to the index inside the reference switch: the switch says whic
   for (const PowerUp power_up : {PowerUp{4, -0.05}, PowerUp{10, -0.1}}) {
     sim::MotorParameters motor = incremental_motor(power_up);
     motor.sensors.index_pitch_m = 0.007;
-    servod::WiredAxis wired(config, servod::wire_simulated_axis(config, motor));
-    wired.simulated_motor()->reset(power_up.start_m);
-    wired.daemon.run_cycles(10);
+    auto holder = wire(config, power_up, motor);
+    servod::WiredAxis& wired = *holder;
     const double offset_m = wired.simulated_motor()->truth().encoder_offset_m;
     INFO("seed " << power_up.seed << ", start " << power_up.start_m << " m, encoder offset " << offset_m << " m");
     REQUIRE(test::command(wired.daemon, Kind::kHome, 1).accepted());
@@ -326,9 +330,8 @@ TEST_CASE("homing to the hard stop: the force limited, the stop found by the fol
     motor.mechanics.limit_switch_min_m = -std::numeric_limits<double>::infinity();
     motor.mechanics.limit_switch_max_m = std::numeric_limits<double>::infinity();
     motor.mechanics.end_stop_fault_speed_m_per_s = 0.02;
-    servod::WiredAxis wired(config, servod::wire_simulated_axis(config, motor));
-    wired.simulated_motor()->reset(power_up.start_m);
-    wired.daemon.run_cycles(10);
+    auto holder = wire(config, power_up, motor);
+    servod::WiredAxis& wired = *holder;
     const double offset_m = wired.simulated_motor()->truth().encoder_offset_m;
     INFO("seed " << power_up.seed << ", start " << power_up.start_m << " m, encoder offset " << offset_m << " m");
     REQUIRE(test::command(wired.daemon, Kind::kHome, 1).accepted());
