@@ -353,3 +353,34 @@ TEST_CASE("homing to the hard stop: the force limited, the stop found by the fol
     CHECK(truth.position_m < -0.13 + config.servo.homing.back_off_m + 0.001);
   }
 }
+
+TEST_CASE("commutation finding on a translator far lighter than sized for latches 216 near its bound",
+          "[daemon][homing]") {
+  const auto config = homing_config(control::HomingMethod::kIndex);
+  const PowerUp power_up{};
+  sim::MotorParameters motor = incremental_motor(power_up);
+  // A tenth of control.mass_kg, on which the doublets are sized: each moves
+  // the axis ten times as far (the friction's smoothing widened so that the
+  // light translator still integrates stably).
+  motor.mechanics.translator_mass_kg = 1.5;
+  motor.mechanics.friction_smoothing_velocity_m_per_s = 0.01;
+  motor.electromagnetics.direction_smoothing_velocity_m_per_s = 0.05;
+  auto holder = wire(config, power_up, motor);
+  auto& daemon = holder->daemon;
+  REQUIRE(test::command(daemon, Kind::kEnable, 1).accepted());
+  double largest_m = 0.0;
+  for (int k = 0; k < 20000 && daemon.cycle().status().state == ServoState::kEnabled &&
+                  !daemon.cycle().status().commutation_found;
+       ++k) {
+    daemon.run_cycles(1);
+    largest_m = std::max(largest_m, std::abs(holder->simulated_motor()->truth().position_m - power_up.start_m));
+  }
+  CHECK(daemon.cycle().status().fault == Fault::kFindingMotion);
+  CHECK_FALSE(daemon.cycle().status().commutation_found);
+  // Zero setpoints from the cycle it was seen: the axis coasts to rest a little beyond the bound.
+  daemon.run_cycles(500);
+  INFO("largest excursion " << largest_m * 1e3 << " mm, at rest at "
+                            << (holder->simulated_motor()->truth().position_m - power_up.start_m) * 1e3 << " mm");
+  CHECK(std::abs(holder->simulated_motor()->truth().position_m - power_up.start_m) <
+        2.0 * config.servo.homing.finding.max_motion_m);
+}
