@@ -24,6 +24,9 @@ enum class HomingPhase : std::uint8_t {
   kSearching = 2,  ///< the loop closed, moving at the search velocity, the drive's latch armed
   kStopping = 3,   ///< the event latched: stopping before the position frame moves to it
   kBackingOff = 4, ///< hard_stop: at the stop, moving back off it before stopping
+  /// reference_switch: the switch was active at the start; moving out of it
+  /// (the latch not armed), then stopping and searching again from outside.
+  kLeavingSwitch = 5,
 };
 
 /// The commutation the cycle uses; values are servo_state_t.COMMUTATION_*.

@@ -106,8 +106,7 @@ void ServoCycle::latch(Fault fault) noexcept {
   status_.fault = fault;
   status_.fault_cycle = cycle_;
   mailbox_.restricted_.store(false, std::memory_order_release);
-  const bool moving = running_ != nullptr || status_.stopping || status_.homing == HomingPhase::kSearching ||
-                      status_.homing == HomingPhase::kBackingOff;
+  const bool moving = running_ != nullptr || status_.stopping || homing_moves();
   abort_homing();
   const bool plausible = have_position_ && std::abs(reference_.position_m - position_m_) <=
                                                kPlausibleErrorFactor * settings_.following_error_limit_m;
@@ -359,7 +358,7 @@ void ServoCycle::drive() noexcept {
       end_program();
       mailbox_.idle_.store(true, std::memory_order_release);
     }
-  } else if (status_.homing == HomingPhase::kSearching || status_.homing == HomingPhase::kBackingOff) {
+  } else if (homing_moves()) {
     sample(search_, static_cast<double>(cycle_ - search_start_cycle_) * settings_.period_s);
     watch_search(now);
   } else if (status_.stopping) {

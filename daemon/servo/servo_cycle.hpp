@@ -275,7 +275,9 @@ class ServoCycle {
   /// The search's reference from rest at `position_m` towards `direction` (±1).
   void search_from(double position_m, int direction) noexcept;
   /// The reference found at the encoder's `reading_m`: stop from `now`, then move the frame.
-  void stop_search(const control::ReferenceSample& now, double reading_m) noexcept;
+  void stop_at_reference(const control::ReferenceSample& now, double reading_m) noexcept;
+  /// Stops the search from its reference `now` (HomingPhase::kStopping).
+  void stop_search(const control::ReferenceSample& now) noexcept;
   /// The search at its reference `now`: its method's watch, then the distance (fault 217).
   void watch_search(const control::ReferenceSample& now) noexcept;
   /// A latch received stops it (or, index_in_switch, the switch's edge arms
@@ -288,10 +290,14 @@ class ServoCycle {
   void finish_homing() noexcept;
   /// Ends homing where it is: a stop, a disable, a fault.
   void abort_homing() noexcept;
+  /// Homing moves the axis along search_: searching, leaving the switch, backing off.
+  bool homing_moves() const noexcept {
+    return status_.homing == HomingPhase::kSearching || status_.homing == HomingPhase::kBackingOff ||
+           status_.homing == HomingPhase::kLeavingSwitch;
+  }
   /// Homing to the hard stop: searching or backing off, the force limited.
   bool pushing_to_hard_stop() const noexcept {
-    return settings_.homing.method == control::HomingMethod::kHardStop &&
-           (status_.homing == HomingPhase::kSearching || status_.homing == HomingPhase::kBackingOff);
+    return settings_.homing.method == control::HomingMethod::kHardStop && homing_moves();
   }
   /// The law a mode needs homing for (every one but the drive's own).
   bool needs_homing(CommutationMode mode) const noexcept;
@@ -373,6 +379,7 @@ class ServoCycle {
   bool home_requested_ = false;
   bool latch_received_ = false, latch_checked_ = false, latch_in_span_ = false, homing_complete_ = false;
   bool awaiting_index_ = false;  // index_in_switch: the switch's edge latched, the index next
+  bool search_again_ = false;    // out of the reference switch: at rest, the search starts again
   double contact_m_ = 0.0, contact_reading_m_ = 0.0;  // hard_stop: where it met the stop (axis frame, reading)
   double latched_reading_m_ = 0.0, pending_offset_m_ = 0.0;
   int latch_frame_wait_ = 0;

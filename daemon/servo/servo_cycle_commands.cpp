@@ -181,8 +181,7 @@ CommandResult ServoCycle::clear_fault() noexcept {
 CommandResult ServoCycle::stop() noexcept {
   // Commutation finding runs with the loop open: stopping it is opening the drive.
   if (status_.homing == HomingPhase::kFinding) return disable();
-  const bool searching = status_.homing == HomingPhase::kSearching || status_.homing == HomingPhase::kBackingOff;
-  if (status_.state == ServoState::kEnabled && (running_ != nullptr || searching)) {
+  if (status_.state == ServoState::kEnabled && (running_ != nullptr || homing_moves())) {
     begin_stop(settings_.stop_limits, false);
   }
   abort_homing();
@@ -191,9 +190,8 @@ CommandResult ServoCycle::stop() noexcept {
 
 CommandResult ServoCycle::quick_stop() noexcept {
   if (status_.homing == HomingPhase::kFinding) return disable();
-  const bool searching = status_.homing == HomingPhase::kSearching || status_.homing == HomingPhase::kBackingOff;
   if (status_.state == ServoState::kEnabled &&
-      (running_ != nullptr || searching || (status_.stopping && !stop_quick_))) {
+      (running_ != nullptr || homing_moves() || (status_.stopping && !stop_quick_))) {
     begin_stop(settings_.quick_stop_limits, true);
   }
   abort_homing();

@@ -95,10 +95,14 @@ void ServoCycle::find_commutation() noexcept {
 
 void ServoCycle::begin_search() noexcept {
   home_requested_ = false;
-  search_from(hold_m_, settings_.homing.direction);
-  latch_received_ = latch_checked_ = latch_in_span_ = homing_complete_ = awaiting_index_ = false;
+  // The switch's edge is approached from outside, in the search direction,
+  // always: an axis that starts inside the switch first moves out of it.
+  const bool inside_switch =
+      settings_.homing.method == control::HomingMethod::kReferenceSwitch && status_.drive.reference_switch;
+  search_from(hold_m_, inside_switch ? -settings_.homing.direction : settings_.homing.direction);
+  latch_received_ = latch_checked_ = latch_in_span_ = homing_complete_ = awaiting_index_ = search_again_ = false;
   latch_frame_wait_ = 0;
-  status_.homing = HomingPhase::kSearching;
+  status_.homing = inside_switch ? HomingPhase::kLeavingSwitch : HomingPhase::kSearching;
   mailbox_.idle_.store(false, std::memory_order_release);
 }
 
@@ -108,9 +112,13 @@ void ServoCycle::search_from(double position_m, int direction) noexcept {
   search_start_cycle_ = cycle_ + 1;
 }
 
-void ServoCycle::stop_search(const control::ReferenceSample& now, double reading_m) noexcept {
+void ServoCycle::stop_at_reference(const control::ReferenceSample& now, double reading_m) noexcept {
   // The reference in the encoder's frame is known: stop, then move the frame.
   pending_offset_m_ = settings_.homing.reference_position_m - reading_m;
+  stop_search(now);
+}
+
+void ServoCycle::stop_search(const control::ReferenceSample& now) noexcept {
   status_.homing = HomingPhase::kStopping;
   reference_ = now;
   reference_cycle_ = cycle_;
@@ -118,10 +126,19 @@ void ServoCycle::stop_search(const control::ReferenceSample& now, double reading
 }
 
 void ServoCycle::watch_search(const control::ReferenceSample& now) noexcept {
-  const bool decided =
-      settings_.homing.method == control::HomingMethod::kHardStop ? watch_hard_stop(now) : watch_latch(now);
-  if (!decided && status_.homing == HomingPhase::kSearching &&
-      std::abs(now.position_m - search_.start_m()) > settings_.homing.search_distance_m) {
+  bool decided = false;
+  if (status_.homing == HomingPhase::kLeavingSwitch) {
+    decided = !status_.drive.reference_switch;
+    if (decided) {
+      // Out of the switch: stop, and search again from there (finish_homing).
+      search_again_ = true;
+      stop_search(now);
+    }
+  } else {
+    decided = settings_.homing.method == control::HomingMethod::kHardStop ? watch_hard_stop(now) : watch_latch(now);
+  }
+  const bool bounded = status_.homing == HomingPhase::kSearching || status_.homing == HomingPhase::kLeavingSwitch;
+  if (!decided && bounded && std::abs(now.position_m - search_.start_m()) > settings_.homing.search_distance_m) {
     latch(Fault::kHomingNotFound);
   }
 }
@@ -129,7 +146,7 @@ void ServoCycle::watch_search(const control::ReferenceSample& now) noexcept {
 bool ServoCycle::watch_hard_stop(const control::ReferenceSample& now) noexcept {
   if (status_.homing == HomingPhase::kBackingOff) {
     if (std::abs(now.position_m - contact_m_) < settings_.homing.back_off_m) return true;
-    stop_search(now, contact_reading_m_);
+    stop_at_reference(now, contact_reading_m_);
     return true;
   }
   if (std::abs(now.position_m - position_m_) <= settings_.homing.hard_stop_following_error_m) return false;
@@ -168,7 +185,7 @@ bool ServoCycle::watch_latch(const control::ReferenceSample& now) noexcept {
       latch_frame_wait_ = 0;
       return true;
     }
-    stop_search(now, latched_reading_m_);
+    stop_at_reference(now, latched_reading_m_);
     return true;
   }
   // The frame and the drive's Latched come together; either alone for
@@ -181,6 +198,11 @@ bool ServoCycle::watch_latch(const control::ReferenceSample& now) noexcept {
 }
 
 void ServoCycle::finish_homing() noexcept {
+  if (search_again_) {
+    // At rest outside the reference switch: the search proper.
+    begin_search();
+    return;
+  }
   // At rest: every position the cycle keeps moves with the frame, so the
   // loop sees no step.
   const double shift_m = pending_offset_m_ - status_.axis_offset_m;
@@ -199,7 +221,7 @@ void ServoCycle::finish_homing() noexcept {
 
 void ServoCycle::abort_homing() noexcept {
   home_requested_ = false;
-  homing_complete_ = false;
+  homing_complete_ = search_again_ = false;
   status_.homing = HomingPhase::kIdle;
 }
 

@@ -22,6 +22,13 @@ AxisWiring wire_simulated_axis(const ServodConfig& config, const sim::MotorParam
     throw std::runtime_error(config.motor_file + ": simulated motor has " + std::to_string(wiring.motor->coil_sets()) +
                              " coil sets, motor.coil_sets says " + std::to_string(config.motor.coil_sets));
   }
+  if (parameters.sensors.encoder_power_up_offset_max_m > 0.0 && !config.servo.homing.incremental()) {
+    // An encoder that powers up at an unknown offset, on an axis that never homes.
+    throw std::runtime_error(config.motor_file + ": simulation.sensors.encoder_power_up_offset_max_m " +
+                             std::to_string(parameters.sensors.encoder_power_up_offset_max_m) +
+                             " m makes the encoder incremental, but " + config.origin +
+                             " says homing.method none (an absolute encoder)");
+  }
   wiring.nodes = std::make_unique<sim::SimulatedNodes>(*wiring.motor, config.servo.protocol, config.servo.period_s);
   auto bus = std::make_unique<sim::InProcessBus>(*wiring.nodes);
   wiring.in_process_bus = bus.get();

@@ -21,7 +21,8 @@ static_assert(static_cast<int>(servo::HomingPhase::kIdle) == servo_status_t::HOM
               static_cast<int>(servo::HomingPhase::kFinding) == servo_status_t::HOMING_FINDING &&
               static_cast<int>(servo::HomingPhase::kSearching) == servo_status_t::HOMING_SEARCHING &&
               static_cast<int>(servo::HomingPhase::kStopping) == servo_status_t::HOMING_STOPPING &&
-              static_cast<int>(servo::HomingPhase::kBackingOff) == servo_status_t::HOMING_BACKING_OFF);
+              static_cast<int>(servo::HomingPhase::kBackingOff) == servo_status_t::HOMING_BACKING_OFF &&
+              static_cast<int>(servo::HomingPhase::kLeavingSwitch) == servo_status_t::HOMING_LEAVING_SWITCH);
 static_assert(static_cast<int>(CommandKind::kEnable) == servo_command_t::ENABLE);
 static_assert(static_cast<int>(CommandKind::kDisable) == servo_command_t::DISABLE);
 static_assert(static_cast<int>(CommandKind::kClearFault) == servo_command_t::CLEAR_FAULT);

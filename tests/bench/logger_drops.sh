@@ -45,9 +45,9 @@ names=(default buffer nice19 nice19-buffer fifo-buffer)
 prefixes=("" "" "nice -n 19" "nice -n 19" "chrt -f 10")
 options=("" "&recv_buf_size=$buffer" "" "&recv_buf_size=$buffer" "&recv_buf_size=$buffer")
 
-missing=$(loaded_host_motor config/motor-sim.yaml "$work/motor-sim.yaml") ||
+missing=$(loaded_host_motor config/motor-sim.yaml "$work/motor-sim.yaml" "${ABSOLUTE_MOTOR[@]}") ||
     fail "motor: no line '$missing' after editing"
-missing=$(config_edit config/servod.yaml "$work/servod.yaml" \
+missing=$(config_edit config/servod.yaml "$work/servod.yaml" "${ABSOLUTE_CONFIG[@]}" \
           "motor_file: $work/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
           "  lcm_url: \"$url\"" "  overrun_limit: 1000") || fail "config: no line '$missing' after editing"
 start_daemon "$work/servod.yaml" "$work/servod.log"

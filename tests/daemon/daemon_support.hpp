@@ -35,9 +35,10 @@ inline servod::ServodConfig virtual_config_at(const std::string& path) {
   return config;
 }
 
-/// config/servod.yaml (or `file`) with the virtual clock and no telemetry.
+/// config/servod.yaml (or `file`) with the virtual clock and no telemetry,
+/// its encoder absolute (test::absolute_encoder_path).
 inline servod::ServodConfig virtual_config(const std::string& file = "config/servod.yaml") {
-  return virtual_config_at(source_path(file));
+  return virtual_config_at(absolute_encoder_path(file));
 }
 
 /// A program of config/programs/ as the ideal plant's copy of `file` holds

@@ -20,7 +20,7 @@ namespace {
 /// A valid configuration, one key per line; `lines[k]` is line k + 1.
 std::vector<std::string> valid_lines() {
   return {
-      "motor_file: " + test::source_path("config/motor-sim.yaml"),  // 1
+      "motor_file: " + test::absolute_encoder_file("motor-sim.yaml"),  // 1
       "loop:",                                                       // 2
       "  rate_hz: 1000",                                             // 3
       "  clock: virtual",                                            // 4
@@ -220,7 +220,7 @@ TEST_CASE("commutation files for another motor or of the wrong kind are refused 
   const std::string other_calibration = dir.file("calibration-2coil.yaml");
   test::write_text(other_model, format_model_file(test::truth_pgnn(other)));
   test::write_text(other_calibration, format_calibration_file(test::truth_calibration(other)));
-  const std::string motor_file = test::source_path("config/motor-sim.yaml");
+  const std::string motor_file = test::absolute_encoder_file("motor-sim.yaml");
 
   const auto refused = [&](const std::string& commutation_lines) {
     auto lines = valid_lines();

@@ -245,6 +245,44 @@ TEST_CASE("homing to the reference switch's edge: the axis offset within 2 count
   }
 }
 
+TEST_CASE("an axis that starts inside the reference switch moves out of it first, then meets the edge from outside",
+          "[daemon][homing]") {
+  // The switch [0, 0.02] m, its lower edge searched upwards; the translator
+  // starts at 0.01 m, inside it. Marks every 7 mm for index_in_switch.
+  for (const bool index_in_switch : {false, true}) {
+    auto config = homing_config(control::HomingMethod::kReferenceSwitch);
+    config.servo.homing.index_in_switch = index_in_switch;
+    config.servo.homing.reference_position_m = index_in_switch ? 0.007 : 0.0;
+    const PowerUp power_up{9, 0.01};
+    sim::MotorParameters motor = incremental_motor(power_up);
+    motor.sensors.index_pitch_m = 0.007;
+    auto holder = wire(config, power_up, motor);
+    servod::WiredAxis& wired = *holder;
+    const double offset_m = wired.simulated_motor()->truth().encoder_offset_m;
+    INFO("index_in_switch " << index_in_switch << ", encoder offset " << offset_m << " m");
+    REQUIRE(wired.simulated_motor()->status().reference_switch());
+    REQUIRE(test::command(wired.daemon, Kind::kHome, 1).accepted());
+    bool left = false;
+    double lowest_m = power_up.start_m;
+    for (std::int64_t k = 0; k < 200000; ++k) {
+      wired.daemon.run_cycles(1);
+      const auto& status = wired.daemon.cycle().status();
+      left = left || status.homing == HomingPhase::kLeavingSwitch;
+      lowest_m = std::min(lowest_m, wired.simulated_motor()->truth().position_m);
+      if (status.state == ServoState::kFault || (status.homed && status.homing == HomingPhase::kIdle)) break;
+    }
+    const auto& status = wired.daemon.cycle().status();
+    INFO("fault " << static_cast<int>(status.fault) << ", axis offset " << status.axis_offset_m << " m, lowest "
+                  << lowest_m << " m");
+    CHECK(left);
+    REQUIRE(status.homed);
+    CHECK(std::abs(status.axis_offset_m + offset_m) <= 2e-9);
+    // Out through the lower edge (0) and back: below it, by no more than the stop's distance.
+    CHECK(lowest_m < 0.0);
+    CHECK(lowest_m > -0.005);
+  }
+}
+
 TEST_CASE("a latch frame the search did not make, or a latch without its frame, latches 218 and the axis is not homed",
           "[daemon][homing]") {
   const auto config = homing_config(control::HomingMethod::kIndex);

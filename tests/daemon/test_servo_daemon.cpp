@@ -19,7 +19,7 @@ TEST_CASE("the daemon runs the Fig. 8 program with the drive's own commutation a
   REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
   servo::Command run;
   run.kind = Kind::kRunProgram;
-  run.program.assign(test::source_path("config/programs/fig8.yaml"));
+  run.program.assign(test::absolute_encoder_file("programs/fig8.yaml"));
   const auto reply = daemon.submit(run);
   REQUIRE(reply.accepted());
   double max_error = 0.0, sum_sq = 0.0;

@@ -31,7 +31,7 @@ Tracking run_fig8(servod::WiredAxis& axis) {
   daemon.run_cycles(10);
   test::command(daemon, Kind::kEnable, 10);
   REQUIRE(daemon.cycle().status().state == servo::ServoState::kEnabled);
-  const std::string path = test::source_path("config/programs/fig8.yaml");
+  const std::string path = test::absolute_encoder_file("programs/fig8.yaml");
   const control::MoveProgram expected = servod::program_from(servod::load_program_file(path), daemon.cycle().mailbox().hold_position_m());
   servo::Command run;
   run.kind = Kind::kRunProgram;

@@ -84,7 +84,8 @@ trap cleanup_processes EXIT
 # clm sim alike: this suite measures the loop's timing (the shipped simulated
 # motor's watchdog is sized for a host without a reserved CPU).
 sim_motor=$run/motor-sim.yaml
-if ! missing=$(strict_drive_watchdog "$source_dir/config/motor-sim.yaml" "$sim_motor"); then
+# The encoder absolute: the faults are this suite's subject, not homing.
+if ! missing=$(strict_drive_watchdog "$source_dir/config/motor-sim.yaml" "$sim_motor" "${ABSOLUTE_MOTOR[@]}"); then
   echo "FAIL: motor: no line '$missing' after editing" >&2
   exit 1
 fi
@@ -101,7 +102,7 @@ command -v "$cangen" > /dev/null || { fail "no $cangen (Debian package can-utils
 port=$((9930 + $$ % 30))
 url="udpm://239.255.76.67:${port}?ttl=0"
 config=$run/servod-faults.yaml
-if ! missing=$(config_edit "$source_dir/config/servod-vcan.yaml" "$config" \
+if ! missing=$(config_edit "$source_dir/config/servod-vcan.yaml" "$config" "${ABSOLUTE_CONFIG[@]}" \
                "motor_file: $sim_motor" "  interface: $iface" "  priority: $priority" \
                "  lcm_url: \"$url\"" "  stall_limit_s: 1" &&
                config_require "$config" "  missing_frame_limit: 3" "  receive_window_fraction: 0.5" "  rate_hz: 1000"); then

@@ -353,7 +353,16 @@ for mode in $modes; do
   fi
   pass "$mode: clm-servod up on $iface, disabled, no fault, bus $expected_bus ($(elapsed) s)"
 
-  switch_law "$mode" enable "commutation $mode"
+  # The encoder powers up at an offset (config/motor-sim.yaml): home enables,
+  # finds the commutation and the reference switch's edge (docs/servod.md,
+  # "Homing"); a daemon after the first finds the axis where the last left it.
+  if ! reply=$(ctl home) || ! wait_homing "idle, commutation found, homed" 60; then
+    fail "$mode: not homed within 60 s: '$reply', homing '$homed', fault $(field fault_reason "$status")"
+    stop_process $servod_pid 30
+    continue
+  fi
+  pass "$mode: homed ($homed) ($(elapsed) s)"
+  switch_law "$mode" "commutation $mode"
   if [ -n "$problem" ]; then
     fail "$mode: $problem"
     stop_process $servod_pid 30
@@ -448,7 +457,8 @@ phase_current_suite() {
   fi
 
   pc_config=$run/servod-phase-current.yaml
-  missing=$(config_edit "$source_dir/config/servod-vcan.yaml" "$pc_config" \
+  # motor-sim-phase-current.yaml's encoder is absolute.
+  missing=$(config_edit "$source_dir/config/servod-vcan.yaml" "$pc_config" "${ABSOLUTE_CONFIG[@]}" \
             "motor_file: $pc_motor" "  interface: $iface" "  priority: $priority" \
             "  lcm_url: \"$url\"" "  stall_limit_s: 1") || { fail "phase_current: config: no line '$missing'"; return; }
   sed -i -e "s|^  feedforward: .*|  feedforward_file: $pc_artifacts/feedforward-classical.yaml|" \

@@ -58,7 +58,7 @@ phase2=("push:80:650 204 quick")
 # where the rights exist, else with a warning and without, as
 # servod_stop_test.sh: at normal priority beside a build the loop's cycles
 # stretch to 10 ms and the moves at 0.5 m/s fault on their own.
-missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml") ||
+missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "${ABSOLUTE_MOTOR[@]}") ||
     fail "motor: no line '$missing' after editing"
 end_min=$(config_value "$work/motor-sim.yaml" "    end_stop_min_m")
 end_max=$(config_value "$work/motor-sim.yaml" "    end_stop_max_m")
@@ -68,7 +68,7 @@ end_max=$(config_value "$work/motor-sim.yaml" "    end_stop_max_m")
 # the soft limits at ±SOFT_M.
 write_config() {
   local out=$1 plan=$2 limit=$3 soft=$4
-  missing=$(config_edit "$source_dir/config/servod.yaml" "$out" \
+  missing=$(config_edit "$source_dir/config/servod.yaml" "$out" "${ABSOLUTE_CONFIG[@]}" \
             "motor_file: $work/motor-sim.yaml" "  clock: realtime" \
             "  lcm_url: \"$url\"" "  following_error_limit_m: $limit" "  interface: sim" "  overrun_limit: 20" \
             "  stall_limit_s: 1" \

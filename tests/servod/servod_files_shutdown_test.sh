@@ -45,9 +45,9 @@ now_ms() { date +%s%3N; }
 # host otherwise latches 206 or 205 between two steps (seen once: a fault
 # between clear-fault and run-program), and this test is about files and
 # shutdown, not about timing.
-missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml") ||
+missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "${ABSOLUTE_MOTOR[@]}") ||
     fail "motor: no line '$missing' after editing"
-missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" \
+missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" "${ABSOLUTE_CONFIG[@]}" \
           "motor_file: $work/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
           "  lcm_url: \"$url\"" "  overrun_limit: 1000" && config_require "$work/servod.yaml" "  rate_hz: 1000") ||
     fail "config: no line '$missing' after editing"

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Process-level test of homing (labels unit, lcm; docs/servod.md "Homing"):
-# clm-servod on the embedded simulated motor with an incremental encoder
-# that powers up at an offset (seed 9: −0.0497 m, beyond one pole pitch) and
-# index marks every 10 mm, on the real-time clock and an LCM port of its own.
+# clm-servod on the embedded default as shipped, whose simulated encoder is
+# incremental and powers up at an offset (seed 9: −0.0497 m, beyond one pole
+# pitch), homed to the reference switch's edge at −0.02 m; on the real-time
+# clock and an LCM port of its own.
 # Through clm ctl and the daemon's signed status:
 #   - at start: `homing: idle, commutation unknown, not homed`; a
 #     position-dependent law refused with the not-homed reason;
@@ -24,13 +25,11 @@ mkdir -p "$work"
 trap cleanup_processes EXIT
 fail() { fail_with_status "$*" "$work/servod.log"; }
 
-process_test_config "$work/servod.yaml" "  lock_memory: false"
-# The incremental encoder: its sensor keys after the noise seed (docs/simulator.md).
-sed -i 's|^    noise_seed: 2$|    noise_seed: 2\n    encoder_power_up_offset_max_m: 0.05\n    encoder_offset_seed: 9\n    index_pitch_m: 0.01|' \
-    "$work/motor-sim.yaml"
-config_require "$work/motor-sim.yaml" "    index_pitch_m: 0.01" > /dev/null || fail "motor: the encoder keys were not added"
-grep -q "^homing:" "$work/servod.yaml" && fail "config/servod.yaml has a homing: section; edit it instead"
-printf 'homing:\n  method: index\n  direction: 1\n  search_velocity_m_per_s: 0.01\n  search_distance_m: 0.02\n' >> "$work/servod.yaml"
+PROCESS_TEST_ENCODER=incremental process_test_config "$work/servod.yaml" "  lock_memory: false"
+config_require "$work/motor-sim.yaml" "    encoder_power_up_offset_max_m: 0.05" > /dev/null ||
+    fail "config/motor-sim.yaml: the encoder is not the incremental one this test expects"
+config_require "$work/servod.yaml" "  method: reference_switch" > /dev/null ||
+    fail "config/servod.yaml: not the reference-switch homing this test expects"
 
 start_daemon "$work/servod.yaml" "$work/servod.log"
 rc=0
@@ -43,26 +42,15 @@ wait_for_status "$servod_pid" 20 || rc=$?
 ctl_refused commutation classical
 [[ $reply == *"not homed"* ]] || fail "commutation classical before homing: refused with '$reply', not for homing"
 
-# Until `homing` starts with PREFIX (or a fault, or 30 s): sets `status` and `homed`.
-wait_homing() {
-  homed=""
-  for _ in $(seq 1 60); do
-    status=$(ctl status --timeout-s 1 2> /dev/null) || continue
-    [ "$(field state "$status")" = fault ] && fail "a fault while waiting for homing '$1'"
-    homed=$(field homing "$status")
-    [[ $homed == "$1"* ]] && return 0
-    sleep 0.5
-  done
-  fail "homing not '$1' within 30 s: '$homed'"
-}
+homing_reached() { wait_homing "$1" 30 || fail "homing not '$1' within 30 s (or a fault): '$homed'"; }
 # enable finds the commutation; a move to a position is still refused.
 ctl enable > /dev/null || fail "enable refused"
-wait_homing "idle, commutation found, not homed"
+homing_reached "idle, commutation found, not homed"
 ctl_refused move-to --target-m 0.001 --velocity-m-per-s 0.01
 [[ $reply == *"not homed"* ]] || fail "move-to before homing: refused with '$reply', not for homing"
 
 ctl home > /dev/null || fail "home refused"
-wait_homing "idle, commutation found, homed"
+homing_reached "idle, commutation found, homed"
 [[ $homed == "idle, commutation found, homed, found phase "*", axis offset "*" m" ]] ||
     fail "not homed within 30 s: homing '$homed'"
 [ "$(field state "$status")" = enabled ] || fail "state after home: '$(field state "$status")', expected enabled"

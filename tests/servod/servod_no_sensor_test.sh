@@ -43,10 +43,10 @@ fail() { fail_with_status "$*" "$work"/servod-*.log; }
 # rights exist, else with a warning and without, as servod_stop_test.sh: the
 # two runs' tracking is compared, and a loop that a build beside it stretches
 # to 10 ms cycles tracks worse for it, not for the sensor.
-missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml") ||
+missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "${ABSOLUTE_MOTOR[@]}") ||
     fail "motor: no line '$missing' after editing"
 write_config() {  # write_config OUT PORT
-  missing=$(config_edit "$source_dir/config/servod.yaml" "$1" \
+  missing=$(config_edit "$source_dir/config/servod.yaml" "$1" "${ABSOLUTE_CONFIG[@]}" \
             "motor_file: $work/motor-sim.yaml" "  clock: realtime" \
             "  lcm_url: \"udpm://239.255.76.67:$2?ttl=0\"" "  interface: sim" "  overrun_limit: 1000" &&
             config_require "$1" "  force_sensor_node_id: 2" "  rate_hz: 1000" "  state_decimation: 1") ||

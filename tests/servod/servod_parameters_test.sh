@@ -29,8 +29,8 @@ mkdir -p "$work"
 trap cleanup_processes EXIT
 fail() { fail_with_status "$*" "$work"/servod*.log; }
 
-missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" &&
-          config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" \
+missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "${ABSOLUTE_MOTOR[@]}" &&
+          config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" "${ABSOLUTE_CONFIG[@]}" \
           "motor_file: $work/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
           "  lcm_url: \"$url\"" "  overrun_limit: 1000" && config_require "$work/servod.yaml" "  bandwidth_hz: 40.0" "  velocity_m_per_s: 0.5") ||
     fail "config: no line '$missing' after editing"

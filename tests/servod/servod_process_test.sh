@@ -26,8 +26,8 @@ fail() {
 }
 
 # config/servod.yaml with an absolute motor file, no real-time rights, our port.
-missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" &&
-          config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" \
+missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "${ABSOLUTE_MOTOR[@]}" &&
+          config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" "${ABSOLUTE_CONFIG[@]}" \
           "motor_file: $work/motor-sim.yaml" "  priority: 0" "  lock_memory: false" "  clock: realtime" \
           "  lcm_url: \"$url\"" "  overrun_limit: 1000" && config_require "$work/servod.yaml" "  rate_hz: 1000") ||
     fail "config: no line '$missing' after editing"

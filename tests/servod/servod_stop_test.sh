@@ -32,9 +32,9 @@ fail() { fail_with_status "$*" "$work/servod.log"; }
 # at normal priority beside a build (load 8-10) the loop ran 10 ms cycles
 # for tens of cycles, the position loop saturated at the force limit and a
 # stop at speed latched fault 203.
-missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml") ||
+missing=$(loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "${ABSOLUTE_MOTOR[@]}") ||
     fail "motor: no line '$missing' after editing"
-missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" \
+missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" "${ABSOLUTE_CONFIG[@]}" \
           "motor_file: $work/motor-sim.yaml" "  clock: realtime" \
           "  lcm_url: \"$url\"" "  overrun_limit: 1000" && config_require "$work/servod.yaml" "  velocity_m_per_s: 0.5") ||
     fail "config: no line '$missing' after editing"

@@ -13,6 +13,7 @@
 #include "daemon/servod/command_check.hpp"
 #include "daemon/servod/command_server.hpp"
 #include "tools/servod_client/client.hpp"
+#include "support/ideal_plant.hpp"
 #include "support/temporary_directory.hpp"
 
 using namespace clm;
@@ -23,11 +24,9 @@ using servo::answered_by_cycle;
 
 namespace {
 
-std::string source_path(const std::string& relative) { return std::string(CLM_SOURCE_DIR) + "/" + relative; }
-
-/// config/servod.yaml on the virtual clock, without its own telemetry.
+/// config/servod.yaml (its encoder absolute) on the virtual clock, without its own telemetry.
 ServodConfig virtual_config() {
-  auto config = load_servod_config(source_path("config/servod.yaml"));
+  auto config = load_servod_config(clm::test::absolute_encoder_path());
   config.loop.clock = ClockMode::kVirtual;
   config.telemetry.enabled = false;
   return config;

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "daemon/servod/axis_wiring.hpp"
+#include "support/ideal_plant.hpp"
 #include "support/temporary_directory.hpp"
 
 using namespace clm;
@@ -14,9 +15,10 @@ using namespace clm::servod;
 
 namespace {
 
-/// config/servod.yaml on the virtual clock, without telemetry, loading from `directory` too.
+/// config/servod.yaml (its encoder absolute) on the virtual clock, without
+/// telemetry, loading from `directory` too.
 ServodConfig virtual_config(const std::string& directory) {
-  auto config = load_servod_config(std::string(CLM_SOURCE_DIR) + "/config/servod.yaml");
+  auto config = load_servod_config(clm::test::absolute_encoder_path());
   config.loop.clock = ClockMode::kVirtual;
   config.telemetry.enabled = false;
   config.commands.file_directories.push_back(std::filesystem::canonical(directory).string());

@@ -37,9 +37,7 @@ DaemonExperiments run_daemon_experiments(const std::string& servod_config_path, 
     bridge.emplace(*log, daemon, 1);
   }
   daemon.run_cycles(20);
-  servo::Command enable;
-  enable.kind = Kind::kEnable;
-  commission::execute(daemon, enable);
+  commission::enable_homed(daemon);  // as clm commission does
   for (int l = 1; l <= config.motor.coil_sets; ++l) {
     for (double delta : {-kPi / 4, kPi / 4}) {
       servo::Command experiment;

@@ -69,6 +69,23 @@ fail_with_status() {
 # The value of `name: value` line NAME in TEXT (a `clm ctl status`).
 field() { sed -n "s/^$1: //p" <<< "$2"; }
 
+# wait_homing PREFIX SECONDS: until the `homing` field of `clm ctl status`
+# starts with PREFIX ("idle, commutation found, homed"); sets `status` and
+# `homed` (that field). Returns 1 on a fault or after SECONDS.
+wait_homing() {
+  local prefix=$1 deadline=$((SECONDS + $2))
+  homed=""
+  while [ $SECONDS -lt $deadline ]; do
+    if status=$(ctl status --timeout-s 1 2> /dev/null); then
+      [ "$(field state "$status")" = fault ] && return 1
+      homed=$(field homing "$status")
+      [[ $homed == "$prefix"* ]] && return 0
+    fi
+    sleep 0.5
+  done
+  return 1
+}
+
 # The count after NAME (missing, late, rejected, ...) in the frames line of STATUS.
 counter() { field frames "$1" | sed -n "s/.*$2 \([0-9]*\).*/\1/p"; }
 
@@ -279,26 +296,42 @@ config_edit() {
 # A copy OUT of the simulated motor file IN for a daemon without real-time
 # rights on a loaded test host: the drive's setpoint watchdog at 0.1 s instead
 # of 5 ms, so that a descheduled loop does not trip the simulated drive (a real
-# axis keeps its own watchdog). Prints the line it could not set and returns 1.
-loaded_host_motor() { config_edit "$1" "$2" "  watchdog_timeout_s: 0.1"; }
+# axis keeps its own watchdog). With EXTRA lines (config_edit). Prints the line
+# it could not set and returns 1.
+loaded_host_motor() { config_edit "$1" "$2" "  watchdog_timeout_s: 0.1" "${@:3}"; }
+
+# The lines that make config/servod.yaml's axis one with an absolute encoder,
+# as the ideal plant's (tools/commission/plant_terms.py --write none): for
+# config_edit, the motor file's (ABSOLUTE_MOTOR) and the configuration's
+# (ABSOLUTE_CONFIG). For the process tests of other mechanisms than homing,
+# which an unknown encoder zero would only delay; tests/servod/
+# servod_homing_test.sh runs the shipped incremental one.
+ABSOLUTE_MOTOR=("    encoder_power_up_offset_max_m: 0.0")
+ABSOLUTE_CONFIG=("  method: none")
 
 # OUT: the motor file IN with the drive's setpoint watchdog of a real drive,
 # 5 ms (config/motor-real.yaml), for the suites that measure the loop's
 # timing (the HIL suite): the shipped simulated motor's is sized for a host
 # without a reserved CPU. Prints the line it could not set and returns 1.
-strict_drive_watchdog() { config_edit "$1" "$2" "  watchdog_timeout_s: 0.005"; }
+strict_drive_watchdog() { config_edit "$1" "$2" "  watchdog_timeout_s: 0.005" "${@:3}"; }
 
 # OUT: config/servod.yaml for a process test on a loaded host: an absolute
-# motor file ($work/motor-sim.yaml, the drive's watchdog relaxed by
-# loaded_host_motor), no SCHED_FIFO, the real-time clock, the test's $url,
+# path to the motor file ($work/motor-sim.yaml, the drive's watchdog relaxed
+# by loaded_host_motor), no SCHED_FIFO, the real-time clock, the test's $url,
 # overruns and stalls of up to 1 s tolerated, and EXTRA lines (config_edit).
+# With PROCESS_TEST_ENCODER=absolute (the default) the encoder is absolute
+# (ABSOLUTE_MOTOR, ABSOLUTE_CONFIG); with incremental, as shipped.
 # Calls the script's fail.
 process_test_config() {  # OUT EXTRA...
-  local out=$1
+  local out=$1 motor=() config=()
   shift
-  loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" > /dev/null ||
-      fail "motor: the watchdog line is missing after editing"
-  config_edit "$source_dir/config/servod.yaml" "$out" \
+  if [ "${PROCESS_TEST_ENCODER:-absolute}" = absolute ]; then
+    motor=("${ABSOLUTE_MOTOR[@]}")
+    config=("${ABSOLUTE_CONFIG[@]}")
+  fi
+  loaded_host_motor "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "${motor[@]}" > /dev/null ||
+      fail "motor: the watchdog or encoder line is missing after editing"
+  config_edit "$source_dir/config/servod.yaml" "$out" "${config[@]}" \
       "motor_file: $work/motor-sim.yaml" "  priority: 0" "  clock: realtime" \
       "  lcm_url: \"$url\"" "  overrun_limit: 1000" "  stall_limit_s: 1" "$@" > /dev/null ||
       fail "config: a line is missing after editing $out"

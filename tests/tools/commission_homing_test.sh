@@ -1,12 +1,11 @@
 #!/usr/bin/env bash
 # `clm commission` (in process) on an axis that powers up at an encoder
 # offset (docs/servod.md, "Homing"; docs/commissioning.md): the embedded
-# simulated motor with an incremental encoder (seed 9: −0.0497 m, beyond one
-# pole pitch) and a reference switch from −0.06 to −0.04 m, homed to its
-# upper edge (reference_position_m −0.04, searching downwards). Commissioning
-# finds the commutation and homes before its experiments, completes, and
-# records the reference: report.json's encoder_reference, and every
-# calibration and model file's. clm calibrate on the same data records the
+# default as shipped, whose encoder powers up at an offset (seed 9: −0.0497 m,
+# beyond one pole pitch) and homes to the reference switch's edge
+# (config/servod.yaml's homing:). Commissioning finds the commutation and
+# homes before its experiments, completes, and records the reference:
+# report.json's encoder_reference, and every calibration and model file's. clm calibrate on the same data records the
 # reference given by --encoder-reference, none without it, and refuses an
 # unknown method (exit 2, one line). About 15 s.
 #
@@ -19,29 +18,27 @@ fail() { echo "FAIL: $*" >&2; [ -f "$work/commission.log" ] && tail -n 20 "$work
 
 rm -rf "$work"
 mkdir -p "$work"
-# The configuration with its programs beside it, the motor and homing edited.
+# The configuration as shipped, with its programs beside it.
 cp -r "$source_dir/config" "$work/config"
-sed -i 's|^    noise_seed: 2$|    noise_seed: 2\n    encoder_power_up_offset_max_m: 0.05\n    encoder_offset_seed: 9\n    reference_switch_min_m: -0.06\n    reference_switch_max_m: -0.04|' \
-    "$work/config/motor-sim.yaml"
-config_require "$work/config/motor-sim.yaml" "    reference_switch_max_m: -0.04" > /dev/null ||
-    fail "motor: the encoder keys were not added"
-grep -q "^homing:" "$work/config/servod.yaml" && fail "config/servod.yaml has a homing: section; edit it instead"
-printf 'homing:\n  method: reference_switch\n  direction: -1\n  search_velocity_m_per_s: 0.01\n  search_distance_m: 0.06\n  reference_position_m: -0.04\n' \
-    >> "$work/config/servod.yaml"
+config_require "$work/config/motor-sim.yaml" "    encoder_power_up_offset_max_m: 0.05" > /dev/null ||
+    fail "config/motor-sim.yaml: the encoder is not the incremental one this test expects"
+config_require "$work/config/servod.yaml" "  method: reference_switch" > /dev/null ||
+    fail "config/servod.yaml: not the reference-switch homing this test expects"
+reference_m=$(config_value "$work/config/servod.yaml" "  reference_position_m")
 
 "$clm" commission --config "$work/config/servod.yaml" --program "$source_dir/tests/support/one_stroke_program.yaml" \
     --validation-program none --no-selection --out "$work/out" --no-plots > "$work/commission.log" 2>&1 ||
     fail "clm commission exited $?"
-grep -q '"encoder_reference": {"method": "reference_switch", "position_m": -0.04' "$work/out/report.json" ||
-    fail "report.json: no encoder_reference reference_switch at -0.04 m: $(grep encoder_reference "$work/out/report.json")"
+grep -q "\"encoder_reference\": {\"method\": \"reference_switch\", \"position_m\": $reference_m" "$work/out/report.json" ||
+    fail "report.json: no encoder_reference reference_switch at $reference_m m: $(grep encoder_reference "$work/out/report.json")"
 for file in calibration.yaml calibration-robust.yaml model-pgnn.yaml model-spline.yaml model-spline-position.yaml; do
   [ -f "$work/out/$file" ] || fail "$file not written"
-  python3 - "$work/out/$file" <<'PY' || fail "$file: its encoder_reference is not reference_switch at -0.04 m"
+  python3 - "$work/out/$file" "$reference_m" <<'PY' || fail "$file: its encoder_reference is not reference_switch at $reference_m m"
 import sys
 lines = open(sys.argv[1]).read().splitlines()
 i = lines.index("encoder_reference:")
 assert lines[i + 1].strip() == "method: reference_switch", lines[i + 1]
-assert abs(float(lines[i + 2].split(":")[1]) + 0.04) < 1e-12, lines[i + 2]
+assert abs(float(lines[i + 2].split(":")[1]) - float(sys.argv[2])) < 1e-12, lines[i + 2]
 PY
 done
 grep -q "^recommended for service: " "$work/commission.log" || fail "no recommendation"

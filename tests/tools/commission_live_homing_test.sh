@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # `clm commission --live` from power-up (labels lcm, slow; docs/commissioning.md,
-# "From power-up: homing first"): clm-servod on the embedded simulated motor
-# with an incremental encoder at a power-up offset (seed 9: −0.0497 m) and a
-# reference switch from −0.06 to −0.04 m, homed to its upper edge, on the
+# "From power-up: homing first"): clm-servod on the embedded default as
+# shipped, whose encoder powers up at an offset (seed 9: −0.0497 m) and homes
+# to the reference switch's edge (config/servod.yaml's homing:), on the
 # real-time clock and an LCM port of its own. The tool sends HOME (the
 # daemon's status says not homed), waits for `homed`, then commissions
 # (the one-stroke program, no capacity selection). Checks: exit 0, the
 # daemon homed (its status), report.json and the calibration and model
-# files carry reference_switch at −0.04 m. About 2 min.
+# files carry reference_switch at the configured reference_position_m.
+# About 2 min.
 #
 #   commission_live_homing_test.sh CLM_SERVOD CLM SOURCE_DIR WORK_DIR
 set -euo pipefail
@@ -20,18 +21,14 @@ url="udpm://239.255.76.67:$((10720 + $$ % 30))?ttl=0"
 rm -rf "$work"
 mkdir -p "$work/out"
 # As commission_live_test.sh: the drive's watchdog at 1 s and 1000 overruns
-# tolerated (this test is about the path, not real-time timing); the encoder
-# and the switch added after the noise seed.
+# tolerated (this test is about the path, not real-time timing).
 config_edit "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "  watchdog_timeout_s: 1" > /dev/null ||
     fail "motor copy: watchdog not relaxed"
-sed -i 's|^    noise_seed: 2$|    noise_seed: 2\n    encoder_power_up_offset_max_m: 0.05\n    encoder_offset_seed: 9\n    reference_switch_min_m: -0.06\n    reference_switch_max_m: -0.04|' \
-    "$work/motor-sim.yaml"
-config_require "$work/motor-sim.yaml" "    reference_switch_max_m: -0.04" > /dev/null || fail "motor: the encoder keys were not added"
 missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" "motor_file: $work/motor-sim.yaml" \
           "  clock: realtime" "  lcm_url: \"$url\"" "  overrun_limit: 1000") || fail "config: no line '$missing'"
-grep -q "^homing:" "$work/servod.yaml" && fail "config/servod.yaml has a homing: section; edit it instead"
-printf 'homing:\n  method: reference_switch\n  direction: -1\n  search_velocity_m_per_s: 0.01\n  search_distance_m: 0.06\n  reference_position_m: -0.04\n' \
-    >> "$work/servod.yaml"
+config_require "$work/servod.yaml" "  method: reference_switch" > /dev/null ||
+    fail "config/servod.yaml: not the reference-switch homing this test expects"
+reference_m=$(config_value "$work/servod.yaml" "  reference_position_m")
 cp "$source_dir/tests/support/one_stroke_program.yaml" "$work/program.yaml"
 
 start_daemon "$work/servod.yaml" "$work/servod.log"
@@ -47,7 +44,7 @@ wait_for_status $pid 20 || rc=$?
     > "$work/commission.out" 2> "$work/commission.err" || fail "clm commission --live exited $?"
 status=$(ctl status) || fail "no status after commissioning"
 [[ $(field homing "$status") == "idle, commutation found, homed"* ]] || fail "after: homing '$(field homing "$status")'"
-grep -q '"encoder_reference": {"method": "reference_switch", "position_m": -0.04' "$work/out/report.json" ||
+grep -q "\"encoder_reference\": {\"method\": \"reference_switch\", \"position_m\": $reference_m" "$work/out/report.json" ||
     fail "report.json: $(grep encoder_reference "$work/out/report.json")"
 for file in calibration.yaml model-pgnn.yaml model-spline.yaml; do
   grep -A2 "^encoder_reference:" "$work/out/$file" | grep -q "method: reference_switch" ||

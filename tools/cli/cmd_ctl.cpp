@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <iterator>
 #include <limits>
 #include <memory>
 #include <stdexcept>
@@ -101,8 +102,11 @@ void print_status(const clm_lcm::servo_status_t& s) {
               (s.drive_signals & clm_lcm::servo_status_t::DRIVE_END_STOP) ? " end-stop" : "",
               static_cast<long long>(s.current_limited_cycles));
   static constexpr const char* kHoming[] = {"idle", "finding commutation", "searching the reference",
-                                            "stopping at the reference", "backing off the hard stop"};
-  std::printf("homing: %s, commutation %s, %s", kHoming[s.homing], s.commutation_found ? "found" : "unknown",
+                                            "stopping at the reference", "backing off the hard stop",
+                                            "leaving the reference switch"};
+  const bool known_phase = s.homing >= 0 && s.homing < static_cast<int>(std::size(kHoming));
+  std::printf("homing: %s, commutation %s, %s", known_phase ? kHoming[s.homing] : "unknown phase",
+              s.commutation_found ? "found" : "unknown",
               s.homed ? "homed" : "not homed (positions are the encoder's reading)");
   if (s.commutation_found) std::printf(", found phase %.4f rad", s.found_phase_rad);
   if (s.homed) std::printf(", axis offset %.9f m", s.axis_offset_m);

@@ -7,6 +7,7 @@ to every law's true driving-force error and tracking (docs/simulator.md,
 
     tools/commission/plant_terms.py [--clm build/bin/clm] [--config config/servod.yaml]
                                     [--out out/plant-terms] [--terms none,all,flexible_mode,...]
+    tools/commission/plant_terms.py --write VARIANT|shipped [--absolute-encoder] --config C --out DIR
 
 A variant is none, all, one term, all-TERM (every term but that one:
 what a term adds to the others), dynamics (the terms that shape how errors
@@ -47,6 +48,15 @@ TERMS = {
 # budget makes, docs/commissioning.md "The error budget").
 SOURCES = ("force_disturbance", "encoder")
 DYNAMICS = tuple(term for term in TERMS if term not in SOURCES)
+
+# An incremental encoder's unknown zero (docs/servod.md, "Homing"): the
+# encoder's power-up offset and its reference marks under simulation.sensors,
+# and the configuration's homing: section. Not a term of the dynamics: a
+# copy keeps it as the configuration has it, or (--absolute-encoder) reads
+# the true position from the first cycle, as the tests of other mechanisms
+# than homing want it.
+INCREMENTAL_ENCODER_KEYS = ["encoder_power_up_offset_max_m", "encoder_offset_seed", "index_pitch_m",
+                            "reference_switch_min_m", "reference_switch_max_m"]
 
 # What the daemon is told of a term, as a drive's manual or a measured
 # frequency response gives it: 10 % off the truth above. Each term: its
@@ -165,9 +175,21 @@ def without_term(text, term):
     return re.sub(r"^  drive:\n(?!    )", "", text, flags=re.MULTILINE)
 
 
-def write_variant(config, out, terms):
+def with_absolute_encoder(config_text, motor_text):
+    """The configuration without its homing: section and the motor file
+    without INCREMENTAL_ENCODER_KEYS: an encoder that reads the true
+    position from the first cycle."""
+    config_text = re.sub(r"^homing:.*\n(?:(?:  .*)?\n)*", "", config_text, flags=re.MULTILINE)
+    for name in INCREMENTAL_ENCODER_KEYS:
+        motor_text = re.sub(r"^    " + re.escape(name) + r":.*\n", "", motor_text, flags=re.MULTILINE)
+    return config_text, motor_text
+
+
+def write_variant(config, out, terms, absolute_encoder=False):
     """A copy of `config`, its programs and its motor file with exactly
-    `terms` in `out` (emptied first); the copied configuration's path."""
+    `terms` in `out` (emptied first; terms None: the motor's own, as they
+    are), the encoder absolute if `absolute_encoder`; the copied
+    configuration's path."""
     source_dir = os.path.dirname(os.path.abspath(config))
     with open(config, encoding="utf-8") as f:
         config_text = f.read()
@@ -177,15 +199,20 @@ def write_variant(config, out, terms):
     motor_path = os.path.join(source_dir, match.group(1))
     with open(motor_path, encoding="utf-8") as f:
         motor_text = f.read()
+    if terms is not None:
+        motor_text = motor_with(motor_text, terms, motor_path)
+    if absolute_encoder:
+        config_text, motor_text = with_absolute_encoder(config_text, motor_text)
     if os.path.exists(out):
         shutil.rmtree(out)
     os.makedirs(out)
-    shutil.copy(config, os.path.join(out, os.path.basename(config)))
+    with open(os.path.join(out, os.path.basename(config)), "w", encoding="utf-8") as f:
+        f.write(config_text)
     programs = os.path.join(source_dir, "programs")
     if os.path.isdir(programs):
         shutil.copytree(programs, os.path.join(out, "programs"))
     with open(os.path.join(out, match.group(1)), "w", encoding="utf-8") as f:
-        f.write(motor_with(motor_text, terms, motor_path))
+        f.write(motor_text)
     return os.path.join(out, os.path.basename(config))
 
 
@@ -212,11 +239,17 @@ def main():
                         ") or dynamics+SOURCE (" + ", ".join(SOURCES) + ")")
     parser.add_argument("--write", metavar="VARIANT",
                         help="only write the configuration, its programs and its motor file with VARIANT's terms "
-                        "into --out (no commissioning): e.g. none, the ideal plant the cycle's tests run on")
+                        "into --out (no commissioning): e.g. none, the ideal plant the cycle's tests run on; "
+                        "shipped: the motor file's terms as they are")
+    parser.add_argument("--absolute-encoder", action="store_true",
+                        help="with --write: an absolute encoder (no power-up offset, reference marks or homing:)")
     args = parser.parse_args()
     if args.write is not None:
-        print(write_variant(args.config, args.out, variant_terms(args.write)))
+        terms = None if args.write == "shipped" else variant_terms(args.write)
+        print(write_variant(args.config, args.out, terms, args.absolute_encoder))
         return
+    if args.absolute_encoder:
+        raise UsageError("--absolute-encoder goes with --write")
     variants = args.terms.split(",")
     terms_of = {variant: variant_terms(variant) for variant in variants}
     rows = []

@@ -189,26 +189,26 @@ InProcessRunner::InProcessRunner(const servod::ServodConfig& config, servod::Axi
 
 InProcessRunner::~InProcessRunner() = default;
 
-void InProcessRunner::enable() {
-  const auto& homing = daemon_->config().servo.homing;
-  if (homing.incremental() && !daemon_->cycle().status().homed) {
-    // An axis at its power-up offset: home enables, finds the commutation
-    // and the reference (docs/servod.md, "Homing"), bounded by its search.
-    execute(*daemon_, make(servo::CommandKind::kHome));
+void enable_homed(servod::ServoDaemon& daemon) {
+  const auto& homing = daemon.config().servo.homing;
+  if (homing.incremental() && !daemon.cycle().status().homed) {
+    execute(daemon, make(servo::CommandKind::kHome));
     const double search_s = homing.search_distance_m / homing.search_velocity_m_per_s + 30.0;
-    const auto most = static_cast<std::int64_t>(search_s / daemon_->config().servo.period_s);
+    const auto most = static_cast<std::int64_t>(search_s / daemon.config().servo.period_s);
     for (std::int64_t k = 0; k < most; ++k) {
-      const auto& status = daemon_->cycle().status();
+      const auto& status = daemon.cycle().status();
       if (status.state == servo::ServoState::kFault) {
         throw std::runtime_error(std::string("homing ended in fault: ") + servo::describe(status.fault));
       }
       if (status.homed && status.homing == servo::HomingPhase::kIdle && !status.enabling) return;
-      daemon_->run_cycles(1);
+      daemon.run_cycles(1);
     }
     throw std::runtime_error("the axis was not homed within " + std::to_string(search_s) + " s of simulated time");
   }
-  execute(*daemon_, make(servo::CommandKind::kEnable));
+  execute(daemon, make(servo::CommandKind::kEnable));
 }
+
+void InProcessRunner::enable() { enable_homed(*daemon_); }
 
 void InProcessRunner::set_experiment(int coil_set, double delta_rad) {
   auto command = make(servo::CommandKind::kSetExperiment);

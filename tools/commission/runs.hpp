@@ -70,6 +70,13 @@ class Recorder final : public servod::CycleObserver {
 /// Throws std::runtime_error with the daemon's reply text when a command is refused.
 void execute(servod::ServoDaemon& daemon, const servo::Command& command);
 
+/// Enables the axis; one at its encoder's power-up offset is homed first
+/// (HOME enables, finds the commutation and the reference, docs/servod.md
+/// "Homing"), within its search's distance over its velocity plus 30 s of
+/// the daemon's time. Throws std::runtime_error on a refusal, a fault or no
+/// reference within that time.
+void enable_homed(servod::ServoDaemon& daemon);
+
 /// Runs `program` from the program's start (an approach move first, not
 /// recorded) and returns the recording of the program proper; `motor` is the
 /// simulated motor the daemon drives, for Recording::y_true_m and the
