@@ -189,6 +189,10 @@ class ServoCycle {
 
   /// Set-up, before the loop starts: the law for a mode (nullptr: none).
   void install_law(CommutationMode mode, const CommutationLaw* law) noexcept;
+  /// Set-up, after install_law: the law the configuration names, at once;
+  /// on an axis that must home first and a law that is a function of
+  /// position, the drive's own law until homing completes, then this one.
+  CommandResult start_with(CommutationMode mode) noexcept;
   /// Any thread: what the owner offers the cycle and reads back (cycle_mailbox.hpp).
   CycleMailbox& mailbox() noexcept { return mailbox_; }
   const CycleMailbox& mailbox() const noexcept { return mailbox_; }
@@ -380,6 +384,7 @@ class ServoCycle {
   bool latch_received_ = false, latch_checked_ = false, latch_in_span_ = false, homing_complete_ = false;
   bool awaiting_index_ = false;  // index_in_switch: the switch's edge latched, the index next
   bool search_again_ = false;    // out of the reference switch: at rest, the search starts again
+  CommutationMode mode_after_homing_ = CommutationMode::kOriginal;  // start_with's law, once homed
   double contact_m_ = 0.0, contact_reading_m_ = 0.0;  // hard_stop: where it met the stop (axis frame, reading)
   double latched_reading_m_ = 0.0, pending_offset_m_ = 0.0;
   int latch_frame_wait_ = 0;

@@ -216,7 +216,10 @@ CommandResult ServoCycle::request_mode(CommutationMode mode, int coil_set, doubl
     return CommandResult::kRejectedNoLaw;
   }
   requested_mode_ = mode;
-  if (mode != CommutationMode::kExperiment) service_mode_ = mode;
+  if (mode != CommutationMode::kExperiment) {
+    service_mode_ = mode;
+    mode_after_homing_ = CommutationMode::kOriginal;  // a law chosen now wins over start_with's
+  }
   requested_coil_set_ = mode == CommutationMode::kExperiment ? coil_set : 0;
   requested_delta_rad_ = mode == CommutationMode::kExperiment ? delta_rad : 0.0;
   status_.mode_change_pending = true;

@@ -25,6 +25,14 @@ bool ServoCycle::needs_homing(CommutationMode mode) const noexcept {
   return mode != CommutationMode::kOriginal;
 }
 
+CommandResult ServoCycle::start_with(CommutationMode mode) noexcept {
+  if (status_.homed || !needs_homing(mode)) return request_mode(mode);
+  if (mode == CommutationMode::kExperiment) return CommandResult::kRejectedInvalid;
+  if (laws_[static_cast<std::size_t>(mode)] == nullptr) return CommandResult::kRejectedNoLaw;
+  mode_after_homing_ = mode;
+  return CommandResult::kAccepted;
+}
+
 CommandResult ServoCycle::home() noexcept {
   if (status_.homing != HomingPhase::kIdle) return CommandResult::kRejectedHoming;
   if (!settings_.homing.incremental()) return CommandResult::kAccepted;  // an absolute encoder: homed from the start
@@ -217,6 +225,11 @@ void ServoCycle::finish_homing() noexcept {
   status_.homing = HomingPhase::kIdle;
   homing_complete_ = false;
   mailbox_.idle_.store(true, std::memory_order_release);
+  if (mode_after_homing_ != CommutationMode::kOriginal) {
+    // At rest in the axis frame: the configured law takes over.
+    (void)request_mode(mode_after_homing_);
+    mode_after_homing_ = CommutationMode::kOriginal;
+  }
 }
 
 void ServoCycle::abort_homing() noexcept {

@@ -51,8 +51,7 @@ ServoDaemon::ServoDaemon(const ServodConfig& config, drivers::CanBus& bus, drive
     laws_.push_back(std::move(law));
   }
   for (const ExtraLaw& extra : extra_laws_) cycle_->install_law(extra.mode, extra.law);
-  const auto status =
-      cycle_->execute({.kind = servo::CommandKind::kSetCommutation, .commutation = config_.commutation.mode});
+  const auto status = cycle_->start_with(config_.commutation.mode);
   if (status != servo::CommandResult::kAccepted) {
     throw std::runtime_error(config_.origin + ": commutation.mode: " + servo::describe(status));
   }

@@ -342,12 +342,6 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
         if (f.phases % 2 != 0) v->fail("expected an even number of phases, got " + std::to_string(f.phases));
       }
     }
-    // Until homed only the drive's own law drives (docs/servod.md, "Homing"):
-    // a position-dependent law is chosen after `home`.
-    if (h.incremental() && config.commutation.mode != servo::CommutationMode::kOriginal) {
-      (*homing)["method"].fail(std::string("an incremental encoder starts with commutation.mode: original; ") +
-                               "choose the law after `clm ctl home`");
-    }
   }
 
   if (const auto faults = root.optional("faults")) {

@@ -195,6 +195,47 @@ TEST_CASE("before homing: moves to positions and position-dependent laws are ref
   CHECK(test::cycle_answer(daemon, 4).result == servo::CommandResult::kAccepted);
 }
 
+TEST_CASE("a configured law that needs the axis frame starts when homing completes, the drive's own law before",
+          "[daemon][homing]") {
+  test::TemporaryDirectory dir;
+  const auto files = test::write_truth_laws(dir, test::source_path("config/motor-sim.yaml"));
+  CalibrationFile calibration =
+      test::truth_calibration(sim::load_motor_parameters(test::source_path("config/motor-sim.yaml")));
+  calibration.reference = {"index", 0.0};
+  test::write_text(files.calibration, format_calibration_file(calibration));
+  auto config = test::with_laws(homing_config(control::HomingMethod::kIndex), files, servo::CommutationMode::kClassical);
+  config.commutation.pgnn_model_file.clear();
+  config.commutation.spline_model_file.clear();
+  auto holder = wire(config, PowerUp{});
+  auto& daemon = holder->daemon;
+  CHECK(daemon.cycle().status().mode == servo::CommutationMode::kOriginal);
+  REQUIRE(test::command(daemon, Kind::kHome, 1).accepted());
+  bool classical_before_homed = false;
+  for (std::int64_t k = 0; k < 200000; ++k) {
+    daemon.run_cycles(1);
+    const auto& status = daemon.cycle().status();
+    classical_before_homed = classical_before_homed || (!status.homed && status.mode != servo::CommutationMode::kOriginal);
+    if (status.state == ServoState::kFault || (status.homed && status.homing == HomingPhase::kIdle)) break;
+  }
+  const auto& status = daemon.cycle().status();
+  INFO("fault " << static_cast<int>(status.fault));
+  REQUIRE(status.homed);
+  CHECK_FALSE(classical_before_homed);
+  CHECK(status.mode == servo::CommutationMode::kClassical);
+  // A law chosen before homing wins over the configured one.
+  auto again = wire(config, PowerUp{});
+  servo::Command original;
+  original.kind = Kind::kSetCommutation;
+  original.commutation = servo::CommutationMode::kOriginal;
+  original.sequence = 1;
+  again->daemon.submit(original);
+  CHECK(test::cycle_answer(again->daemon, 1).accepted());
+  REQUIRE(test::command(again->daemon, Kind::kHome, 1).accepted());
+  run_homing(*again, again->simulated_motor()->truth().position_m, 200000);
+  REQUIRE(again->daemon.cycle().status().homed);
+  CHECK(again->daemon.cycle().status().mode == servo::CommutationMode::kOriginal);
+}
+
 TEST_CASE("homing that finds no reference within its distance latches 217 and stops", "[daemon][homing]") {
   auto config = homing_config(control::HomingMethod::kIndex);
   config.servo.homing.direction = -1;  // away from the only mark
