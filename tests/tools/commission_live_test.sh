@@ -54,7 +54,8 @@ fail() {
 }
 
 # --save: the configuration holds each LINE (comments aside), and a daemon
-# started on it comes up with commutation MODE; its status is left in
+# started on it comes up with commutation MODE (with an incremental encoder:
+# the drive's own law until `home`, MODE once homed); its status is left in
 # saved_status, and it exits cleanly on SIGTERM.
 check_saved() {
   local mode=$1 line rc
@@ -70,6 +71,13 @@ check_saved() {
   [ $rc != 2 ] || fail "the daemon on the saved configuration exited at start-up"
   [ $rc = 0 ] || fail "no status from a daemon on the saved configuration within 20 s"
   saved_status=$(ctl status) || fail "no status on the saved configuration"
+  if [[ $(field homing "$saved_status") == *"not homed"* ]]; then
+    [ "$(field commutation "$saved_status")" = original ] ||
+        fail "saved configuration: commutation $(field commutation "$saved_status") before homing"
+    ctl home > /dev/null || fail "home refused on the saved configuration"
+    wait_homing "idle, commutation found, homed" 30 || fail "saved configuration: not homed within 30 s: '$homed'"
+    saved_status=$status
+  fi
   [ "$(field commutation "$saved_status")" = "$mode" ] ||
       fail "saved configuration: commutation $(field commutation "$saved_status")"
   rc=0
