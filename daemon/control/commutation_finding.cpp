@@ -39,6 +39,7 @@ void CommutationFindingSettings::validate() const {
   if (phases < 8 || phases > kMaxFindingPhases || phases % 2 != 0) {
     fail("phases", phases, "must be even and lie in 8.." + std::to_string(kMaxFindingPhases));
   }
+  if (attempts < 1 || attempts > 10) fail("attempts", attempts, "must lie in 1..10");
 }
 
 void CommutationFinder::start(const CommutationFindingSettings& settings, double total_force_N, double mass_kg,
@@ -56,6 +57,14 @@ void CommutationFinder::start(const CommutationFindingSettings& settings, double
   const double pulse_T_s = pulse_cycles_ * period_s;
   expected_m_ = total_force_N * pulse_T_s * pulse_T_s / mass_kg;
   origin_m_ = before_m_ = position_m;
+  attempt_ = 0;
+  begin_measurement();
+}
+
+void CommutationFinder::begin_measurement() noexcept {
+  // From where the last measurement left the axis (before_m_), the bound
+  // still about the first start (origin_m_).
+  ++attempt_;
   doublet_ = cycle_in_doublet_ = rest_count_ = 0;
   rest_sum_m_ = 0.0;
   displacement_m_.fill(0.0);
@@ -129,6 +138,7 @@ void CommutationFinder::finish() noexcept {
     outcome_ = FindingOutcome::kNoResponse;
   } else if (residual_m_ > kMostResidual * amplitude_m_) {
     outcome_ = FindingOutcome::kInconsistent;
+    if (attempt_ < settings_.attempts) begin_measurement();
   } else {
     outcome_ = FindingOutcome::kFound;
   }

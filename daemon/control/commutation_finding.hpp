@@ -32,6 +32,10 @@ struct CommutationFindingSettings {
   double settle_s = 0.05;
   /// Test phases over the circle, even, 8..kMaxFindingPhases.
   int phases = 16;
+  /// Measurements before an inconsistent one is final, 1..10: a disturbance
+  /// during the doublets can bend one, and a repeated one meets another
+  /// stretch of it. Every one stays within max_motion_m of the first start.
+  int attempts = 3;
   /// Throws std::invalid_argument naming the setting.
   void validate() const;
 };
@@ -74,14 +78,17 @@ class CommutationFinder {
   int total_cycles() const noexcept { return phases_ * (2 * pulse_cycles_ + settle_cycles_); }
   /// The test phase of the k-th doublet in time order [rad].
   double test_phase_rad(int k) const noexcept;
+  /// Measurements begun (1 after start, up to settings.attempts).
+  int attempt() const noexcept { return attempt_; }
 
  private:
   void finish() noexcept;
+  void begin_measurement() noexcept;
 
   CommutationFindingSettings settings_{};
   FindingOutcome outcome_ = FindingOutcome::kFound;
   int phases_ = 0, pulse_cycles_ = 0, settle_cycles_ = 0;
-  int doublet_ = 0, cycle_in_doublet_ = 0;
+  int doublet_ = 0, cycle_in_doublet_ = 0, attempt_ = 0;
   double origin_m_ = 0.0, expected_m_ = 0.0;
   double before_m_ = 0.0, rest_sum_m_ = 0.0;
   int rest_count_ = 0;

@@ -332,7 +332,7 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
       }
     }
     if (const auto finding = homing->optional("commutation_finding")) {
-      finding->expect_keys({"force_N", "max_motion_m", "settle_s", "phases"});
+      finding->expect_keys({"force_N", "max_motion_m", "settle_s", "phases", "attempts"});
       auto& f = h.finding;
       if (const auto v = finding->optional("force_N")) f.force_N = v->as_double_in(0.1, 1000.0);
       if (const auto v = finding->optional("max_motion_m")) f.max_motion_m = v->as_double_in(1e-5, 0.05);
@@ -341,6 +341,7 @@ ServodConfig parse_servod_config(const yaml::Node& root, const std::string& dire
         f.phases = static_cast<int>(v->as_integer_in(8, control::kMaxFindingPhases));
         if (f.phases % 2 != 0) v->fail("expected an even number of phases, got " + std::to_string(f.phases));
       }
+      if (const auto v = finding->optional("attempts")) f.attempts = static_cast<int>(v->as_integer_in(1, 10));
     }
   }
 

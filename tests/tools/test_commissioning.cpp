@@ -257,10 +257,10 @@ void check_soft_limit_ends(const std::string& config_file, const std::string& di
     commission::InProcessRunner runner(config);
     runner.load_calibration(dir + "/calibration.yaml");
     if (mode == servo::CommutationMode::kPgnn) runner.load_model(mode, dir + "/model-pgnn.yaml");
-    runner.set_commutation(mode);
     const std::string feedforward = dir + "/feedforward-" + law + ".yaml";
     runner.load_feedforward(servod::load_feedforward_file(feedforward).parameters, feedforward);
-    runner.enable();
+    runner.enable();  // homed first where the encoder is incremental, as the laws need
+    runner.set_commutation(mode);
     const commission::Recording run =
         runner.run_program(program, program_path, std::string("soft-limit ends, ") + law, commission::Disturbance::kRestarts);
     REQUIRE_FALSE(run.samples.empty());

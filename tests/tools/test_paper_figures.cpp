@@ -76,8 +76,9 @@ class PaperRuns {
       }
     }
     const test::ExperimentColumns columns = test::experiment_columns(experiments);
-    const data::ExperimentData data = data::read_experiment_data(
+    data::ExperimentData data = data::read_experiment_data(
         data::CsvTable::from_columns("paper experiments", columns.names, columns.values), config_.motor);
+    data.reference = servod::encoder_reference(config_);  // the frame the axis homed to
     figures.algorithm1 = data::calibrate_motor(data, config_.motor, data::CalibrationMethod::kAlgorithm1);
     figures.offset_robust = data::calibrate_motor(data, config_.motor, data::CalibrationMethod::kOffsetRobust);
   }
