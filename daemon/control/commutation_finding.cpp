@@ -65,7 +65,8 @@ void CommutationFinder::begin_measurement() noexcept {
   // From where the last measurement left the axis (before_m_), the bound
   // still about the first start (origin_m_).
   ++attempt_;
-  doublet_ = cycle_in_doublet_ = rest_count_ = 0;
+  doublet_ = cycle_in_doublet_ = rest_count_ = spoiled_ = 0;
+  doublet_spoiled_ = false;
   rest_sum_m_ = 0.0;
   displacement_m_.fill(0.0);
   phase_rad_ = amplitude_m_ = residual_m_ = 0.0;
@@ -78,7 +79,7 @@ double CommutationFinder::test_phase_rad(int k) const noexcept {
   return wrap_angle_rad(2.0 * kPi * index / phases_);
 }
 
-FindingSetpoint CommutationFinder::update(double position_m) noexcept {
+FindingSetpoint CommutationFinder::update(double position_m, bool previous_period_lost) noexcept {
   if (outcome_ != FindingOutcome::kRunning) return {};
   if (!(std::abs(position_m - origin_m_) <= settings_.max_motion_m)) {
     outcome_ = FindingOutcome::kMovedTooFar;
@@ -86,6 +87,8 @@ FindingSetpoint CommutationFinder::update(double position_m) noexcept {
   }
   const int c = cycle_in_doublet_;
   const int doublet_cycles = 2 * pulse_cycles_ + settle_cycles_;
+  // The last period was one of the pulses (or the −M one held into the rest).
+  if (previous_period_lost && c >= 1 && c <= 2 * pulse_cycles_ + 1) doublet_spoiled_ = true;
   FindingSetpoint setpoint;
   if (c < 2 * pulse_cycles_) {
     setpoint.magnitude_N = c < pulse_cycles_ ? settings_.force_N : -settings_.force_N;
@@ -96,13 +99,25 @@ FindingSetpoint CommutationFinder::update(double position_m) noexcept {
   }
   if (++cycle_in_doublet_ == doublet_cycles) {
     const double rest_m = rest_sum_m_ / rest_count_;
-    displacement_m_[static_cast<std::size_t>(doublet_)] = rest_m - before_m_;
+    if (!doublet_spoiled_) displacement_m_[static_cast<std::size_t>(doublet_)] = rest_m - before_m_;
     before_m_ = rest_m;
     rest_sum_m_ = 0.0;
     rest_count_ = cycle_in_doublet_ = 0;
-    if (++doublet_ == phases_) finish();
+    if (doublet_spoiled_) {
+      // The same test phase again; a loop that loses a period in every
+      // other doublet does not give a measurement.
+      doublet_spoiled_ = false;
+      if (++spoiled_ > phases_) inconsistent();
+    } else if (++doublet_ == phases_) {
+      finish();
+    }
   }
   return setpoint;
+}
+
+void CommutationFinder::inconsistent() noexcept {
+  outcome_ = FindingOutcome::kInconsistent;
+  if (attempt_ < settings_.attempts) begin_measurement();
 }
 
 void CommutationFinder::finish() noexcept {
@@ -137,8 +152,7 @@ void CommutationFinder::finish() noexcept {
   if (amplitude_m_ < kLeastResponse * expected_m_) {
     outcome_ = FindingOutcome::kNoResponse;
   } else if (residual_m_ > kMostResidual * amplitude_m_) {
-    outcome_ = FindingOutcome::kInconsistent;
-    if (attempt_ < settings_.attempts) begin_measurement();
+    inconsistent();
   } else {
     outcome_ = FindingOutcome::kFound;
   }

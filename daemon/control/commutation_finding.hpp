@@ -65,7 +65,11 @@ class CommutationFinder {
   void start(const CommutationFindingSettings& settings, double total_force_N, double mass_kg, double period_s,
              double position_m) noexcept;
   /// One period: the reading of this cycle in, the setpoint to apply out.
-  FindingSetpoint update(double position_m) noexcept;
+  /// `previous_period_lost`: the last period's setpoint may not have reached
+  /// the drive in its period (the loop overran or woke a period late), so the
+  /// drive held the one before; a doublet whose pulses that hit is
+  /// unbalanced and is measured again after its rest.
+  FindingSetpoint update(double position_m, bool previous_period_lost = false) noexcept;
   FindingOutcome outcome() const noexcept { return outcome_; }
   bool running() const noexcept { return outcome_ == FindingOutcome::kRunning; }
   /// Once kFound: the phase Δ that drives +y hardest, wrapped to (−π, π] [rad].
@@ -78,17 +82,19 @@ class CommutationFinder {
   int total_cycles() const noexcept { return phases_ * (2 * pulse_cycles_ + settle_cycles_); }
   /// The test phase of the k-th doublet in time order [rad].
   double test_phase_rad(int k) const noexcept;
-  /// Measurements begun (1 after start, up to settings.attempts).
-  int attempt() const noexcept { return attempt_; }
 
  private:
   void finish() noexcept;
   void begin_measurement() noexcept;
+  /// An inconsistent measurement: measured again while attempts remain.
+  void inconsistent() noexcept;
 
   CommutationFindingSettings settings_{};
   FindingOutcome outcome_ = FindingOutcome::kFound;
   int phases_ = 0, pulse_cycles_ = 0, settle_cycles_ = 0;
   int doublet_ = 0, cycle_in_doublet_ = 0, attempt_ = 0;
+  bool doublet_spoiled_ = false;
+  int spoiled_ = 0;  // doublets measured again in this measurement
   double origin_m_ = 0.0, expected_m_ = 0.0;
   double before_m_ = 0.0, rest_sum_m_ = 0.0;
   int rest_count_ = 0;

@@ -188,6 +188,9 @@ can::Frame ServoCycle::begin_cycle(const CycleStart& start) noexcept {
   ++cycle_;
   ++status_.counters.cycles;
   sync_time_ns_ = start.sync_time_ns;
+  // The last period's setpoints may have missed the drive: dropped after an
+  // overrun, or a period without a SYNC.
+  previous_period_lost_ = start.previous_overran || start.wakeup_gap_s > 1.5 * settings_.period_s;
   drive_fresh_ = force_fresh_ = false;
   adopt_offers();
   can::Frame sync;

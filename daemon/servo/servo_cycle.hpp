@@ -361,6 +361,7 @@ class ServoCycle {
   // Feedback of the current cycle.
   std::int64_t cycle_ = 0;
   std::int64_t sync_time_ns_ = 0;
+  bool previous_period_lost_ = false;  // CycleStart: an overrun, or a wake-up a period late
   std::uint8_t sync_counter_ = can::kSyncCounterFirst;
   bool drive_fresh_ = false, force_fresh_ = false;
   can::DriveFeedback drive_{};

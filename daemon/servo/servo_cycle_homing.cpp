@@ -67,7 +67,7 @@ void ServoCycle::find_commutation() noexcept {
   hold_m_ = position_m_;
   mailbox_.hold_position_m_.store(hold_m_, std::memory_order_release);
   rest_at(position_m_);
-  const control::FindingSetpoint test = finder_.update(drive_.position_m);
+  const control::FindingSetpoint test = finder_.update(drive_.position_m, previous_period_lost_);
   switch (finder_.outcome()) {
     case control::FindingOutcome::kRunning: break;
     case control::FindingOutcome::kFound:
