@@ -60,7 +60,7 @@ TEST_CASE("commutation finding on a mass with friction finds the drive's best ph
   CHECK(clean.error_rad < 0.02);  // the homing issue's target
 }
 
-TEST_CASE("a period lost in a doublet's pulses, reported, measures that doublet again; unreported, it bends the result",
+TEST_CASE("a period lost in a doublet's pulses, reported, measures that doublet again, and unreported bends the result",
           "[control][finding]") {
   // In four doublets the first period of −M is lost: the drive holds +M
   // for one more period, and the doublet ends moving.

@@ -44,8 +44,17 @@ ctl_refused commutation classical
 
 homing_reached() { wait_homing "$1" 30 || fail "homing not '$1' within 30 s (or a fault): '$homed'"; }
 # enable finds the commutation; a move to a position is still refused.
+# Finding refuses (215, 216) where the host loses too many of the loop's
+# periods (docs/servod.md, "Homing"): the daemon doing its job, not the path
+# this test is about; cleared and enabled once more.
 ctl enable > /dev/null || fail "enable refused"
-homing_reached "idle, commutation found, not homed"
+if ! wait_homing "idle, commutation found, not homed" 30; then
+  fault=$(field fault "$status")
+  [ "$fault" = 215 ] || [ "$fault" = 216 ] || fail "finding: homing '$homed', fault $fault"
+  echo "servod_homing_test: finding refused (fault $fault); clearing and enabling once more" >&2
+  ctl clear-fault > /dev/null && ctl enable > /dev/null || fail "clear-fault and enable after fault $fault"
+  homing_reached "idle, commutation found, not homed"
+fi
 ctl_refused move-to --target-m 0.001 --velocity-m-per-s 0.01
 [[ $reply == *"not homed"* ]] || fail "move-to before homing: refused with '$reply', not for homing"
 

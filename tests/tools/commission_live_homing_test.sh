@@ -39,9 +39,24 @@ wait_for_status $pid 20 || rc=$?
 [ $rc = 0 ] || fail "no CLM_SERVO_STATUS within 20 s (rc $rc)"
 [[ $(field homing "$status") == "idle, commutation unknown, not homed"* ]] || fail "at start: homing '$(field homing "$status")'"
 
-"$clm" commission --live --lcm-url "$url" --config "$work/servod.yaml" --program "$work/program.yaml" \
-    --experiment-program "$work/program.yaml" --validation-program none --no-selection --out "$work/out" --no-plots \
-    > "$work/commission.out" 2> "$work/commission.err" || fail "clm commission --live exited $?"
+commission() {
+  "$clm" commission --live --lcm-url "$url" --config "$work/servod.yaml" --program "$work/program.yaml" \
+      --experiment-program "$work/program.yaml" --validation-program none --no-selection --out "$work/out" --no-plots \
+      > "$work/commission.out" 2> "$work/commission.err"
+}
+# Finding refuses (215, 216) where the host loses too many of the loop's
+# periods (docs/servod.md, "Homing"): the daemon doing its job, not the path
+# this test is about; cleared, and the commissioning runs once more.
+if ! commission; then
+  first=$(tail -n 1 "$work/commission.err")
+  [[ $first == *"homing ended in fault 215"* || $first == *"homing ended in fault 216"* ]] ||
+      fail "clm commission --live failed: $first"
+  echo "commission_live_homing_test: first attempt: $first; clearing the fault and running once more" >&2
+  ctl clear-fault > /dev/null || fail "clear-fault after the first attempt failed"
+  ctl release > /dev/null || fail "release after clear-fault"
+  rm -rf "$work/out" && mkdir -p "$work/out"
+  commission || fail "clm commission --live failed twice: $first; then: $(tail -n 1 "$work/commission.err")"
+fi
 status=$(ctl status) || fail "no status after commissioning"
 [[ $(field homing "$status") == "idle, commutation found, homed"* ]] || fail "after: homing '$(field homing "$status")'"
 grep -q "\"encoder_reference\": {\"method\": \"reference_switch\", \"position_m\": $reference_m" "$work/out/report.json" ||

@@ -128,9 +128,9 @@ if [ "$mode" = preflight ]; then
   # The simulated drive's watchdog at 1 ms, the period itself: no measured
   # wake-up latency leaves it the margin of period + 3 x the max latency
   # (daemon/servo/timing.hpp), on any host. The rest as for run.
-  config_edit "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "  watchdog_timeout_s: 0.001" > /dev/null ||
+  config_edit "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "  watchdog_timeout_s: 0.001" "${ABSOLUTE_MOTOR[@]}" > /dev/null ||
       fail "motor copy: no watchdog line"
-  missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" "motor_file: $work/motor-sim.yaml" \
+  missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" "${ABSOLUTE_CONFIG[@]}" "motor_file: $work/motor-sim.yaml" \
             "  clock: realtime" "  lcm_url: \"$url\"" "  overrun_limit: 1000") || fail "config: no line '$missing'"
   cp "$source_dir/tests/support/one_stroke_program.yaml" "$work/program.yaml"
   mkdir "$work/out"
@@ -217,12 +217,14 @@ esac
 # 99 ms even at SCHED_FIFO 80, and the 5 ms watchdog latched fault 206 in
 # some runs; in a clean-clone CI run beside other tests 5 consecutive
 # overruns latched fault 205, so the copy allows 1000 (the largest accepted).
-# This test is about the LCM path, not about real-time timing.
+# This test is about the LCM path, not about real-time timing, nor homing
+# (commission_live_homing_test.sh): the encoder absolute (ABSOLUTE_MOTOR,
+# ABSOLUTE_CONFIG).
 # The watchdog at 1 s, not 100 ms: commissioning refuses a watchdog below
 # the period + 3 x the measured max wake-up latency (daemon/servo/timing.hpp).
-config_edit "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "  watchdog_timeout_s: 1" > /dev/null ||
+config_edit "$source_dir/config/motor-sim.yaml" "$work/motor-sim.yaml" "  watchdog_timeout_s: 1" "${ABSOLUTE_MOTOR[@]}" > /dev/null ||
     fail "motor copy: watchdog not relaxed"
-missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" "motor_file: $work/motor-sim.yaml" \
+missing=$(config_edit "$source_dir/config/servod.yaml" "$work/servod.yaml" "${ABSOLUTE_CONFIG[@]}" "motor_file: $work/motor-sim.yaml" \
           "  clock: realtime" "  lcm_url: \"$url\"" "  overrun_limit: 1000" &&
           config_require "$work/servod.yaml" "  rate_hz: 1000" "  state_decimation: 1") ||
     fail "config: no line '$missing' after editing"
