@@ -99,6 +99,15 @@ double run_homing(servod::WiredAxis& wired, double start_m, std::int64_t max_cyc
   return largest_m;
 }
 
+/// The daemon of `config` on `motor` at power_up, sent HOME and run until homing is over (or a fault).
+std::unique_ptr<servod::WiredAxis> homed_from(const servod::ServodConfig& config, const PowerUp& power_up,
+                                              const sim::MotorParameters& motor) {
+  auto holder = wire(config, power_up, motor);
+  REQUIRE(test::command(holder->daemon, Kind::kHome, 1).accepted());
+  run_homing(*holder, power_up.start_m, 200000);
+  return holder;
+}
+
 }  // namespace
 
 TEST_CASE("home from power-up: commutation found within 0.02 rad of the truth, the index within 2 counts",
@@ -314,11 +323,9 @@ TEST_CASE("commutation finding measures again when a push during the doublets ma
 TEST_CASE("homing to the reference switch's edge: the axis offset within 2 counts", "[daemon][homing]") {
   const auto config = homing_config(control::HomingMethod::kReferenceSwitch);
   for (const PowerUp power_up : {PowerUp{4, -0.05}, PowerUp{10, -0.1}}) {
-    auto holder = wire(config, power_up);
+    auto holder = homed_from(config, power_up, incremental_motor(power_up));
     const double offset_m = holder->simulated_motor()->truth().encoder_offset_m;
     INFO("seed " << power_up.seed << ", start " << power_up.start_m << " m, encoder offset " << offset_m << " m");
-    REQUIRE(test::command(holder->daemon, Kind::kHome, 1).accepted());
-    run_homing(*holder, power_up.start_m, 200000);
     const auto& status = holder->daemon.cycle().status();
     INFO("fault " << static_cast<int>(status.fault) << ", axis offset " << status.axis_offset_m << " m");
     REQUIRE(status.homed);
@@ -423,12 +430,10 @@ TEST_CASE("homing to the index inside the reference switch: the switch says whic
   for (const PowerUp power_up : {PowerUp{4, -0.05}, PowerUp{10, -0.1}}) {
     sim::MotorParameters motor = incremental_motor(power_up);
     motor.sensors.index_pitch_m = 0.007;
-    auto holder = wire(config, power_up, motor);
+    auto holder = homed_from(config, power_up, motor);
     servod::WiredAxis& wired = *holder;
     const double offset_m = wired.simulated_motor()->truth().encoder_offset_m;
     INFO("seed " << power_up.seed << ", start " << power_up.start_m << " m, encoder offset " << offset_m << " m");
-    REQUIRE(test::command(wired.daemon, Kind::kHome, 1).accepted());
-    run_homing(wired, power_up.start_m, 200000);
     const auto& status = wired.daemon.cycle().status();
     INFO("fault " << static_cast<int>(status.fault) << ", axis offset " << status.axis_offset_m << " m");
     REQUIRE(status.homed);
@@ -450,12 +455,10 @@ TEST_CASE("homing to the hard stop: the force limited, the stop found by the fol
     motor.mechanics.limit_switch_min_m = -std::numeric_limits<double>::infinity();
     motor.mechanics.limit_switch_max_m = std::numeric_limits<double>::infinity();
     motor.mechanics.end_stop_fault_speed_m_per_s = 0.02;
-    auto holder = wire(config, power_up, motor);
+    auto holder = homed_from(config, power_up, motor);
     servod::WiredAxis& wired = *holder;
     const double offset_m = wired.simulated_motor()->truth().encoder_offset_m;
     INFO("seed " << power_up.seed << ", start " << power_up.start_m << " m, encoder offset " << offset_m << " m");
-    REQUIRE(test::command(wired.daemon, Kind::kHome, 1).accepted());
-    run_homing(wired, power_up.start_m, 200000);
     const auto& status = wired.daemon.cycle().status();
     const auto truth = wired.simulated_motor()->truth();
     INFO("fault " << static_cast<int>(status.fault) << ", axis offset " << status.axis_offset_m << " m, "
